@@ -1,0 +1,75 @@
+# Shared build settings, applied per target (no global flags).
+
+# visnav_target_settings(<target>): C++20, warnings, optional -Werror and sanitizers.
+function(visnav_target_settings target)
+  target_compile_features(${target} PUBLIC cxx_std_20)
+  set_target_properties(${target} PROPERTIES CXX_EXTENSIONS OFF)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor
+                                           -Wno-deprecated-enum-enum-conversion)
+  if(VISNAV_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(VISNAV_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()
+
+# visnav_add_subdirectories(): add_subdirectory() for every immediate child folder that has
+# a CMakeLists.txt, so new plugins and test folders drop in without editing a shared list.
+function(visnav_add_subdirectories)
+  file(GLOB children LIST_DIRECTORIES true RELATIVE "${CMAKE_CURRENT_SOURCE_DIR}" "${CMAKE_CURRENT_SOURCE_DIR}/*")
+  list(SORT children)
+  foreach(child IN LISTS children)
+    if(IS_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}/${child}" AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/${child}/CMakeLists.txt")
+      add_subdirectory(${child})
+    endif()
+  endforeach()
+endfunction()
+
+# visnav_add_plugin(<name> SOURCES ... [LIBS ...]): a MODULE library written to the plugin
+# directory of the build tree and installed to the plugin directory.
+function(visnav_add_plugin name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  add_library(${name} MODULE ${ARG_SOURCES})
+  visnav_target_settings(${name})
+  target_link_libraries(${name} PRIVATE visnav::sdk ${ARG_LIBS})
+  set_target_properties(${name} PROPERTIES
+    PREFIX "libvisnav_"
+    LIBRARY_OUTPUT_DIRECTORY "${VISNAV_BUILD_PLUGIN_DIR}"
+    CXX_VISIBILITY_PRESET hidden
+    VISIBILITY_INLINES_HIDDEN ON
+    INSTALL_RPATH "$ORIGIN/../..")
+  install(TARGETS ${name} LIBRARY DESTINATION "${VISNAV_INSTALL_PLUGIN_DIR}")
+endfunction()
+
+# visnav_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...]): a GoogleTest binary whose
+# cases are registered with CTest one by one.
+function(visnav_add_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  visnav_target_settings(${name})
+  target_link_libraries(${name} PRIVATE visnav::sdk GTest::gtest GTest::gtest_main ${ARG_LIBS})
+  target_compile_definitions(${name} PRIVATE
+    VISNAV_TEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    VISNAV_TEST_BINARY_DIR="${PROJECT_BINARY_DIR}"
+    VISNAV_TEST_PLUGIN_DIR="${VISNAV_BUILD_PLUGIN_DIR}")
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 120)
+  endif()
+  include(GoogleTest)
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}"
+               ENVIRONMENT "VISNAV_PLUGIN_PATH=${VISNAV_BUILD_PLUGIN_DIR}/fixtures")
+endfunction()
+
+# visnav_add_benchmark(<name> SOURCES ... [LIBS ...])
+function(visnav_add_benchmark name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  visnav_target_settings(${name})
+  target_link_libraries(${name} PRIVATE visnav::sdk benchmark::benchmark ${ARG_LIBS})
+  target_compile_definitions(${name} PRIVATE
+    VISNAV_TEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    VISNAV_TEST_PLUGIN_DIR="${VISNAV_BUILD_PLUGIN_DIR}")
+endfunction()

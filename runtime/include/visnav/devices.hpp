@@ -1,0 +1,96 @@
+// visnav SDK — interfaces implemented by robot, camera and detector plugins.
+//
+// Ownership: the runtime owns every plugin object (std::unique_ptr) and destroys it
+// before unloading the library that made it.
+// Thread-safety: unless a method says otherwise, the runtime calls a plugin object
+// from one thread at a time (the tick thread). Plugins that receive data on their own
+// threads (drivers, DDS callbacks) must make `latest_odometry()`/`grab()` thread-safe.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
+
+#include "visnav/config_node.hpp"
+#include "visnav/result.hpp"
+#include "visnav/types.hpp"
+
+namespace visnav {
+
+/// Root of every object a plugin factory makes.
+class PluginObject {
+ public:
+  virtual ~PluginObject() = default;
+
+  /// Applies changed parameters without recreating the object (live config reload).
+  /// `params` is the full new `params:` block. Objects that cannot reconfigure return
+  /// an error; the runtime then keeps the old object and logs the reason.
+  virtual Status reconfigure(const ConfigNode& params) {
+    (void)params;
+    return fail("this plugin does not support live reconfiguration");
+  }
+};
+
+/// Hooks only a simulated robot offers. Evaluation code (experiments, tests) reads
+/// ground truth here; navigation code must never call `ground_truth_pose()`.
+class SimulationControl {
+ public:
+  virtual ~SimulationControl() = default;
+  /// Advances the simulation by dt_s seconds of simulated time (lock-step mode).
+  virtual Status step(double dt_s) = 0;
+  /// Current simulated time, s.
+  [[nodiscard]] virtual double time_s() const = 0;
+  /// True pose in the world frame.
+  [[nodiscard]] virtual Pose2D ground_truth_pose() const = 0;
+  /// Teleports the robot (world frame); odometry keeps integrating from its current value.
+  virtual Status set_ground_truth_pose(const Pose2D& pose_world) = 0;
+};
+
+/// A mobile base: takes velocity commands, reports odometry.
+class Robot : public PluginObject {
+ public:
+  /// Commands a velocity; the robot holds it until the next command or its own
+  /// command watchdog expires. Errors mean the command could not be delivered.
+  virtual Status send_command(const Twist& command) = 0;
+  /// Newest odometry reading, or nullopt if none has arrived yet.
+  [[nodiscard]] virtual std::optional<Odometry> latest_odometry() = 0;
+  /// Brings the robot to a stop (default: a zero command).
+  virtual Status stop() { return send_command(Twist{}); }
+  /// Non-null for simulated robots; the pointer lives as long as the robot.
+  virtual SimulationControl* simulation() { return nullptr; }
+};
+
+/// A source of images.
+class Camera : public PluginObject {
+ public:
+  /// Waits at most `timeout_s` for a frame newer than the previous one returned.
+  /// Returns nullopt on timeout, an error when the source failed or ended
+  /// (message names the device/file). Simulated cameras render immediately.
+  virtual Result<std::optional<Frame>> grab(double timeout_s) = 0;
+};
+
+/// Norm to compare descriptors with.
+enum class DescriptorNorm { hamming, l2 };
+
+/// Keypoints with descriptors (one row per keypoint, CV_8U for binary, CV_32F for float).
+struct Features {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  DescriptorNorm norm = DescriptorNorm::hamming;
+
+  void clear() { keypoints.clear(); descriptors.release(); }
+};
+
+/// Keypoint detector + descriptor extractor.
+class Detector : public PluginObject {
+ public:
+  /// Detects and describes features in `image` (grey CV_8UC1 or BGR CV_8UC3),
+  /// reusing `out`'s buffers. An empty or unusable image is an error, not a crash;
+  /// an image without features yields an empty `out` and ok().
+  virtual Status detect(const cv::Mat& image, Features& out) = 0;
+  [[nodiscard]] virtual DescriptorNorm norm() const = 0;
+};
+
+}  // namespace visnav

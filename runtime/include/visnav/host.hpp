@@ -1,0 +1,109 @@
+// visnav SDK — services the runtime offers to plugins.
+//
+// Every factory, node registrar and plugin command receives a HostServices&.
+// Lifetime: valid for as long as any object the plugin created lives.
+// Thread-safety: `log()` and `clock()` may be called from any thread; the run
+// accessors (`frame_bus()`, `robot()`, ...) only from the tick thread.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "visnav/config_node.hpp"
+#include "visnav/devices.hpp"
+#include "visnav/result.hpp"
+#include "visnav/types.hpp"
+
+namespace visnav {
+
+enum class LogLevel { debug, info, warn, error };
+
+class Logger {
+ public:
+  virtual ~Logger() = default;
+  virtual void log(LogLevel level, std::string_view component, std::string_view message) = 0;
+  void info(std::string_view c, std::string_view m) { log(LogLevel::info, c, m); }
+  void warn(std::string_view c, std::string_view m) { log(LogLevel::warn, c, m); }
+  void error(std::string_view c, std::string_view m) { log(LogLevel::error, c, m); }
+};
+
+/// Time source of a run: wall time for real robots, simulated time in simulation.
+class Clock {
+ public:
+  virtual ~Clock() = default;
+  [[nodiscard]] virtual double now_s() const = 0;
+};
+
+/// Latest timestamped sensor values. Sensor callbacks write, the tick thread reads.
+/// Thread-safe; copies are cheap (cv::Mat is reference counted).
+class FrameBus {
+ public:
+  void publish_frame(Frame frame) {
+    std::lock_guard lock(mutex_);
+    frame_ = std::move(frame);
+  }
+  void publish_odometry(const Odometry& odometry) {
+    std::lock_guard lock(mutex_);
+    odometry_ = odometry;
+  }
+  [[nodiscard]] std::optional<Frame> latest_frame() const {
+    std::lock_guard lock(mutex_);
+    return frame_;
+  }
+  [[nodiscard]] std::optional<Odometry> latest_odometry() const {
+    std::lock_guard lock(mutex_);
+    return odometry_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::optional<Frame> frame_;
+  std::optional<Odometry> odometry_;
+};
+
+/// Per-tick navigation status, published as JSON lines and on the DDS telemetry topic.
+struct NavStatus {
+  std::string node_path;      ///< behaviour-tree path of the active primitive
+  std::string map_node;       ///< current map node name (empty if none)
+  std::string edge;           ///< current map edge id (empty if none)
+  double distance_m = 0.0;    ///< distance travelled along the edge
+  int matches = 0;
+  int inliers = 0;
+  double offset_px = 0.0;     ///< horizontal image offset estimate
+  Twist command;              ///< command sent this tick
+  std::string status;         ///< short human-readable state ("replaying", "path lost", ...)
+};
+
+class Telemetry {
+ public:
+  virtual ~Telemetry() = default;
+  virtual void publish(const NavStatus& status) = 0;
+};
+
+class MapStore;  // visnav/map.hpp
+
+/// Services of the host runtime.
+class HostServices {
+ public:
+  virtual ~HostServices() = default;
+
+  virtual Logger& logger() = 0;
+  virtual const Clock& clock() = 0;
+
+  /// Creates a detector of a registered type (e.g. "orb") from its params block.
+  virtual Result<std::unique_ptr<Detector>> create_detector(std::string_view type, const ConfigNode& params) = 0;
+
+  // --- Valid during `visnav run` (nullptr otherwise, e.g. while listing nodes). ---
+  virtual FrameBus* frame_bus() { return nullptr; }
+  virtual Robot* robot() { return nullptr; }
+  virtual Telemetry* telemetry() { return nullptr; }
+  /// The detector currently selected in config; swapped by live reload between ticks.
+  virtual Detector* active_detector() { return nullptr; }
+  /// The map named by `--map`, or nullptr.
+  virtual MapStore* map() { return nullptr; }
+};
+
+}  // namespace visnav

@@ -1,0 +1,247 @@
+// visnav SDK — typed, validated plugin parameters.
+//
+// A plugin declares its parameters as a plain struct with defaults (units in the
+// names) and a schema; `ParamSchema::parse` turns the plugin's `params:` ConfigNode
+// into the struct and rejects, with file:line, unknown keys, wrong types and
+// out-of-range values, then calls the struct's own `validate()` for cross-field rules.
+//
+//   struct OrbParams {
+//     int target_keypoints = 500;
+//     bool upright = false;
+//     [[nodiscard]] visnav::Status validate() const { return visnav::ok(); }
+//     static const visnav::ParamSchema<OrbParams>& schema() {
+//       static const auto s = visnav::ParamSchema<OrbParams>{}
+//           .field("target_keypoints", &OrbParams::target_keypoints, "keypoints per frame").range(10, 20000)
+//           .field("upright", &OrbParams::upright, "skip orientation (faster, for planar motion)");
+//       return s;
+//     }
+//   };
+//
+// Supported field types: int, double, bool, std::string, std::vector<double>,
+// std::vector<std::string> (YAML sequences, or a scalar "a;b;c").
+// Thread-safety: schemas are immutable after construction and may be shared.
+#pragma once
+
+#include <charconv>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "visnav/config_node.hpp"
+#include "visnav/result.hpp"
+
+namespace visnav {
+
+/// Human-facing description of one parameter (for `visnav plugins --params` and docs).
+struct ParamDoc {
+  std::string name;
+  std::string type;           ///< "int", "double", "bool", "string", "list<double>", "list<string>"
+  std::string default_value;  ///< rendered default
+  std::string description;
+  std::string constraint;     ///< e.g. "[10, 20000]" or "one of: a, b"; empty if none
+};
+
+namespace detail {
+
+inline Result<double> parse_double(const std::string& text) {
+  double v = 0.0;
+  const char* b = text.data();
+  const char* e = b + text.size();
+  auto [p, ec] = std::from_chars(b, e, v);
+  if (ec != std::errc{} || p != e || !std::isfinite(v)) return fail("'" + text + "' is not a number");
+  return v;
+}
+inline Result<int> parse_int(const std::string& text) {
+  long long v = 0;
+  const char* b = text.data();
+  const char* e = b + text.size();
+  if (b != e && *b == '+') ++b;
+  auto [p, ec] = std::from_chars(b, e, v);
+  if (ec != std::errc{} || p != e || b == e) return fail("'" + text + "' is not an integer");
+  if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
+    return fail("'" + text + "' is out of the int range");
+  return static_cast<int>(v);
+}
+inline Result<bool> parse_bool(const std::string& text) {
+  if (text == "true" || text == "True" || text == "TRUE" || text == "yes" || text == "on" || text == "1") return true;
+  if (text == "false" || text == "False" || text == "FALSE" || text == "no" || text == "off" || text == "0") return false;
+  return fail("'" + text + "' is not a boolean (true/false)");
+}
+inline std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : text) {
+    if (c == ';') { out.push_back(cur); cur.clear(); } else { cur.push_back(c); }
+  }
+  if (!cur.empty() || !out.empty()) out.push_back(cur);
+  return out;
+}
+
+template <typename T> struct TypeName;
+template <> struct TypeName<int> { static constexpr const char* value = "int"; };
+template <> struct TypeName<double> { static constexpr const char* value = "double"; };
+template <> struct TypeName<bool> { static constexpr const char* value = "bool"; };
+template <> struct TypeName<std::string> { static constexpr const char* value = "string"; };
+template <> struct TypeName<std::vector<double>> { static constexpr const char* value = "list<double>"; };
+template <> struct TypeName<std::vector<std::string>> { static constexpr const char* value = "list<string>"; };
+
+template <typename T>
+std::string render(const T& v) {
+  if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+  else if constexpr (std::is_same_v<T, std::string>) return v;
+  else if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
+    std::ostringstream os;
+    for (size_t i = 0; i < v.size(); ++i) { if (i) os << ';'; os << v[i]; }
+    return os.str();
+  } else {
+    std::ostringstream os; os << v; return os.str();
+  }
+}
+
+template <typename T>
+Result<T> convert(const ConfigNode& node) {
+  if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
+    std::vector<std::string> texts;
+    if (node.is_sequence()) {
+      for (const auto& item : node.items()) {
+        if (!item.is_scalar()) return fail("expected a list of scalars");
+        texts.push_back(item.scalar());
+      }
+    } else if (node.is_scalar()) {
+      texts = split_list(node.scalar());
+    } else {
+      return fail("expected a list");
+    }
+    T out;
+    for (const auto& t : texts) {
+      if constexpr (std::is_same_v<T, std::vector<double>>) {
+        auto v = parse_double(t);
+        if (!v) return v.error();
+        out.push_back(*v);
+      } else {
+        out.push_back(t);
+      }
+    }
+    return out;
+  } else {
+    if (!node.is_scalar()) return fail(std::string("expected a scalar of type ") + TypeName<T>::value);
+    const std::string& s = node.scalar();
+    if constexpr (std::is_same_v<T, int>) return parse_int(s);
+    else if constexpr (std::is_same_v<T, double>) return parse_double(s);
+    else if constexpr (std::is_same_v<T, bool>) return parse_bool(s);
+    else return s;
+  }
+}
+
+}  // namespace detail
+
+template <typename P>
+class ParamSchema {
+ public:
+  template <typename T>
+  ParamSchema& field(std::string name, T P::*member, std::string description) {
+    Field f;
+    f.doc.name = std::move(name);
+    f.doc.type = detail::TypeName<T>::value;
+    f.doc.description = std::move(description);
+    f.render_default = [member](const P& p) { return detail::render(p.*member); };
+    f.assign = [member](P& p, const ConfigNode& node) -> Status {
+      auto v = detail::convert<T>(node);
+      if (!v) return v.error();
+      p.*member = std::move(*v);
+      return ok();
+    };
+    fields_.push_back(std::move(f));
+    return *this;
+  }
+
+  /// Inclusive numeric range for the last int/double field (or for each element of a list<double>).
+  ParamSchema& range(double min_value, double max_value) {
+    Field& f = fields_.back();
+    std::ostringstream os; os << "[" << min_value << ", " << max_value << "]";
+    f.doc.constraint = os.str();
+    auto previous = f.assign;
+    f.assign = [previous, min_value, max_value, c = f.doc.constraint](P& p, const ConfigNode& node) -> Status {
+      VISNAV_TRY(previous(p, node));
+      auto check = [&](const std::string& text) -> Status {
+        auto v = detail::parse_double(text);
+        if (v && (*v < min_value || *v > max_value)) return fail("value " + text + " is out of range " + c);
+        return ok();
+      };
+      if (node.is_scalar() && node.scalar().find(';') == std::string::npos) return check(node.scalar());
+      if (node.is_sequence()) for (const auto& it : node.items()) VISNAV_TRY(check(it.scalar()));
+      if (node.is_scalar()) for (const auto& t : detail::split_list(node.scalar())) VISNAV_TRY(check(t));
+      return ok();
+    };
+    return *this;
+  }
+
+  /// Allowed values for the last string field.
+  ParamSchema& one_of(std::vector<std::string> allowed) {
+    Field& f = fields_.back();
+    std::string c = "one of:";
+    for (const auto& a : allowed) c += " " + a;
+    f.doc.constraint = c;
+    auto previous = f.assign;
+    f.assign = [previous, allowed, c](P& p, const ConfigNode& node) -> Status {
+      VISNAV_TRY(previous(p, node));
+      for (const auto& a : allowed) if (node.is_scalar() && node.scalar() == a) return ok();
+      return fail("value '" + (node.is_scalar() ? node.scalar() : std::string("?")) + "' is not " + c);
+    };
+    return *this;
+  }
+
+  /// Parses `node` (a map, or null for all defaults) on top of `base` (defaults when omitted).
+  /// Errors name the location and key: "robot.yaml:14: key 'max_speed_mps': value 9 is out of range [0, 3]".
+  [[nodiscard]] Result<P> parse(const ConfigNode& node, P base = P{}) const {
+    if (node.is_null()) {
+      auto valid = base.validate();
+      if (!valid) return valid.error().with_context(node.where().str());
+      return base;
+    }
+    if (!node.is_map()) return fail(node.where().str() + ": expected a map of parameters");
+    for (const auto& [key, value] : node.entries()) {
+      const Field* f = find(key);
+      if (f == nullptr) {
+        std::string known;
+        for (const auto& ff : fields_) known += (known.empty() ? "" : ", ") + ff.doc.name;
+        return fail(value.where().str() + ": unknown key '" + key + "' (known keys: " + known + ")");
+      }
+      auto st = f->assign(base, value);
+      if (!st) return fail(value.where().str() + ": key '" + key + "': " + st.error().message);
+    }
+    auto valid = base.validate();
+    if (!valid) return valid.error().with_context(node.where().str());
+    return base;
+  }
+
+  [[nodiscard]] std::vector<ParamDoc> docs() const {
+    std::vector<ParamDoc> out;
+    P defaults{};
+    for (const auto& f : fields_) {
+      ParamDoc d = f.doc;
+      d.default_value = f.render_default(defaults);
+      out.push_back(std::move(d));
+    }
+    return out;
+  }
+
+ private:
+  struct Field {
+    ParamDoc doc;
+    std::function<std::string(const P&)> render_default;
+    std::function<Status(P&, const ConfigNode&)> assign;
+  };
+  const Field* find(const std::string& key) const {
+    for (const auto& f : fields_) if (f.doc.name == key) return &f;
+    return nullptr;
+  }
+  std::vector<Field> fields_;
+};
+
+}  // namespace visnav

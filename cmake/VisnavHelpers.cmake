@@ -53,14 +53,15 @@ function(visnav_add_test name)
   target_compile_definitions(${name} PRIVATE
     VISNAV_TEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     VISNAV_TEST_BINARY_DIR="${PROJECT_BINARY_DIR}"
-    VISNAV_TEST_PLUGIN_DIR="${VISNAV_BUILD_PLUGIN_DIR}")
+    VISNAV_TEST_PLUGIN_DIR="${VISNAV_BUILD_PLUGIN_DIR}"
+    VISNAV_TEST_FIXTURE_PLUGIN_DIR="${VISNAV_BUILD_PLUGIN_DIR}/fixtures"
+    VISNAV_TEST_CLI="$<TARGET_FILE:visnav>")
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
   endif()
   include(GoogleTest)
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}"
-               ENVIRONMENT "VISNAV_PLUGIN_PATH=${VISNAV_BUILD_PLUGIN_DIR}/fixtures")
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
 endfunction()
 
 # visnav_add_benchmark(<name> SOURCES ... [LIBS ...])

@@ -1,5 +1,7 @@
 // `visnav` entry point: dispatches to the built-in subcommands registered with
-// VISNAV_COMMAND (one cli/cmd_*.cpp each).
+// VISNAV_COMMAND (one cli/cmd_*.cpp each); a name that is not built in is looked up among
+// the commands contributed by plugins (CommandEntry) on the default search path
+// (build dir, install dir, VISNAV_PLUGIN_PATH).
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -7,6 +9,8 @@
 #include <vector>
 
 #include "command.hpp"
+#include "visnav/loader.hpp"
+#include "visnav/runtime_host.hpp"
 #include "visnav/version.hpp"
 
 namespace visnav::cli {
@@ -33,7 +37,8 @@ bool wants_help(const std::vector<std::string>& args) {
 }  // namespace visnav::cli
 
 namespace {
-void print_help() {
+
+void print_help(const visnav::PluginLoader& loader) {
   std::cout << "visnav " << visnav::runtime_version()
             << " — monocular visual teach-and-repeat navigation\n\n"
                "usage: visnav <command> [options]\n       visnav <command> --help\n       visnav --version\n\n"
@@ -41,14 +46,47 @@ void print_help() {
   for (const auto& c : visnav::cli::commands()) {
     std::printf("  %-12s %s\n", c.name, c.summary);
   }
+  const auto plugin_commands = loader.commands();
+  if (!plugin_commands.empty()) {
+    std::cout << "\ncommands from plugins:\n";
+    for (const auto& c : plugin_commands) std::printf("  %-12s %s\n", c.name.c_str(), c.summary.c_str());
+  }
 }
+
+/// Runs a plugin-contributed command; argv[0] is the command name.
+int run_plugin_command(const visnav::PluginCommandInfo& command, std::vector<std::string> args,
+                       visnav::PluginLoader& loader) {
+  visnav::StderrLogger logger(visnav::LogLevel::info);
+  visnav::WallClock clock;
+  visnav::RuntimeHost host(loader, logger, clock);
+  args.insert(args.begin(), command.name);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  try {
+    return command.run(static_cast<int>(args.size()), argv.data(), host);
+  } catch (const std::exception& e) {
+    std::cerr << "visnav " << command.name << ": the plugin command threw an exception: " << e.what() << " ("
+              << command.library_path << ")\n";
+  } catch (...) {
+    std::cerr << "visnav " << command.name << ": the plugin command threw (" << command.library_path << ")\n";
+  }
+  return 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty() || args[0] == "-h" || args[0] == "--help" || args[0] == "help") {
-    print_help();
-    return args.empty() ? 2 : 0;
+    if (args.size() >= 2 && args[0] == "help") {  // `visnav help run` == `visnav run --help`
+      args = {args[1], "--help"};
+    } else {
+      auto loader = visnav::PluginLoader::with_default_path();
+      (void)loader.scan();
+      print_help(loader);
+      return args.empty() ? 2 : 0;
+    }
   }
   if (args[0] == "--version" || args[0] == "-V") {
     std::cout << "visnav " << visnav::runtime_version() << "\n";
@@ -65,6 +103,17 @@ int main(int argc, char** argv) {
       return c.run(args);
     }
   }
-  std::cerr << "visnav: unknown command '" << name << "' (see 'visnav --help')\n";
+  // Not built in: look for a plugin command (libraries are only loaded here, when needed).
+  auto loader = visnav::PluginLoader::with_default_path();
+  if (auto scanned = loader.scan(); !scanned) {
+    std::cerr << "visnav: " << scanned.error().message << "\n";
+    return 2;
+  }
+  for (const auto& c : loader.commands()) {
+    if (c.name == name) return run_plugin_command(c, std::move(args), loader);
+  }
+  std::cerr << "visnav: unknown command '" << name << "' (see 'visnav --help'; plugin commands are searched in: ";
+  for (std::size_t i = 0; i < loader.search_dirs().size(); ++i) std::cerr << (i ? ", " : "") << loader.search_dirs()[i];
+  std::cerr << ")\n";
   return 2;
 }

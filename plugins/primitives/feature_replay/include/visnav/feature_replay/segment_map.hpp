@@ -1,0 +1,190 @@
+// feature_replay core — map style A: straight segments with tracked landmarks (seed 000, Sec. 3,
+// Algorithms 1 and 2).
+//
+// Teach (SegmentTeacher, Algorithm 1): every frame, the tracked landmarks are matched against the
+// current features (ratio test + mutual best + a per-frame image step gate); a matched landmark
+// updates its last image position and last distance and counts one more observation; an
+// unmatched one stops being tracked and joins the segment's landmark set if it was seen in at
+// least `min_observations` frames over at least `min_track_length_m`; unmatched current features
+// start new tracks. finish() closes every track and caps the landmark density at
+// `max_landmarks_per_m` (per 0.5 m window of the landmark's mid distance, highest count first).
+// A landmark is the tuple (e, k, u, v, f, g) of the paper: descriptor, observation count, first
+// and last image position, first and last distance from the segment start.
+//
+// Replay (SegmentReplayer, Algorithm 2): at distance d along the segment, landmarks with
+// f - margin <= d <= g + margin are expected; each one's image position is interpolated linearly
+// by distance between u and v; the expected landmarks are matched with the current features, the
+// horizontal differences (current - expected) voted into the histogram, and
+// omega = -gain_radps_per_px * offset_px (clamped), v = speed_mps (constant). The paper writes
+// omega = gamma * mode(H); our gamma is -gain because omega is counter-clockwise positive and a
+// scene seen right of where it is expected means the robot is turned left. Low confidence,
+// no features or bad input give omega = 0 (no steering on noise). Per-frame cost depends only on
+// the landmarks near d: they are sorted by f and found by binary search.
+//
+// Distances: the replayer is given odometric distance (Odometry::distance_m) and subtracts the
+// value given to begin(); the teacher is given distance from the segment start (>= 0,
+// non-decreasing; a smaller value is treated as the previous one).
+//
+// Thread-safety: teacher and replayer are single-threaded objects; a SegmentMap is immutable once
+// built and may be shared between threads (the replayer holds a shared_ptr<const SegmentMap>).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "visnav/devices.hpp"
+#include "visnav/feature_replay/heading.hpp"
+#include "visnav/feature_replay/replay_common.hpp"
+#include "visnav/params.hpp"
+#include "visnav/result.hpp"
+#include "visnav/types.hpp"
+
+namespace visnav::feature_replay {
+
+/// One landmark (e, k, u, v, f, g) of seed 000; its descriptor e is row i of SegmentMap::descriptors.
+struct Landmark {
+  std::uint32_t count = 0;        ///< k: frames in which it was detected
+  cv::Point2f first_px;           ///< u: image position at the first detection
+  cv::Point2f last_px;            ///< v: image position at the last detection
+  float first_distance_m = 0.0f;  ///< f: distance from the segment start at the first detection
+  float last_distance_m = 0.0f;   ///< g: distance at the last detection (>= f)
+
+  /// Expected image position at distance d (linear interpolation, clamped to [f, g]).
+  [[nodiscard]] cv::Point2f expected_px(double distance_m) const;
+};
+
+/// One taught segment: azimuth, odometric length and landmarks sorted by first distance.
+struct SegmentMap {
+  /// Payload layout version written by serialize() (see docs/feature_replay.md).
+  static constexpr std::uint16_t kFormatVersion = 1;
+
+  double length_m = 0.0;
+  double azimuth_rad = 0.0;           ///< heading at the segment start (odom/compass frame)
+  std::vector<Landmark> landmarks;    ///< sorted by first_distance_m
+  cv::Mat descriptors;                ///< row i describes landmarks[i]; CV_8UC1 or CV_32FC1
+  double max_span_m = 0.0;            ///< max(g - f) over the landmarks (replay search window)
+
+  /// Compact little-endian binary body (the map store adds its own header and checksum).
+  [[nodiscard]] std::vector<std::uint8_t> serialize() const;
+  /// Parses a body made by serialize(); rejects wrong magic/version, truncation, trailing bytes,
+  /// non-finite or inconsistent values with an Error (never crashes on garbage).
+  [[nodiscard]] static Result<SegmentMap> deserialize(std::span<const std::uint8_t> body);
+  /// Checks the invariants (sizes, ordering, finite values).
+  [[nodiscard]] Status validate() const;
+};
+
+struct SegmentTeachParams {
+  double track_ratio = 0.8;          ///< ratio test when matching tracked landmarks (1 = off)
+  double max_track_step_px = 40.0;   ///< max image motion of a landmark between consecutive frames
+  double max_descriptor_distance = 0.0;  ///< absolute gate on the tracking match; 0 = off
+  int min_observations = 3;          ///< k below this: the track is dropped
+  double min_track_length_m = 0.05;  ///< g - f below this: the track is dropped
+  double max_landmarks_per_m = 250.0;  ///< density cap applied by finish() (50 B each -> 12.5 KB/m)
+
+  [[nodiscard]] Status validate() const { return ok(); }
+  static const ParamSchema<SegmentTeachParams>& schema();
+};
+
+/// Algorithm 1: builds a SegmentMap from a stream of (distance, features).
+class SegmentTeacher {
+ public:
+  explicit SegmentTeacher(const SegmentTeachParams& params = {});
+
+  /// Starts a new segment at `azimuth_rad`; forgets any previous state.
+  void begin(double azimuth_rad);
+  /// Processes one frame taken at `distance_m` from the segment start. Empty features are fine
+  /// (every track ends). Errors: inconsistent features, or a descriptor type/width different from
+  /// the first frame's; state is unchanged on error.
+  Status add_frame(double distance_m, const Features& features);
+  /// Ends the segment at `length_m` (>= 0), closes every track and returns the map. The teacher
+  /// is empty afterwards (call begin() for another segment).
+  Result<SegmentMap> finish(double length_m);
+
+  [[nodiscard]] std::size_t tracked_count() const { return tracks_.size(); }
+  [[nodiscard]] std::size_t landmark_count() const { return done_.size(); }
+
+ private:
+  struct Track {
+    std::uint32_t count;
+    cv::Point2f first_px, last_px;
+    float first_m, last_m;
+  };
+  void close_track(std::size_t i);
+  void ensure_track_capacity(int rows, int cols, int type);
+
+  SegmentTeachParams params_;
+  double azimuth_rad_ = 0.0;
+  double last_distance_m_ = 0.0;
+  int desc_type_ = -1;
+  int desc_cols_ = 0;
+  std::vector<Track> tracks_;
+  cv::Mat track_desc_, next_desc_;  // capacity buffers; the first tracks_.size() rows are live
+  std::vector<Track> next_tracks_;
+  std::vector<Landmark> done_;
+  std::vector<std::uint8_t> done_desc_;  // row bytes of done_ landmarks, concatenated
+  std::vector<int> best_, cur_best_;
+  std::vector<float> best_d_, second_d_, cur_best_d_;
+  std::vector<char> used_;
+};
+
+struct SegmentReplayParams {
+  double speed_mps = 0.3;              ///< constant forward speed v0
+  double gain_radps_per_px = 0.003;    ///< omega = -gain * offset_px
+  double max_angular_radps = 0.5;      ///< |omega| clamp
+  double distance_margin_m = 0.0;      ///< widen the [f, g] visibility window by this much
+
+  [[nodiscard]] Status validate() const { return ok(); }
+  static const ParamSchema<SegmentReplayParams>& schema();
+};
+
+struct SegmentReplayOutput {
+  Twist command;                 ///< (v0, omega), or zero when finished
+  double distance_m = 0.0;       ///< along the segment
+  int expected_landmarks = 0;    ///< |T|: landmarks visible at this distance during teach
+  HeadingEstimate estimate;
+  ReplayState state = ReplayState::no_features;
+  bool finished = false;         ///< distance >= segment length
+};
+
+/// Algorithm 2: replays one segment.
+class SegmentReplayer {
+ public:
+  /// A null or invalid map (SegmentMap::validate() fails) is not used: every step reports
+  /// bad_input with a zero command (check map_valid()).
+  SegmentReplayer(std::shared_ptr<const SegmentMap> map, const SegmentReplayParams& params = {},
+                  const HeadingParams& heading = {});
+
+  /// Sets the odometric distance at which the segment starts (Odometry::distance_m).
+  void begin(double odometry_distance_m) { origin_m_ = odometry_distance_m; }
+  /// One frame: `odometry_distance_m` is the current Odometry::distance_m; `image_width_px` the
+  /// width of the image the features come from (for the heading in the estimate).
+  SegmentReplayOutput step(double odometry_distance_m, const Features& current, double image_width_px);
+  /// Distance travelled beyond the segment end (>= 0), to carry into the next edge.
+  [[nodiscard]] double overshoot_m(double odometry_distance_m) const;
+
+  void set_params(const SegmentReplayParams& params, const HeadingParams& heading);
+  [[nodiscard]] const HeadingEstimator& estimator() const { return estimator_; }
+  [[nodiscard]] const SegmentMap& map() const { return *map_; }
+  [[nodiscard]] bool map_valid() const { return map_valid_; }
+  /// Expected positions of the landmarks used in the last step (valid until the next step).
+  [[nodiscard]] std::span<const cv::Point2f> last_expected_px() const {
+    return {expected_.data(), static_cast<std::size_t>(active_count_)};
+  }
+
+ private:
+  std::shared_ptr<const SegmentMap> map_;
+  SegmentReplayParams params_;
+  HeadingEstimator estimator_;
+  double origin_m_ = 0.0;
+  double max_span_m_ = 0.0;
+  bool map_valid_ = true;
+  cv::Mat ref_desc_;                   // capacity buffer
+  std::vector<cv::Point2f> expected_;  // capacity buffer
+  int active_count_ = 0;
+};
+
+}  // namespace visnav::feature_replay

@@ -1,0 +1,414 @@
+// Map style A: segment teacher, replayer and payload (see segment_map.hpp).
+#include "visnav/feature_replay/segment_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <string>
+
+#include "binary_io.hpp"
+
+namespace visnav::feature_replay {
+
+namespace {
+constexpr char kMagicA[4] = {'V', 'N', 'F', 'A'};
+constexpr double kCapWindowM = 0.5;
+
+std::size_t row_bytes(int cols, int type) { return static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type); }
+}  // namespace
+
+cv::Point2f Landmark::expected_px(double distance_m) const {
+  const double span = static_cast<double>(last_distance_m) - first_distance_m;
+  if (!(span > 1e-9)) return first_px;
+  const double t = std::clamp((distance_m - first_distance_m) / span, 0.0, 1.0);
+  return {static_cast<float>(first_px.x + (last_px.x - first_px.x) * t),
+          static_cast<float>(first_px.y + (last_px.y - first_px.y) * t)};
+}
+
+// ---------------------------------------------------------------- SegmentMap ----
+
+Status SegmentMap::validate() const {
+  if (!std::isfinite(length_m) || length_m < 0.0) return fail("segment length is not a finite non-negative number");
+  if (!std::isfinite(azimuth_rad)) return fail("segment azimuth is not finite");
+  if (static_cast<std::size_t>(descriptors.rows) != landmarks.size())
+    return fail(std::to_string(landmarks.size()) + " landmarks but " + std::to_string(descriptors.rows) + " descriptor rows");
+  if (!landmarks.empty() && descriptors.type() != CV_8UC1 && descriptors.type() != CV_32FC1)
+    return fail("landmark descriptors must be CV_8UC1 or CV_32FC1");
+  float previous = -1e30f;
+  for (std::size_t i = 0; i < landmarks.size(); ++i) {
+    const Landmark& l = landmarks[i];
+    if (!std::isfinite(l.first_distance_m) || !std::isfinite(l.last_distance_m) || l.last_distance_m < l.first_distance_m)
+      return fail("landmark " + std::to_string(i) + ": bad first/last distance");
+    if (l.first_distance_m < previous) return fail("landmarks are not sorted by first distance");
+    previous = l.first_distance_m;
+    if (!std::isfinite(l.first_px.x) || !std::isfinite(l.first_px.y) || !std::isfinite(l.last_px.x) ||
+        !std::isfinite(l.last_px.y))
+      return fail("landmark " + std::to_string(i) + ": non-finite image position");
+  }
+  return ok();
+}
+
+std::vector<std::uint8_t> SegmentMap::serialize() const {
+  std::vector<std::uint8_t> out;
+  const bool is_float = descriptors.depth() == CV_32F;
+  const int cols = landmarks.empty() ? 0 : descriptors.cols;
+  const std::size_t rb = landmarks.empty() ? 0 : row_bytes(cols, descriptors.type());
+  out.reserve(32 + landmarks.size() * (rb + 18));
+  io::Writer w(out);
+  w.bytes(kMagicA, 4);
+  w.put<std::uint16_t>(kFormatVersion);
+  w.put<std::uint8_t>(static_cast<std::uint8_t>(is_float ? io::DescKind::float32 : io::DescKind::binary));
+  w.put<std::uint8_t>(0);
+  w.put<std::uint16_t>(static_cast<std::uint16_t>(cols));
+  w.put<std::uint16_t>(0);
+  w.put<double>(length_m);
+  w.put<double>(azimuth_rad);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(landmarks.size()));
+  for (std::size_t i = 0; i < landmarks.size(); ++i) {
+    const Landmark& l = landmarks[i];
+    w.bytes(descriptors.ptr(static_cast<int>(i)), rb);
+    w.put<std::uint16_t>(static_cast<std::uint16_t>(std::min<std::uint32_t>(l.count, 65535)));
+    w.put<std::int16_t>(io::to_fixed_px(l.first_px.x));
+    w.put<std::int16_t>(io::to_fixed_px(l.first_px.y));
+    w.put<std::int16_t>(io::to_fixed_px(l.last_px.x));
+    w.put<std::int16_t>(io::to_fixed_px(l.last_px.y));
+    w.put<float>(l.first_distance_m);
+    w.put<float>(l.last_distance_m);
+  }
+  return out;
+}
+
+Result<SegmentMap> SegmentMap::deserialize(std::span<const std::uint8_t> body) {
+  io::Reader r(body);
+  char magic[4];
+  if (!r.bytes(magic, 4) || std::memcmp(magic, kMagicA, 4) != 0)
+    return fail("not a feature_replay segment payload (bad magic)");
+  std::uint16_t version = 0, cols = 0, reserved16 = 0;
+  std::uint8_t kind = 0, reserved8 = 0;
+  SegmentMap m;
+  std::uint32_t count = 0;
+  if (!r.get(version)) return fail("segment payload truncated in the header");
+  if (version != kFormatVersion)
+    return fail("segment payload format version " + std::to_string(version) + " is not supported (expected " +
+                std::to_string(kFormatVersion) + ")");
+  if (!r.get(kind) || !r.get(reserved8) || !r.get(cols) || !r.get(reserved16) || !r.get(m.length_m) ||
+      !r.get(m.azimuth_rad) || !r.get(count))
+    return fail("segment payload truncated in the header");
+  if (kind > 1) return fail("segment payload: unknown descriptor kind " + std::to_string(kind));
+  const int type = kind == 1 ? CV_32FC1 : CV_8UC1;
+  if (count > 0 && cols == 0) return fail("segment payload: landmarks with zero-width descriptors");
+  const std::size_t rb = row_bytes(cols, type);
+  const std::size_t record = rb + 2 + 8 + 8;
+  if (r.remaining() != static_cast<std::size_t>(count) * record)
+    return fail("segment payload size mismatch: " + std::to_string(count) + " landmarks need " +
+                std::to_string(static_cast<std::size_t>(count) * record) + " bytes, " + std::to_string(r.remaining()) +
+                " present");
+  m.landmarks.resize(count);
+  if (count > 0) m.descriptors.create(static_cast<int>(count), cols, type);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    Landmark& l = m.landmarks[i];
+    std::uint16_t k = 0;
+    std::int16_t u0 = 0, v0 = 0, u1 = 0, v1 = 0;
+    r.bytes(m.descriptors.ptr(static_cast<int>(i)), rb);
+    r.get(k); r.get(u0); r.get(v0); r.get(u1); r.get(v1);
+    r.get(l.first_distance_m); r.get(l.last_distance_m);
+    l.count = k;
+    l.first_px = {io::from_fixed_px(u0), io::from_fixed_px(v0)};
+    l.last_px = {io::from_fixed_px(u1), io::from_fixed_px(v1)};
+    m.max_span_m = std::max(m.max_span_m, static_cast<double>(l.last_distance_m) - l.first_distance_m);
+  }
+  if (kind == 1 && count > 0) {
+    for (int i = 0; i < m.descriptors.rows; ++i)
+      for (int j = 0; j < m.descriptors.cols; ++j)
+        if (!std::isfinite(m.descriptors.at<float>(i, j))) return fail("segment payload: non-finite descriptor value");
+  }
+  auto valid = m.validate();
+  if (!valid) return valid.error().with_context("segment payload");
+  return m;
+}
+
+// ---------------------------------------------------------------- params ----
+
+const ParamSchema<SegmentTeachParams>& SegmentTeachParams::schema() {
+  static const auto s =
+      ParamSchema<SegmentTeachParams>{}
+          .field("track_ratio", &SegmentTeachParams::track_ratio, "ratio test when matching tracked landmarks (1 = off)")
+          .range(0.1, 1.0)
+          .field("max_track_step_px", &SegmentTeachParams::max_track_step_px,
+                 "max image motion of a tracked landmark between consecutive frames, px")
+          .range(1.0, 10000.0)
+          .field("max_descriptor_distance", &SegmentTeachParams::max_descriptor_distance,
+                 "absolute descriptor distance gate for tracking; 0 = off")
+          .range(0.0, 1e6)
+          .field("min_observations", &SegmentTeachParams::min_observations, "frames a landmark must be seen in to be kept")
+          .range(1, 100000)
+          .field("min_track_length_m", &SegmentTeachParams::min_track_length_m,
+                 "distance over which a landmark must be tracked to be kept, m")
+          .range(0.0, 1000.0)
+          .field("max_landmarks_per_m", &SegmentTeachParams::max_landmarks_per_m,
+                 "landmark density cap (highest observation count kept)")
+          .range(1.0, 100000.0);
+  return s;
+}
+
+const ParamSchema<SegmentReplayParams>& SegmentReplayParams::schema() {
+  static const auto s =
+      ParamSchema<SegmentReplayParams>{}
+          .field("speed_mps", &SegmentReplayParams::speed_mps, "constant forward speed, m/s")
+          .range(-5.0, 5.0)
+          .field("gain_radps_per_px", &SegmentReplayParams::gain_radps_per_px,
+                 "steering gain: omega = -gain * offset_px, rad/s per px")
+          .range(0.0, 1.0)
+          .field("max_angular_radps", &SegmentReplayParams::max_angular_radps, "clamp of |omega|, rad/s")
+          .range(0.0, 10.0)
+          .field("distance_margin_m", &SegmentReplayParams::distance_margin_m,
+                 "widen each landmark's visibility window [f, g] by this much, m")
+          .range(0.0, 100.0);
+  return s;
+}
+
+// ---------------------------------------------------------------- teacher ----
+
+SegmentTeacher::SegmentTeacher(const SegmentTeachParams& params) : params_(params) {}
+
+void SegmentTeacher::begin(double azimuth_rad) {
+  azimuth_rad_ = azimuth_rad;
+  last_distance_m_ = 0.0;
+  desc_type_ = -1;
+  desc_cols_ = 0;
+  tracks_.clear();
+  done_.clear();
+  done_desc_.clear();
+}
+
+void SegmentTeacher::ensure_track_capacity(int rows, int cols, int type) {
+  if (track_desc_.rows >= rows && track_desc_.cols == cols && track_desc_.type() == type) return;
+  const int capacity = std::max(rows, std::max(64, track_desc_.rows * 2));
+  cv::Mat bigger(capacity, cols, type);
+  const int live = static_cast<int>(tracks_.size());
+  if (live > 0 && track_desc_.cols == cols && track_desc_.type() == type)
+    track_desc_.rowRange(0, live).copyTo(bigger.rowRange(0, live));
+  track_desc_ = bigger;
+  next_desc_.create(capacity, cols, type);
+}
+
+void SegmentTeacher::close_track(std::size_t i) {
+  const Track& t = tracks_[i];
+  if (static_cast<int>(t.count) < params_.min_observations) return;
+  if (static_cast<double>(t.last_m) - t.first_m < params_.min_track_length_m) return;
+  done_.push_back(Landmark{t.count, t.first_px, t.last_px, t.first_m, t.last_m});
+  const std::uint8_t* row = track_desc_.ptr(static_cast<int>(i));
+  done_desc_.insert(done_desc_.end(), row, row + row_bytes(desc_cols_, desc_type_));
+}
+
+Status SegmentTeacher::add_frame(double distance_m, const Features& features) {
+  VISNAV_TRY(check_features(features, "teach features"));
+  if (!std::isfinite(distance_m)) return fail("teach distance is not finite");
+  const double d = std::max(distance_m, last_distance_m_);
+  last_distance_m_ = d;
+  const cv::Mat& cur = features.descriptors;
+  const int n_cur = static_cast<int>(features.keypoints.size());
+  if (n_cur > 0) {
+    if (desc_type_ < 0) {
+      desc_type_ = cur.type();
+      desc_cols_ = cur.cols;
+    } else if (cur.type() != desc_type_ || cur.cols != desc_cols_) {
+      return fail("teach features: descriptor type/width changed during the segment (" + std::to_string(cur.cols) +
+                  " columns of type " + std::to_string(cur.type()) + ", expected " + std::to_string(desc_cols_) +
+                  " of type " + std::to_string(desc_type_) + ")");
+    }
+  }
+  const int n_tracks = static_cast<int>(tracks_.size());
+  used_.assign(static_cast<std::size_t>(n_cur), 0);
+  next_tracks_.clear();
+  if (n_tracks > 0 || n_cur > 0) ensure_track_capacity(n_tracks + n_cur, desc_cols_, desc_type_);
+  int next_rows = 0;
+  const std::size_t rb = desc_type_ < 0 ? 0 : row_bytes(desc_cols_, desc_type_);
+  auto keep = [&](const Track& t, const std::uint8_t* desc_row) {
+    std::memcpy(next_desc_.ptr(next_rows), desc_row, rb);
+    next_tracks_.push_back(t);
+    ++next_rows;
+  };
+
+  if (n_tracks > 0 && n_cur > 0) {
+    const cv::Mat live = track_desc_.rowRange(0, n_tracks);
+    knn2_bruteforce(live, cur, best_, best_d_, second_d_, &cur_best_, &cur_best_d_);
+    const float ratio = static_cast<float>(params_.track_ratio);
+    const double step2 = params_.max_track_step_px * params_.max_track_step_px;
+    for (int i = 0; i < n_tracks; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      const int j = best_[ui];
+      bool matched = j >= 0;
+      if (matched && ratio < 1.0f && std::isfinite(second_d_[ui]) && !(best_d_[ui] < ratio * second_d_[ui])) matched = false;
+      if (matched && params_.max_descriptor_distance > 0.0 && best_d_[ui] > params_.max_descriptor_distance) matched = false;
+      if (matched && cur_best_[static_cast<std::size_t>(j)] != i) matched = false;
+      if (matched) {
+        const cv::Point2f p = features.keypoints[static_cast<std::size_t>(j)].pt;
+        const cv::Point2f q = tracks_[ui].last_px;
+        const double dx = p.x - q.x, dy = p.y - q.y;
+        if (!(dx * dx + dy * dy <= step2)) matched = false;
+      }
+      if (matched) {
+        Track t = tracks_[ui];
+        t.count += 1;
+        t.last_px = features.keypoints[static_cast<std::size_t>(j)].pt;
+        t.last_m = static_cast<float>(d);
+        used_[static_cast<std::size_t>(j)] = 1;
+        keep(t, track_desc_.ptr(i));
+      } else {
+        close_track(ui);
+      }
+    }
+  } else {
+    for (std::size_t i = 0; i < tracks_.size(); ++i) close_track(i);
+  }
+  for (int j = 0; j < n_cur; ++j) {
+    if (used_[static_cast<std::size_t>(j)]) continue;
+    const cv::Point2f p = features.keypoints[static_cast<std::size_t>(j)].pt;
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    keep(Track{1, p, p, static_cast<float>(d), static_cast<float>(d)}, cur.ptr(j));
+  }
+  std::swap(tracks_, next_tracks_);
+  std::swap(track_desc_, next_desc_);
+  return ok();
+}
+
+Result<SegmentMap> SegmentTeacher::finish(double length_m) {
+  if (!std::isfinite(length_m) || length_m < 0.0) return fail("segment length must be finite and >= 0");
+  for (std::size_t i = 0; i < tracks_.size(); ++i) close_track(i);
+  tracks_.clear();
+
+  // Density cap: per window of kCapWindowM by mid distance, keep the most observed landmarks.
+  const std::size_t n = done_.size();
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  auto window = [&](std::size_t i) {
+    return static_cast<long>(std::floor((done_[i].first_distance_m + done_[i].last_distance_m) * 0.5 / kCapWindowM));
+  };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    const long wa = window(a), wb = window(b);
+    if (wa != wb) return wa < wb;
+    if (done_[a].count != done_[b].count) return done_[a].count > done_[b].count;
+    return a < b;
+  });
+  const auto per_window = static_cast<std::size_t>(std::max(1.0, std::floor(params_.max_landmarks_per_m * kCapWindowM)));
+  std::vector<std::size_t> kept;
+  kept.reserve(n);
+  for (std::size_t k = 0; k < n;) {
+    const long w = window(order[k]);
+    std::size_t taken = 0;
+    for (; k < n && window(order[k]) == w; ++k) {
+      if (taken < per_window) { kept.push_back(order[k]); ++taken; }
+    }
+  }
+  std::sort(kept.begin(), kept.end(), [&](std::size_t a, std::size_t b) {
+    if (done_[a].first_distance_m != done_[b].first_distance_m) return done_[a].first_distance_m < done_[b].first_distance_m;
+    return a < b;
+  });
+
+  SegmentMap m;
+  m.length_m = length_m;
+  m.azimuth_rad = azimuth_rad_;
+  m.landmarks.reserve(kept.size());
+  if (!kept.empty()) m.descriptors.create(static_cast<int>(kept.size()), desc_cols_, desc_type_);
+  const std::size_t rb = desc_type_ < 0 ? 0 : row_bytes(desc_cols_, desc_type_);
+  for (std::size_t r = 0; r < kept.size(); ++r) {
+    const std::size_t i = kept[r];
+    m.landmarks.push_back(done_[i]);
+    std::memcpy(m.descriptors.ptr(static_cast<int>(r)), done_desc_.data() + i * rb, rb);
+    m.max_span_m = std::max(m.max_span_m, static_cast<double>(done_[i].last_distance_m) - done_[i].first_distance_m);
+  }
+  done_.clear();
+  done_desc_.clear();
+  desc_type_ = -1;
+  return m;
+}
+
+// ---------------------------------------------------------------- replayer ----
+
+SegmentReplayer::SegmentReplayer(std::shared_ptr<const SegmentMap> map, const SegmentReplayParams& params,
+                                 const HeadingParams& heading)
+    : map_(std::move(map)), params_(params), estimator_(heading) {
+  if (!map_) {
+    map_ = std::make_shared<const SegmentMap>();
+    map_valid_ = false;
+  } else if (!map_->validate().ok()) {
+    map_valid_ = false;  // never index into an inconsistent map; step() reports bad_input
+  }
+  for (const auto& l : map_->landmarks)
+    max_span_m_ = std::max(max_span_m_, static_cast<double>(l.last_distance_m) - l.first_distance_m);
+}
+
+void SegmentReplayer::set_params(const SegmentReplayParams& params, const HeadingParams& heading) {
+  params_ = params;
+  estimator_.set_params(heading);
+}
+
+double SegmentReplayer::overshoot_m(double odometry_distance_m) const {
+  return std::max(0.0, odometry_distance_m - origin_m_ - map_->length_m);
+}
+
+SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Features& current, double image_width_px) {
+  SegmentReplayOutput out;
+  if (!map_valid_) {
+    out.state = ReplayState::bad_input;  // zero command: an inconsistent map is not replayed
+    return out;
+  }
+  const double d = odometry_distance_m - origin_m_;
+  out.distance_m = d;
+  active_count_ = 0;
+  if (!std::isfinite(d) || d >= map_->length_m) {
+    out.finished = std::isfinite(d);
+    out.state = out.finished ? ReplayState::finished : ReplayState::bad_input;
+    return out;
+  }
+  out.command.linear_mps = params_.speed_mps;
+
+  // T: landmarks with f - margin <= d <= g + margin; f-sorted, so only [d - span - margin, d + margin].
+  const auto& lms = map_->landmarks;
+  const double margin = params_.distance_margin_m;
+  const double lo_d = d - max_span_m_ - margin, hi_d = d + margin;
+  const auto lo = std::lower_bound(lms.begin(), lms.end(), lo_d,
+                                   [](const Landmark& l, double v) { return l.first_distance_m < v; });
+  const auto hi = std::upper_bound(lo, lms.end(), hi_d,
+                                   [](double v, const Landmark& l) { return v < l.first_distance_m; });
+  const int window = static_cast<int>(hi - lo);
+  if (window > 0) {
+    const cv::Mat& all = map_->descriptors;
+    if (ref_desc_.rows < window || ref_desc_.cols != all.cols || ref_desc_.type() != all.type())
+      ref_desc_.create(std::max(window, std::max(ref_desc_.rows * 2, 256)), all.cols, all.type());
+    if (expected_.size() < static_cast<std::size_t>(ref_desc_.rows)) expected_.resize(static_cast<std::size_t>(ref_desc_.rows));
+    const std::size_t rb = all.cols * all.elemSize();
+    for (auto it = lo; it != hi; ++it) {
+      if (static_cast<double>(it->last_distance_m) + margin < d) continue;
+      const int src = static_cast<int>(it - lms.begin());
+      std::memcpy(ref_desc_.ptr(active_count_), all.ptr(src), rb);
+      expected_[static_cast<std::size_t>(active_count_)] = it->expected_px(d);
+      ++active_count_;
+    }
+  }
+  out.expected_landmarks = active_count_;
+  if (active_count_ == 0 || current.keypoints.empty()) {
+    out.state = ReplayState::no_features;
+    return out;
+  }
+  const ReferenceView ref{ref_desc_.rowRange(0, active_count_),
+                          std::span<const cv::Point2f>(expected_.data(), static_cast<std::size_t>(active_count_))};
+  auto est = estimator_.estimate(ref, current, image_width_px);
+  if (!est) {
+    out.state = ReplayState::bad_input;
+    return out;
+  }
+  out.estimate = *est;
+  if (!est->valid) {
+    out.state = est->matches == 0 ? ReplayState::no_features : ReplayState::low_confidence;
+    return out;
+  }
+  out.command.angular_radps =
+      std::clamp(-params_.gain_radps_per_px * est->offset_px, -params_.max_angular_radps, params_.max_angular_radps);
+  out.state = ReplayState::steering;
+  return out;
+}
+
+}  // namespace visnav::feature_replay

@@ -1,0 +1,59 @@
+// visnav navigation plugin — pure helpers behind the route nodes (PlanRoute, FollowRoute,
+// TurnToAzimuth, TeachRoute, AtNode). No I/O, no clock; unit-tested directly.
+//
+// Frames: headings and azimuths are in the odom frame, radians, counter-clockwise positive.
+// Thread-safety: free functions over values; MapStore is only read.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "visnav/map.hpp"
+#include "visnav/params.hpp"
+#include "visnav/result.hpp"
+
+namespace visnav::nav {
+
+/// Wraps an angle to (-pi, pi].
+[[nodiscard]] double wrap_angle_rad(double angle_rad);
+
+/// In-place turn controller (proportional with a minimum speed so the turn finishes despite
+/// friction/dead-band, saturated at max_angular_radps).
+struct TurnParams {
+  double gain_per_s = 1.5;             ///< ω = gain · error
+  double max_angular_radps = 0.6;
+  double min_angular_radps = 0.08;     ///< |ω| floor while outside the tolerance
+  double tolerance_rad = 0.02;         ///< turn is complete when |error| ≤ tolerance
+
+  [[nodiscard]] Status validate() const;
+};
+
+/// Angular-velocity command for a remaining heading error (target − current, wrapped);
+/// 0 when |error| ≤ tolerance.
+[[nodiscard]] double turn_command_radps(double error_rad, const TurnParams& params);
+
+/// Heading change the robot must make at the node between two consecutive edges of a route:
+/// the start azimuth of `next` minus the heading at the end of `previous` (edge statistic
+/// "end_heading_rad" recorded while teaching; the previous edge's start azimuth if absent).
+/// Relative turns are immune to the odometric heading drift accumulated since teaching.
+[[nodiscard]] double turn_between_edges_rad(const EdgeRecord& previous, const EdgeRecord& next);
+
+/// A "kind=NodeID" table mapping edge kinds to the behaviour-tree node that handles them.
+using KindMap = std::vector<std::pair<std::string, std::string>>;
+
+/// Parses entries "kind=NodeID" (whitespace around names ignored). Errors name the bad entry.
+[[nodiscard]] Result<KindMap> parse_kind_map(const std::vector<std::string>& entries);
+
+/// NodeID for `kind`, or nullptr.
+[[nodiscard]] const std::string* find_kind(const KindMap& map, std::string_view kind);
+
+/// Parses entries "kind=multiplier" into a RouteCost (multiplier > 0; "inf" forbids a kind).
+[[nodiscard]] Result<RouteCost> parse_kind_costs(const std::vector<std::string>& entries);
+
+/// Cheapest route from `node` back to itself through at least one edge (a closed patrol
+/// route). Error when the node lies on no cycle.
+[[nodiscard]] Result<Route> plan_cycle(const MapStore& map, std::string_view node, const RouteCost& cost = {});
+
+}  // namespace visnav::nav

@@ -1,0 +1,123 @@
+#include "visnav_navigation/navigation_core.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <optional>
+#include <limits>
+#include <numbers>
+
+namespace visnav::nav {
+
+namespace {
+std::string trim(std::string_view text) {
+  std::size_t b = 0;
+  std::size_t e = text.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(text[b]))) ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(text[e - 1]))) --e;
+  return std::string(text.substr(b, e - b));
+}
+
+Result<std::pair<std::string, std::string>> split_entry(const std::string& entry) {
+  const auto eq = entry.find('=');
+  if (eq == std::string::npos) return fail("entry '" + entry + "' is not of the form kind=value");
+  std::string key = trim(std::string_view(entry).substr(0, eq));
+  std::string value = trim(std::string_view(entry).substr(eq + 1));
+  if (key.empty() || value.empty()) return fail("entry '" + entry + "' has an empty kind or value");
+  return std::make_pair(std::move(key), std::move(value));
+}
+}  // namespace
+
+double wrap_angle_rad(double angle_rad) {
+  double a = std::remainder(angle_rad, 2.0 * std::numbers::pi);
+  if (a <= -std::numbers::pi) a += 2.0 * std::numbers::pi;
+  return a;
+}
+
+Status TurnParams::validate() const {
+  if (!(gain_per_s > 0.0)) return fail("gain_per_s must be > 0");
+  if (!(max_angular_radps > 0.0)) return fail("max_angular_radps must be > 0");
+  if (min_angular_radps < 0.0 || min_angular_radps > max_angular_radps)
+    return fail("min_angular_radps must be within [0, max_angular_radps]");
+  if (!(tolerance_rad > 0.0) || tolerance_rad > 0.5) return fail("tolerance_rad must be within (0, 0.5]");
+  return ok();
+}
+
+double turn_command_radps(double error_rad, const TurnParams& params) {
+  if (std::abs(error_rad) <= params.tolerance_rad) return 0.0;
+  double w = params.gain_per_s * error_rad;
+  const double magnitude = std::clamp(std::abs(w), params.min_angular_radps, params.max_angular_radps);
+  return std::copysign(magnitude, error_rad);
+}
+
+double turn_between_edges_rad(const EdgeRecord& previous, const EdgeRecord& next) {
+  double end_heading = previous.azimuth_rad;
+  if (auto it = previous.statistics.find("end_heading_rad"); it != previous.statistics.end()) end_heading = it->second;
+  return wrap_angle_rad(next.azimuth_rad - end_heading);
+}
+
+Result<KindMap> parse_kind_map(const std::vector<std::string>& entries) {
+  KindMap out;
+  for (const auto& entry : entries) {
+    if (trim(entry).empty()) continue;
+    VISNAV_ASSIGN(auto kv, split_entry(entry));
+    if (find_kind(out, kv.first) != nullptr) return fail("kind '" + kv.first + "' is mapped twice");
+    out.push_back(std::move(kv));
+  }
+  return out;
+}
+
+const std::string* find_kind(const KindMap& map, std::string_view kind) {
+  for (const auto& [k, id] : map)
+    if (k == kind) return &id;
+  return nullptr;
+}
+
+Result<RouteCost> parse_kind_costs(const std::vector<std::string>& entries) {
+  RouteCost cost;
+  for (const auto& entry : entries) {
+    if (trim(entry).empty()) continue;
+    VISNAV_ASSIGN(auto kv, split_entry(entry));
+    double multiplier = 0.0;
+    if (kv.second == "inf") {
+      multiplier = std::numeric_limits<double>::infinity();
+    } else {
+      auto parsed = detail::parse_double(kv.second);
+      if (!parsed) return fail("entry '" + entry + "': " + parsed.error().message);
+      multiplier = *parsed;
+    }
+    if (!(multiplier > 0.0)) return fail("entry '" + entry + "': the multiplier must be > 0");
+    cost.kind_multiplier[kv.first] = multiplier;
+  }
+  return cost;
+}
+
+Result<Route> plan_cycle(const MapStore& map, std::string_view node, const RouteCost& cost) {
+  VISNAV_ASSIGN(const NodeRecord* start, map.resolve_node(node));
+  // The cheapest cycle through `start` is an outgoing edge start→x followed by the cheapest
+  // route x→start; try every outgoing edge.
+  std::optional<Route> best;
+  for (const EdgeRecord* first : map.outgoing(start->id)) {
+    const double multiplier = cost.kind_multiplier.count(first->kind) ? cost.kind_multiplier.at(first->kind)
+                                                                      : cost.default_multiplier;
+    if (std::isinf(multiplier)) continue;
+    Route candidate;
+    candidate.from = start->id;
+    candidate.to = start->id;
+    candidate.edge_ids.push_back(first->id);
+    candidate.length_m = first->length_m;
+    candidate.cost = first->length_m * multiplier + cost.per_edge_cost;
+    if (first->to != start->id) {
+      auto rest = plan_route(map, first->to, start->id, cost);
+      if (!rest) continue;
+      candidate.edge_ids.insert(candidate.edge_ids.end(), rest->edge_ids.begin(), rest->edge_ids.end());
+      candidate.length_m += rest->length_m;
+      candidate.cost += rest->cost;
+    }
+    if (!best || candidate.cost < best->cost) best = std::move(candidate);
+  }
+  if (!best) return fail("node '" + std::string(node) + "' lies on no closed route");
+  return std::move(*best);
+}
+
+}  // namespace visnav::nav

@@ -1,0 +1,388 @@
+// Behaviour-tree adapters of the navigation plugin. Each node is thin: it reads ports and the
+// host's run services, and delegates to navigation_core / the map store.
+#include "nodes.hpp"
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav_navigation/navigation_core.hpp"
+
+namespace visnav::nav {
+
+namespace {
+
+using bt::NodeStatus;
+
+constexpr const char* kDefaultReplayKinds =
+    "feature_segment=ReplayFeatureEdge;feature_localmaps=ReplayFeatureEdge;path_following=FollowPathEdge";
+constexpr const char* kDefaultTeachKinds =
+    "feature_segment=TeachFeatureEdge;feature_localmaps=TeachFeatureEdge;path_following=TeachPathEdge";
+
+std::optional<double> current_heading_rad(HostServices& host) {
+  FrameBus* bus = host.frame_bus();
+  if (bus == nullptr) return std::nullopt;
+  auto odom = bus->latest_odometry();
+  if (!odom) return std::nullopt;
+  return odom->pose.heading_rad;
+}
+
+void command(HostServices& host, double linear_mps, double angular_radps) {
+  if (Robot* robot = host.robot()) (void)robot->send_command(Twist{linear_mps, angular_radps});
+}
+
+void stop_robot(HostServices& host) {
+  if (Robot* robot = host.robot()) (void)robot->stop();
+}
+
+/// Logs `message` for `node` and returns failure.
+NodeStatus fail_node(HostServices& host, const bt::TreeNode& node, const std::string& message) {
+  host.logger().error(node.path(), message);
+  return NodeStatus::failure;
+}
+
+bt::PortsList turn_ports() {
+  return {bt::input_port<double>("turn_tolerance_rad", "0.02", "a turn is complete within this heading error"),
+          bt::input_port<double>("turn_speed_radps", "0.6", "maximum angular speed while turning in place"),
+          bt::input_port<double>("turn_gain_per_s", "1.5", "proportional gain of the turn controller")};
+}
+
+Result<TurnParams> read_turn_params(const bt::TreeNode& node, const char* tol, const char* speed, const char* gain) {
+  TurnParams p;
+  VISNAV_ASSIGN(p.tolerance_rad, node.get_input<double>(tol));
+  VISNAV_ASSIGN(p.max_angular_radps, node.get_input<double>(speed));
+  VISNAV_ASSIGN(p.gain_per_s, node.get_input<double>(gain));
+  p.min_angular_radps = std::min(p.min_angular_radps, p.max_angular_radps);
+  VISNAV_TRY(p.validate());
+  return p;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------- PlanRoute
+
+PlanRoute::PlanRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::SyncActionNode(name, config), host_(host) {}
+
+bt::PortsList PlanRoute::provided_ports() {
+  return {bt::input_port<std::string>("start", "start node (id or name)"),
+          bt::input_port<std::string>("goal", "goal node (id or name); equal to start plans a closed loop"),
+          bt::input_port<std::vector<std::string>>("kind_costs", "",
+                                                    "cost multipliers per edge kind, e.g. path_following=0.5"),
+          bt::output_port<std::vector<std::string>>("route", "{route}", "edge ids to traverse, in order"),
+          bt::output_port<double>("length_m", "{route_length_m}", "odometric length of the route")};
+}
+
+NodeStatus PlanRoute::tick() {
+  MapStore* map = host_.map();
+  if (map == nullptr) return fail_node(host_, *this, "PlanRoute needs a map (visnav run --map M)");
+  auto start = get_input<std::string>("start");
+  auto goal = get_input<std::string>("goal");
+  auto costs = get_input<std::vector<std::string>>("kind_costs");
+  if (!start || !goal || !costs) return fail_node(host_, *this, (!start ? start.error() : !goal ? goal.error() : costs.error()).message);
+  auto cost = parse_kind_costs(*costs);
+  if (!cost) return fail_node(host_, *this, "kind_costs: " + cost.error().message);
+  auto start_node = map->resolve_node(*start);
+  auto goal_node = map->resolve_node(*goal);
+  if (!start_node) return fail_node(host_, *this, start_node.error().message);
+  if (!goal_node) return fail_node(host_, *this, goal_node.error().message);
+  auto route = (*start_node)->id == (*goal_node)->id ? plan_cycle(*map, (*start_node)->id, *cost)
+                                                     : plan_route(*map, (*start_node)->id, (*goal_node)->id, *cost);
+  if (!route) return fail_node(host_, *this, route.error().message);
+  host_.logger().info(path(), "route " + *start + " -> " + *goal + ": " + std::to_string(route->edge_ids.size()) +
+                                  " edges, " + std::to_string(route->length_m) + " m");
+  auto s1 = set_output("route", route->edge_ids);
+  auto s2 = set_output("length_m", route->length_m);
+  if (!s1 || !s2) return fail_node(host_, *this, (!s1 ? s1.error() : s2.error()).message);
+  return NodeStatus::success;
+}
+
+// ------------------------------------------------------------------------------ TurnToAzimuth
+
+TurnToAzimuth::TurnToAzimuth(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::StatefulActionNode(name, config), host_(host) {}
+
+bt::PortsList TurnToAzimuth::provided_ports() {
+  bt::PortsList ports = {
+      bt::input_port<double>("azimuth_rad", "0", "target heading (odom frame), or a turn angle when relative=true"),
+      bt::input_port<std::string>("edge", "", "if set: turn to the start azimuth of this map edge instead"),
+      bt::input_port<bool>("relative", "false", "azimuth_rad is relative to the heading at the start")};
+  for (auto& p : turn_ports()) ports.push_back(std::move(p));
+  return ports;
+}
+
+NodeStatus TurnToAzimuth::on_start() {
+  auto params = read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s");
+  if (!params) return fail_node(host_, *this, params.error().message);
+  params_ = *params;
+  auto heading = current_heading_rad(host_);
+  if (!heading) return fail_node(host_, *this, "no odometry");
+  auto edge = get_input<std::string>("edge");
+  auto azimuth = get_input<double>("azimuth_rad");
+  auto relative = get_input<bool>("relative");
+  if (!edge || !azimuth || !relative) return fail_node(host_, *this, "bad ports");
+  if (!edge->empty()) {
+    MapStore* map = host_.map();
+    if (map == nullptr) return fail_node(host_, *this, "edge given but no map is loaded");
+    const EdgeRecord* record = map->find_edge(*edge);
+    if (record == nullptr) return fail_node(host_, *this, "unknown edge '" + *edge + "'");
+    target_rad_ = record->azimuth_rad;
+  } else {
+    target_rad_ = *relative ? *heading + *azimuth : *azimuth;
+  }
+  return on_running();
+}
+
+NodeStatus TurnToAzimuth::on_running() {
+  auto heading = current_heading_rad(host_);
+  if (!heading) return fail_node(host_, *this, "no odometry");
+  const double w = turn_command_radps(wrap_angle_rad(target_rad_ - *heading), params_);
+  if (w == 0.0) {
+    stop_robot(host_);
+    return NodeStatus::success;
+  }
+  command(host_, 0.0, w);
+  return NodeStatus::running;
+}
+
+void TurnToAzimuth::on_halted() { stop_robot(host_); }
+
+// ------------------------------------------------------------------------------------ AtNode
+
+AtNode::AtNode(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::ConditionNode(name, config), host_(host) {}
+
+bt::PortsList AtNode::provided_ports() {
+  return {bt::input_port<std::string>("node", "map node (id or name)"),
+          bt::input_port<std::string>("current", "{current_node}", "the node the robot is at (id)")};
+}
+
+NodeStatus AtNode::tick() {
+  auto node = get_input<std::string>("node");
+  auto current = get_input<std::string>("current");
+  if (!node || !current) return NodeStatus::failure;
+  if (*node == *current) return NodeStatus::success;
+  MapStore* map = host_.map();
+  if (map == nullptr) return NodeStatus::failure;
+  auto resolved = map->resolve_node(*node);
+  return resolved && (*resolved)->id == *current ? NodeStatus::success : NodeStatus::failure;
+}
+
+// -------------------------------------------------------------------------------- FollowRoute
+
+FollowRoute::FollowRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::ControlNode(name, config), host_(host) {}
+
+bt::PortsList FollowRoute::provided_ports() {
+  bt::PortsList ports = {
+      bt::input_port<std::vector<std::string>>("route", "{route}", "edge ids to traverse (from PlanRoute)"),
+      bt::input_port<std::vector<std::string>>("primitives", kDefaultReplayKinds,
+                                                "which child node replays which edge kind (kind=NodeID;...)"),
+      bt::input_port<bool>("turn_at_nodes", "true", "turn in place to the next edge's azimuth at each node"),
+      bt::output_port<std::string>("edge", "{edge}", "the edge being traversed (children read it)"),
+      bt::output_port<std::string>("current_node", "{current_node}", "the last node reached"),
+      bt::inout_port<std::string>("previous_edge", "{previous_edge}",
+                                  "last edge traversed (kept across runs so patrol loops turn relatively)")};
+  for (auto& p : turn_ports()) ports.push_back(std::move(p));
+  return ports;
+}
+
+Status FollowRoute::start() {
+  MapStore* map = host_.map();
+  if (map == nullptr) return fail("FollowRoute needs a map (visnav run --map M)");
+  VISNAV_ASSIGN(route_, get_input<std::vector<std::string>>("route"));
+  VISNAV_ASSIGN(auto entries, get_input<std::vector<std::string>>("primitives"));
+  VISNAV_ASSIGN(kinds_, parse_kind_map(entries));
+  VISNAV_ASSIGN(turn_at_nodes_, get_input<bool>("turn_at_nodes"));
+  VISNAV_ASSIGN(turn_, read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s"));
+  child_for_edge_.clear();
+  for (const auto& edge_id : route_) {
+    const EdgeRecord* edge = map->find_edge(edge_id);
+    if (edge == nullptr) return fail("route names unknown edge '" + edge_id + "'");
+    const std::string* node_id = find_kind(kinds_, edge->kind);
+    if (node_id == nullptr) return fail("no primitive is mapped for edge kind '" + edge->kind + "' (edge " + edge_id + ")");
+    std::optional<std::size_t> child;
+    for (std::size_t i = 0; i < children_.size(); ++i)
+      if (children_[i]->registration_id() == *node_id) { child = i; break; }
+    if (!child) return fail("edge kind '" + edge->kind + "' needs a child " + *node_id + " under FollowRoute");
+    child_for_edge_.push_back(*child);
+  }
+  index_ = 0;
+  turning_ = true;
+  turn_target_.reset();
+  return ok();
+}
+
+NodeStatus FollowRoute::tick() {
+  if (status() != NodeStatus::running) {
+    if (auto st = start(); !st) return fail_node(host_, *this, st.error().message);
+    if (route_.empty()) return NodeStatus::success;
+  }
+  MapStore& map = *host_.map();
+  const EdgeRecord& edge = *map.find_edge(route_[index_]);
+  if (turning_) {
+    if (turn_at_nodes_) {
+      auto heading = current_heading_rad(host_);
+      if (!heading) return fail_node(host_, *this, "no odometry");
+      if (!turn_target_) {
+        auto previous = get_input<std::string>("previous_edge");
+        const EdgeRecord* prev = previous ? map.find_edge(*previous) : nullptr;
+        // Relative to where the previous edge ended when we know it; otherwise the absolute
+        // azimuth in the odom frame (the replay starts where the teach started).
+        turn_target_ = prev != nullptr ? *heading + turn_between_edges_rad(*prev, edge) : edge.azimuth_rad;
+      }
+      const double w = turn_command_radps(wrap_angle_rad(*turn_target_ - *heading), turn_);
+      if (w != 0.0) {
+        command(host_, 0.0, w);
+        return NodeStatus::running;
+      }
+      stop_robot(host_);
+    }
+    turning_ = false;
+    turn_target_.reset();
+    if (auto st = set_output("edge", edge.id); !st) return fail_node(host_, *this, st.error().message);
+    (void)set_output("current_node", edge.from);
+    host_.logger().info(path(), "edge " + edge.id + " (" + edge.kind + ", " + std::to_string(edge.length_m) + " m)");
+  }
+  const std::size_t child_index = child_for_edge_[index_];
+  const NodeStatus child_status = children_[child_index]->execute_tick();
+  if (child_status == NodeStatus::running) return NodeStatus::running;
+  reset_children();
+  if (child_status == NodeStatus::failure) return fail_node(host_, *this, "edge " + edge.id + " failed");
+  (void)set_output("previous_edge", edge.id);
+  (void)set_output("current_node", edge.to);
+  ++index_;
+  if (index_ >= route_.size()) return NodeStatus::success;
+  turning_ = true;
+  return NodeStatus::running;
+}
+
+void FollowRoute::halt() {
+  reset_children();
+  stop_robot(host_);
+  turning_ = true;
+  turn_target_.reset();
+}
+
+// --------------------------------------------------------------------------------- TeachRoute
+
+TeachRoute::TeachRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::ControlNode(name, config), host_(host) {}
+
+bt::PortsList TeachRoute::provided_ports() {
+  return {
+      bt::input_port<std::string>("primitive", "{primitive}",
+                                  "edge kind the operator is teaching now; empty while not teaching (turning)"),
+      bt::input_port<bool>("done", "{teach_done}", "the operator finished the route"),
+      bt::input_port<std::string>("start_node", "start", "name of the first node"),
+      bt::input_port<bool>("close_loop", "false", "the last edge ends at the first node (closed route)"),
+      bt::input_port<std::vector<std::string>>("primitives", kDefaultTeachKinds,
+                                                "which child node teaches which edge kind (kind=NodeID;...)"),
+      bt::input_port<std::string>("taught_edge", "{taught_edge}", "edge id written by the teaching child"),
+      bt::output_port<std::string>("edge_from", "{edge_from}", "start node of the edge being taught"),
+      bt::output_port<std::string>("edge_to", "{edge_to}", "end node, set when the edge is finished"),
+      bt::output_port<bool>("finish_edge", "{finish_edge}", "true: the child must store its edge and succeed"),
+      bt::output_port<std::string>("current_node", "{current_node}", "the last node created"),
+      bt::output_port<std::vector<std::string>>("route", "{taught_route}", "edges taught so far, in order")};
+}
+
+Result<std::string> TeachRoute::add_node(const std::string& name) {
+  MapStore* map = host_.map();
+  NodeRecord node;
+  node.name = name;
+  if (FrameBus* bus = host_.frame_bus())
+    if (auto odom = bus->latest_odometry()) node.position_hint = odom->pose;
+  return map->add_node(std::move(node));
+}
+
+NodeStatus TeachRoute::tick() {
+  if (status() != NodeStatus::running) {
+    if (host_.map() == nullptr) return fail_node(host_, *this, "TeachRoute needs a map (visnav run --map M)");
+    auto entries = get_input<std::vector<std::string>>("primitives");
+    if (!entries) return fail_node(host_, *this, entries.error().message);
+    auto kinds = parse_kind_map(*entries);
+    if (!kinds) return fail_node(host_, *this, "primitives: " + kinds.error().message);
+    kinds_ = std::move(*kinds);
+    auto start_name = get_input<std::string>("start_node");
+    auto close = get_input<bool>("close_loop");
+    if (!start_name || !close) return fail_node(host_, *this, "bad start_node/close_loop");
+    close_loop_ = *close;
+    auto id = add_node(*start_name);
+    if (!id) return fail_node(host_, *this, id.error().message);
+    start_id_ = current_id_ = *id;
+    nodes_created_ = 1;
+    active_child_.reset();
+    taught_.clear();
+    (void)set_output("current_node", current_id_);
+    (void)set_output("finish_edge", false);
+  }
+  auto primitive = get_input<std::string>("primitive");
+  auto done_input = get_input<bool>("done");
+  const std::string kind = primitive ? *primitive : std::string();
+  const bool done = done_input && *done_input;
+
+  if (active_child_) {
+    const bool finishing = done || kind != active_kind_;
+    if (finishing && !edge_to_) {
+      // Close the edge: create its end node first, so the edge never references a node that
+      // is not on disk yet.
+      if (done && close_loop_) {
+        edge_to_ = start_id_;
+      } else {
+        auto id = add_node("n" + std::to_string(nodes_created_++));
+        if (!id) return fail_node(host_, *this, id.error().message);
+        edge_to_ = *id;
+      }
+      (void)set_output("edge_to", *edge_to_);
+      (void)set_output("finish_edge", true);
+    }
+    const NodeStatus s = children_[*active_child_]->execute_tick();
+    if (s == NodeStatus::failure) {
+      reset_children();
+      return fail_node(host_, *this, "teaching the " + active_kind_ + " edge failed");
+    }
+    if (s == NodeStatus::running) return NodeStatus::running;
+    if (!edge_to_) return fail_node(host_, *this, "a teaching child finished before the operator ended its edge");
+    // Edge stored by the child.
+    if (auto edge = get_input<std::string>("taught_edge"); edge) taught_.push_back(*edge);
+    (void)set_output("route", taught_);
+    current_id_ = *edge_to_;
+    (void)set_output("current_node", current_id_);
+    (void)set_output("finish_edge", false);
+    reset_children();
+    active_child_.reset();
+    edge_to_.reset();
+    host_.logger().info(path(), "taught edge " + (taught_.empty() ? std::string("?") : taught_.back()) + " (" +
+                                    active_kind_ + ") ending at node " + current_id_);
+  }
+  if (done) return NodeStatus::success;
+  if (kind.empty()) return NodeStatus::running;  // operator is between edges (e.g. turning)
+  const std::string* node_id = find_kind(kinds_, kind);
+  if (node_id == nullptr) return fail_node(host_, *this, "no teaching node is mapped for kind '" + kind + "'");
+  for (std::size_t i = 0; i < children_.size(); ++i) {
+    if (children_[i]->registration_id() == *node_id) {
+      active_child_ = i;
+      break;
+    }
+  }
+  if (!active_child_) return fail_node(host_, *this, "kind '" + kind + "' needs a child " + *node_id + " under TeachRoute");
+  active_kind_ = kind;
+  (void)set_output("edge_from", current_id_);
+  (void)set_output("edge_to", std::string());
+  (void)set_output("finish_edge", false);
+  const NodeStatus s = children_[*active_child_]->execute_tick();
+  if (s == NodeStatus::failure) {
+    reset_children();
+    return fail_node(host_, *this, "teaching the " + kind + " edge failed to start");
+  }
+  return NodeStatus::running;
+}
+
+void TeachRoute::halt() {
+  reset_children();  // the edge being taught is dropped; completed edges are already on disk
+  active_child_.reset();
+  edge_to_.reset();
+}
+
+}  // namespace visnav::nav

@@ -1,0 +1,112 @@
+// Navigation nodes over the hybrid topological map (seed 000 Sec. 2): PlanRoute, FollowRoute,
+// TurnToAzimuth, TeachRoute, AtNode. See docs/navigation.md for ports and the protocol
+// between TeachRoute/FollowRoute and the primitive nodes they run as children.
+//
+// Thread-safety: ticked from the tick thread only. The HostServices reference outlives the tree.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav/bt/node.hpp"
+#include "visnav/host.hpp"
+#include "visnav/map.hpp"
+#include "visnav_navigation/navigation_core.hpp"
+
+namespace visnav::nav {
+
+/// Plans the cheapest route between two map nodes (a closed loop when start == goal).
+class PlanRoute final : public bt::SyncActionNode {
+ public:
+  PlanRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+
+ protected:
+  bt::NodeStatus tick() override;
+
+ private:
+  HostServices& host_;
+};
+
+/// Turns in place to an absolute azimuth, a relative angle, or a map edge's start azimuth.
+class TurnToAzimuth final : public bt::StatefulActionNode {
+ public:
+  TurnToAzimuth(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus on_start() override;
+  bt::NodeStatus on_running() override;
+  void on_halted() override;
+
+ private:
+  HostServices& host_;
+  TurnParams params_;
+  double target_rad_ = 0.0;
+};
+
+/// Succeeds when the robot is at the given map node (as tracked by FollowRoute/TeachRoute).
+class AtNode final : public bt::ConditionNode {
+ public:
+  AtNode(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+
+ protected:
+  bt::NodeStatus tick() override;
+
+ private:
+  HostServices& host_;
+};
+
+/// Traverses a route edge by edge: turns to the edge's azimuth at each node, publishes the edge
+/// id on {edge} and ticks the child registered for the edge's kind until it succeeds.
+class FollowRoute final : public bt::ControlNode {
+ public:
+  FollowRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+
+ protected:
+  bt::NodeStatus tick() override;
+  void halt() override;
+
+ private:
+  Status start();
+
+  HostServices& host_;
+  std::vector<std::string> route_;
+  KindMap kinds_;
+  std::vector<std::size_t> child_for_edge_;
+  TurnParams turn_;
+  bool turn_at_nodes_ = true;
+  std::size_t index_ = 0;
+  bool turning_ = true;
+  std::optional<double> turn_target_;
+};
+
+/// Operator-driven teaching (seed 000 Sec. 2.1): creates a node and closes the current edge
+/// whenever the operator switches primitive ({primitive}), pauses between edges while the
+/// primitive is empty, and ends when {teach_done} is true.
+class TeachRoute final : public bt::ControlNode {
+ public:
+  TeachRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+
+ protected:
+  bt::NodeStatus tick() override;
+  void halt() override;
+
+ private:
+  Result<std::string> add_node(const std::string& name);
+
+  HostServices& host_;
+  KindMap kinds_;
+  bool close_loop_ = false;
+  std::string start_id_;
+  std::string current_id_;
+  int nodes_created_ = 0;
+  std::optional<std::size_t> active_child_;
+  std::string active_kind_;
+  std::optional<std::string> edge_to_;
+  std::vector<std::string> taught_;
+};
+
+}  // namespace visnav::nav

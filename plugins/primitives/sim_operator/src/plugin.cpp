@@ -1,0 +1,112 @@
+// `sim_operator` nodes plugin: ScriptedOperator, the unattended "person" who teaches a route
+// in the simulator (see operator_core.hpp).
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "operator_core.hpp"
+#include "visnav/bt/node.hpp"
+#include "visnav/bt/registry.hpp"
+#include "visnav/plugin.hpp"
+#include "visnav_navigation/navigation_core.hpp"
+#include "visnav_sim/route.hpp"
+
+namespace visnav::simop {
+namespace {
+
+using bt::NodeStatus;
+
+class ScriptedOperator final : public bt::StatefulActionNode {
+ public:
+  ScriptedOperator(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+      : StatefulActionNode(name, config), host_(host) {}
+
+  static bt::PortsList provided_ports() {
+    return {bt::input_port<std::string>("route_file", "route script (config/routes/*.yaml) with waypoints"),
+            bt::input_port<std::vector<std::string>>("kinds", "feature=feature_segment;path=path_following",
+                                                      "route leg kind -> map edge kind"),
+            bt::input_port<std::string>("force_kind", "", "teach every leg with this edge kind (e.g. a feature-only map)"),
+            bt::input_port<double>("speed_mps", "0.5", "driving speed"),
+            bt::output_port<std::string>("primitive", "{primitive}", "edge kind being taught; empty while turning"),
+            bt::output_port<bool>("done", "{teach_done}", "true once the route is driven")};
+  }
+
+  NodeStatus on_start() override {
+    Robot* robot = host_.robot();
+    sim_ = robot != nullptr ? robot->simulation() : nullptr;
+    if (sim_ == nullptr) return failed("ScriptedOperator needs the simulated robot (robot type sim)");
+    auto file = get_input<std::string>("route_file");
+    auto kinds = get_input<std::vector<std::string>>("kinds");
+    auto force = get_input<std::string>("force_kind");
+    auto speed = get_input<double>("speed_mps");
+    if (!file || !kinds || !force || !speed) return failed("bad ports");
+    auto route = sim::load_route(*file);
+    if (!route) return failed(route.error().message);
+    if (route->waypoints.empty()) return failed(*file + ": ScriptedOperator needs a waypoint route");
+    auto kind_map = nav::parse_kind_map(*kinds);
+    if (!kind_map) return failed("kinds: " + kind_map.error().message);
+    std::vector<cv::Point2d> points;
+    std::vector<std::string> point_kinds;
+    for (const auto& w : route->waypoints) {
+      points.push_back(w.position_m);
+      point_kinds.push_back(w.kind);
+    }
+    auto legs = make_legs(points, point_kinds, route->closed, *kind_map, *force);
+    if (!legs) return failed(*file + ": " + legs.error().message);
+    OperatorParams params;
+    params.speed_mps = *speed;
+    if (auto st = params.validate(); !st) return failed(st.error().message);
+    core_.emplace(std::move(*legs), params);
+    (void)set_output("done", false);
+    (void)set_output("primitive", std::string());
+    return on_running();
+  }
+
+  NodeStatus on_running() override {
+    const OperatorAction a = core_->update(sim_->ground_truth_pose());
+    if (a.primitive != last_primitive_) {
+      (void)set_output("primitive", a.primitive);
+      last_primitive_ = a.primitive;
+    }
+    if (a.done) {
+      (void)host_.robot()->stop();
+      (void)set_output("done", true);
+      return NodeStatus::success;
+    }
+    (void)host_.robot()->send_command(a.command);
+    return NodeStatus::running;
+  }
+
+  void on_halted() override {
+    if (Robot* robot = host_.robot()) (void)robot->stop();
+  }
+
+ private:
+  NodeStatus failed(const std::string& message) {
+    host_.logger().error(path(), message);
+    return NodeStatus::failure;
+  }
+
+  HostServices& host_;
+  SimulationControl* sim_ = nullptr;
+  std::optional<ScriptedOperatorCore> core_;
+  std::string last_primitive_ = "?";
+};
+
+Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& host) {
+  return registry.register_node<ScriptedOperator>(
+      "ScriptedOperator",
+      "Simulated operator: drives a waypoint route leg by leg (turn in place, drive straight) on the sim robot "
+      "and publishes the primitive being taught",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<ScriptedOperator>(name, config, host);
+      });
+}
+
+}  // namespace
+}  // namespace visnav::simop
+
+VISNAV_PLUGIN(visnav::PluginKind::nodes, "sim_operator", "0.1.0",
+              "Scripted teaching operator for the simulator (ScriptedOperator node)", nullptr, 0,
+              &visnav::simop::register_sim_operator_nodes, nullptr, 0)

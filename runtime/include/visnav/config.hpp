@@ -1,0 +1,87 @@
+// visnav runtime — YAML configuration: parsing with file:line, `--set` overrides and the
+// run configuration (which plugins to build, their params, the tick loop settings).
+//
+// Keys are documented in docs/config.md. Every error names file:line and the key or value.
+// Thread-safety: free functions are pure (apart from reading the named file); RunConfig is
+// a value type.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "visnav/config_node.hpp"
+#include "visnav/params.hpp"
+#include "visnav/result.hpp"
+
+namespace visnav {
+
+/// Parses YAML text. `file_label` is used in locations ("setup.yaml:3"). Scalars keep their
+/// text; YAML null (`~`, `null`, empty value) becomes a null node. Duplicate map keys and
+/// syntax errors are errors with file:line.
+[[nodiscard]] Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& file_label);
+/// Reads and parses a YAML file (missing/unreadable file is an error naming the path).
+[[nodiscard]] Result<ConfigNode> parse_yaml_file(const std::string& path);
+
+/// Applies one `key.path=value` override to `root` (a map). Intermediate maps are created
+/// when missing; the value is parsed as YAML (so `a=[1, 2]` gives a sequence). The new node's
+/// location is `--set key.path=value`. Errors: no '=', empty key, a path through a scalar.
+[[nodiscard]] Status apply_override(ConfigNode& root, std::string_view assignment);
+
+/// One plugin object named in config: `{type: orb, plugin: detectors_opencv, params: {...}}`.
+struct PluginSpec {
+  std::string type;        ///< type name, e.g. "orb"
+  std::string plugin;      ///< optional library pin ("detectors_opencv" or a path); empty = any
+  ConfigNode params;       ///< the `params:` block (null when absent)
+  SourceLocation where;    ///< location of the section
+};
+
+/// The `run:` block.
+struct RunSettings {
+  std::string tick = "frame";          ///< "frame": one tick per new camera frame; "rate": fixed rate
+  double rate_hz = 10.0;               ///< tick rate ("rate"), tick budget and lock-step period
+  double max_frame_age_s = 0.5;        ///< newest frame older than this → safety stop
+  double max_odometry_age_s = 0.5;     ///< newest odometry older than this → safety stop
+  double startup_timeout_s = 5.0;      ///< wait this long for the first frame and odometry
+  double max_duration_s = 0.0;         ///< stop the run (failure) after this long; 0 = no limit
+  std::string lockstep = "auto";       ///< "auto" (when the robot is simulated), "on", "off"
+  std::string trace_file;              ///< BT status transitions as JSON lines; empty = off
+  std::string telemetry_file;          ///< NavStatus per tick as JSON lines; empty = off
+  std::string log_level = "info";      ///< debug, info, warn, error
+  double reload_poll_s = 0.5;          ///< config file mtime poll interval (wall time); 0 = no live reload
+
+  [[nodiscard]] Status validate() const;
+  static const ParamSchema<RunSettings>& schema();
+};
+
+/// A parsed, validated run configuration.
+struct RunConfig {
+  std::string file;                               ///< path of the YAML file (empty if from a string)
+  ConfigNode root;                                ///< the whole tree after overrides
+  PluginSpec robot;
+  PluginSpec camera;
+  std::optional<PluginSpec> detector;             ///< optional section
+  std::optional<std::vector<std::string>> nodes;  ///< nodes plugins to load; nullopt = all found
+  RunSettings run;
+  std::vector<std::string> plugin_path;           ///< extra plugin dirs (relative to the file's folder)
+};
+
+/// Validates the structure of a run config (known top-level keys, sections with `type`,
+/// the `run:` block through RunSettings::schema()). Plugin params are checked by the plugins.
+[[nodiscard]] Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file = {});
+
+/// Reads `path`, applies `overrides` (`key.path=value` each) and parses the run config.
+[[nodiscard]] Result<RunConfig> load_run_config(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// Checks `params` against a plugin type's ParamDocs without creating the object: unknown
+/// keys, values of the wrong type, values outside a "[min, max]" range or a "one of:" list.
+/// Returns every problem found (empty = fine), each prefixed with file:line.
+[[nodiscard]] std::vector<std::string> check_params_against_docs(const ConfigNode& params,
+                                                                 const std::vector<ParamDoc>& docs,
+                                                                 const std::string& section);
+
+/// Structural equality of two config trees (ignores locations).
+[[nodiscard]] bool same_config(const ConfigNode& a, const ConfigNode& b);
+
+}  // namespace visnav

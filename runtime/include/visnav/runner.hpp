@@ -1,0 +1,248 @@
+// visnav runtime — a run session (plugins built from a config) and the tick loop.
+//
+// Programmatic use (e.g. an experiment command):
+//
+//   VISNAV_ASSIGN(visnav::RunConfig config, visnav::load_run_config("config/sim.yaml", {"run.rate_hz=20"}));
+//   VISNAV_ASSIGN(auto session, visnav::Session::create(std::move(config), {}));
+//   visnav::Robot& robot = session->robot();              // guarded: records the last command
+//   if (auto* sim = robot.simulation()) sim->set_ground_truth_pose({0, 0, 0});
+//   VISNAV_ASSIGN(visnav::bt::Tree tree, session->load_tree("trees/mission.xml"));
+//   visnav::RunOptions run;
+//   run.after_tick = [&](const visnav::TickInfo& t) { record(sim->ground_truth_pose()); return true; };
+//   visnav::RunReport report = visnav::run_tree(*session, tree, run);
+//   // tree must be destroyed before session (its nodes use the session's host).
+//
+// Session::create builds, in order: logger, plugin loader (default search path + config
+// `plugin_path` + SessionOptions::extra_plugin_dirs; scanned once), host services, robot
+// (host.robot() is set before the camera is created, so a simulated camera can follow the
+// simulated robot), the run clock (simulated time in lock-step, else wall time), camera,
+// detector (optional), map (`map_path`), telemetry file, node registry (built-in nodes, then
+// each selected `nodes` plugin's registrar).
+//
+// Tick loop (run_tree), per tick:
+//   lock-step (simulated robot, run.lockstep auto/on): step(1/rate_hz) → grab → odometry →
+//     publish both on the frame bus → tick; as fast as possible, clock = simulated time;
+//   tick: frame — wait for a new camera frame (short waits, so signals are seen), publish
+//     it with the newest odometry, tick;
+//   tick: rate  — every 1/rate_hz s (wall): take a frame if one is ready, odometry, tick.
+// Between ticks: live config reload (see Session::poll_config_reload), stop requests.
+// Safety (in the runtime, not the nodes): newest frame older than max_frame_age_s, newest
+// odometry older than max_odometry_age_s, no data within startup_timeout_s, or a camera/robot
+// error → tree halted, robot stopped, reason logged, outcome safety_stop. A tick taking longer
+// than 1/rate_hz (wall time) is an overrun: counted, and logged in real-time mode.
+// Stop request (SIGINT/SIGTERM via install_signal_handlers, or RunOptions::stop_requested):
+// tree halted (RUNNING nodes get their halt callbacks), zero velocity commanded, outcome
+// interrupted. A node that throws (a bug; Tree::tick_once catches it and halts the tree) ends
+// the run with outcome error. The robot is always commanded to stop when run_tree returns.
+//
+// Thread-safety: a Session and its tree are used from one thread; the stop flag may be set
+// from any thread or a signal handler.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav/bt/tree.hpp"
+#include "visnav/config.hpp"
+#include "visnav/devices.hpp"
+#include "visnav/host.hpp"
+#include "visnav/loader.hpp"
+#include "visnav/map.hpp"
+#include "visnav/runtime_host.hpp"
+
+namespace visnav {
+
+struct SessionOptions {
+  /// Searched after the default path and the config's plugin_path (e.g. `--plugin-path`).
+  std::vector<std::string> extra_plugin_dirs;
+  /// false: only config plugin_path + extra_plugin_dirs are searched (tests).
+  bool use_default_plugin_path = true;
+  /// `--map`: opened with MapStore::open; a missing folder is created as an empty map.
+  std::string map_path;
+  /// Overrides applied to the file on every live reload (the `--set` list used to load it).
+  std::vector<std::string> overrides;
+  /// Borrowed logger; nullptr: a StderrLogger at run.log_level owned by the session.
+  Logger* logger = nullptr;
+};
+
+/// A robot wrapper owned by the session: forwards to the plugin robot, remembers the last
+/// command, and once latched (safety stop) only passes zero commands.
+class GuardedRobot final : public Robot {
+ public:
+  explicit GuardedRobot(Robot& inner) : inner_(&inner) {}
+  Status send_command(const Twist& command) override;
+  std::optional<Odometry> latest_odometry() override { return inner_->latest_odometry(); }
+  Status stop() override;
+  SimulationControl* simulation() override { return inner_->simulation(); }
+  Status reconfigure(const ConfigNode& params) override { return inner_->reconfigure(params); }
+
+  [[nodiscard]] const Twist& last_command() const { return last_command_; }
+  [[nodiscard]] std::uint64_t commands_sent() const { return commands_; }
+  /// After latch() non-zero commands are refused (error) and replaced by a stop.
+  void latch(std::string reason) { latched_reason_ = std::move(reason); }
+  /// Allows motion again (e.g. before running another tree on the same session).
+  void unlatch() { latched_reason_.reset(); }
+  [[nodiscard]] bool latched() const { return latched_reason_.has_value(); }
+
+ private:
+  Robot* inner_;
+  Twist last_command_;
+  std::uint64_t commands_ = 0;
+  std::optional<std::string> latched_reason_;
+};
+
+class Session {
+ public:
+  /// Builds everything (see the file comment). Errors name the section, type and library.
+  [[nodiscard]] static Result<std::unique_ptr<Session>> create(RunConfig config, const SessionOptions& options = {});
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  [[nodiscard]] const RunConfig& config() const { return config_; }
+  [[nodiscard]] Logger& logger() { return *logger_; }
+  [[nodiscard]] PluginLoader& loader() { return loader_; }
+  [[nodiscard]] RuntimeHost& host() { return *host_; }
+  [[nodiscard]] FrameBus& frame_bus() { return frame_bus_; }
+  /// The run clock: simulated time in lock-step, else wall time since the session started.
+  [[nodiscard]] const Clock& clock() { return host_->clock(); }
+  /// The robot as nodes see it (guarded wrapper around the plugin robot).
+  [[nodiscard]] GuardedRobot& robot() { return *guard_; }
+  [[nodiscard]] Camera& camera() { return *camera_; }
+  /// Active detector (nullptr when the config has no `detector:` section).
+  [[nodiscard]] Detector* detector() { return detector_.get(); }
+  [[nodiscard]] MapStore* map() { return map_ ? &*map_ : nullptr; }
+  [[nodiscard]] bt::NodeRegistry& registry() { return *registry_; }
+  [[nodiscard]] bool lockstep() const { return lockstep_; }
+  /// Telemetry publish count (0 without a telemetry file).
+  [[nodiscard]] std::uint64_t telemetry_published() const { return telemetry_ ? telemetry_->published() : 0; }
+
+  /// Loads, validates and instantiates a tree with the run clock. Validation errors (all of
+  /// them, file:line each) are the error message; nothing is instantiated then.
+  [[nodiscard]] Result<bt::Tree> load_tree(const std::string& tree_file);
+
+  /// Re-reads the config file (with the session's overrides) and applies it between ticks:
+  /// changed params → PluginObject::reconfigure; a changed detector type/plugin → new detector
+  /// created, then swapped in; run.{rate_hz, max_*_age_s, startup_timeout_s, max_duration_s,
+  /// log_level, reload_poll_s} take effect. Rejected (old config kept, reason logged and
+  /// returned): parse/validation errors, a failing detector factory, and changes that need a
+  /// restart (robot/camera type or plugin, nodes, plugin_path, run.tick, run.lockstep,
+  /// run.trace_file, run.telemetry_file). A robot/camera reconfigure error keeps that object's
+  /// old params and is logged; the rest is applied. Returns true when something changed.
+  Result<bool> reload_config();
+  /// Cheap check (a stat at most every run.reload_poll_s of wall time, or always with
+  /// `force`): reloads when the file's mtime or size changed. Returns true when a reload was
+  /// applied.
+  bool poll_config_reload(bool force = false);
+  /// Number of reloads applied / rejected so far.
+  [[nodiscard]] int reloads_applied() const { return reloads_applied_; }
+  [[nodiscard]] int reloads_rejected() const { return reloads_rejected_; }
+
+ private:
+  Session() = default;
+  Status build(const SessionOptions& options);
+  void remember_file_stamp();
+
+  RunConfig config_;
+  std::vector<std::string> overrides_;
+  std::unique_ptr<StderrLogger> own_logger_;
+  Logger* logger_ = nullptr;
+  PluginLoader loader_{std::vector<std::string>{}};
+  WallClock wall_clock_;
+  std::unique_ptr<SimulationClock> sim_clock_;
+  FrameBus frame_bus_;
+  std::unique_ptr<RuntimeHost> host_;
+  std::unique_ptr<JsonLinesTelemetry> telemetry_;
+  std::optional<MapStore> map_;
+  PluginPtr<Robot> robot_;
+  std::unique_ptr<GuardedRobot> guard_;
+  PluginPtr<Camera> camera_;
+  PluginPtr<Detector> detector_;
+  std::unique_ptr<bt::NodeRegistry> registry_;
+  bool lockstep_ = false;
+  // live reload
+  double next_poll_wall_s_ = 0.0;
+  std::int64_t file_mtime_ns_ = 0;
+  std::uintmax_t file_size_ = 0;
+  int reloads_applied_ = 0;
+  int reloads_rejected_ = 0;
+};
+
+enum class RunOutcome { success, failure, safety_stop, interrupted, stopped, error };
+[[nodiscard]] const char* to_string(RunOutcome outcome);
+
+struct TickInfo {
+  std::uint64_t tick = 0;       ///< 1-based tick index
+  double t_s = 0.0;             ///< run clock at the tick
+  bt::NodeStatus status = bt::NodeStatus::idle;  ///< root status after the tick
+  double tick_duration_s = 0.0; ///< wall time spent in tick_once()
+};
+
+struct RunOptions {
+  /// Overrides run.trace_file when not empty.
+  std::string trace_file;
+  /// Polled between ticks; set from a signal handler or another thread to stop the run.
+  /// nullptr: the process-wide flag of install_signal_handlers().
+  const std::atomic<int>* stop_requested = nullptr;
+  /// Called after every tick; return false to end the run (outcome stopped, exit 0).
+  std::function<bool(const TickInfo&)> after_tick;
+};
+
+struct RunReport {
+  RunOutcome outcome = RunOutcome::error;
+  /// Process exit status: success 0, failure 1, safety_stop 3, interrupted 128+signal
+  /// (130 for SIGINT), stopped 0, error 1.
+  int exit_code = 1;
+  std::string reason;           ///< why the run ended (failure, safety, error), empty on success
+  std::uint64_t ticks = 0;
+  std::uint64_t overruns = 0;
+  double run_time_s = 0.0;      ///< on the run clock
+  double wall_time_s = 0.0;
+};
+
+/// Runs `tree` on `session` until it finishes or is stopped (see the file comment).
+RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options = {});
+
+/// Installs SIGINT/SIGTERM handlers that store the signal number in signal_flag()
+/// (async-signal-safe). A second signal while the flag is set restores the default action.
+void install_signal_handlers();
+/// The process-wide stop flag: 0, or the number of the signal received.
+[[nodiscard]] std::atomic<int>& signal_flag();
+
+/// Everything `visnav run` does: load config (+overrides), create the session, load the tree,
+/// run, print nothing (logs go to the logger). Errors before the first tick → outcome error.
+struct MissionOptions {
+  std::string config_file;
+  std::vector<std::string> overrides;
+  std::string tree_file;
+  std::string map_path;
+  std::string trace_file;
+  std::vector<std::string> extra_plugin_dirs;
+  bool use_default_plugin_path = true;
+  std::optional<LogLevel> log_level;  ///< overrides run.log_level
+  const std::atomic<int>* stop_requested = nullptr;
+};
+[[nodiscard]] RunReport run_mission(const MissionOptions& options);
+
+/// Everything `visnav validate` checks, without building robot/camera/detector: config
+/// structure, every plugin type exists, params against each type's ParamDocs (unknown keys,
+/// types, ranges), nodes plugins register, the tree validates against the registry. Returns
+/// every problem (file:line first); empty = valid.
+[[nodiscard]] std::vector<std::string> validate_setup(const std::string& config_file,
+                                                      const std::vector<std::string>& overrides,
+                                                      const std::string& tree_file,
+                                                      const std::vector<std::string>& extra_plugin_dirs = {},
+                                                      bool use_default_plugin_path = true);
+
+/// Builds the node registry of a setup without devices (for `visnav nodes`): built-in nodes
+/// plus every nodes plugin the loader has loaded (or only `only` when given). Errors name the
+/// plugin whose registrar failed.
+[[nodiscard]] Status register_all_nodes(bt::NodeRegistry& registry, PluginLoader& loader, HostServices& host,
+                                        const std::optional<std::vector<std::string>>& only = std::nullopt);
+
+}  // namespace visnav

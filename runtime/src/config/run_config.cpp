@@ -1,0 +1,282 @@
+// The run configuration: top-level sections, plugin specs, the `run:` block, and the
+// doc-based parameter check used by `visnav validate`.
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+
+#include "visnav/config.hpp"
+
+namespace visnav {
+
+namespace {
+
+std::string join_lines(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const auto& l : lines) {
+    if (!out.empty()) out += "\n";
+    out += l;
+  }
+  return out;
+}
+
+std::string key_list(std::initializer_list<const char*> keys) {
+  std::string out;
+  for (const char* k : keys) out += (out.empty() ? "" : ", ") + std::string(k);
+  return out;
+}
+
+/// Parses `robot: {type: ..., plugin: ..., params: {...}}`, appending problems to `errors`.
+std::optional<PluginSpec> parse_spec(const ConfigNode& node, const std::string& section, std::vector<std::string>& errors) {
+  if (!node.is_map()) {
+    errors.push_back(node.where().str() + ": '" + section + "' must be a map with 'type' (and optional 'plugin', 'params')");
+    return std::nullopt;
+  }
+  PluginSpec spec;
+  spec.where = node.where();
+  bool good = true;
+  for (const auto& [key, value] : node.entries()) {
+    if (key == "type") {
+      if (!value.is_scalar() || value.scalar().empty()) {
+        errors.push_back(value.where().str() + ": " + section + ".type must be a type name, e.g. 'sim'");
+        good = false;
+      } else {
+        spec.type = value.scalar();
+      }
+    } else if (key == "plugin") {
+      if (!value.is_scalar() || value.scalar().empty()) {
+        errors.push_back(value.where().str() + ": " + section + ".plugin must be a library name or path");
+        good = false;
+      } else {
+        spec.plugin = value.scalar();
+      }
+    } else if (key == "params") {
+      if (!value.is_map() && !value.is_null()) {
+        errors.push_back(value.where().str() + ": " + section + ".params must be a map");
+        good = false;
+      } else {
+        spec.params = value;
+      }
+    } else {
+      errors.push_back(value.where().str() + ": unknown key '" + key + "' in '" + section +
+                       "' (known keys: " + key_list({"type", "plugin", "params"}) + ")");
+      good = false;
+    }
+  }
+  if (spec.type.empty() && node.find("type") == nullptr) {
+    errors.push_back(node.where().str() + ": '" + section + "' has no 'type'");
+    good = false;
+  }
+  if (spec.params.is_null()) spec.params.set_where(node.where());
+  if (!good) return std::nullopt;
+  return spec;
+}
+
+std::vector<std::string> string_list(const ConfigNode& node, const std::string& key, std::vector<std::string>& errors) {
+  std::vector<std::string> out;
+  if (node.is_null()) return out;
+  if (node.is_scalar()) {
+    out.push_back(node.scalar());
+    return out;
+  }
+  if (!node.is_sequence()) {
+    errors.push_back(node.where().str() + ": '" + key + "' must be a list of names");
+    return out;
+  }
+  for (const auto& item : node.items()) {
+    if (!item.is_scalar() || item.scalar().empty()) {
+      errors.push_back(item.where().str() + ": '" + key + "' entries must be non-empty names");
+      continue;
+    }
+    out.push_back(item.scalar());
+  }
+  return out;
+}
+
+}  // namespace
+
+Status RunSettings::validate() const {
+  // Every rule is a per-field range or choice (see schema()); no rule couples two fields.
+  return ok();
+}
+
+const ParamSchema<RunSettings>& RunSettings::schema() {
+  static const auto s =
+      ParamSchema<RunSettings>{}
+          .field("tick", &RunSettings::tick, "frame: one tick per new camera frame; rate: ticks at rate_hz")
+          .one_of({"frame", "rate"})
+          .field("rate_hz", &RunSettings::rate_hz, "tick rate (tick: rate), tick budget for overrun detection, lock-step period")
+          .range(0.1, 1000.0)
+          .field("max_frame_age_s", &RunSettings::max_frame_age_s, "newest camera frame older than this stops the robot")
+          .range(0.001, 60.0)
+          .field("max_odometry_age_s", &RunSettings::max_odometry_age_s, "newest odometry older than this stops the robot")
+          .range(0.001, 60.0)
+          .field("startup_timeout_s", &RunSettings::startup_timeout_s, "wait this long for the first frame and odometry")
+          .range(0.0, 600.0)
+          .field("max_duration_s", &RunSettings::max_duration_s, "end the run with failure after this long (run clock); 0 = no limit")
+          .range(0.0, 1e7)
+          .field("lockstep", &RunSettings::lockstep, "auto: lock-step when the robot is simulated; on; off")
+          .one_of({"auto", "on", "off"})
+          .field("trace_file", &RunSettings::trace_file, "behaviour-tree status transitions as JSON lines; empty = off")
+          .field("telemetry_file", &RunSettings::telemetry_file, "NavStatus per tick as JSON lines; empty = off")
+          .field("log_level", &RunSettings::log_level, "lowest level logged to stderr")
+          .one_of({"debug", "info", "warn", "error"})
+          .field("reload_poll_s", &RunSettings::reload_poll_s, "config file change poll interval (wall time); 0 = no live reload")
+          .range(0.0, 3600.0);
+  return s;
+}
+
+Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file) {
+  RunConfig config;
+  config.file = file;
+  config.root = root;
+  std::vector<std::string> errors;
+  const std::string where_file = file.empty() ? root.where().str() : file;
+
+  if (!root.is_map()) {
+    return fail(where_file + ": a run config must be a map with the sections robot, camera, detector, nodes, run, plugin_path");
+  }
+
+  bool have_robot = false;
+  bool have_camera = false;
+  for (const auto& [key, value] : root.entries()) {
+    if (key == "robot") {
+      have_robot = true;
+      if (auto spec = parse_spec(value, key, errors)) config.robot = std::move(*spec);
+    } else if (key == "camera") {
+      have_camera = true;
+      if (auto spec = parse_spec(value, key, errors)) config.camera = std::move(*spec);
+    } else if (key == "detector") {
+      if (auto spec = parse_spec(value, key, errors)) config.detector = std::move(*spec);
+    } else if (key == "nodes") {
+      config.nodes = string_list(value, key, errors);
+    } else if (key == "plugin_path") {
+      const std::filesystem::path base = file.empty() ? std::filesystem::path{} : std::filesystem::path(file).parent_path();
+      for (const auto& dir : string_list(value, key, errors)) {
+        std::filesystem::path p(dir);
+        config.plugin_path.push_back(p.is_absolute() || base.empty() ? p.string() : (base / p).string());
+      }
+    } else if (key == "run") {
+      if (!value.is_map() && !value.is_null()) {
+        errors.push_back(value.where().str() + ": 'run' must be a map");
+        continue;
+      }
+      // Parse entry by entry so every bad key is reported, not just the first.
+      for (const auto& [run_key, run_value] : value.entries()) {
+        ConfigNode single = ConfigNode::make_map(value.where());
+        single.set(run_key, run_value);
+        auto parsed = RunSettings::schema().parse(single, config.run);
+        if (!parsed) {
+          errors.push_back(parsed.error().message + " (in 'run')");
+          continue;
+        }
+        config.run = std::move(parsed).value();
+      }
+      auto valid = config.run.validate();
+      if (!valid) errors.push_back(value.where().str() + ": " + valid.error().message);
+    } else {
+      errors.push_back(value.where().str() + ": unknown top-level key '" + key + "' (known keys: " +
+                       key_list({"robot", "camera", "detector", "nodes", "run", "plugin_path"}) + ")");
+    }
+  }
+  if (!have_robot) errors.push_back(where_file + ": missing section 'robot' (e.g. robot: {type: sim})");
+  if (!have_camera) errors.push_back(where_file + ": missing section 'camera' (e.g. camera: {type: sim})");
+  if (!errors.empty()) return fail(join_lines(errors));
+  return config;
+}
+
+Result<RunConfig> load_run_config(const std::string& path, const std::vector<std::string>& overrides) {
+  VISNAV_ASSIGN(ConfigNode root, parse_yaml_file(path));
+  for (const auto& o : overrides) VISNAV_TRY(apply_override(root, o));
+  return parse_run_config(root, path);
+}
+
+namespace {
+
+std::optional<std::pair<double, double>> parse_range(const std::string& constraint) {
+  if (constraint.size() < 5 || constraint.front() != '[' || constraint.back() != ']') return std::nullopt;
+  const auto comma = constraint.find(',');
+  if (comma == std::string::npos) return std::nullopt;
+  auto lo = detail::parse_double(constraint.substr(1, comma - 1));
+  std::string hi_text = constraint.substr(comma + 1, constraint.size() - comma - 2);
+  while (!hi_text.empty() && hi_text.front() == ' ') hi_text.erase(hi_text.begin());
+  auto hi = detail::parse_double(hi_text);
+  if (!lo || !hi) return std::nullopt;
+  return std::make_pair(*lo, *hi);
+}
+
+std::vector<std::string> parse_one_of(const std::string& constraint) {
+  const std::string prefix = "one of:";
+  std::vector<std::string> out;
+  if (constraint.rfind(prefix, 0) != 0) return out;
+  std::istringstream in(constraint.substr(prefix.size()));
+  std::string word;
+  while (in >> word) out.push_back(word);
+  return out;
+}
+
+/// Checks one value against its doc; returns the problem or an empty string.
+std::string check_value(const ConfigNode& value, const ParamDoc& doc) {
+  std::vector<std::string> texts;
+  const bool is_list = doc.type.rfind("list<", 0) == 0;
+  if (is_list) {
+    if (value.is_sequence()) {
+      for (const auto& item : value.items()) {
+        if (!item.is_scalar()) return "expected a list of scalars";
+        texts.push_back(item.scalar());
+      }
+    } else if (value.is_scalar()) {
+      texts = detail::split_list(value.scalar());
+    } else {
+      return "expected a list";
+    }
+  } else {
+    if (!value.is_scalar()) return "expected a scalar of type " + doc.type;
+    texts.push_back(value.scalar());
+  }
+  for (const auto& t : texts) {
+    if (doc.type == "int") {
+      if (auto v = detail::parse_int(t); !v) return v.error().message;
+    } else if (doc.type == "double" || doc.type == "list<double>") {
+      if (auto v = detail::parse_double(t); !v) return v.error().message;
+    } else if (doc.type == "bool") {
+      if (auto v = detail::parse_bool(t); !v) return v.error().message;
+    }
+    if (auto range = parse_range(doc.constraint)) {
+      auto v = detail::parse_double(t);
+      if (v && (*v < range->first || *v > range->second)) return "value " + t + " is out of range " + doc.constraint;
+    }
+    const auto allowed = parse_one_of(doc.constraint);
+    if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), t) == allowed.end())
+      return "value '" + t + "' is not " + doc.constraint;
+  }
+  return {};
+}
+
+}  // namespace
+
+std::vector<std::string> check_params_against_docs(const ConfigNode& params, const std::vector<ParamDoc>& docs,
+                                                   const std::string& section) {
+  std::vector<std::string> problems;
+  if (params.is_null()) return problems;
+  if (!params.is_map()) {
+    problems.push_back(params.where().str() + ": " + section + ".params must be a map");
+    return problems;
+  }
+  for (const auto& [key, value] : params.entries()) {
+    const ParamDoc* doc = nullptr;
+    for (const auto& d : docs)
+      if (d.name == key) doc = &d;
+    if (doc == nullptr) {
+      std::string known;
+      for (const auto& d : docs) known += (known.empty() ? "" : ", ") + d.name;
+      problems.push_back(value.where().str() + ": unknown key '" + key + "' in " + section + ".params (known keys: " +
+                         (known.empty() ? std::string("none") : known) + ")");
+      continue;
+    }
+    const std::string problem = check_value(value, *doc);
+    if (!problem.empty()) problems.push_back(value.where().str() + ": key '" + key + "' in " + section + ".params: " + problem);
+  }
+  return problems;
+}
+
+}  // namespace visnav

@@ -1,0 +1,158 @@
+// YAML → ConfigNode with file:line for every value, and `--set key.path=value` overrides.
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "visnav/config.hpp"
+
+namespace visnav {
+
+namespace {
+
+SourceLocation location_of(const YAML::Mark& mark, const std::string& file, const SourceLocation& fallback) {
+  if (mark.line < 0) return fallback.line > 0 ? fallback : SourceLocation{file, 0};
+  return SourceLocation{file, mark.line + 1};
+}
+
+Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, const SourceLocation& fallback) {
+  const SourceLocation where = location_of(node.Mark(), file, fallback);
+  switch (node.Type()) {
+    case YAML::NodeType::Undefined:
+    case YAML::NodeType::Null: {
+      ConfigNode n;
+      n.set_where(where);
+      return n;
+    }
+    case YAML::NodeType::Scalar:
+      return ConfigNode::make_scalar(node.Scalar(), where);
+    case YAML::NodeType::Sequence: {
+      ConfigNode n = ConfigNode::make_sequence(where);
+      for (const auto& item : node) {
+        VISNAV_ASSIGN(ConfigNode child, convert(item, file, where));
+        n.push_back(std::move(child));
+      }
+      return n;
+    }
+    case YAML::NodeType::Map: {
+      ConfigNode n = ConfigNode::make_map(where);
+      std::set<std::string> seen;
+      for (const auto& entry : node) {
+        const SourceLocation key_where = location_of(entry.first.Mark(), file, where);
+        if (!entry.first.IsScalar()) return fail(key_where.str() + ": map keys must be plain scalars");
+        const std::string key = entry.first.Scalar();
+        if (!seen.insert(key).second) return fail(key_where.str() + ": duplicate key '" + key + "'");
+        VISNAV_ASSIGN(ConfigNode child, convert(entry.second, file, key_where));
+        if (child.is_null() || child.where().line == 0) child.set_where(key_where);
+        n.set(key, std::move(child));
+      }
+      return n;
+    }
+  }
+  return fail(where.str() + ": unsupported YAML node");
+}
+
+/// Sets keys[index..] below `node` to `value`, creating maps on the way (copies each
+/// child, edits it and stores it back; configs are small).
+Status set_path(ConfigNode& node, const std::vector<std::string>& keys, std::size_t index, ConfigNode value,
+                const std::string& text) {
+  if (node.is_null()) {
+    SourceLocation where = node.where();
+    node = ConfigNode::make_map(std::move(where));
+  }
+  if (!node.is_map()) {
+    std::string walked;
+    for (std::size_t i = 0; i < index; ++i) walked += (i ? "." : "") + keys[i];
+    return fail("--set " + text + ": '" + walked + "' at " + node.where().str() + " is not a map");
+  }
+  if (index + 1 == keys.size()) {
+    node.set(keys[index], std::move(value));
+    return ok();
+  }
+  const ConfigNode* existing = node.find(keys[index]);
+  ConfigNode child = existing != nullptr ? *existing : ConfigNode::make_map(value.where());
+  VISNAV_TRY(set_path(child, keys, index + 1, std::move(value), text));
+  node.set(keys[index], std::move(child));
+  return ok();
+}
+
+}  // namespace
+
+Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& file_label) {
+  try {
+    YAML::Node doc = YAML::Load(std::string(text));
+    return convert(doc, file_label, SourceLocation{file_label, 1});
+  } catch (const YAML::Exception& e) {
+    SourceLocation where{file_label, e.mark.line >= 0 ? e.mark.line + 1 : 0};
+    std::string detail = e.msg;
+    if (e.mark.column >= 0) detail += " (column " + std::to_string(e.mark.column + 1) + ")";
+    return fail(where.str() + ": YAML syntax error: " + detail);
+  }
+}
+
+Result<ConfigNode> parse_yaml_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail(path + ": cannot open config file");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return fail(path + ": cannot read config file");
+  return parse_yaml_string(buffer.str(), path);
+}
+
+Status apply_override(ConfigNode& root, std::string_view assignment) {
+  const std::string text(assignment);
+  const auto eq = text.find('=');
+  if (eq == std::string::npos) return fail("--set " + text + ": expected key.path=value");
+  const std::string path = text.substr(0, eq);
+  const std::string value = text.substr(eq + 1);
+  if (path.empty()) return fail("--set " + text + ": empty key");
+  const SourceLocation where{"--set " + text, 0};
+
+  std::vector<std::string> keys;
+  std::string current;
+  for (char c : path) {
+    if (c == '.') {
+      keys.push_back(current);
+      current.clear();
+    } else {
+      current.push_back(c);
+    }
+  }
+  keys.push_back(current);
+  for (const auto& k : keys)
+    if (k.empty()) return fail("--set " + text + ": empty component in key path '" + path + "'");
+
+  ConfigNode value_node;
+  if (!value.empty() && (value.front() == '[' || value.front() == '{')) {
+    VISNAV_ASSIGN(value_node, parse_yaml_string(value, where.file));
+  } else {
+    value_node = ConfigNode::make_scalar(value, where);
+  }
+  value_node.set_where(where);
+
+  return set_path(root, keys, 0, std::move(value_node), text);
+}
+
+bool same_config(const ConfigNode& a, const ConfigNode& b) {
+  if (a.kind() != b.kind()) return false;
+  switch (a.kind()) {
+    case ConfigNode::Kind::null: return true;
+    case ConfigNode::Kind::scalar: return a.scalar() == b.scalar();
+    case ConfigNode::Kind::sequence:
+      if (a.items().size() != b.items().size()) return false;
+      for (std::size_t i = 0; i < a.items().size(); ++i)
+        if (!same_config(a.items()[i], b.items()[i])) return false;
+      return true;
+    case ConfigNode::Kind::map:
+      if (a.entries().size() != b.entries().size()) return false;
+      for (const auto& [k, v] : a.entries()) {
+        const ConfigNode* other = b.find(k);
+        if (other == nullptr || !same_config(v, *other)) return false;
+      }
+      return true;
+  }
+  return false;
+}
+
+}  // namespace visnav

@@ -1,0 +1,141 @@
+// run_mission (what `visnav run` does) and validate_setup (what `visnav validate` does).
+#include <sstream>
+
+#include "visnav/bt/registry.hpp"
+#include "visnav/bt/tree.hpp"
+#include "visnav/runner.hpp"
+
+namespace visnav {
+
+namespace {
+
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line))
+    if (!line.empty()) out.push_back(line);
+  return out;
+}
+
+RunReport error_report(std::string reason) {
+  RunReport r;
+  r.outcome = RunOutcome::error;
+  r.exit_code = 1;
+  r.reason = std::move(reason);
+  return r;
+}
+
+}  // namespace
+
+RunReport run_mission(const MissionOptions& options) {
+  auto config = load_run_config(options.config_file, options.overrides);
+  if (!config) return error_report(config.error().message);
+  if (options.log_level) config->run.log_level = to_string(*options.log_level);
+
+  SessionOptions so;
+  so.extra_plugin_dirs = options.extra_plugin_dirs;
+  so.use_default_plugin_path = options.use_default_plugin_path;
+  so.map_path = options.map_path;
+  so.overrides = options.overrides;
+  auto session = Session::create(std::move(config).value(), so);
+  if (!session) return error_report(session.error().message);
+
+  auto tree = (*session)->load_tree(options.tree_file);
+  if (!tree) return error_report(options.tree_file + ": tree is not valid, nothing was run:\n" + tree.error().message);
+
+  RunOptions ro;
+  ro.trace_file = options.trace_file;
+  ro.stop_requested = options.stop_requested;
+  RunReport report = run_tree(**session, *tree, ro);
+  return report;  // the tree goes before the session (declared after it)
+}
+
+std::vector<std::string> validate_setup(const std::string& config_file, const std::vector<std::string>& overrides,
+                                        const std::string& tree_file, const std::vector<std::string>& extra_plugin_dirs,
+                                        bool use_default_plugin_path) {
+  std::vector<std::string> problems;
+  std::optional<RunConfig> config;
+  std::vector<std::string> plugin_dirs;
+  std::optional<std::vector<std::string>> nodes;
+
+  auto root = parse_yaml_file(config_file);
+  if (!root) {
+    problems.push_back(root.error().message);
+  } else {
+    bool overrides_ok = true;
+    for (const auto& o : overrides) {
+      if (auto st = apply_override(*root, o); !st) {
+        problems.push_back(st.error().message);
+        overrides_ok = false;
+      }
+    }
+    if (overrides_ok) {
+      auto parsed = parse_run_config(*root, config_file);
+      if (!parsed) {
+        for (auto& l : split_lines(parsed.error().message)) problems.push_back(std::move(l));
+        // Still honour plugin_path and nodes (when they are fine) so the tree is checked
+        // against the right node types.
+        if (root->is_map()) {
+          ConfigNode reduced = ConfigNode::make_map(root->where());
+          ConfigNode placeholder = ConfigNode::make_map(root->where());
+          placeholder.set("type", ConfigNode::make_scalar("-"));
+          reduced.set("robot", placeholder);
+          reduced.set("camera", placeholder);
+          for (const char* key : {"plugin_path", "nodes"})
+            if (const ConfigNode* n = root->find(key)) reduced.set(key, *n);
+          if (auto partial = parse_run_config(reduced, config_file)) {
+            plugin_dirs = partial->plugin_path;
+            nodes = partial->nodes;
+          }
+        }
+      } else {
+        plugin_dirs = parsed->plugin_path;
+        nodes = parsed->nodes;
+        config = std::move(parsed).value();
+      }
+    }
+  }
+
+  std::vector<std::string> dirs;
+  if (use_default_plugin_path) dirs = PluginLoader::default_search_path();
+  dirs.insert(dirs.end(), plugin_dirs.begin(), plugin_dirs.end());
+  dirs.insert(dirs.end(), extra_plugin_dirs.begin(), extra_plugin_dirs.end());
+  PluginLoader loader(std::move(dirs));
+  if (auto scanned = loader.scan(); !scanned) problems.push_back(scanned.error().message);
+
+  StderrLogger logger(LogLevel::warn);
+  WallClock clock;
+  RuntimeHost host(loader, logger, clock);
+
+  if (config) {
+    auto check = [&](const char* section, PluginKind kind, const PluginSpec& spec) {
+      if (!spec.plugin.empty()) {
+        if (auto l = loader.load_library(spec.plugin); !l) {
+          problems.push_back(spec.where.str() + ": " + section + ": " + l.error().message);
+          return;
+        }
+      }
+      auto docs = loader.param_docs(kind, spec.type, spec.plugin);
+      if (!docs) {
+        problems.push_back(spec.where.str() + ": " + section + ": " + docs.error().message);
+        return;
+      }
+      for (auto& p : check_params_against_docs(spec.params, *docs, section)) problems.push_back(std::move(p));
+    };
+    check("robot", PluginKind::robot, config->robot);
+    check("camera", PluginKind::camera, config->camera);
+    if (config->detector) check("detector", PluginKind::detector, *config->detector);
+  }
+
+  bt::NodeRegistry registry;
+  if (auto st = register_all_nodes(registry, loader, host, nodes); !st)
+    problems.push_back(st.error().message);
+
+  if (!tree_file.empty()) {
+    for (const auto& d : bt::validate_tree_file(tree_file, registry)) problems.push_back(d.str());
+  }
+  return problems;
+}
+
+}  // namespace visnav

@@ -1,0 +1,303 @@
+// Map style A (seed 000 Algorithms 1 and 2) on a synthetic pinhole sequence: teach a straight
+// segment, replay from displaced/rotated poses (sign and magnitude of omega), a closed-loop run
+// that reduces the lateral error, payload round trip and rejection of damaged payloads.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <random>
+
+#include "test_support.hpp"
+#include "visnav/feature_replay/segment_map.hpp"
+
+namespace fr = visnav::feature_replay;
+using visnav::Features;
+using visnav::Pose2D;
+
+namespace {
+
+constexpr double kLength = 10.0;
+
+struct Taught {
+  fr_test::SyntheticScene scene;
+  std::shared_ptr<const fr::SegmentMap> map;
+};
+
+const Taught& taught() {
+  static const Taught t = [] {
+    Taught r;
+    r.scene = fr_test::SyntheticScene::around(-2.0, 40.0, -0.5, 0.5, 1500);
+    std::mt19937 rng(1);
+    fr::SegmentTeacher teacher;
+    teacher.begin(0.25);
+    for (double d = 0.0; d <= kLength + 1e-9; d += 0.05) {
+      const Features f = r.scene.observe(Pose2D{d, 0.0, 0.0}, rng);
+      EXPECT_TRUE(teacher.add_frame(d, f).ok());
+    }
+    auto m = teacher.finish(kLength);
+    EXPECT_TRUE(m.ok());
+    r.map = std::make_shared<const fr::SegmentMap>(std::move(m).value());
+    return r;
+  }();
+  return t;
+}
+
+fr::SegmentReplayOutput replay_at(const Pose2D& pose, double distance_m, unsigned seed = 2) {
+  std::mt19937 rng(seed);
+  fr::SegmentReplayer rep(taught().map);
+  rep.begin(0.0);
+  const Features f = taught().scene.observe(pose, rng);
+  return rep.step(distance_m, f, 640.0);
+}
+
+}  // namespace
+
+TEST(SegmentTeacher, BuildsLandmarksWithinTheSizeBudget) {
+  const auto& m = *taught().map;
+  ASSERT_TRUE(m.validate().ok());
+  EXPECT_DOUBLE_EQ(m.length_m, kLength);
+  EXPECT_DOUBLE_EQ(m.azimuth_rad, 0.25);
+  EXPECT_GT(m.landmarks.size(), 300u);
+  for (const auto& l : m.landmarks) {
+    EXPECT_GE(l.count, 3u);
+    EXPECT_GE(l.last_distance_m, l.first_distance_m + 0.05f - 1e-4f);
+  }
+  const auto blob = m.serialize();
+  const double bytes_per_m = static_cast<double>(blob.size()) / m.length_m;
+  std::cout << "[ style A ] " << m.landmarks.size() << " landmarks, " << blob.size() << " B for " << m.length_m
+            << " m = " << bytes_per_m / 1000.0 << " KB/m\n";
+  EXPECT_LE(bytes_per_m, 15000.0);
+}
+
+TEST(SegmentTeacher, LandmarkPositionsFollowTheMotion) {
+  // A landmark on the left moves left in the image as the robot drives forward (u decreases).
+  const auto& m = *taught().map;
+  int checked = 0;
+  for (const auto& l : m.landmarks) {
+    if (l.last_distance_m - l.first_distance_m < 1.0f) continue;
+    if (l.first_px.x < 300.0f) { EXPECT_LT(l.last_px.x, l.first_px.x); ++checked; }
+    if (l.first_px.x > 340.0f) { EXPECT_GT(l.last_px.x, l.first_px.x); ++checked; }
+  }
+  EXPECT_GT(checked, 20);
+}
+
+TEST(SegmentTeacher, DensityCapApplies) {
+  fr::SegmentTeachParams p;
+  p.max_landmarks_per_m = 20.0;
+  fr::SegmentTeacher teacher(p);
+  teacher.begin(0.0);
+  std::mt19937 rng(1);
+  for (double d = 0.0; d <= 4.0; d += 0.05) ASSERT_TRUE(teacher.add_frame(d, taught().scene.observe({d, 0, 0}, rng)).ok());
+  auto m = teacher.finish(4.0);
+  ASSERT_TRUE(m.ok());
+  // 10 per 0.5 m window of mid distance; tracks may run a little past the end.
+  EXPECT_LE(m->landmarks.size(), 10u * 10u);
+  EXPECT_GT(m->landmarks.size(), 40u);
+}
+
+TEST(SegmentTeacher, RejectsDescriptorChangeMidSegment) {
+  fr::SegmentTeacher teacher;
+  teacher.begin(0.0);
+  std::mt19937 rng(1);
+  ASSERT_TRUE(teacher.add_frame(0.0, taught().scene.observe({0, 0, 0}, rng)).ok());
+  Features wide = taught().scene.observe({0.05, 0, 0}, rng);
+  wide.descriptors = cv::Mat(wide.descriptors.rows, 64, CV_8UC1, cv::Scalar(3));
+  EXPECT_FALSE(teacher.add_frame(0.05, wide).ok());
+  Features broken = taught().scene.observe({0.05, 0, 0}, rng);
+  broken.keypoints.pop_back();
+  EXPECT_FALSE(teacher.add_frame(0.05, broken).ok());
+  EXPECT_TRUE(teacher.add_frame(0.1, Features{}).ok());  // no features: every track ends
+  EXPECT_EQ(teacher.tracked_count(), 0u);
+}
+
+TEST(SegmentReplayer, OnThePathNoCorrection) {
+  const auto out = replay_at({5.0, 0.0, 0.0}, 5.0);
+  EXPECT_EQ(out.state, fr::ReplayState::steering);
+  EXPECT_GT(out.expected_landmarks, 50);
+  EXPECT_NEAR(out.estimate.offset_px, 0.0, 2.0);
+  EXPECT_NEAR(out.command.angular_radps, 0.0, 0.01);
+  EXPECT_DOUBLE_EQ(out.command.linear_mps, 0.3);
+}
+
+TEST(SegmentReplayer, LateralDisplacementSteersBackWithGrowingMagnitude) {
+  // Displaced left (y > 0): the scene appears shifted right, omega < 0 (turn right, towards the path).
+  double previous = 0.0;
+  for (double y : {0.25, 0.5, 1.0}) {
+    const auto out = replay_at({5.0, y, 0.0}, 5.0);
+    ASSERT_EQ(out.state, fr::ReplayState::steering) << "y " << y;
+    EXPECT_GT(out.estimate.offset_px, previous) << "y " << y;
+    EXPECT_LT(out.command.angular_radps, 0.0);
+    previous = out.estimate.offset_px;
+  }
+  const auto right = replay_at({5.0, -0.5, 0.0}, 5.0);
+  EXPECT_LT(right.estimate.offset_px, 0.0);
+  EXPECT_GT(right.command.angular_radps, 0.0);
+}
+
+TEST(SegmentReplayer, HeadingErrorSteersBack) {
+  // Turned 0.1 rad to the left: content moves right by f*tan(0.1) = 50 px at the image centre and
+  // up to ~61 px at the image borders.
+  const auto out = replay_at({5.0, 0.0, 0.1}, 5.0);
+  ASSERT_EQ(out.state, fr::ReplayState::steering);
+  EXPECT_GT(out.estimate.offset_px, 48.0);
+  EXPECT_LT(out.estimate.offset_px, 62.0);
+  EXPECT_LT(out.command.angular_radps, 0.0);
+  EXPECT_LT(out.estimate.heading_correction_rad, 0.0);
+}
+
+TEST(SegmentReplayer, ClosedLoopReducesLateralError) {
+  fr::SegmentReplayer rep(taught().map);
+  std::mt19937 rng(9);
+  Pose2D pose{0.0, 0.6, 0.0};
+  double odo = 0.0;
+  rep.begin(odo);
+  const double dt = 0.1;
+  int steering = 0, steps = 0;
+  for (;;) {
+    const auto out = rep.step(odo, taught().scene.observe(pose, rng), 640.0);
+    if (out.finished) break;
+    ++steps;
+    steering += out.state == fr::ReplayState::steering ? 1 : 0;
+    fr_test::integrate(pose, out.command, dt);
+    odo += out.command.linear_mps * dt;
+    ASSERT_LT(steps, 1000);
+  }
+  EXPECT_GT(steering, steps * 9 / 10);
+  std::cout << "[ style A ] closed loop: lateral error 0.60 m -> " << pose.y_m << " m after " << kLength << " m\n";
+  // seed 000 eq. (7): y = y0 exp(-k x); k ~ 1/l with landmark distances l of 5-25 m here
+  EXPECT_LT(std::abs(pose.y_m), 0.7 * 0.6);
+  EXPECT_LT(std::abs(pose.heading_rad), 0.15);
+  EXPECT_GT(rep.overshoot_m(odo), -1e-9);
+}
+
+TEST(SegmentReplayer, BadInputsGiveZeroCorrection) {
+  fr::SegmentReplayer rep(taught().map);
+  rep.begin(100.0);  // odometry does not start at zero
+  std::mt19937 rng(3);
+  // no features
+  auto out = rep.step(105.0, Features{}, 640.0);
+  EXPECT_EQ(out.state, fr::ReplayState::no_features);
+  EXPECT_EQ(out.command.angular_radps, 0.0);
+  EXPECT_DOUBLE_EQ(out.distance_m, 5.0);
+  // wrong descriptor width
+  Features wide = taught().scene.observe({5.0, 0.3, 0.0}, rng);
+  wide.descriptors = cv::Mat(wide.descriptors.rows, 61, CV_8UC1, cv::Scalar(9));
+  out = rep.step(105.0, wide, 640.0);
+  EXPECT_EQ(out.state, fr::ReplayState::bad_input);
+  EXPECT_EQ(out.command.angular_radps, 0.0);
+  // wrong size (keypoints vs rows)
+  Features broken = taught().scene.observe({5.0, 0.3, 0.0}, rng);
+  broken.keypoints.resize(broken.keypoints.size() / 2);
+  out = rep.step(105.0, broken, 640.0);
+  EXPECT_EQ(out.state, fr::ReplayState::bad_input);
+  EXPECT_EQ(out.command.angular_radps, 0.0);
+  // unrelated features (noise): low confidence -> no steering
+  Features noise;
+  noise.descriptors.create(400, 32, CV_8UC1);
+  cv::randu(noise.descriptors, 0, 256);
+  std::uniform_real_distribution<float> ux(0, 640), uy(0, 480);
+  for (int i = 0; i < 400; ++i) noise.keypoints.emplace_back(ux(rng), uy(rng), 7.0f);
+  out = rep.step(105.0, noise, 640.0);
+  EXPECT_NE(out.state, fr::ReplayState::steering);
+  EXPECT_EQ(out.command.angular_radps, 0.0);
+  // features only in one image corner, true heading offset: still steering the right way
+  Features side = taught().scene.observe({5.0, 0.0, 0.08}, rng);
+  Features left;
+  left.descriptors.create(0, 32, CV_8UC1);
+  for (std::size_t i = 0; i < side.keypoints.size(); ++i) {
+    if (side.keypoints[i].pt.x < 200.0f) {
+      left.keypoints.push_back(side.keypoints[i]);
+      left.descriptors.push_back(side.descriptors.row(static_cast<int>(i)));
+    }
+  }
+  out = rep.step(105.0, left, 640.0);
+  if (out.state == fr::ReplayState::steering) {
+    EXPECT_LT(out.command.angular_radps, 0.0);
+  }
+  // past the end
+  out = rep.step(111.0, side, 640.0);
+  EXPECT_TRUE(out.finished);
+  EXPECT_EQ(out.command.linear_mps, 0.0);
+  EXPECT_NEAR(rep.overshoot_m(111.0), 1.0, 1e-9);
+}
+
+TEST(SegmentMapPayload, RoundTrip) {
+  const auto& m = *taught().map;
+  const auto blob = m.serialize();
+  auto back = fr::SegmentMap::deserialize(blob);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(back->landmarks.size(), m.landmarks.size());
+  EXPECT_DOUBLE_EQ(back->length_m, m.length_m);
+  EXPECT_DOUBLE_EQ(back->azimuth_rad, m.azimuth_rad);
+  EXPECT_NEAR(back->max_span_m, m.max_span_m, 1e-6);
+  EXPECT_EQ(cv::norm(back->descriptors, m.descriptors, cv::NORM_HAMMING), 0.0);
+  for (std::size_t i = 0; i < m.landmarks.size(); ++i) {
+    const auto& a = m.landmarks[i];
+    const auto& b = back->landmarks[i];
+    EXPECT_EQ(a.count, b.count);
+    EXPECT_NEAR(a.first_px.x, b.first_px.x, 1.0 / 16.0);
+    EXPECT_NEAR(a.last_px.y, b.last_px.y, 1.0 / 16.0);
+    EXPECT_EQ(a.first_distance_m, b.first_distance_m);
+    EXPECT_EQ(a.last_distance_m, b.last_distance_m);
+  }
+  // an empty segment round-trips too
+  fr::SegmentMap empty;
+  empty.length_m = 2.0;
+  auto e = fr::SegmentMap::deserialize(empty.serialize());
+  ASSERT_TRUE(e.ok()) << e.error().message;
+  EXPECT_TRUE(e->landmarks.empty());
+}
+
+TEST(SegmentMapPayload, RejectsDamagedBlobs) {
+  const auto blob = taught().map->serialize();
+  // every truncation length of the header, and a few in the body
+  for (std::size_t n : {0ul, 1ul, 3ul, 4ul, 6ul, 10ul, 20ul, 31ul, 32ul, 33ul, blob.size() / 2, blob.size() - 1}) {
+    auto r = fr::SegmentMap::deserialize(std::span<const std::uint8_t>(blob.data(), n));
+    EXPECT_FALSE(r.ok()) << "truncated to " << n;
+  }
+  auto longer = blob;
+  longer.push_back(0);
+  EXPECT_FALSE(fr::SegmentMap::deserialize(longer).ok());
+  auto bad_magic = blob;
+  bad_magic[0] = 'X';
+  EXPECT_FALSE(fr::SegmentMap::deserialize(bad_magic).ok());
+  auto bad_version = blob;
+  bad_version[4] = 99;
+  auto v = fr::SegmentMap::deserialize(bad_version);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.error().message.find("version"), std::string::npos);
+  auto bad_count = blob;
+  bad_count[28] = 0xff; bad_count[29] = 0xff; bad_count[30] = 0xff; bad_count[31] = 0x7f;
+  EXPECT_FALSE(fr::SegmentMap::deserialize(bad_count).ok());
+  // random garbage with the right magic and version
+  std::mt19937 rng(4);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<std::uint8_t> g(static_cast<std::size_t>(rng() % 400));
+    for (auto& b : g) b = static_cast<std::uint8_t>(rng());
+    if (g.size() >= 6 && trial % 2 == 0) { g[0] = 'V'; g[1] = 'N'; g[2] = 'F'; g[3] = 'A'; g[4] = 1; g[5] = 0; }
+    (void)fr::SegmentMap::deserialize(g);  // must not crash
+  }
+  // a consistent body whose landmarks are out of order or have NaN distances is rejected
+  auto corrupt = blob;
+  const std::size_t record = 32 + 2 + 8 + 8;
+  const std::size_t first_d0 = 32 + 32 + 2 + 8;
+  const float nan = std::nanf("");
+  std::memcpy(corrupt.data() + first_d0, &nan, 4);
+  EXPECT_FALSE(fr::SegmentMap::deserialize(corrupt).ok());
+  (void)record;
+}
+
+TEST(SegmentReplayer, InconsistentMapIsNotReplayed) {
+  auto m = std::make_shared<fr::SegmentMap>(*taught().map);
+  m->descriptors = m->descriptors.rowRange(0, m->descriptors.rows / 2).clone();  // fewer rows than landmarks
+  fr::SegmentReplayer rep(m);
+  EXPECT_FALSE(rep.map_valid());
+  std::mt19937 rng(1);
+  const auto out = rep.step(2.0, taught().scene.observe({2.0, 0.2, 0.0}, rng), 640.0);
+  EXPECT_EQ(out.state, fr::ReplayState::bad_input);
+  EXPECT_EQ(out.command.linear_mps, 0.0);
+  EXPECT_EQ(out.command.angular_radps, 0.0);
+  fr::SegmentReplayer null_map(nullptr);
+  EXPECT_EQ(null_map.step(0.0, Features{}, 640.0).state, fr::ReplayState::bad_input);
+}

@@ -1,0 +1,138 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include "visnav_navigation/navigation_core.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+using namespace visnav::nav;
+
+TEST(NavigationCore, WrapAngleStaysInHalfOpenInterval) {
+  EXPECT_NEAR(wrap_angle_rad(3 * std::numbers::pi), std::numbers::pi, 1e-12);
+  EXPECT_NEAR(wrap_angle_rad(-3 * std::numbers::pi), std::numbers::pi, 1e-12);
+  EXPECT_NEAR(wrap_angle_rad(2 * std::numbers::pi + 0.1), 0.1, 1e-12);
+  EXPECT_NEAR(wrap_angle_rad(-0.1), -0.1, 1e-12);
+}
+
+TEST(NavigationCore, TurnCommandSaturatesHasFloorAndStopsInsideTolerance) {
+  TurnParams p;
+  EXPECT_EQ(turn_command_radps(0.01, p), 0.0);
+  EXPECT_NEAR(turn_command_radps(1.0, p), p.max_angular_radps, 1e-12);
+  EXPECT_NEAR(turn_command_radps(-1.0, p), -p.max_angular_radps, 1e-12);
+  EXPECT_NEAR(turn_command_radps(0.03, p), p.min_angular_radps, 1e-12);  // 1.5*0.03 < floor
+  EXPECT_NEAR(turn_command_radps(0.2, p), 0.3, 1e-12);
+}
+
+TEST(NavigationCore, TurnParamsValidation) {
+  TurnParams p;
+  EXPECT_TRUE(p.validate().ok());
+  p.tolerance_rad = 0;
+  EXPECT_FALSE(p.validate().ok());
+  p = TurnParams{};
+  p.min_angular_radps = 2.0;
+  EXPECT_FALSE(p.validate().ok());
+}
+
+TEST(NavigationCore, RelativeTurnUsesRecordedEndHeading) {
+  EdgeRecord a;
+  a.azimuth_rad = 0.0;
+  a.statistics["end_heading_rad"] = 0.2;
+  EdgeRecord b;
+  b.azimuth_rad = std::numbers::pi / 2;
+  EXPECT_NEAR(turn_between_edges_rad(a, b), std::numbers::pi / 2 - 0.2, 1e-12);
+  a.statistics.clear();
+  EXPECT_NEAR(turn_between_edges_rad(a, b), std::numbers::pi / 2, 1e-12);
+  // wraps across ±pi
+  a.azimuth_rad = 3.0;
+  b.azimuth_rad = -3.0;
+  EXPECT_NEAR(turn_between_edges_rad(a, b), 2 * std::numbers::pi - 6.0, 1e-12);
+}
+
+TEST(NavigationCore, KindMapParsingAndErrors) {
+  auto m = parse_kind_map({"feature_segment=ReplayFeatureEdge", " path_following = FollowPathEdge "});
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  ASSERT_NE(find_kind(*m, "path_following"), nullptr);
+  EXPECT_EQ(*find_kind(*m, "path_following"), "FollowPathEdge");
+  EXPECT_EQ(find_kind(*m, "other"), nullptr);
+  auto bad = parse_kind_map({"feature_segment"});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("feature_segment"), std::string::npos);
+  EXPECT_FALSE(parse_kind_map({"a=X", "a=Y"}).ok());
+}
+
+TEST(NavigationCore, KindCostParsing) {
+  auto c = parse_kind_costs({"path_following=0.5", "feature_segment=inf"});
+  ASSERT_TRUE(c.ok());
+  EXPECT_DOUBLE_EQ(c->kind_multiplier.at("path_following"), 0.5);
+  EXPECT_TRUE(std::isinf(c->kind_multiplier.at("feature_segment")));
+  EXPECT_FALSE(parse_kind_costs({"a=0"}).ok());
+  EXPECT_FALSE(parse_kind_costs({"a=x"}).ok());
+}
+
+namespace {
+fs::path temp_map_dir(const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("visnav_nav_core_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+std::string add_edge(MapStore& map, const std::string& from, const std::string& to, double length_m,
+                     const std::string& kind = "feature_segment") {
+  EdgeRecord e;
+  e.from = from;
+  e.to = to;
+  e.kind = kind;
+  e.length_m = length_m;
+  std::vector<std::uint8_t> payload(8, 1);
+  auto id = map.add_edge(e, payload);
+  EXPECT_TRUE(id.ok()) << (id.ok() ? "" : id.error().message);
+  return id.ok() ? *id : std::string();
+}
+}  // namespace
+
+TEST(NavigationCore, PlanCycleFindsTheCheapestLoopThroughANode) {
+  auto dir = temp_map_dir("cycle");
+  auto map = MapStore::create(dir.string(), "cycle");
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  map->set_sync(false);
+  NodeRecord n;
+  n.name = "a";
+  auto a = *map->add_node(n);
+  n.name = "b";
+  auto b = *map->add_node(n);
+  n.name = "c";
+  auto c = *map->add_node(n);
+  const auto ab = add_edge(*map, a, b, 10);
+  const auto ba = add_edge(*map, b, a, 10);
+  const auto bc = add_edge(*map, b, c, 1);
+  const auto ca = add_edge(*map, c, a, 1);
+  auto route = plan_cycle(*map, "a");
+  ASSERT_TRUE(route.ok()) << route.error().message;
+  EXPECT_EQ(route->edge_ids, (std::vector<std::string>{ab, bc, ca}));
+  EXPECT_DOUBLE_EQ(route->length_m, 12.0);
+  (void)ba;
+  // a kind that is forbidden removes the cycle through it
+  RouteCost forbid;
+  forbid.kind_multiplier["feature_segment"] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(plan_cycle(*map, "a", forbid).ok());
+  fs::remove_all(dir);
+}
+
+TEST(NavigationCore, PlanCycleFailsForNodeOnNoLoop) {
+  auto dir = temp_map_dir("nocycle");
+  auto map = MapStore::create(dir.string(), "nocycle");
+  ASSERT_TRUE(map.ok());
+  NodeRecord n;
+  n.name = "a";
+  auto a = *map->add_node(n);
+  n.name = "b";
+  auto b = *map->add_node(n);
+  add_edge(*map, a, b, 3);
+  auto route = plan_cycle(*map, "a");
+  ASSERT_FALSE(route.ok());
+  EXPECT_NE(route.error().message.find("no closed route"), std::string::npos);
+  EXPECT_FALSE(plan_cycle(*map, "nope").ok());
+  fs::remove_all(dir);
+}

@@ -1,0 +1,468 @@
+// Navigation nodes, loaded from the real libvisnav_navigation.so through the real loader, on a
+// kinematic fake robot. Primitive children are small test nodes following the documented
+// protocol ({edge} for replay; {edge_from}/{edge_to}/{finish_edge} for teaching).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include "visnav/bt/registry.hpp"
+#include "visnav/bt/tree.hpp"
+#include "visnav/loader.hpp"
+#include "visnav/map.hpp"
+#include "visnav/runtime_host.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+using bt::NodeStatus;
+
+namespace {
+
+/// Unicycle robot integrating the last command over `step(dt)`.
+class KinematicRobot final : public Robot {
+ public:
+  explicit KinematicRobot(FrameBus& bus) : bus_(bus) { publish(); }
+  Status send_command(const Twist& c) override { command_ = c; ++commands_; return ok(); }
+  std::optional<Odometry> latest_odometry() override { return odom_; }
+  void step(double dt_s) {
+    odom_.pose.heading_rad += command_.angular_radps * dt_s;
+    odom_.pose.x_m += command_.linear_mps * dt_s * std::cos(odom_.pose.heading_rad);
+    odom_.pose.y_m += command_.linear_mps * dt_s * std::sin(odom_.pose.heading_rad);
+    odom_.distance_m += command_.linear_mps * dt_s;
+    odom_.timestamp_s += dt_s;
+    odom_.twist = command_;
+    publish();
+  }
+  void publish() { bus_.publish_odometry(odom_); }
+  Odometry odom_;
+  Twist command_;
+  int commands_ = 0;
+
+ private:
+  FrameBus& bus_;
+};
+
+struct Recorder {
+  std::vector<std::string> edges;             // edges replayed, in order
+  std::vector<double> heading_at_edge_start;  // robot heading when each edge started
+};
+
+/// Replay child: drives the edge's length straight ahead at 1 m/s.
+class TestReplayEdge final : public bt::StatefulActionNode {
+ public:
+  TestReplayEdge(const std::string& name, const bt::NodeConfig& config, HostServices& host, Recorder& rec)
+      : StatefulActionNode(name, config), host_(host), rec_(rec) {}
+  static bt::PortsList provided_ports() { return {bt::input_port<std::string>("edge", "{edge}", "edge")}; }
+  NodeStatus on_start() override {
+    auto edge = get_input<std::string>("edge");
+    if (!edge) return NodeStatus::failure;
+    const EdgeRecord* record = host_.map()->find_edge(*edge);
+    if (record == nullptr) return NodeStatus::failure;
+    rec_.edges.push_back(*edge);
+    auto odom = *host_.frame_bus()->latest_odometry();
+    rec_.heading_at_edge_start.push_back(odom.pose.heading_rad);
+    start_m_ = odom.distance_m;
+    length_m_ = record->length_m;
+    return on_running();
+  }
+  NodeStatus on_running() override {
+    auto odom = *host_.frame_bus()->latest_odometry();
+    if (odom.distance_m - start_m_ >= length_m_ - 1e-9) {
+      (void)host_.robot()->stop();
+      return NodeStatus::success;
+    }
+    (void)host_.robot()->send_command({1.0, 0.0});
+    return NodeStatus::running;
+  }
+  void on_halted() override { (void)host_.robot()->stop(); }
+
+ private:
+  HostServices& host_;
+  Recorder& rec_;
+  double start_m_ = 0, length_m_ = 0;
+};
+
+/// Teach child: records the distance while the operator drives; on {finish_edge} writes the
+/// edge with its length, azimuth and end heading.
+class TestTeachEdge final : public bt::StatefulActionNode {
+ public:
+  TestTeachEdge(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+      : StatefulActionNode(name, config), host_(host) {}
+  static bt::PortsList provided_ports() {
+    return {bt::input_port<std::string>("edge_from", "{edge_from}", ""),
+            bt::input_port<std::string>("edge_to", "{edge_to}", ""),
+            bt::input_port<bool>("finish", "{finish_edge}", ""),
+            bt::input_port<std::string>("kind", "feature_segment", ""),
+            bt::output_port<std::string>("edge", "{taught_edge}", "")};
+  }
+  NodeStatus on_start() override {
+    auto odom = *host_.frame_bus()->latest_odometry();
+    start_m_ = odom.distance_m;
+    azimuth_ = odom.pose.heading_rad;
+    return on_running();
+  }
+  NodeStatus on_running() override {
+    auto finish = get_input<bool>("finish");
+    if (!finish || !*finish) return NodeStatus::running;
+    auto odom = *host_.frame_bus()->latest_odometry();
+    EdgeRecord e;
+    e.from = *get_input<std::string>("edge_from");
+    e.to = *get_input<std::string>("edge_to");
+    e.kind = *get_input<std::string>("kind");
+    e.length_m = odom.distance_m - start_m_;
+    e.azimuth_rad = azimuth_;
+    e.statistics["end_heading_rad"] = odom.pose.heading_rad;
+    std::vector<std::uint8_t> payload{1, 2, 3};
+    auto id = host_.map()->add_edge(e, payload);
+    if (!id) return NodeStatus::failure;
+    (void)set_output("edge", *id);
+    return NodeStatus::success;
+  }
+  void on_halted() override {}
+
+ private:
+  HostServices& host_;
+  double start_m_ = 0, azimuth_ = 0;
+};
+
+/// Scripted "operator" for teaching: a list of legs (kind, distance, turn before it).
+struct Leg {
+  std::string kind;
+  double turn_rad;
+  double length_m;
+};
+
+class NavigationNodes : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("visnav_nav_nodes_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    auto map = MapStore::create(dir_.string(), "test");
+    ASSERT_TRUE(map.ok()) << map.error().message;
+    map_.emplace(std::move(*map));
+    map_->set_sync(false);
+    auto lib = loader_.load_library("navigation");
+    ASSERT_TRUE(lib.ok()) << lib.error().message;
+    host_.set_frame_bus(&bus_);
+    host_.set_robot(&robot_);
+    host_.set_map(&*map_);
+    ASSERT_TRUE(bt::register_builtin_nodes(registry_).ok());
+    bool found = false;
+    for (const auto& p : loader_.nodes_plugins()) {
+      if (p.library == *lib) {
+        auto st = p.register_nodes(registry_, host_);
+        ASSERT_TRUE(st.ok()) << st.error().message;
+        found = true;
+      }
+    }
+    ASSERT_TRUE(found);
+    auto* host = &host_;
+    auto* rec = &rec_;
+    ASSERT_TRUE((registry_.register_node<TestReplayEdge>(
+                     "TestReplayEdge", "",
+                     [host, rec](const std::string& n, const bt::NodeConfig& c) {
+                       return std::make_unique<TestReplayEdge>(n, c, *host, *rec);
+                     }))
+                    .ok());
+    ASSERT_TRUE((registry_.register_node<TestTeachEdge>("TestTeachEdge", "",
+                                                        [host](const std::string& n, const bt::NodeConfig& c) {
+                                                          return std::make_unique<TestTeachEdge>(n, c, *host);
+                                                        }))
+                    .ok());
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  bt::Tree load(const std::string& body) {
+    const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" + body + "</BehaviorTree></root>";
+    bt::LoadOptions options;
+    options.clock = &clock_;
+    auto tree = bt::load_tree_string(xml, registry_, options);
+    EXPECT_TRUE(tree.ok()) << (tree.ok() ? "" : tree.error().message);
+    return std::move(*tree);
+  }
+
+  /// Ticks at 10 Hz until the tree finishes (or max_ticks), stepping the robot after each tick.
+  NodeStatus run(bt::Tree& tree, int max_ticks = 5000, const std::function<void(int)>& before_tick = {}) {
+    NodeStatus s = NodeStatus::running;
+    for (int i = 0; i < max_ticks && s == NodeStatus::running; ++i) {
+      if (before_tick) before_tick(i);
+      s = tree.tick_once();
+      robot_.step(0.1);
+      clock_.advance(0.1);
+    }
+    return s;
+  }
+
+  std::string node(const std::string& name) {
+    NodeRecord n;
+    n.name = name;
+    return *map_->add_node(n);
+  }
+  std::string edge(const std::string& from, const std::string& to, double length_m, double azimuth_rad,
+                   double end_heading_rad, const std::string& kind = "feature_segment") {
+    EdgeRecord e;
+    e.from = from;
+    e.to = to;
+    e.kind = kind;
+    e.length_m = length_m;
+    e.azimuth_rad = azimuth_rad;
+    e.statistics["end_heading_rad"] = end_heading_rad;
+    std::vector<std::uint8_t> payload{0};
+    return *map_->add_edge(e, payload);
+  }
+
+  fs::path dir_;
+  PluginLoader loader_{std::vector<std::string>{VISNAV_TEST_PLUGIN_DIR}};
+  StderrLogger logger_{LogLevel::warn};
+  ManualClock clock_;
+  RuntimeHost host_{loader_, logger_, clock_};
+  FrameBus bus_;
+  KinematicRobot robot_{bus_};
+  std::optional<MapStore> map_;
+  bt::NodeRegistry registry_;
+  Recorder rec_;
+};
+
+}  // namespace
+
+TEST_F(NavigationNodes, PlanRouteWritesShortestRouteAndLength) {
+  auto a = node("A"), b = node("B"), c = node("C");
+  auto ab = edge(a, b, 5, 0, 0);
+  auto bc = edge(b, c, 5, 0, 0);
+  edge(a, c, 20, 0, 0, "path_following");
+  auto tree = load(R"(<PlanRoute start="A" goal="C"/>)");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_EQ(*tree.blackboard().get<std::vector<std::string>>("route"), (std::vector<std::string>{ab, bc}));
+  EXPECT_DOUBLE_EQ(*tree.blackboard().get<double>("route_length_m"), 10.0);
+}
+
+TEST_F(NavigationNodes, PlanRouteKindCostsChangeTheRoute) {
+  auto a = node("A"), b = node("B"), c = node("C");
+  edge(a, b, 5, 0, 0);
+  edge(b, c, 5, 0, 0);
+  auto ac = edge(a, c, 12, 0, 0, "path_following");
+  auto tree = load(R"(<PlanRoute start="A" goal="C" kind_costs="path_following=0.5"/>)");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_EQ(*tree.blackboard().get<std::vector<std::string>>("route"), (std::vector<std::string>{ac}));
+}
+
+TEST_F(NavigationNodes, PlanRouteFailsForUnknownNodeAndUnreachableGoal) {
+  auto a = node("A");
+  node("B");
+  (void)a;
+  auto unknown = load(R"(<PlanRoute start="A" goal="Nowhere"/>)");
+  EXPECT_EQ(unknown.tick_once(), NodeStatus::failure);
+  auto unreachable = load(R"(<PlanRoute start="A" goal="B"/>)");
+  EXPECT_EQ(unreachable.tick_once(), NodeStatus::failure);
+}
+
+TEST_F(NavigationNodes, PlanRouteWithStartEqualGoalPlansTheLoop) {
+  auto a = node("A"), b = node("B");
+  auto ab = edge(a, b, 5, 0, 0);
+  auto ba = edge(b, a, 5, 0, 0);
+  auto tree = load(R"(<PlanRoute start="A" goal="A"/>)");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_EQ(*tree.blackboard().get<std::vector<std::string>>("route"), (std::vector<std::string>{ab, ba}));
+}
+
+TEST_F(NavigationNodes, TurnToAzimuthReachesTargetWithinTolerance) {
+  auto tree = load(R"(<TurnToAzimuth azimuth_rad="1.2" turn_tolerance_rad="0.01"/>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  EXPECT_NEAR(robot_.odom_.pose.heading_rad, 1.2, 0.02);
+  EXPECT_EQ(robot_.command_.angular_radps, 0.0);  // stopped at the end
+}
+
+TEST_F(NavigationNodes, TurnToAzimuthRelativeAndShortestDirection) {
+  robot_.odom_.pose.heading_rad = 3.0;
+  robot_.publish();
+  auto tree = load(R"(<TurnToAzimuth azimuth_rad="-3.0"/>)");  // shortest way is +0.28 rad, not -6
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_GT(robot_.command_.angular_radps, 0.0);
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  EXPECT_NEAR(std::remainder(robot_.odom_.pose.heading_rad + 3.0, 2 * std::numbers::pi), 0.0, 0.03);
+}
+
+TEST_F(NavigationNodes, TurnToAzimuthHaltStopsTheRobot) {
+  auto tree = load(R"(<TurnToAzimuth azimuth_rad="2.0"/>)");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_NE(robot_.command_.angular_radps, 0.0);
+  tree.halt();
+  EXPECT_EQ(robot_.command_.angular_radps, 0.0);
+}
+
+TEST_F(NavigationNodes, AtNodeComparesIdsAndNames) {
+  auto a = node("A");
+  node("B");
+  auto tree = load(R"(<Sequence><SetBlackboard output_key="current_node" value=")" + a +
+                   R"("/><AtNode node="A"/><Inverter><AtNode node="B"/></Inverter></Sequence>)");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+}
+
+TEST_F(NavigationNodes, FollowRouteRunsEdgesInOrderAndTurnsRelativelyAtNodes) {
+  auto a = node("A"), b = node("B"), c = node("C");
+  // edge 1 heads east and ends heading east; edge 2 starts heading north: a +90° turn at B.
+  auto ab = edge(a, b, 2.0, 0.0, 0.0);
+  auto bc = edge(b, c, 3.0, std::numbers::pi / 2, std::numbers::pi / 2);
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge">
+        <TestReplayEdge/></FollowRoute></Sequence>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.edges, (std::vector<std::string>{ab, bc}));
+  EXPECT_NEAR(rec_.heading_at_edge_start[1] - rec_.heading_at_edge_start[0], std::numbers::pi / 2, 0.02);
+  EXPECT_NEAR(robot_.odom_.distance_m, 5.0, 0.15);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("current_node"), c);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("previous_edge"), bc);
+}
+
+TEST_F(NavigationNodes, FollowRouteFailsClearlyWhenNoChildHandlesAKind) {
+  auto a = node("A"), b = node("B");
+  edge(a, b, 2.0, 0.0, 0.0, "path_following");
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="B"/>
+      <FollowRoute primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute></Sequence>)");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::failure);
+  EXPECT_TRUE(rec_.edges.empty());
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+TEST_F(NavigationNodes, FollowRouteHaltStopsRobotAndChild) {
+  auto a = node("A"), b = node("B");
+  edge(a, b, 50.0, 0.0, 0.0);
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="B"/>
+      <FollowRoute primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute></Sequence>)");
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+    robot_.step(0.1);
+  }
+  EXPECT_GT(robot_.command_.linear_mps, 0.0);
+  tree.halt();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(NavigationNodes, PatrolLoopTurnsRelativeToThePreviousLoopsLastEdge) {
+  // A square loop; after the first lap the robot turns +90° from the last edge into the first.
+  auto a = node("A"), b = node("B"), c = node("C"), d = node("D");
+  const double q = std::numbers::pi / 2;
+  edge(a, b, 1.0, 0.0, 0.0);
+  edge(b, c, 1.0, q, q);
+  edge(c, d, 1.0, 2 * q, 2 * q);
+  edge(d, a, 1.0, -q, -q);
+  auto tree = load(R"(<Repeat num_cycles="2"><Sequence><PlanRoute start="A" goal="A"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute>
+      </Sequence></Repeat>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.edges.size(), 8u);
+  // back at the start after two laps, heading east again (4 full turns of +90°)
+  EXPECT_NEAR(robot_.odom_.pose.x_m, 0.0, 0.1);
+  EXPECT_NEAR(robot_.odom_.pose.y_m, 0.0, 0.1);
+  EXPECT_NEAR(rec_.heading_at_edge_start[4] - rec_.heading_at_edge_start[3], q, 0.02);
+}
+
+TEST_F(NavigationNodes, TeachRouteCreatesANodeAndEdgeAtEveryPrimitiveSwitch) {
+  // Operator script: 2 m feature, turn +90°, 3 m path, then done (closing the loop is off).
+  auto tree = load(R"(<TeachRoute start_node="dock" primitives="feature_segment=TestTeachEdge;path_following=TestTeachEdge">
+      <TestTeachEdge/></TeachRoute>)");
+  auto& bb = tree.blackboard();
+  bb.set("primitive", std::string());
+  bb.set("teach_done", false);
+  int phase = 0;
+  double phase_start_m = 0.0;
+  double phase_start_heading = 0.0;
+  auto op = [&](int) {
+    const auto& o = robot_.odom_;
+    switch (phase) {
+      case 0:
+        bb.set("primitive", std::string("feature_segment"));
+        (void)robot_.send_command({1.0, 0.0});
+        phase = 1;
+        phase_start_m = o.distance_m;
+        break;
+      case 1:
+        if (o.distance_m - phase_start_m >= 2.0) {
+          bb.set("primitive", std::string());
+          phase = 2;
+          phase_start_heading = o.pose.heading_rad;
+          (void)robot_.send_command({0.0, 0.5});
+        }
+        break;
+      case 2:
+        if (o.pose.heading_rad - phase_start_heading >= std::numbers::pi / 2) {
+          bb.set("primitive", std::string("path_following"));
+          (void)robot_.send_command({1.0, 0.0});
+          phase = 3;
+          phase_start_m = o.distance_m;
+        }
+        break;
+      case 3:
+        if (o.distance_m - phase_start_m >= 3.0) {
+          (void)robot_.send_command({0.0, 0.0});
+          bb.set("teach_done", true);
+          phase = 4;
+        }
+        break;
+      default:
+        break;
+    }
+  };
+  EXPECT_EQ(run(tree, 500, op), NodeStatus::success);
+  ASSERT_EQ(map_->edges().size(), 2u);
+  ASSERT_EQ(map_->nodes().size(), 3u);
+  EXPECT_EQ(map_->nodes()[0].name, "dock");
+  const auto& e1 = map_->edges()[0];
+  const auto& e2 = map_->edges()[1];
+  EXPECT_NEAR(e1.length_m, 2.0, 0.15);
+  EXPECT_NEAR(e2.length_m, 3.0, 0.15);
+  EXPECT_EQ(e1.to, e2.from);
+  EXPECT_NEAR(e2.azimuth_rad - e1.statistics.at("end_heading_rad"), std::numbers::pi / 2, 0.1);
+  EXPECT_EQ(*bb.get<std::vector<std::string>>("taught_route"), (std::vector<std::string>{e1.id, e2.id}));
+  // The map on disk reloads with both edges.
+  auto reopened = MapStore::open(dir_.string());
+  ASSERT_TRUE(reopened.ok()) << reopened.error().message;
+  EXPECT_EQ(reopened->edges().size(), 2u);
+  EXPECT_TRUE(reopened->validate().empty());
+}
+
+TEST_F(NavigationNodes, TeachRouteClosesTheLoopOnTheStartNode) {
+  auto tree = load(R"(<TeachRoute close_loop="true" primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  auto& bb = tree.blackboard();
+  bb.set("primitive", std::string("feature_segment"));
+  bb.set("teach_done", false);
+  (void)robot_.send_command({1.0, 0.0});
+  auto op = [&](int i) {
+    if (i == 20) bb.set("teach_done", true);
+  };
+  EXPECT_EQ(run(tree, 100, op), NodeStatus::success);
+  ASSERT_EQ(map_->edges().size(), 1u);
+  EXPECT_EQ(map_->edges()[0].from, map_->edges()[0].to);
+  EXPECT_EQ(map_->nodes().size(), 1u);
+}
+
+TEST_F(NavigationNodes, TeachRouteHaltKeepsCompletedEdgesOnly) {
+  auto tree = load(R"(<TeachRoute primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  auto& bb = tree.blackboard();
+  bb.set("primitive", std::string("feature_segment"));
+  bb.set("teach_done", false);
+  (void)robot_.send_command({1.0, 0.0});
+  auto op = [&](int i) {
+    if (i == 10) bb.set("primitive", std::string());      // end edge 1
+    if (i == 12) bb.set("primitive", std::string("feature_segment"));  // start edge 2
+  };
+  for (int i = 0; i < 20; ++i) {
+    op(i);
+    EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+    robot_.step(0.1);
+  }
+  tree.halt();  // interrupted while teaching edge 2
+  EXPECT_EQ(map_->edges().size(), 1u);
+  auto reopened = MapStore::open(dir_.string());
+  ASSERT_TRUE(reopened.ok());
+  EXPECT_EQ(reopened->edges().size(), 1u);
+}
+
+TEST_F(NavigationNodes, TeachRouteRejectsUnmappedKind) {
+  auto tree = load(R"(<TeachRoute primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  tree.blackboard().set("primitive", std::string("teleport"));
+  tree.blackboard().set("teach_done", false);
+  EXPECT_EQ(tree.tick_once(), NodeStatus::failure);
+}

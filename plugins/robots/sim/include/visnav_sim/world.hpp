@@ -1,0 +1,150 @@
+// visnav simulator — the world model and its YAML loader.
+//
+// A world is a flat ground (z = 0) covered by textured polygon regions, vertical textured
+// rectangles standing on it (walls, facades, fences, tree billboards) and a sky gradient.
+// It is described by a YAML file (config/worlds/*.yaml; every key is documented in
+// docs/sim.md) and loaded once; afterwards it is immutable.
+//
+// Frames and units: the `world` frame of visnav/types.hpp — x east, y north, z up, metres;
+// headings in radians counter-clockwise from +x (the YAML file states angles in degrees).
+//
+// Errors: every problem in a world file (syntax, unknown key, bad value, missing texture
+// file, self-intersecting polygon, unknown texture name) is a visnav::Error whose message
+// starts with "file:line:" and names the key or the offending value.
+//
+// Thread-safety: a loaded World is immutable and may be shared between threads
+// (std::shared_ptr<const World>). load_world_cached() is thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
+
+#include "visnav/config_node.hpp"
+#include "visnav/result.hpp"
+#include "visnav/types.hpp"
+
+namespace visnav::sim {
+
+/// Ground-truth class of a pixel in a label render (CV_8UC1 values).
+enum class LabelClass : std::uint8_t {
+  sky = 0,
+  path = 1,      ///< a path the path-following primitive should follow (gravel, asphalt path)
+  grass = 2,
+  floor = 3,     ///< indoor floor
+  pavement = 4,  ///< open paved area without a path (square, courtyard)
+  ground = 5,    ///< any other ground
+  wall = 6,      ///< walls, facades, corridors
+  fence = 7,
+  tree = 8,
+  obstacle = 9,
+};
+inline constexpr int kLabelClassCount = 10;
+
+[[nodiscard]] const char* to_string(LabelClass label);
+[[nodiscard]] std::optional<LabelClass> label_class_from_string(std::string_view text);
+/// Display colour (BGR) of a class, for label visualisations and the top view.
+[[nodiscard]] cv::Vec3b label_color(LabelClass label);
+
+/// A texture with its mip pyramid. Texel (i, j) of level k covers texel_m * 2^k metres.
+struct Texture {
+  std::string name;
+  std::vector<cv::Mat> levels;  ///< CV_8UC4 BGRA, square, power-of-two side; levels[0] is full size
+  int size_log2 = 0;            ///< log2 of levels[0] side
+  double texel_m = 0.01;        ///< metres per level-0 texel (tiled textures)
+  bool tiled = true;            ///< false: stretched once over its surface (billboards)
+  bool has_alpha = false;       ///< texels with alpha < 128 are transparent (walls only)
+  /// Seasonal replacements: (season name, texture index).
+  std::vector<std::pair<std::string, int>> seasons;
+};
+
+/// A textured polygon on the ground. Later regions are drawn over earlier ones.
+struct GroundRegion {
+  std::string name;
+  int texture = 0;  ///< index into World::textures
+  LabelClass label = LabelClass::ground;
+  std::vector<cv::Point2d> polygon;  ///< world metres; for `polyline` regions the buffered outline is not stored
+  std::vector<cv::Point2d> polyline;  ///< centre line of a `polyline` region (paths), else empty
+  double width_m = 0.0;               ///< width of a `polyline` region
+  SourceLocation where;
+};
+
+/// A vertical textured rectangle from `from` to `to` (world metres), z in [base_m, top_m].
+struct Wall {
+  std::string name;
+  cv::Point2d from;
+  cv::Point2d to;
+  double base_m = 0.0;
+  double top_m = 2.5;
+  int texture = 0;
+  LabelClass label = LabelClass::wall;
+  SourceLocation where;
+};
+
+struct World {
+  std::string name;
+  std::string file;  ///< path the world was loaded from (empty if parsed from a string)
+
+  std::vector<Texture> textures;
+  std::vector<GroundRegion> regions;
+  std::vector<Wall> walls;
+
+  int default_texture = 0;  ///< ground outside every region
+  LabelClass default_label = LabelClass::ground;
+  cv::Vec3b sky_zenith_bgr{200, 140, 90};
+  cv::Vec3b sky_horizon_bgr{235, 215, 200};
+  double fog_distance_m = 0.0;  ///< 0 = no fog; else colour fades to the horizon colour with exp(-d/fog)
+  Pose2D start;                 ///< suggested start pose of robots (world frame)
+
+  /// Region index map: value r > 0 means regions[r - 1]; 0 means the default ground.
+  /// Cell (row, col) covers x in [origin.x + col*res, +res), y in [origin.y + row*res, +res).
+  cv::Mat region_map;  ///< CV_16UC1
+  cv::Point2d region_map_origin_m;
+  double region_map_resolution_m = 0.05;
+
+  /// Index of the region at a world point: -1 for the default ground.
+  [[nodiscard]] int region_at(double x_m, double y_m) const;
+  /// Label of the ground at a world point.
+  [[nodiscard]] LabelClass ground_label_at(double x_m, double y_m) const;
+  /// Texture index by name, or -1.
+  [[nodiscard]] int texture_index(std::string_view wanted) const;
+  /// Bounding box of regions and walls (world metres): x, y, width, height.
+  [[nodiscard]] cv::Rect2d bounds() const;
+};
+
+/// Loads a world file. Relative texture paths are resolved against the file's folder.
+[[nodiscard]] Result<std::shared_ptr<const World>> load_world(const std::string& path);
+/// Parses world YAML text; `file_label` appears in error locations, `base_dir` resolves
+/// relative texture paths.
+[[nodiscard]] Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text,
+                                                               const std::string& file_label,
+                                                               const std::string& base_dir);
+/// load_world() with a process-wide cache keyed by the canonical path (worlds are immutable,
+/// textures are large). Thread-safe.
+[[nodiscard]] Result<std::shared_ptr<const World>> load_world_cached(const std::string& path);
+
+/// Resolves a world name or path: an existing file as given; else relative to `relative_to`
+/// (a file or folder, e.g. the config file naming the world); else `<name>` or `<name>.yaml`
+/// in the source tree's and the install tree's config/worlds. Error lists every path tried.
+[[nodiscard]] Result<std::string> resolve_world_path(const std::string& name_or_path,
+                                                     const std::string& relative_to = {});
+/// Same for route scripts (config/routes).
+[[nodiscard]] Result<std::string> resolve_route_path(const std::string& name_or_path,
+                                                     const std::string& relative_to = {});
+
+/// Folder holding the scikit-image sample photos used by `image: skimage:<name>` textures:
+/// $VISNAV_SKIMAGE_DIR if set, else /usr/lib/python3/dist-packages/skimage/data.
+[[nodiscard]] std::string skimage_data_dir();
+
+/// Parses YAML text into a ConfigNode with file:line locations (used for world and route
+/// files; independent of the runtime's config loader).
+[[nodiscard]] Result<ConfigNode> parse_yaml_text(std::string_view text, const std::string& file_label);
+[[nodiscard]] Result<ConfigNode> parse_yaml_path(const std::string& path);
+
+}  // namespace visnav::sim

@@ -1,0 +1,222 @@
+// The `sim` camera: renderer + appearance changes + faults, bound to a RobotCore.
+#include "visnav_sim/camera.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "visnav_sim/registry.hpp"
+
+namespace visnav::sim {
+
+Status CameraParams::validate() const {
+  VISNAV_TRY(model().validate());
+  if (color_gain_bgr.size() != 3)
+    return fail("key 'color_gain_bgr': expected 3 values b;g;r, got " + std::to_string(color_gain_bgr.size()));
+  for (double g : color_gain_bgr)
+    if (!(g >= 0.0 && g <= 4.0)) return fail("key 'color_gain_bgr': values must be in [0, 4]");
+  if (shadow_width_m >= shadow_period_m) return fail("key 'shadow_width_m': must be smaller than shadow_period_m");
+  return ok();
+}
+
+const ParamSchema<CameraParams>& CameraParams::schema() {
+  static const auto s =
+      ParamSchema<CameraParams>{}
+          .field("robot", &CameraParams::robot, "name of the sim robot to ride on; empty = the first one")
+          .field("world", &CameraParams::world, "world file or name; empty = the robot's world")
+          .field("width_px", &CameraParams::width_px, "image width, px").range(8, 8192)
+          .field("height_px", &CameraParams::height_px, "image height, px").range(8, 8192)
+          .field("hfov_deg", &CameraParams::hfov_deg, "horizontal field of view, deg").range(5, 170)
+          .field("mount_height_m", &CameraParams::mount_height_m, "camera height above the ground, m").range(0.02, 20)
+          .field("mount_pitch_down_deg", &CameraParams::mount_pitch_down_deg, "downward tilt of the optical axis, deg").range(-60, 60)
+          .field("mount_forward_m", &CameraParams::mount_forward_m, "mount offset forward of the robot origin, m").range(-5, 5)
+          .field("mount_lateral_m", &CameraParams::mount_lateral_m, "mount offset left of the robot origin, m").range(-5, 5)
+          .field("max_range_m", &CameraParams::max_range_m, "ground beyond this distance is drawn as horizon, m").range(2, 1000)
+          .field("grey", &CameraParams::grey, "deliver 8-bit grey frames instead of BGR")
+          .field("frame_rate_hz", &CameraParams::frame_rate_hz, "frames per second of simulated time; 0 = one per grab").range(0, 1000)
+          .field("gain", &CameraParams::gain, "illumination gain").range(0, 8)
+          .field("offset", &CameraParams::offset, "illumination offset, grey levels").range(-255, 255)
+          .field("color_gain_bgr", &CameraParams::color_gain_bgr, "per-channel colour gains b;g;r (colour shift)")
+          .field("shadow_strength", &CameraParams::shadow_strength, "darkness of world-fixed shadow bands on the ground, 0 = off").range(0, 1)
+          .field("shadow_period_m", &CameraParams::shadow_period_m, "shadow band period, m").range(0.1, 1000)
+          .field("shadow_width_m", &CameraParams::shadow_width_m, "shadow band width, m").range(0.01, 1000)
+          .field("shadow_direction_deg", &CameraParams::shadow_direction_deg, "direction of the band normal in the world, deg").range(-360, 360)
+          .field("season", &CameraParams::season, "texture season (world textures' `seasons:`); empty = base")
+          .field("noise_std", &CameraParams::noise_std, "Gaussian sensor noise std, grey levels").range(0, 100)
+          .field("motion_blur_exposure_s", &CameraParams::motion_blur_exposure_s, "exposure time for motion blur, s; 0 = off").range(0, 1)
+          .field("drop_probability", &CameraParams::drop_probability, "probability that a frame is dropped").range(0, 1)
+          .field("freeze_probability", &CameraParams::freeze_probability, "probability that the previous image is repeated").range(0, 1)
+          .field("latency_s", &CameraParams::latency_s, "frames show the world this long ago, s").range(0, 10)
+          .field("seed", &CameraParams::seed, "seed of faults and noise").range(0, 2147483647);
+  return s;
+}
+
+CameraModel CameraParams::model() const {
+  CameraModel m;
+  m.width_px = width_px;
+  m.height_px = height_px;
+  m.hfov_deg = hfov_deg;
+  m.height_m = mount_height_m;
+  m.pitch_down_deg = mount_pitch_down_deg;
+  m.forward_m = mount_forward_m;
+  m.lateral_m = mount_lateral_m;
+  m.max_range_m = max_range_m;
+  return m;
+}
+
+RenderOptions CameraParams::render_options() const {
+  RenderOptions o;
+  o.season = season;
+  o.shadows.strength = shadow_strength;
+  o.shadows.period_m = shadow_period_m;
+  o.shadows.width_m = shadow_width_m;
+  o.shadows.direction_deg = shadow_direction_deg;
+  return o;
+}
+
+CameraCore::CameraCore(CameraParams params, std::shared_ptr<RobotCore> robot, std::shared_ptr<const World> world)
+    : params_(std::move(params)),
+      robot_(std::move(robot)),
+      renderer_(std::move(world), params_.model(), params_.render_options()),
+      rng_(static_cast<std::uint64_t>(params_.seed) * 0x9E3779B97F4A7C15ULL + 1) {
+  const bool tone = params_.gain != 1.0 || params_.offset != 0.0 || params_.color_gain_bgr[0] != 1.0 ||
+                    params_.color_gain_bgr[1] != 1.0 || params_.color_gain_bgr[2] != 1.0;
+  if (tone) {
+    tone_lut_.create(1, 256, CV_8UC3);
+    for (int i = 0; i < 256; ++i)
+      for (int c = 0; c < 3; ++c)
+        tone_lut_.at<cv::Vec3b>(0, i)[c] =
+            cv::saturate_cast<unsigned char>(i * params_.gain * params_.color_gain_bgr[static_cast<size_t>(c)] + params_.offset);
+  }
+}
+
+cv::Mat CameraCore::take_buffer(int type) {
+  const cv::Size size(params_.width_px, params_.height_px);
+  for (auto& m : pool_)
+    if (m.u != nullptr && m.u->refcount == 1 && m.type() == type && m.size() == size) return m;
+  cv::Mat fresh(size, type);
+  if (pool_.size() < 8) pool_.push_back(fresh);
+  return fresh;
+}
+
+void CameraCore::apply_appearance(cv::Mat& bgr, const Twist& twist) {
+  if (params_.motion_blur_exposure_s > 0.0) {
+    const double f = params_.model().fx();
+    const int kh = static_cast<int>(std::lround(std::abs(twist.angular_radps) * params_.motion_blur_exposure_s * f));
+    const int kv = static_cast<int>(std::lround(std::abs(twist.linear_mps) * params_.motion_blur_exposure_s * f / 4.0));
+    if (kh > 1 || kv > 1) cv::blur(bgr, bgr, cv::Size(std::max(1, kh), std::max(1, kv)));
+  }
+  if (!tone_lut_.empty()) cv::LUT(bgr, tone_lut_, bgr);
+  if (params_.noise_std > 0.0) {
+    cv::RNG rng(rng_());
+    noise_buffer_.create(bgr.size(), CV_16SC3);
+    rng.fill(noise_buffer_, cv::RNG::NORMAL, 0.0, params_.noise_std);
+    cv::add(bgr, noise_buffer_, bgr, cv::noArray(), CV_8U);
+  }
+}
+
+std::optional<Frame> CameraCore::grab() {
+  const double now = robot_->time_s();
+  if (params_.frame_rate_hz > 0.0) {
+    if (now + 1e-9 < next_frame_s_) return std::nullopt;
+    const double period = 1.0 / params_.frame_rate_hz;
+    while (next_frame_s_ <= now + 1e-9) next_frame_s_ += period;
+  }
+  // fixed number of draws per grab keeps the random stream independent of the outcomes
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const double drop_draw = uni(rng_);
+  const double freeze_draw = uni(rng_);
+  const std::uint64_t noise_seed = rng_();
+  const std::uint64_t sequence = sequence_++;
+  if (drop_draw < params_.drop_probability) return std::nullopt;
+
+  Frame frame;
+  frame.sequence = sequence;
+  frame.timestamp_s = std::max(0.0, now - params_.latency_s);
+  if (have_last_ && freeze_draw < params_.freeze_probability) {
+    frame.image = last_image_;
+    return frame;
+  }
+  const Pose2D pose = params_.latency_s > 0.0 ? robot_->pose_at(frame.timestamp_s) : robot_->ground_truth();
+  cv::Mat out = take_buffer(params_.grey ? CV_8UC1 : CV_8UC3);
+  cv::Mat& target = params_.grey ? render_buffer_ : out;
+  renderer_.render(pose, target);
+  std::mt19937_64 saved = rng_;
+  rng_.seed(noise_seed);
+  apply_appearance(target, robot_->true_twist());
+  rng_ = saved;
+  if (params_.grey) cv::cvtColor(render_buffer_, out, cv::COLOR_BGR2GRAY);
+  last_image_ = out;
+  last_pose_ = pose;
+  have_last_ = true;
+  frame.image = out;
+  return frame;
+}
+
+void CameraCore::last_labels(cv::Mat& labels) {
+  cv::Mat scratch;
+  renderer_.render(last_pose_, scratch, &labels);
+}
+
+// ---------------------------------------------------------------------------------------
+
+Status SimCamera::bind() {
+  if (core_) return ok();
+  VISNAV_ASSIGN(auto robot, find_robot(params_.robot));
+  std::shared_ptr<const World> world = robot->world();
+  if (!params_.world.empty()) {
+    auto path = resolve_world_path(params_.world, relative_to_);
+    if (!path) return path.error().with_context("sim camera: key 'world'");
+    VISNAV_ASSIGN(world, load_world_cached(*path));
+  }
+  if (world == nullptr)
+    return fail("sim camera: neither the camera nor robot '" + robot->params().name + "' names a world (set 'world')");
+  core_ = std::make_unique<CameraCore>(params_, std::move(robot), std::move(world));
+  return ok();
+}
+
+Result<std::unique_ptr<SimCamera>> SimCamera::create(const CameraParams& params, const std::string& relative_to) {
+  VISNAV_TRY(params.validate());
+  std::unique_ptr<SimCamera> cam(new SimCamera(params, relative_to));
+  if (!params.world.empty()) {  // report a bad world now rather than at the first grab
+    auto path = resolve_world_path(params.world, relative_to);
+    if (!path) return path.error().with_context("key 'world'");
+    VISNAV_TRY(load_world_cached(*path));
+  }
+  if (find_robot(params.robot)) VISNAV_TRY(cam->bind());
+  return cam;
+}
+
+Result<std::unique_ptr<SimCamera>> SimCamera::create(const ConfigNode& params, HostServices& host) {
+  VISNAV_ASSIGN(CameraParams p, CameraParams::schema().parse(params));
+  auto made = create(p, params.where().file);
+  if (!made) return made.error().with_context(params.where().str());
+  host.logger().info("camera_sim", std::to_string(p.width_px) + "x" + std::to_string(p.height_px) + " hfov " +
+                                       std::to_string(p.hfov_deg) + " deg" +
+                                       ((*made)->core_ ? "" : " (robot not created yet; bound at the first grab)"));
+  return made;
+}
+
+Result<std::optional<Frame>> SimCamera::grab(double timeout_s) {
+  (void)timeout_s;  // simulated frames are rendered immediately
+  VISNAV_TRY(bind());
+  return core_->grab();
+}
+
+Status SimCamera::reconfigure(const ConfigNode& params) {
+  VISNAV_ASSIGN(CameraParams p, CameraParams::schema().parse(params));
+  if (p.robot != params_.robot || p.world != params_.world)
+    return fail("sim camera: 'robot' and 'world' cannot change while running");
+  params_ = p;
+  if (core_) {
+    auto robot = find_robot(params_.robot);
+    if (!robot) return robot.error();
+    std::shared_ptr<const World> world = core_->renderer().world_ptr();
+    core_ = std::make_unique<CameraCore>(params_, *robot, world);
+  }
+  return ok();
+}
+
+}  // namespace visnav::sim

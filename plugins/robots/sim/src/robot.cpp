@@ -1,0 +1,302 @@
+// Robot kinematics, odometry model and the `sim` robot object.
+#include "visnav_sim/robot.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "visnav_sim/registry.hpp"
+
+namespace visnav::sim {
+namespace {
+
+constexpr double kDeg = CV_PI / 180.0;
+
+double wrap_angle(double a) {
+  a = std::fmod(a + CV_PI, 2.0 * CV_PI);
+  if (a < 0) a += 2.0 * CV_PI;
+  return a - CV_PI;
+}
+
+double approach(double current, double target, double max_delta) {
+  if (target > current) return std::min(target, current + max_delta);
+  return std::max(target, current - max_delta);
+}
+
+}  // namespace
+
+Status RobotParams::validate() const {
+  if (name.empty()) return fail("key 'name': must not be empty");
+  if (!start_pose.empty() && start_pose.size() != 3)
+    return fail("key 'start_pose': expected 3 values x_m;y_m;heading_deg, got " + std::to_string(start_pose.size()));
+  if (kinematics == "car_like" && !(min_turning_radius_m > 0))
+    return fail("key 'min_turning_radius_m': must be > 0 for car_like kinematics");
+  return ok();
+}
+
+const ParamSchema<RobotParams>& RobotParams::schema() {
+  static const auto s =
+      ParamSchema<RobotParams>{}
+          .field("name", &RobotParams::name, "registry name; the sim camera's `robot` refers to it")
+          .field("world", &RobotParams::world, "world file or name (config/worlds/<name>.yaml); empty = none")
+          .field("kinematics", &RobotParams::kinematics, "drive model").one_of({"diff_drive", "car_like", "tracked"})
+          .field("max_linear_mps", &RobotParams::max_linear_mps, "forward speed limit, m/s").range(0.01, 20)
+          .field("max_reverse_mps", &RobotParams::max_reverse_mps, "reverse speed limit, m/s").range(0, 20)
+          .field("max_angular_radps", &RobotParams::max_angular_radps, "yaw rate limit, rad/s").range(0.01, 20)
+          .field("linear_accel_mps2", &RobotParams::linear_accel_mps2, "linear acceleration limit, m/s^2").range(0.01, 100)
+          .field("angular_accel_radps2", &RobotParams::angular_accel_radps2, "angular acceleration limit, rad/s^2").range(0.01, 200)
+          .field("min_turning_radius_m", &RobotParams::min_turning_radius_m, "car_like: minimum turning radius, m").range(0.01, 100)
+          .field("track_slip", &RobotParams::track_slip, "tracked: fraction of the commanded yaw rate lost to skid").range(0, 0.9)
+          .field("actuation_delay_s", &RobotParams::actuation_delay_s, "delay before a command takes effect, s").range(0, 5)
+          .field("command_timeout_s", &RobotParams::command_timeout_s, "watchdog: stop after this long without a command, s; 0 = off").range(0, 3600)
+          .field("integration_step_s", &RobotParams::integration_step_s, "longest integration sub-step, s").range(1e-4, 0.1)
+          .field("start_pose", &RobotParams::start_pose, "x_m;y_m;heading_deg in the world; empty = the world's start")
+          .field("displacement_lateral_m", &RobotParams::displacement_lateral_m, "initial displacement to the left of the start pose, m").range(-100, 100)
+          .field("displacement_longitudinal_m", &RobotParams::displacement_longitudinal_m, "initial displacement forward of the start pose, m").range(-100, 100)
+          .field("displacement_heading_deg", &RobotParams::displacement_heading_deg, "initial heading offset, deg (CCW +)").range(-180, 180)
+          .field("odom_rate_hz", &RobotParams::odom_rate_hz, "odometry publication rate, Hz (simulated time)").range(0.1, 1000)
+          .field("odom_scale_error_pct", &RobotParams::odom_scale_error_pct, "odometric distance scale error, %").range(-50, 50)
+          .field("odom_heading_drift_degpm", &RobotParams::odom_heading_drift_degpm, "odometric heading drift, deg per metre travelled").range(-90, 90)
+          .field("odom_distance_noise_m_per_sqrt_m", &RobotParams::odom_distance_noise_m_per_sqrt_m, "distance noise std, m per sqrt(m) travelled").range(0, 1)
+          .field("odom_heading_noise_deg_per_sqrt_m", &RobotParams::odom_heading_noise_deg_per_sqrt_m, "heading noise std, deg per sqrt(m) travelled").range(0, 45)
+          .field("seed", &RobotParams::seed, "seed of the odometry noise").range(0, 2147483647)
+          .field("pose_history_s", &RobotParams::pose_history_s, "ground-truth history kept for camera latency, s").range(0.1, 600);
+  return s;
+}
+
+Pose2D resolve_start(const RobotParams& params, const World* world) {
+  Pose2D start;
+  if (params.start_pose.size() == 3) start = Pose2D{params.start_pose[0], params.start_pose[1], params.start_pose[2] * kDeg};
+  else if (world != nullptr) start = world->start;
+  const double c = std::cos(start.heading_rad), s = std::sin(start.heading_rad);
+  start.x_m += c * params.displacement_longitudinal_m - s * params.displacement_lateral_m;
+  start.y_m += s * params.displacement_longitudinal_m + c * params.displacement_lateral_m;
+  start.heading_rad = wrap_angle(start.heading_rad + params.displacement_heading_deg * kDeg);
+  return start;
+}
+
+RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<const World> world)
+    : params_(std::move(params)), world_(std::move(world)), pose_(start_world), rng_(static_cast<std::uint64_t>(params_.seed)) {
+  published_.timestamp_s = 0.0;
+  next_publish_s_ = 1.0 / params_.odom_rate_hz;
+  history_.emplace_back(0.0, pose_);
+}
+
+RobotParams RobotCore::params() const {
+  std::lock_guard lock(mutex_);
+  return params_;
+}
+
+void RobotCore::set_params(const RobotParams& params) {
+  std::lock_guard lock(mutex_);
+  RobotParams p = params;
+  p.name = params_.name;
+  p.world = params_.world;
+  p.kinematics = params_.kinematics;
+  p.start_pose = params_.start_pose;
+  p.displacement_lateral_m = params_.displacement_lateral_m;
+  p.displacement_longitudinal_m = params_.displacement_longitudinal_m;
+  p.displacement_heading_deg = params_.displacement_heading_deg;
+  params_ = p;
+}
+
+void RobotCore::command(const Twist& twist) {
+  std::lock_guard lock(mutex_);
+  pending_.emplace_back(time_s_ + params_.actuation_delay_s, twist);
+}
+
+Status RobotCore::step(double dt_s) {
+  if (!std::isfinite(dt_s) || dt_s <= 0.0 || dt_s > 10.0)
+    return fail("sim robot: step(dt_s) needs 0 < dt_s <= 10, got " + std::to_string(dt_s));
+  std::lock_guard lock(mutex_);
+  const int n = std::max(1, static_cast<int>(std::ceil(dt_s / params_.integration_step_s - 1e-9)));
+  const double h = dt_s / n;
+  for (int i = 0; i < n; ++i) substep_locked(h);
+  if (time_s_ >= next_publish_s_ - 1e-9) {
+    publish_locked();
+    const double period = 1.0 / params_.odom_rate_hz;
+    while (next_publish_s_ <= time_s_ + 1e-9) next_publish_s_ += period;
+  }
+  history_.emplace_back(time_s_, pose_);
+  while (history_.size() > 2 && history_[1].first < time_s_ - params_.pose_history_s) history_.pop_front();
+  return ok();
+}
+
+void RobotCore::substep_locked(double dt) {
+  // commands whose actuation delay has passed
+  while (!pending_.empty() && pending_.front().first <= time_s_ + 1e-12) {
+    target_ = pending_.front().second;
+    last_command_s_ = pending_.front().first;
+    commanded_ = true;
+    pending_.pop_front();
+  }
+  Twist goal = commanded_ ? target_ : Twist{};
+  if (params_.command_timeout_s > 0.0 && time_s_ - last_command_s_ > params_.command_timeout_s + 1e-12) goal = Twist{};
+  const double v_goal = std::clamp(goal.linear_mps, -params_.max_reverse_mps, params_.max_linear_mps);
+  const double w_goal = std::clamp(goal.angular_radps, -params_.max_angular_radps, params_.max_angular_radps);
+  velocity_.linear_mps = approach(velocity_.linear_mps, v_goal, params_.linear_accel_mps2 * dt);
+  velocity_.angular_radps = approach(velocity_.angular_radps, w_goal, params_.angular_accel_radps2 * dt);
+  if (params_.kinematics == "car_like") {
+    const double w_max = std::abs(velocity_.linear_mps) / params_.min_turning_radius_m;
+    velocity_.angular_radps = std::clamp(velocity_.angular_radps, -w_max, w_max);
+  }
+  const double v = velocity_.linear_mps;
+  const double w_cmd = velocity_.angular_radps;
+  const double w = params_.kinematics == "tracked" ? (1.0 - params_.track_slip) * w_cmd : w_cmd;
+  const double th = pose_.heading_rad;
+  if (std::abs(w) < 1e-9) {
+    pose_.x_m += v * dt * std::cos(th);
+    pose_.y_m += v * dt * std::sin(th);
+  } else {
+    const double r = v / w;
+    pose_.x_m += r * (std::sin(th + w * dt) - std::sin(th));
+    pose_.y_m += -r * (std::cos(th + w * dt) - std::cos(th));
+  }
+  pose_.heading_rad = wrap_angle(th + w * dt);
+  const double ds = v * dt;
+  true_distance_m_ += ds;
+
+  // odometry: tracked robots measure the track motion, i.e. the commanded yaw (slip is invisible)
+  const double dth_measured_true = w_cmd * dt;
+  const double ads = std::abs(ds);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  double ds_m = ds * (1.0 + params_.odom_scale_error_pct / 100.0);
+  double dth_m = dth_measured_true + params_.odom_heading_drift_degpm * kDeg * ads;
+  if (params_.odom_distance_noise_m_per_sqrt_m > 0.0 && ads > 0.0)
+    ds_m += params_.odom_distance_noise_m_per_sqrt_m * std::sqrt(ads) * unit(rng_);
+  if (params_.odom_heading_noise_deg_per_sqrt_m > 0.0 && ads > 0.0)
+    dth_m += params_.odom_heading_noise_deg_per_sqrt_m * kDeg * std::sqrt(ads) * unit(rng_);
+  const double mid = odom_pose_.heading_rad + 0.5 * dth_m;
+  odom_pose_.x_m += ds_m * std::cos(mid);
+  odom_pose_.y_m += ds_m * std::sin(mid);
+  odom_pose_.heading_rad = wrap_angle(odom_pose_.heading_rad + dth_m);
+  odom_distance_m_ += ds_m;
+  odom_window_distance_m_ += ds_m;
+  odom_window_heading_rad_ += dth_m;
+  time_s_ += dt;
+}
+
+void RobotCore::publish_locked() {
+  const double window = time_s_ - last_publish_s_;
+  published_.timestamp_s = time_s_;
+  published_.pose = odom_pose_;
+  published_.distance_m = odom_distance_m_;
+  if (window > 1e-12) {
+    published_.twist.linear_mps = odom_window_distance_m_ / window;
+    published_.twist.angular_radps = odom_window_heading_rad_ / window;
+  }
+  odom_window_distance_m_ = 0.0;
+  odom_window_heading_rad_ = 0.0;
+  last_publish_s_ = time_s_;
+}
+
+double RobotCore::time_s() const {
+  std::lock_guard lock(mutex_);
+  return time_s_;
+}
+
+Pose2D RobotCore::ground_truth() const {
+  std::lock_guard lock(mutex_);
+  return pose_;
+}
+
+Pose2D RobotCore::pose_at(double t) const {
+  std::lock_guard lock(mutex_);
+  if (history_.empty() || t >= history_.back().first) return pose_;
+  if (t <= history_.front().first) return history_.front().second;
+  auto it = std::lower_bound(history_.begin(), history_.end(), t, [](const auto& e, double v) { return e.first < v; });
+  const auto& b = *it;
+  const auto& a = *(it - 1);
+  const double k = (t - a.first) / std::max(1e-12, b.first - a.first);
+  Pose2D p;
+  p.x_m = a.second.x_m + k * (b.second.x_m - a.second.x_m);
+  p.y_m = a.second.y_m + k * (b.second.y_m - a.second.y_m);
+  p.heading_rad = wrap_angle(a.second.heading_rad + k * wrap_angle(b.second.heading_rad - a.second.heading_rad));
+  return p;
+}
+
+void RobotCore::teleport(const Pose2D& pose_world) {
+  std::lock_guard lock(mutex_);
+  pose_ = pose_world;
+  pose_.heading_rad = wrap_angle(pose_.heading_rad);
+  history_.clear();
+  history_.emplace_back(time_s_, pose_);
+}
+
+Odometry RobotCore::odometry() const {
+  std::lock_guard lock(mutex_);
+  return published_;
+}
+
+Twist RobotCore::true_twist() const {
+  std::lock_guard lock(mutex_);
+  Twist t = velocity_;
+  if (params_.kinematics == "tracked") t.angular_radps *= 1.0 - params_.track_slip;
+  return t;
+}
+
+double RobotCore::true_distance_m() const {
+  std::lock_guard lock(mutex_);
+  return true_distance_m_;
+}
+
+// ---------------------------------------------------------------------------------------
+
+SimRobot::SimRobot(std::shared_ptr<RobotCore> core) : core_(std::move(core)) {}
+
+SimRobot::~SimRobot() { unregister_robot(core_->params().name, core_.get()); }
+
+Result<std::unique_ptr<SimRobot>> SimRobot::create(const RobotParams& params, const std::string& relative_to) {
+  VISNAV_TRY(params.validate());
+  std::shared_ptr<const World> world;
+  if (!params.world.empty()) {
+    auto path = resolve_world_path(params.world, relative_to);
+    if (!path) return path.error().with_context("key 'world'");
+    VISNAV_ASSIGN(world, load_world_cached(*path));
+  }
+  auto core = std::make_shared<RobotCore>(params, resolve_start(params, world.get()), world);
+  VISNAV_TRY(register_robot(params.name, core));
+  return std::unique_ptr<SimRobot>(new SimRobot(std::move(core)));
+}
+
+Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, HostServices& host) {
+  VISNAV_ASSIGN(RobotParams p, RobotParams::schema().parse(params));
+  auto made = create(p, params.where().file);
+  if (!made) return made.error().with_context(params.where().str());
+  const Pose2D s = (*made)->core_->ground_truth();
+  host.logger().info("robot_sim", "robot '" + p.name + "' (" + p.kinematics + ") starts at x=" + std::to_string(s.x_m) +
+                                      " y=" + std::to_string(s.y_m) + " heading=" + std::to_string(s.heading_rad / kDeg) + " deg" +
+                                      (p.world.empty() ? std::string() : " in world '" + p.world + "'"));
+  return made;
+}
+
+Status SimRobot::reconfigure(const ConfigNode& params) {
+  VISNAV_ASSIGN(RobotParams p, RobotParams::schema().parse(params));
+  const RobotParams cur = core_->params();
+  if (p.name != cur.name || p.world != cur.world || p.kinematics != cur.kinematics || p.start_pose != cur.start_pose ||
+      p.displacement_lateral_m != cur.displacement_lateral_m || p.displacement_longitudinal_m != cur.displacement_longitudinal_m ||
+      p.displacement_heading_deg != cur.displacement_heading_deg)
+    return fail("sim robot: name, world, kinematics, start_pose and displacement_* cannot change while running");
+  core_->set_params(p);
+  return ok();
+}
+
+Status SimRobot::send_command(const Twist& command) {
+  if (!std::isfinite(command.linear_mps) || !std::isfinite(command.angular_radps))
+    return fail("sim robot: command is not finite");
+  core_->command(command);
+  return ok();
+}
+
+std::optional<Odometry> SimRobot::latest_odometry() { return core_->odometry(); }
+Status SimRobot::step(double dt_s) { return core_->step(dt_s); }
+double SimRobot::time_s() const { return core_->time_s(); }
+Pose2D SimRobot::ground_truth_pose() const { return core_->ground_truth(); }
+Status SimRobot::set_ground_truth_pose(const Pose2D& pose_world) {
+  if (!std::isfinite(pose_world.x_m) || !std::isfinite(pose_world.y_m) || !std::isfinite(pose_world.heading_rad))
+    return fail("sim robot: set_ground_truth_pose needs a finite pose");
+  core_->teleport(pose_world);
+  return ok();
+}
+
+}  // namespace visnav::sim

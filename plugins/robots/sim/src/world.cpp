@@ -1,0 +1,503 @@
+// World files: YAML → World (textures, regions, walls, trees), region map rasterisation,
+// world/route path resolution and the world cache.
+#include "visnav_sim/world.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "textures.hpp"
+#include "yaml_util.hpp"
+
+namespace visnav::sim {
+namespace fs = std::filesystem;
+using namespace detail;
+
+namespace {
+
+constexpr const char* kLabelNames[kLabelClassCount] = {"sky",  "path",  "grass", "floor", "pavement",
+                                                        "ground", "wall", "fence", "tree",  "obstacle"};
+
+Result<ConfigNode> convert(const YAML::Node& node, const std::string& file) {
+  SourceLocation where{file, node.Mark().line + 1};
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+    case YAML::NodeType::Undefined: {
+      ConfigNode n;
+      n.set_where(where);
+      return n;
+    }
+    case YAML::NodeType::Scalar: return ConfigNode::make_scalar(node.Scalar(), where);
+    case YAML::NodeType::Sequence: {
+      ConfigNode n = ConfigNode::make_sequence(where);
+      for (const auto& item : node) {
+        VISNAV_ASSIGN(ConfigNode child, convert(item, file));
+        n.push_back(std::move(child));
+      }
+      return n;
+    }
+    case YAML::NodeType::Map: {
+      ConfigNode n = ConfigNode::make_map(where);
+      for (const auto& kv : node) {
+        const std::string key = kv.first.Scalar();
+        if (n.find(key) != nullptr)
+          return fail(file + ":" + std::to_string(kv.first.Mark().line + 1) + ": duplicate key '" + key + "'");
+        VISNAV_ASSIGN(ConfigNode child, convert(kv.second, file));
+        n.set(key, std::move(child));
+      }
+      return n;
+    }
+  }
+  return fail(where.str() + ": unsupported YAML node");
+}
+
+double cross(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c) {
+  return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
+
+bool segments_intersect(const cv::Point2d& p1, const cv::Point2d& p2, const cv::Point2d& q1, const cv::Point2d& q2) {
+  const double d1 = cross(q1, q2, p1), d2 = cross(q1, q2, p2), d3 = cross(p1, p2, q1), d4 = cross(p1, p2, q2);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+  auto on = [](const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c, double d) {
+    return std::abs(d) < 1e-12 && std::min(a.x, b.x) <= c.x && c.x <= std::max(a.x, b.x) && std::min(a.y, b.y) <= c.y &&
+           c.y <= std::max(a.y, b.y);
+  };
+  return on(q1, q2, p1, d1) || on(q1, q2, p2, d2) || on(p1, p2, q1, d3) || on(p1, p2, q2, d4);
+}
+
+std::string pt(const cv::Point2d& p) {
+  std::ostringstream os;
+  os << "[" << p.x << ", " << p.y << "]";
+  return os.str();
+}
+
+/// Error if the closed polygon has two non-adjacent edges that touch or cross.
+Status check_simple_polygon(const std::vector<cv::Point2d>& poly, const ConfigNode& node, const std::string& what) {
+  const size_t n = poly.size();
+  for (size_t i = 0; i < n; ++i) {
+    if (cv::norm(poly[i] - poly[(i + 1) % n]) < 1e-9)
+      return node_error(node, what + ": repeated vertex " + pt(poly[i]) + " (vertex " + std::to_string(i) + ")");
+    for (size_t j = i + 1; j < n; ++j) {
+      if (j == i + 1 || (i == 0 && j == n - 1)) continue;  // adjacent edges share a vertex
+      if (segments_intersect(poly[i], poly[(i + 1) % n], poly[j], poly[(j + 1) % n]))
+        return node_error(node, what + ": polygon is self-intersecting: edge " + pt(poly[i]) + "-" + pt(poly[(i + 1) % n]) +
+                                    " crosses edge " + pt(poly[j]) + "-" + pt(poly[(j + 1) % n]));
+    }
+  }
+  return ok();
+}
+
+Result<LabelClass> get_label(const ConfigNode& map, LabelClass fallback) {
+  const ConfigNode* n = map.find("class");
+  if (n == nullptr) return fallback;
+  if (!n->is_scalar()) return node_error(*n, "key 'class': expected a class name");
+  auto l = label_class_from_string(n->scalar());
+  if (!l || *l == LabelClass::sky) {
+    std::string known;
+    for (int i = 1; i < kLabelClassCount; ++i) known += std::string(i > 1 ? ", " : "") + kLabelNames[i];
+    return node_error(*n, "key 'class': unknown class '" + n->scalar() + "' (known: " + known + ")");
+  }
+  return *l;
+}
+
+Result<int> get_texture(const World& world, const ConfigNode& map, const std::string& what) {
+  const ConfigNode* n = map.find("texture");
+  if (n == nullptr) return node_error(map, what + ": missing key 'texture'");
+  if (!n->is_scalar()) return node_error(*n, "key 'texture': expected a texture name");
+  const int idx = world.texture_index(n->scalar());
+  if (idx < 0) {
+    std::string known;
+    for (const auto& t : world.textures) known += (known.empty() ? "" : ", ") + t.name;
+    return node_error(*n, "key 'texture': unknown texture '" + n->scalar() + "' (defined: " + known + ")");
+  }
+  return idx;
+}
+
+Result<cv::Vec3b> get_rgb(const ConfigNode& map, const std::string& key, cv::Vec3b fallback_bgr) {
+  const ConfigNode* n = map.find(key);
+  if (n == nullptr) return fallback_bgr;
+  VISNAV_ASSIGN(auto v, as_numbers(*n, key, 3));
+  for (double c : v)
+    if (c < 0 || c > 255) return node_error(*n, "key '" + key + "': components must be in [0, 255]");
+  return cv::Vec3b(static_cast<unsigned char>(v[2]), static_cast<unsigned char>(v[1]), static_cast<unsigned char>(v[0]));
+}
+
+Status add_wall(World& world, const cv::Point2d& a, const cv::Point2d& b, double base_m, double top_m, int texture,
+                LabelClass label, const std::string& name, const ConfigNode& node) {
+  if (cv::norm(a - b) < 1e-6) return node_error(node, name + ": wall has zero length (from " + pt(a) + " to " + pt(b) + ")");
+  Wall w;
+  w.name = name;
+  w.from = a;
+  w.to = b;
+  w.base_m = base_m;
+  w.top_m = top_m;
+  w.texture = texture;
+  w.label = label;
+  w.where = node.where();
+  world.walls.push_back(std::move(w));
+  return ok();
+}
+
+Status parse_walls(World& world, const ConfigNode& list) {
+  if (!list.is_sequence()) return node_error(list, "key 'walls': expected a list");
+  int index = 0;
+  for (const auto& w : list.items()) {
+    const std::string what = "wall " + std::to_string(index++);
+    VISNAV_TRY(check_keys(w, {"name", "from", "to", "polyline", "closed", "height_m", "base_m", "texture", "class"}, what));
+    VISNAV_ASSIGN(const std::string name, get_string(w, "name", what));
+    VISNAV_ASSIGN(const double base_m, get_double(w, "base_m", 0.0, 0.0, 1000.0));
+    VISNAV_ASSIGN(const double height_m, get_double(w, "height_m", 2.5, 0.01, 1000.0));
+    VISNAV_ASSIGN(const int texture, get_texture(world, w, name));
+    VISNAV_ASSIGN(const LabelClass label, get_label(w, LabelClass::wall));
+    VISNAV_ASSIGN(const bool closed, get_bool(w, "closed", false));
+    const ConfigNode* poly = w.find("polyline");
+    const ConfigNode* from = w.find("from");
+    const ConfigNode* to = w.find("to");
+    if ((poly != nullptr) == (from != nullptr || to != nullptr))
+      return node_error(w, name + ": give either 'from' and 'to' or 'polyline'");
+    std::vector<cv::Point2d> pts;
+    if (poly != nullptr) {
+      VISNAV_ASSIGN(pts, as_points(*poly, "polyline", 2));
+      if (closed) pts.push_back(pts.front());
+    } else {
+      if (from == nullptr || to == nullptr) return node_error(w, name + ": needs both 'from' and 'to'");
+      VISNAV_ASSIGN(const auto a, as_point(*from, "from"));
+      VISNAV_ASSIGN(const auto b, as_point(*to, "to"));
+      pts = {a, b};
+    }
+    for (size_t i = 0; i + 1 < pts.size(); ++i)
+      VISNAV_TRY(add_wall(world, pts[i], pts[i + 1], base_m, base_m + height_m, texture, label, name,
+                          poly != nullptr ? poly->items()[std::min(i, poly->items().size() - 1)] : w));
+  }
+  return ok();
+}
+
+Status parse_trees(World& world, const ConfigNode& list) {
+  if (!list.is_sequence()) return node_error(list, "key 'trees': expected a list");
+  int index = 0;
+  for (const auto& t : list.items()) {
+    const std::string what = "tree " + std::to_string(index++);
+    VISNAV_TRY(check_keys(t, {"name", "at", "height_m", "width_m", "yaw_deg", "texture", "class"}, what));
+    VISNAV_ASSIGN(const std::string name, get_string(t, "name", what));
+    const ConfigNode* at = t.find("at");
+    if (at == nullptr) return node_error(t, name + ": missing key 'at'");
+    VISNAV_ASSIGN(const auto c, as_point(*at, "at"));
+    VISNAV_ASSIGN(const double height_m, get_double(t, "height_m", 5.0, 0.1, 100.0));
+    VISNAV_ASSIGN(const double width_m, get_double(t, "width_m", 3.0, 0.1, 100.0));
+    VISNAV_ASSIGN(const double yaw_deg, get_double(t, "yaw_deg", 0.0, -360.0, 360.0));
+    VISNAV_ASSIGN(const int texture, get_texture(world, t, name));
+    VISNAV_ASSIGN(const LabelClass label, get_label(t, LabelClass::tree));
+    // two crossed billboards
+    for (int k = 0; k < 2; ++k) {
+      const double a = (yaw_deg + 90.0 * k) * CV_PI / 180.0;
+      const cv::Point2d d(std::cos(a) * width_m / 2, std::sin(a) * width_m / 2);
+      VISNAV_TRY(add_wall(world, c - d, c + d, 0.0, height_m, texture, label, name, t));
+    }
+  }
+  return ok();
+}
+
+Status parse_regions(World& world, const ConfigNode& list) {
+  if (!list.is_sequence()) return node_error(list, "key 'regions': expected a list");
+  int index = 0;
+  for (const auto& r : list.items()) {
+    const std::string what = "region " + std::to_string(index++);
+    VISNAV_TRY(check_keys(r, {"name", "polygon", "polyline", "width_m", "texture", "class"}, what));
+    GroundRegion region;
+    VISNAV_ASSIGN(region.name, get_string(r, "name", what));
+    VISNAV_ASSIGN(region.texture, get_texture(world, r, region.name));
+    VISNAV_ASSIGN(region.label, get_label(r, LabelClass::ground));
+    region.where = r.where();
+    const ConfigNode* poly = r.find("polygon");
+    const ConfigNode* line = r.find("polyline");
+    if ((poly != nullptr) == (line != nullptr)) return node_error(r, region.name + ": give exactly one of 'polygon' or 'polyline'");
+    if (poly != nullptr) {
+      VISNAV_ASSIGN(region.polygon, as_points(*poly, "polygon", 3));
+      if (region.polygon.size() > 3 && cv::norm(region.polygon.front() - region.polygon.back()) < 1e-9)
+        region.polygon.pop_back();  // explicitly closed
+      VISNAV_TRY(check_simple_polygon(region.polygon, *poly, "region '" + region.name + "'"));
+      if (r.find("width_m") != nullptr) return node_error(*r.find("width_m"), "key 'width_m' only applies to 'polyline' regions");
+    } else {
+      VISNAV_ASSIGN(region.polyline, as_points(*line, "polyline", 2));
+      if (r.find("width_m") == nullptr) return node_error(r, region.name + ": a 'polyline' region needs 'width_m'");
+      VISNAV_ASSIGN(region.width_m, get_double(r, "width_m", 1.0, 0.05, 1000.0));
+    }
+    world.regions.push_back(std::move(region));
+  }
+  return ok();
+}
+
+Status rasterize_regions(World& world, const ConfigNode& root) {
+  const double res = world.region_map_resolution_m;
+  cv::Rect2d b;
+  bool any = false;
+  auto extend = [&](const cv::Point2d& p, double margin) {
+    cv::Rect2d r(p.x - margin, p.y - margin, 2 * margin, 2 * margin);
+    b = any ? (b | r) : r;
+    any = true;
+  };
+  for (const auto& r : world.regions) {
+    for (const auto& p : r.polygon) extend(p, res);
+    for (const auto& p : r.polyline) extend(p, r.width_m);
+  }
+  if (!any) {
+    world.region_map = cv::Mat(1, 1, CV_16UC1, cv::Scalar(0));
+    world.region_map_origin_m = {0, 0};
+    return ok();
+  }
+  b.x -= 2 * res; b.y -= 2 * res; b.width += 4 * res; b.height += 4 * res;
+  const double cells = (b.width / res) * (b.height / res);
+  if (cells > 64e6)
+    return node_error(root, "ground_resolution_m " + std::to_string(res) + " gives a region map of " +
+                                std::to_string(static_cast<long long>(cells)) + " cells (max 64M); use a coarser resolution");
+  world.region_map_origin_m = {b.x, b.y};
+  world.region_map = cv::Mat(static_cast<int>(std::ceil(b.height / res)), static_cast<int>(std::ceil(b.width / res)),
+                             CV_16UC1, cv::Scalar(0));
+  constexpr int kShift = 3;
+  auto to_px = [&](const cv::Point2d& p) {
+    return cv::Point(static_cast<int>(std::lround((p.x - b.x) / res * (1 << kShift) - 0.5 * (1 << kShift))),
+                     static_cast<int>(std::lround((p.y - b.y) / res * (1 << kShift) - 0.5 * (1 << kShift))));
+  };
+  for (size_t i = 0; i < world.regions.size(); ++i) {
+    const auto& r = world.regions[i];
+    const cv::Scalar value(static_cast<double>(i + 1));
+    if (!r.polygon.empty()) {
+      std::vector<cv::Point> pts;
+      for (const auto& p : r.polygon) pts.push_back(to_px(p));
+      std::vector<std::vector<cv::Point>> polys{pts};
+      cv::fillPoly(world.region_map, polys, value, cv::LINE_8, kShift);
+    } else {
+      const int thickness = std::max(1, static_cast<int>(std::lround(r.width_m / res)));
+      for (size_t k = 0; k + 1 < r.polyline.size(); ++k)
+        cv::line(world.region_map, to_px(r.polyline[k]), to_px(r.polyline[k + 1]), value, thickness, cv::LINE_8, kShift);
+    }
+  }
+  return ok();
+}
+
+Status resolve_seasons(World& world, const ConfigNode& textures) {
+  for (const auto& [name, def] : textures.entries()) {
+    const ConfigNode* seasons = def.find("seasons");
+    if (seasons == nullptr) continue;
+    if (!seasons->is_map()) return node_error(*seasons, "key 'seasons': expected a map season: texture");
+    const int self = world.texture_index(name);
+    for (const auto& [season, target] : seasons->entries()) {
+      if (!target.is_scalar()) return node_error(target, "season '" + season + "': expected a texture name");
+      const int idx = world.texture_index(target.scalar());
+      if (idx < 0) return node_error(target, "season '" + season + "': unknown texture '" + target.scalar() + "'");
+      world.textures[static_cast<size_t>(self)].seasons.emplace_back(season, idx);
+    }
+  }
+  return ok();
+}
+
+std::vector<std::string> data_roots() {
+  std::vector<std::string> roots;
+#ifdef VISNAV_SIM_SOURCE_DIR
+  roots.emplace_back(VISNAV_SIM_SOURCE_DIR "/config");
+#endif
+#ifdef VISNAV_SIM_INSTALL_DATA_DIR
+  roots.emplace_back(VISNAV_SIM_INSTALL_DATA_DIR);
+#endif
+  return roots;
+}
+
+Result<std::string> resolve_data_path(const std::string& name_or_path, const std::string& relative_to, const std::string& folder) {
+  std::vector<std::string> tried;
+  auto try_path = [&](const fs::path& p) {
+    tried.push_back(p.string());
+    std::error_code ec;
+    return fs::is_regular_file(p, ec);
+  };
+  if (name_or_path.empty()) return fail("no " + folder.substr(0, folder.size() - 1) + " file given");
+  if (try_path(name_or_path)) return name_or_path;
+  if (!relative_to.empty() && fs::path(name_or_path).is_relative()) {
+    std::error_code ec;
+    fs::path base = fs::is_directory(relative_to, ec) ? fs::path(relative_to) : fs::path(relative_to).parent_path();
+    if (try_path(base / name_or_path)) return (base / name_or_path).string();
+  }
+  for (const auto& root : data_roots()) {
+    for (const std::string& candidate : {name_or_path, name_or_path + ".yaml"}) {
+      fs::path p = fs::path(root) / folder / candidate;
+      if (fs::path(name_or_path).is_relative() && try_path(p)) return p.string();
+    }
+  }
+  std::string list;
+  for (const auto& t : tried) list += (list.empty() ? "" : ", ") + t;
+  return fail(folder.substr(0, folder.size() - 1) + " '" + name_or_path + "' not found (tried: " + list + ")");
+}
+
+}  // namespace
+
+const char* to_string(LabelClass label) {
+  const int i = static_cast<int>(label);
+  return i >= 0 && i < kLabelClassCount ? kLabelNames[i] : "unknown";
+}
+
+std::optional<LabelClass> label_class_from_string(std::string_view text) {
+  for (int i = 0; i < kLabelClassCount; ++i)
+    if (text == kLabelNames[i]) return static_cast<LabelClass>(i);
+  return std::nullopt;
+}
+
+cv::Vec3b label_color(LabelClass label) {
+  switch (label) {
+    case LabelClass::sky: return {235, 206, 135};
+    case LabelClass::path: return {60, 160, 230};
+    case LabelClass::grass: return {60, 170, 60};
+    case LabelClass::floor: return {170, 170, 200};
+    case LabelClass::pavement: return {140, 140, 140};
+    case LabelClass::ground: return {90, 110, 130};
+    case LabelClass::wall: return {60, 60, 180};
+    case LabelClass::fence: return {40, 90, 140};
+    case LabelClass::tree: return {30, 100, 30};
+    case LabelClass::obstacle: return {200, 0, 200};
+  }
+  return {0, 0, 0};
+}
+
+int World::region_at(double x_m, double y_m) const {
+  const double gx = (x_m - region_map_origin_m.x) / region_map_resolution_m;
+  const double gy = (y_m - region_map_origin_m.y) / region_map_resolution_m;
+  if (gx < 0 || gy < 0 || gx >= region_map.cols || gy >= region_map.rows) return -1;
+  return static_cast<int>(region_map.at<std::uint16_t>(static_cast<int>(gy), static_cast<int>(gx))) - 1;
+}
+
+LabelClass World::ground_label_at(double x_m, double y_m) const {
+  const int r = region_at(x_m, y_m);
+  return r < 0 ? default_label : regions[static_cast<size_t>(r)].label;
+}
+
+int World::texture_index(std::string_view wanted) const {
+  for (size_t i = 0; i < textures.size(); ++i)
+    if (textures[i].name == wanted) return static_cast<int>(i);
+  return -1;
+}
+
+cv::Rect2d World::bounds() const {
+  cv::Rect2d b;
+  bool any = false;
+  auto extend = [&](const cv::Point2d& p) {
+    cv::Rect2d r(p.x, p.y, 0, 0);
+    if (!any) { b = r; any = true; return; }
+    const double x0 = std::min(b.x, p.x), y0 = std::min(b.y, p.y);
+    const double x1 = std::max(b.x + b.width, p.x), y1 = std::max(b.y + b.height, p.y);
+    b = cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
+  };
+  for (const auto& r : regions) {
+    for (const auto& p : r.polygon) extend(p);
+    for (const auto& p : r.polyline) { extend(p + cv::Point2d(r.width_m, r.width_m)); extend(p - cv::Point2d(r.width_m, r.width_m)); }
+  }
+  for (const auto& w : walls) { extend(w.from); extend(w.to); }
+  extend({start.x_m, start.y_m});
+  return b;
+}
+
+Result<ConfigNode> parse_yaml_text(std::string_view text, const std::string& file_label) {
+  try {
+    YAML::Node root = YAML::Load(std::string(text));
+    return convert(root, file_label);
+  } catch (const YAML::Exception& e) {
+    return fail(file_label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  }
+}
+
+Result<ConfigNode> parse_yaml_path(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return fail(path + ": cannot open file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_yaml_text(ss.str(), path);
+}
+
+std::string skimage_data_dir() {
+  if (const char* env = std::getenv("VISNAV_SKIMAGE_DIR"); env != nullptr && *env != '\0') return env;
+  return "/usr/lib/python3/dist-packages/skimage/data";
+}
+
+Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text, const std::string& file_label,
+                                                 const std::string& base_dir) {
+  VISNAV_ASSIGN(ConfigNode doc, parse_yaml_text(yaml_text, file_label));
+  if (!doc.is_map() || doc.find("world") == nullptr)
+    return fail(doc.where().str() + ": a world file has one top-level key 'world'");
+  VISNAV_TRY(check_keys(doc, {"world"}, "the world file"));
+  const ConfigNode& root = *doc.find("world");
+  VISNAV_TRY(check_keys(root,
+                        {"name", "ground_resolution_m", "sky_zenith", "sky_horizon", "fog_distance_m", "default_ground",
+                         "textures", "regions", "walls", "trees", "start"},
+                        "'world'"));
+  auto world = std::make_shared<World>();
+  world->file = file_label;
+  VISNAV_ASSIGN(world->name, get_string(root, "name", fs::path(file_label).stem().string()));
+  VISNAV_ASSIGN(world->region_map_resolution_m, get_double(root, "ground_resolution_m", 0.05, 0.005, 1.0));
+  VISNAV_ASSIGN(world->fog_distance_m, get_double(root, "fog_distance_m", 0.0, 0.0, 1e6));
+  VISNAV_ASSIGN(world->sky_zenith_bgr, get_rgb(root, "sky_zenith", world->sky_zenith_bgr));
+  VISNAV_ASSIGN(world->sky_horizon_bgr, get_rgb(root, "sky_horizon", world->sky_horizon_bgr));
+
+  const ConfigNode* textures = root.find("textures");
+  if (textures == nullptr || !textures->is_map() || textures->entries().empty())
+    return node_error(textures != nullptr ? *textures : root, "'world' needs a non-empty map 'textures'");
+  for (const auto& [name, def] : textures->entries()) {
+    VISNAV_ASSIGN(Texture t, make_texture(name, def, base_dir));
+    world->textures.push_back(std::move(t));
+  }
+  VISNAV_TRY(resolve_seasons(*world, *textures));
+
+  const ConfigNode* ground = root.find("default_ground");
+  if (ground == nullptr) return node_error(root, "'world' needs 'default_ground: {texture: ..., class: ...}'");
+  VISNAV_TRY(check_keys(*ground, {"texture", "class"}, "'default_ground'"));
+  VISNAV_ASSIGN(world->default_texture, get_texture(*world, *ground, "default_ground"));
+  VISNAV_ASSIGN(world->default_label, get_label(*ground, LabelClass::ground));
+
+  if (const ConfigNode* n = root.find("regions")) VISNAV_TRY(parse_regions(*world, *n));
+  if (world->regions.size() >= 0x7FFE) return node_error(root, "too many regions (max 32765)");
+  if (const ConfigNode* n = root.find("walls")) VISNAV_TRY(parse_walls(*world, *n));
+  if (const ConfigNode* n = root.find("trees")) VISNAV_TRY(parse_trees(*world, *n));
+  if (world->walls.size() >= 0x7FFF) return node_error(root, "too many walls (max 32766)");
+  if (const ConfigNode* n = root.find("start")) {
+    VISNAV_ASSIGN(auto s, as_numbers(*n, "start", 3));
+    world->start = Pose2D{s[0], s[1], s[2] * CV_PI / 180.0};
+  }
+  VISNAV_TRY(rasterize_regions(*world, root));
+  return std::shared_ptr<const World>(std::move(world));
+}
+
+Result<std::shared_ptr<const World>> load_world(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return fail(path + ": cannot open world file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_world(ss.str(), path, fs::path(path).parent_path().string());
+}
+
+Result<std::shared_ptr<const World>> load_world_cached(const std::string& path) {
+  static std::mutex mutex;
+  static std::map<std::string, std::pair<fs::file_time_type, std::shared_ptr<const World>>> cache;
+  std::error_code ec;
+  const std::string key = fs::weakly_canonical(path, ec).string();
+  const auto mtime = fs::last_write_time(path, ec);
+  std::lock_guard lock(mutex);
+  auto it = cache.find(key);
+  if (it != cache.end() && it->second.first == mtime) return it->second.second;
+  VISNAV_ASSIGN(auto world, load_world(path));
+  cache[key] = {mtime, world};
+  return world;
+}
+
+Result<std::string> resolve_world_path(const std::string& name_or_path, const std::string& relative_to) {
+  return resolve_data_path(name_or_path, relative_to, "worlds");
+}
+
+Result<std::string> resolve_route_path(const std::string& name_or_path, const std::string& relative_to) {
+  return resolve_data_path(name_or_path, relative_to, "routes");
+}
+
+}  // namespace visnav::sim

@@ -1,0 +1,192 @@
+// Kinematics, limits, delay, watchdog and the odometry error model of the sim robot.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "visnav_sim/registry.hpp"
+#include "visnav_sim/robot.hpp"
+
+namespace vs = visnav::sim;
+using visnav::Pose2D;
+using visnav::Twist;
+
+namespace {
+
+vs::RobotParams fast_params() {
+  vs::RobotParams p;
+  p.start_pose = {0, 0, 0};
+  p.linear_accel_mps2 = 100;
+  p.angular_accel_radps2 = 100;
+  p.max_linear_mps = 3;
+  p.max_angular_radps = 3;
+  p.command_timeout_s = 0;  // no watchdog unless a test wants one
+  return p;
+}
+
+void drive(vs::RobotCore& r, Twist cmd, double seconds, double dt = 0.05) {
+  const int n = static_cast<int>(std::lround(seconds / dt));
+  for (int i = 0; i < n; ++i) {
+    r.command(cmd);
+    ASSERT_TRUE(r.step(dt).ok());
+  }
+}
+
+}  // namespace
+
+TEST(SimRobot, DiffDriveCircleHasRadiusVOverW) {
+  vs::RobotCore r(fast_params(), Pose2D{}, nullptr);
+  // centre of the circle for v = 0.5, w = 0.25 from the origin heading +x: (0, 2)
+  double max_err = 0.0;
+  for (int i = 0; i < 500; ++i) {
+    r.command({0.5, 0.25});
+    ASSERT_TRUE(r.step(0.05).ok());
+    const Pose2D p = r.ground_truth();
+    max_err = std::max(max_err, std::abs(std::hypot(p.x_m, p.y_m - 2.0) - 2.0));
+  }
+  EXPECT_LT(max_err, 0.01);  // includes the 10 ms ramp up to speed
+}
+
+TEST(SimRobot, CarLikeRespectsMinimumTurningRadius) {
+  auto p = fast_params();
+  p.kinematics = "car_like";
+  p.min_turning_radius_m = 2.0;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  drive(r, {0.5, 1.0}, 2.0);  // asks for radius 0.5 m
+  const double w = r.true_twist().angular_radps;
+  EXPECT_NEAR(w, 0.25, 1e-9);  // = v / R_min
+  // and cannot turn on the spot
+  drive(r, {0.0, 1.0}, 1.0);
+  EXPECT_NEAR(r.true_twist().angular_radps, 0.0, 1e-9);
+}
+
+TEST(SimRobot, TrackedSlipReducesYawButNotOdometryYaw) {
+  auto p = fast_params();
+  p.kinematics = "tracked";
+  p.track_slip = 0.2;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  drive(r, {0.0, 0.5}, 2.0);
+  EXPECT_NEAR(r.ground_truth().heading_rad, 0.8, 0.02);  // 0.5 * 0.8 * 2 s
+  EXPECT_NEAR(r.odometry().pose.heading_rad, 1.0, 0.02); // tracks report the commanded turn
+}
+
+TEST(SimRobot, AccelerationAndVelocityLimits) {
+  auto p = fast_params();
+  p.linear_accel_mps2 = 0.5;
+  p.max_linear_mps = 0.8;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  drive(r, {2.0, 0.0}, 1.0, 0.01);
+  EXPECT_NEAR(r.true_twist().linear_mps, 0.5, 1e-6);
+  EXPECT_NEAR(r.ground_truth().x_m, 0.25, 0.01);  // ½ a t²
+  drive(r, {2.0, 0.0}, 2.0, 0.01);
+  EXPECT_NEAR(r.true_twist().linear_mps, 0.8, 1e-9);  // clamped to max_linear_mps
+}
+
+TEST(SimRobot, ActuationDelay) {
+  auto p = fast_params();
+  p.actuation_delay_s = 0.3;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  r.command({1.0, 0.0});
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE(r.step(0.05).ok());  // 0.25 s
+  EXPECT_EQ(r.ground_truth().x_m, 0.0);
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(r.step(0.05).ok());  // 0.45 s
+  EXPECT_NEAR(r.ground_truth().x_m, 0.15, 0.02);
+}
+
+TEST(SimRobot, WatchdogStopsWithoutCommands) {
+  auto p = fast_params();
+  p.command_timeout_s = 0.5;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  r.command({1.0, 0.0});
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(r.step(0.05).ok());  // 1 s, no further commands
+  const double x1 = r.ground_truth().x_m;
+  EXPECT_NEAR(x1, 0.5, 0.03);
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(r.step(0.05).ok());
+  EXPECT_DOUBLE_EQ(r.ground_truth().x_m, x1);
+  EXPECT_EQ(r.true_twist().linear_mps, 0.0);
+}
+
+TEST(SimRobot, OdometryScaleErrorAndHeadingDrift) {
+  auto p = fast_params();
+  p.odom_scale_error_pct = 5.0;
+  p.odom_heading_drift_degpm = 2.0;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  drive(r, {1.0, 0.0}, 10.0, 0.02);
+  EXPECT_NEAR(r.true_distance_m(), 10.0, 0.02);
+  const visnav::Odometry o = r.odometry();
+  EXPECT_NEAR(o.distance_m, 10.5, 0.03);
+  EXPECT_NEAR(o.pose.heading_rad, 20.0 * CV_PI / 180.0, 0.01);
+  EXPECT_NEAR(r.ground_truth().heading_rad, 0.0, 1e-9);
+  EXPECT_NEAR(r.ground_truth().y_m, 0.0, 1e-9);
+}
+
+TEST(SimRobot, OdometryDistanceIsSignedAndNoiseIsSeeded) {
+  auto p = fast_params();
+  p.odom_distance_noise_m_per_sqrt_m = 0.01;
+  p.odom_heading_noise_deg_per_sqrt_m = 0.5;
+  vs::RobotCore a(p, Pose2D{}, nullptr), b(p, Pose2D{}, nullptr);
+  drive(a, {-0.5, 0.0}, 4.0);
+  drive(b, {-0.5, 0.0}, 4.0);
+  EXPECT_NEAR(a.odometry().distance_m, -2.0, 0.1);
+  EXPECT_EQ(a.odometry().pose.heading_rad, b.odometry().pose.heading_rad);
+  p.seed = 2;
+  vs::RobotCore c(p, Pose2D{}, nullptr);
+  drive(c, {-0.5, 0.0}, 4.0);
+  EXPECT_NE(a.odometry().pose.heading_rad, c.odometry().pose.heading_rad);
+}
+
+TEST(SimRobot, OdometryRate) {
+  auto p = fast_params();
+  p.odom_rate_hz = 5.0;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  std::set<double> stamps;
+  for (int i = 0; i < 200; ++i) {  // 2 s at 100 Hz
+    r.command({0.5, 0.0});
+    ASSERT_TRUE(r.step(0.01).ok());
+    stamps.insert(r.odometry().timestamp_s);
+  }
+  ASSERT_EQ(stamps.size(), 11u);  // the initial reading at 0, then 0.2, 0.4, ..., 2.0
+  EXPECT_NEAR(*std::next(stamps.begin()), 0.2, 1e-6);
+  EXPECT_NEAR(*stamps.rbegin(), 2.0, 1e-6);
+  EXPECT_NEAR(r.odometry().twist.linear_mps, 0.5, 1e-6);
+}
+
+TEST(SimRobot, StartDisplacementAndPoseHistory) {
+  vs::RobotParams p = fast_params();
+  p.start_pose = {1.0, 2.0, 90.0};
+  p.displacement_lateral_m = 0.5;      // to the left of a robot facing +y: -x
+  p.displacement_longitudinal_m = 1.0;  // forward: +y
+  p.displacement_heading_deg = 10.0;
+  const Pose2D s = vs::resolve_start(p, nullptr);
+  EXPECT_NEAR(s.x_m, 0.5, 1e-9);
+  EXPECT_NEAR(s.y_m, 3.0, 1e-9);
+  EXPECT_NEAR(s.heading_rad, 100.0 * CV_PI / 180.0, 1e-9);
+  vs::RobotCore r(fast_params(), Pose2D{}, nullptr);
+  drive(r, {1.0, 0.0}, 2.0, 0.1);
+  EXPECT_NEAR(r.pose_at(1.0).x_m, 1.0, 0.02);
+  EXPECT_FALSE(r.step(0.0).ok());
+  EXPECT_FALSE(r.step(std::nan("")).ok());
+}
+
+TEST(SimRobot, PluginObjectRegistersByNameAndRejectsDuplicates) {
+  vs::RobotParams p = fast_params();
+  p.name = "unit_robot";
+  auto a = vs::SimRobot::create(p);
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  auto dup = vs::SimRobot::create(p);
+  ASSERT_FALSE(dup.ok());
+  EXPECT_NE(dup.error().message.find("unit_robot"), std::string::npos);
+  auto found = vs::find_robot("unit_robot");
+  ASSERT_TRUE(found.ok());
+  EXPECT_EQ(found->get(), (*a)->core().get());
+  visnav::SimulationControl* sim = (*a)->simulation();
+  ASSERT_NE(sim, nullptr);
+  ASSERT_TRUE((*a)->send_command({0.5, 0.0}).ok());
+  ASSERT_TRUE(sim->step(1.0).ok());
+  EXPECT_NEAR(sim->time_s(), 1.0, 1e-12);
+  EXPECT_GT(sim->ground_truth_pose().x_m, 0.4);
+  ASSERT_TRUE(sim->set_ground_truth_pose({5, 5, 0}).ok());
+  EXPECT_EQ(sim->ground_truth_pose().x_m, 5);
+  a->reset();
+  EXPECT_FALSE(vs::find_robot("unit_robot").ok());
+}

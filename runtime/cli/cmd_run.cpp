@@ -8,7 +8,8 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: visnav run --config C --tree T [--map M] [--set key.path=value]... [--trace F]\n"
+    "usage: visnav run --config C --tree T [--map M] [--set key.path=value]... [--bb key=value]...\n"
+    "                  [--trace F]\n"
     "                  [--plugin-path DIR]... [--log-level debug|info|warn|error]\n"
     "\n"
     "Builds the robot, camera and detector named in the YAML config C, registers the built-in\n"
@@ -19,6 +20,7 @@ constexpr const char* kUsage =
     "  --tree T           mission tree, BehaviorTree.CPP v4 XML\n"
     "  --map M            map folder (opened; created empty if missing)\n"
     "  --set k=v          override a config value, e.g. --set detector.params.target_keypoints=300\n"
+    "  --bb key=value     set a blackboard entry before the first tick, e.g. --bb start=dock\n"
     "  --trace F          write every node status transition to F as JSON lines\n"
     "  --plugin-path DIR  extra plugin directory (after VISNAV_PLUGIN_PATH and plugin_path)\n"
     "  --log-level L      overrides run.log_level\n"
@@ -31,7 +33,7 @@ int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"--tree", Opt::value}, {"--map", Opt::value},
-                               {"--set", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
+                               {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
                                {"--log-level", Opt::value}});
       !st)
     return visnav::cli::usage_error("run", st.error().message);
@@ -42,6 +44,7 @@ int run(const std::vector<std::string>& args) {
   m.tree_file = a.get("--tree");
   m.map_path = a.get("--map");
   m.overrides = a.all("--set");
+  m.blackboard_values = a.all("--bb");
   m.trace_file = a.get("--trace");
   m.extra_plugin_dirs = a.all("--plugin-path");
   if (a.has("--log-level")) {

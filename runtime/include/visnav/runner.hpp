@@ -225,9 +225,16 @@ struct MissionOptions {
   std::vector<std::string> extra_plugin_dirs;
   bool use_default_plugin_path = true;
   std::optional<LogLevel> log_level;  ///< overrides run.log_level
+  /// "key=value" entries written (as strings) to the tree's root blackboard before the first
+  /// tick (`visnav run --bb`); ports convert them to their types when read.
+  std::vector<std::string> blackboard_values;
   const std::atomic<int>* stop_requested = nullptr;
 };
 [[nodiscard]] RunReport run_mission(const MissionOptions& options);
+
+/// Writes "key=value" assignments (values as strings) to the tree's root blackboard.
+/// Error names a malformed entry.
+[[nodiscard]] Status set_blackboard_values(bt::Tree& tree, const std::vector<std::string>& assignments);
 
 /// Everything `visnav validate` checks, without building robot/camera/detector: config
 /// structure, every plugin type exists, params against each type's ParamDocs (unknown keys,

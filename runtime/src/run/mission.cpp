@@ -28,6 +28,16 @@ RunReport error_report(std::string reason) {
 
 }  // namespace
 
+Status set_blackboard_values(bt::Tree& tree, const std::vector<std::string>& assignments) {
+  for (const auto& a : assignments) {
+    const auto eq = a.find('=');
+    if (eq == std::string::npos || eq == 0)
+      return fail("blackboard value '" + a + "' is not of the form key=value");
+    tree.blackboard().set(std::string_view(a).substr(0, eq), a.substr(eq + 1));
+  }
+  return ok();
+}
+
 RunReport run_mission(const MissionOptions& options) {
   auto config = load_run_config(options.config_file, options.overrides);
   if (!config) return error_report(config.error().message);
@@ -43,6 +53,8 @@ RunReport run_mission(const MissionOptions& options) {
 
   auto tree = (*session)->load_tree(options.tree_file);
   if (!tree) return error_report(options.tree_file + ": tree is not valid, nothing was run:\n" + tree.error().message);
+  if (auto st = set_blackboard_values(*tree, options.blackboard_values); !st)
+    return error_report(st.error().message);
 
   RunOptions ro;
   ro.trace_file = options.trace_file;

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "experiment.hpp"
 #include "operator_core.hpp"
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/registry.hpp"
@@ -104,9 +105,13 @@ Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& hos
       });
 }
 
+const CommandEntry kCommands[] = {
+    {"experiment", "teach a route in the simulator, displace, replay N loops, report accuracy (seed 000 eq. 18)",
+     &experiment_command}};
+
 }  // namespace
 }  // namespace visnav::simop
 
 VISNAV_PLUGIN(visnav::PluginKind::nodes, "sim_operator", "0.1.0",
-              "Scripted teaching operator for the simulator (ScriptedOperator node)", nullptr, 0,
-              &visnav::simop::register_sim_operator_nodes, nullptr, 0)
+              "Scripted teaching operator and the `experiment` command for the simulator", nullptr, 0,
+              &visnav::simop::register_sim_operator_nodes, visnav::simop::kCommands, 1)

@@ -1,0 +1,88 @@
+// Blackboard: entries, SubTree remapping and root references.
+#include "visnav/bt/blackboard.hpp"
+
+#include <algorithm>
+#include <cxxabi.h>
+#include <cstdlib>
+
+namespace visnav::bt {
+
+namespace detail {
+std::string any_type_name(const std::any& value) {
+  const std::type_info& t = value.type();
+  if (t == typeid(std::string)) return "std::string";
+  if (t == typeid(int)) return "int";
+  if (t == typeid(double)) return "double";
+  if (t == typeid(bool)) return "bool";
+  if (t == typeid(void)) return "nothing";
+  int status = 0;
+  char* demangled = abi::__cxa_demangle(t.name(), nullptr, nullptr, &status);
+  std::string out = status == 0 && demangled != nullptr ? demangled : t.name();
+  std::free(demangled);  // NOLINT(cppcoreguidelines-no-malloc)
+  return out;
+}
+}  // namespace detail
+
+Blackboard::Blackboard(PrivateTag, Ptr parent) : parent_(std::move(parent)) {
+  if (parent_) enums_ = parent_->enums_;
+}
+
+Blackboard::Ptr Blackboard::create(Ptr parent) { return std::make_shared<Blackboard>(PrivateTag{}, std::move(parent)); }
+
+Blackboard& Blackboard::root() noexcept {
+  Blackboard* b = this;
+  while (b->parent_) b = b->parent_.get();
+  return *b;
+}
+
+Blackboard::Entry* Blackboard::resolve(std::string_view key, bool create) {
+  if (!key.empty() && key.front() == '@') {
+    Blackboard& r = root();
+    return r.resolve(key.substr(1), create);
+  }
+  if (auto it = storage_.find(key); it != storage_.end()) return it->second.get();
+  if (parent_) {
+    if (auto rm = remapping_.find(key); rm != remapping_.end()) return parent_->resolve(rm->second, create);
+    if (auto_remapping_ && (key.empty() || key.front() != '_')) return parent_->resolve(key, create);
+  }
+  if (!create) return nullptr;
+  auto [it, inserted] = storage_.emplace(std::string(key), std::make_unique<Entry>());
+  return it->second.get();
+}
+
+Blackboard::Entry* Blackboard::find_entry(std::string_view key) {
+  if (key.empty()) return nullptr;
+  return resolve(key, false);
+}
+
+const Blackboard::Entry* Blackboard::find_entry(std::string_view key) const {
+  if (key.empty()) return nullptr;
+  return const_cast<Blackboard*>(this)->resolve(key, false);  // resolve(…, false) does not modify
+}
+
+Blackboard::Entry& Blackboard::get_or_create_entry(std::string_view key) { return *resolve(key, true); }
+
+void Blackboard::set_any(std::string_view key, std::any value) {
+  Entry& e = get_or_create_entry(key);
+  e.value = std::move(value);
+  ++e.sequence;
+}
+
+const std::any* Blackboard::get_any(std::string_view key) const {
+  const Entry* e = find_entry(key);
+  return e != nullptr && e->value.has_value() ? &e->value : nullptr;
+}
+
+void Blackboard::add_subtree_remapping(std::string internal, std::string external) {
+  remapping_[std::move(internal)] = std::move(external);
+}
+
+std::vector<std::string> Blackboard::keys() const {
+  std::vector<std::string> out;
+  out.reserve(storage_.size());
+  for (const auto& [k, v] : storage_) out.push_back(k);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace visnav::bt

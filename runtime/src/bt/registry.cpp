@@ -1,0 +1,131 @@
+// NodeRegistry and the TreeNodesModel export.
+#include "visnav/bt/registry.hpp"
+
+#include <tinyxml2.h>
+
+#include <algorithm>
+
+namespace visnav::bt {
+
+namespace {
+
+bool valid_identifier(std::string_view id) {
+  if (id.empty()) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
+           c == '.' || c == ':';
+  });
+}
+
+Status check_manifest(const NodeManifest& m, const EnumTables* enums) {
+  if (!valid_identifier(m.id))
+    return fail("invalid node ID '" + m.id + "' (letters, digits, '_', '-', '.', ':' only)");
+  if (m.min_children < 0 || (m.max_children >= 0 && m.max_children < m.min_children))
+    return fail("node '" + m.id + "': invalid children range");
+  for (std::size_t i = 0; i < m.ports.size(); ++i) {
+    const PortInfo& p = m.ports[i];
+    if (!valid_identifier(p.name)) return fail("node '" + m.id + "': invalid port name '" + p.name + "'");
+    if (p.name == "name" || p.name == "ID" || p.name.front() == '_')
+      return fail("node '" + m.id + "': port name '" + p.name + "' is reserved");
+    for (std::size_t j = 0; j < i; ++j)
+      if (m.ports[j].name == p.name) return fail("node '" + m.id + "': duplicate port '" + p.name + "'");
+    if (p.default_value) {
+      const bool is_ref = blackboard_key(*p.default_value).has_value();
+      if (p.direction == PortDirection::output && !is_ref)
+        return fail("node '" + m.id + "': default of output port '" + p.name + "' must be a blackboard reference {key}");
+      // Enum defaults are checked at load time (enums may be registered after the node).
+      if (!is_ref && p.parse != nullptr && enums != nullptr && !(p.type_name == "enum")) {
+        auto parsed = p.parse(*p.default_value, enums);
+        if (!parsed)
+          return fail("node '" + m.id + "': default of port '" + p.name + "': " + parsed.error().message);
+      }
+    }
+  }
+  return ok();
+}
+
+}  // namespace
+
+NodeRegistry::NodeRegistry() : enums_(std::make_shared<const EnumTables>()) {}
+
+Status NodeRegistry::register_manifest(NodeManifest manifest, NodeFactory factory) {
+  if (!factory) return fail("node '" + manifest.id + "': no factory");
+  VISNAV_TRY(check_manifest(manifest, enums_.get()));
+  if (entries_.find(manifest.id) != entries_.end())
+    return fail("node ID '" + manifest.id + "' is already registered");
+  manifest.builtin = registering_builtins_;
+  std::string id = manifest.id;
+  entries_.emplace(std::move(id), Entry{std::make_shared<const NodeManifest>(std::move(manifest)), std::move(factory)});
+  return ok();
+}
+
+Status NodeRegistry::register_enum_values(std::type_index type, std::string type_name,
+                                          std::vector<std::pair<std::string, int>> values) {
+  auto copy = std::make_shared<EnumTables>(*enums_);  // trees keep the tables they were built with
+  VISNAV_TRY(copy->add(type, std::move(type_name), std::move(values)));
+  enums_ = std::move(copy);
+  return ok();
+}
+
+const NodeManifest* NodeRegistry::find(std::string_view id) const noexcept {
+  auto it = entries_.find(id);
+  return it == entries_.end() ? nullptr : it->second.manifest.get();
+}
+
+std::shared_ptr<const NodeManifest> NodeRegistry::find_shared(std::string_view id) const {
+  auto it = entries_.find(id);
+  return it == entries_.end() ? nullptr : it->second.manifest;
+}
+
+std::vector<const NodeManifest*> NodeRegistry::manifests() const {
+  std::vector<const NodeManifest*> out;
+  out.reserve(entries_.size());
+  for (const auto& [id, e] : entries_) out.push_back(e.manifest.get());
+  return out;
+}
+
+Result<std::unique_ptr<TreeNode>> NodeRegistry::instantiate(std::string_view id, const std::string& name,
+                                                            const NodeConfig& config) const {
+  auto it = entries_.find(id);
+  if (it == entries_.end()) return fail("unknown node ID '" + std::string(id) + "'");
+  return it->second.factory(name, config);
+}
+
+std::string write_nodes_model(const NodeRegistry& registry, bool include_builtin) {
+  tinyxml2::XMLDocument doc;
+  doc.InsertEndChild(doc.NewDeclaration());
+  tinyxml2::XMLElement* root = doc.NewElement("root");
+  root->SetAttribute("BTCPP_format", "4");
+  doc.InsertEndChild(root);
+  tinyxml2::XMLElement* model = doc.NewElement("TreeNodesModel");
+  root->InsertEndChild(model);
+  const EnumTables* enums = registry.enums().get();
+  for (const NodeManifest* m : registry.manifests()) {
+    if (m->builtin && !include_builtin) continue;
+    tinyxml2::XMLElement* el = doc.NewElement(to_string(m->kind));
+    el->SetAttribute("ID", m->id.c_str());
+    for (const PortInfo& p : m->ports) {
+      tinyxml2::XMLElement* pe = doc.NewElement(to_string(p.direction));
+      pe->SetAttribute("name", p.name.c_str());
+      std::string type = p.type_name;
+      if (type == "enum" && enums != nullptr) {
+        if (const EnumTables::Table* t = enums->find(p.type)) type = t->type_name;
+      }
+      pe->SetAttribute("type", type.c_str());
+      if (p.default_value) pe->SetAttribute("default", p.default_value->c_str());
+      if (!p.description.empty()) pe->SetText(p.description.c_str());
+      el->InsertEndChild(pe);
+    }
+    if (!m->description.empty()) {
+      tinyxml2::XMLElement* d = doc.NewElement("description");
+      d->SetText(m->description.c_str());
+      el->InsertEndChild(d);
+    }
+    model->InsertEndChild(el);
+  }
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return std::string(printer.CStr(), static_cast<std::size_t>(printer.CStrSize() > 0 ? printer.CStrSize() - 1 : 0));
+}
+
+}  // namespace visnav::bt

@@ -1,0 +1,77 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "experiment.hpp"
+#include "operator_core.hpp"
+
+using namespace visnav;
+using namespace visnav::simop;
+
+TEST(ExperimentMetrics, AccuracyAndRepeatabilityFollowSeed000Eq18) {
+  // Ends spread symmetrically around (1, 0); taught end at the origin.
+  const std::vector<cv::Point2d> ends = {{1.0, 0.1}, {1.0, -0.1}, {1.2, 0.0}, {0.8, 0.0}};
+  const auto m = accuracy_repeatability(ends, {0.0, 0.0});
+  // ε_acc = sqrt(mean(|x_i|²)) = sqrt((1.01 + 1.01 + 1.44 + 0.64) / 4)
+  EXPECT_NEAR(m.accuracy_m, std::sqrt((1.01 + 1.01 + 1.44 + 0.64) / 4.0), 1e-12);
+  // μ = (1, 0): ε_rep = sqrt((0.01 + 0.01 + 0.04 + 0.04) / 4)
+  EXPECT_NEAR(m.repeatability_m, std::sqrt(0.1 / 4.0), 1e-12);
+  EXPECT_EQ(accuracy_repeatability({}, {0, 0}).accuracy_m, 0.0);
+}
+
+TEST(ScriptedOperator, MakeLegsMapsKindsClosesLoopAndRejectsBadInput) {
+  const std::vector<cv::Point2d> pts = {{0, 0}, {4, 0}, {4, 3}};
+  const std::vector<std::pair<std::string, std::string>> map = {{"feature", "feature_segment"}, {"path", "path_following"}};
+  auto legs = make_legs(pts, {"feature", "path", "path"}, true, map, "");
+  ASSERT_TRUE(legs.ok()) << legs.error().message;
+  ASSERT_EQ(legs->size(), 3u);
+  EXPECT_EQ((*legs)[0].kind, "feature_segment");
+  EXPECT_EQ((*legs)[1].kind, "path_following");
+  EXPECT_EQ((*legs)[2].to_m, cv::Point2d(0, 0));
+  auto forced = make_legs(pts, {"feature", "path", "path"}, false, map, "feature_segment");
+  ASSERT_TRUE(forced.ok());
+  EXPECT_EQ(forced->size(), 2u);
+  for (const auto& l : *forced) EXPECT_EQ(l.kind, "feature_segment");
+  EXPECT_FALSE(make_legs(pts, {"feature", "swim", "path"}, false, map, "").ok());
+  EXPECT_FALSE(make_legs({{0, 0}}, {"feature"}, false, map, "").ok());
+  EXPECT_FALSE(make_legs({{0, 0}, {0, 0}}, {"feature", "feature"}, false, map, "").ok());
+}
+
+TEST(ScriptedOperator, DrivesASquareLegByLegTurningInPlaceBetweenLegs) {
+  std::vector<OperatorLeg> legs;
+  const std::vector<cv::Point2d> corners = {{0, 0}, {5, 0}, {5, 5}, {0, 5}};
+  for (int i = 0; i < 4; ++i) legs.push_back({corners[i], corners[(i + 1) % 4], i % 2 ? "path_following" : "feature_segment"});
+  ScriptedOperatorCore op(legs, OperatorParams{});
+  Pose2D pose{0.0, 0.3, 0.2};  // starts off the first leg: the operator corrects it
+  std::vector<std::string> kinds_seen;
+  bool turned_in_place = false;
+  int ticks = 0;
+  for (; ticks < 20000; ++ticks) {
+    const OperatorAction a = op.update(pose);
+    if (a.done) break;
+    if (a.primitive.empty()) {
+      EXPECT_EQ(a.command.linear_mps, 0.0);  // never teaching while moving without a primitive
+      if (a.command.angular_radps != 0.0) turned_in_place = true;
+    } else if (kinds_seen.empty() || kinds_seen.back() != a.primitive) {
+      kinds_seen.push_back(a.primitive);
+    }
+    const double dt = 0.05;
+    pose.heading_rad += a.command.angular_radps * dt;
+    pose.x_m += a.command.linear_mps * dt * std::cos(pose.heading_rad);
+    pose.y_m += a.command.linear_mps * dt * std::sin(pose.heading_rad);
+  }
+  ASSERT_LT(ticks, 20000);
+  EXPECT_TRUE(turned_in_place);
+  EXPECT_EQ(kinds_seen, (std::vector<std::string>{"feature_segment", "path_following", "feature_segment", "path_following"}));
+  EXPECT_NEAR(pose.x_m, 0.0, 0.1);  // back at the first corner
+  EXPECT_NEAR(pose.y_m, 0.0, 0.1);
+  EXPECT_TRUE(op.update(pose).done);
+}
+
+TEST(ScriptedOperator, ParamsValidation) {
+  OperatorParams p;
+  EXPECT_TRUE(p.validate().ok());
+  p.speed_mps = 0.0;
+  EXPECT_FALSE(p.validate().ok());
+}

@@ -12,10 +12,16 @@
 // an Error.
 //
 // Minimal plugin:
-//   class MyCamera : public visnav::Camera { ... static visnav::Result<std::unique_ptr<MyCamera>>
-//     create(const visnav::ConfigNode& params, visnav::HostServices& host); };
-//   static const visnav::TypeEntry kTypes[] = {visnav::camera_type<MyCamera>("mycam", "What it is")};
-//   VISNAV_PLUGIN(visnav::PluginKind::camera, "mycam", "1.0", "My camera", kTypes, nullptr, {})
+//   class MyCamera : public visnav::Camera {
+//    public:
+//     using Params = MyCameraParams;   // struct with defaults, validate() and schema()
+//     static visnav::Result<std::unique_ptr<MyCamera>> create(const visnav::ConfigNode& params,
+//                                                             visnav::HostServices& host);
+//     visnav::Result<std::optional<visnav::Frame>> grab(double timeout_s) override;
+//   };
+//   static const visnav::TypeEntry kTypes[] = {visnav::make_type<MyCamera>("mycam", "What it is")};
+//   VISNAV_PLUGIN(visnav::PluginKind::camera, "mycam", "1.0", "My camera", kTypes, 1,
+//                 /*register_nodes=*/nullptr, /*commands=*/nullptr, 0)
 #pragma once
 
 #include <cstddef>

@@ -1,0 +1,17 @@
+// Detector plugin: star_brief — the CenSurE/STAR detector and BRIEF-256 descriptor of this
+// project (plugins/detectors/common), with adaptive threshold and upright option.
+#include "visnav/detectors/detector_types.hpp"
+#include "visnav/plugin.hpp"
+
+namespace {
+
+const visnav::TypeEntry kTypes[] = {
+    visnav::make_type<visnav::detectors::StarBriefDetector>(
+        "star_brief", "CenSurE/STAR keypoints + 256-bit BRIEF (upright by default), adaptive threshold"),
+};
+
+}  // namespace
+
+VISNAV_PLUGIN(visnav::PluginKind::detector, "detector_star_brief", "1.0",
+              "CenSurE/STAR + BRIEF detector written in visnav", kTypes, sizeof(kTypes) / sizeof(kTypes[0]), nullptr,
+              nullptr, 0)

@@ -1,0 +1,220 @@
+// Dead-reckoned map layout and drawing.
+#include "map/render.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <functional>
+
+#include <opencv2/imgproc.hpp>
+
+namespace visnav::map_detail {
+
+namespace {
+
+cv::Point2d direction(double azimuth_rad) { return {std::cos(azimuth_rad), std::sin(azimuth_rad)}; }
+
+double nice_step(double raw) {
+  if (!(raw > 0.0)) return 1.0;
+  const double p = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0, 10.0}) if (m * p >= raw) return m * p;
+  return 10.0 * p;
+}
+
+std::string metres_text(double m) {
+  char buf[32];
+  if (m >= 1000.0) std::snprintf(buf, sizeof buf, "%g km", m / 1000.0);
+  else std::snprintf(buf, sizeof buf, "%g m", m);
+  return buf;
+}
+
+void dashed_line(cv::Mat& img, cv::Point2d a, cv::Point2d b, const cv::Scalar& colour) {
+  const double len = cv::norm(b - a);
+  const int dashes = std::max(1, static_cast<int>(len / 8.0));
+  for (int i = 0; i < dashes; i += 2) {
+    const cv::Point2d p0 = a + (b - a) * (static_cast<double>(i) / dashes);
+    const cv::Point2d p1 = a + (b - a) * (static_cast<double>(i + 1) / dashes);
+    cv::line(img, cv::Point(cvRound(p0.x), cvRound(p0.y)), cv::Point(cvRound(p1.x), cvRound(p1.y)), colour, 1, cv::LINE_AA);
+  }
+}
+
+}  // namespace
+
+cv::Scalar kind_colour(const std::string& kind) {
+  if (kind.rfind("feature", 0) == 0) return {40, 40, 220};       // red (BGR)
+  if (kind.rfind("path", 0) == 0) return {200, 90, 20};          // blue
+  if (kind.rfind("visual_memory", 0) == 0) return {60, 160, 40};  // green
+  static const cv::Scalar palette[] = {{0, 140, 255}, {180, 60, 160}, {150, 150, 0}, {30, 100, 140}, {120, 120, 120}};
+  const std::size_t h = std::hash<std::string>{}(kind);
+  return palette[h % (sizeof palette / sizeof palette[0])];
+}
+
+MapLayout layout_map(const MapStore& map) {
+  MapLayout layout;
+  const auto& nodes = map.nodes();
+  const auto& edges = map.edges();
+  std::deque<std::string> queue;
+  for (const auto& n : nodes) {
+    if (n.position_hint) {
+      layout.node_xy_m[n.id] = {n.position_hint->x_m, n.position_hint->y_m};
+      queue.push_back(n.id);
+    }
+  }
+  // Forward dead reckoning (the order the route was taught) from every placed node; a node only
+  // reachable against an edge direction is placed backwards from the edge's end, one at a time,
+  // so forward integration always wins where it is possible.
+  auto spread_forward = [&]() {
+    while (!queue.empty()) {
+      const std::string u = queue.front();
+      queue.pop_front();
+      const cv::Point2d pu = layout.node_xy_m.at(u);
+      for (const auto* e : map.outgoing(u)) {
+        if (layout.node_xy_m.count(e->to) == 0) {
+          layout.node_xy_m[e->to] = pu + direction(e->azimuth_rad) * e->length_m;
+          queue.push_back(e->to);
+        }
+      }
+    }
+  };
+  auto place_one_backwards = [&]() {
+    for (const auto& e : edges) {
+      if (layout.node_xy_m.count(e.from) == 0 && layout.node_xy_m.count(e.to) != 0) {
+        layout.node_xy_m[e.from] = layout.node_xy_m.at(e.to) - direction(e.azimuth_rad) * e.length_m;
+        queue.push_back(e.from);
+        return true;
+      }
+    }
+    return false;
+  };
+  auto spread = [&]() {
+    do spread_forward();
+    while (place_one_backwards());
+  };
+  spread();
+  for (const auto& n : nodes) {
+    if (layout.node_xy_m.count(n.id) != 0) continue;
+    cv::Point2d origin{0.0, 0.0};
+    if (!layout.node_xy_m.empty()) {
+      double max_x = -1e300, min_x = 1e300, min_y = 1e300;
+      for (const auto& [id, p] : layout.node_xy_m) {
+        max_x = std::max(max_x, p.x);
+        min_x = std::min(min_x, p.x);
+        min_y = std::min(min_y, p.y);
+      }
+      origin = {max_x + std::max(5.0, 0.2 * (max_x - min_x)), min_y};
+    }
+    layout.node_xy_m[n.id] = origin;
+    queue.push_back(n.id);
+    spread();
+  }
+  for (const auto& e : edges) {
+    MapLayout::EdgeSegment s;
+    s.start_m = layout.node_xy_m.at(e.from);
+    s.to_node_m = layout.node_xy_m.at(e.to);
+    const auto* from = map.find_node(e.from);
+    const auto* to = map.find_node(e.to);
+    if (from->position_hint && to->position_hint) s.end_m = s.to_node_m;  // recorded odometry wins
+    else s.end_m = s.start_m + direction(e.azimuth_rad) * e.length_m;
+    layout.edges.push_back(s);
+  }
+  return layout;
+}
+
+Result<cv::Mat> render_map(const MapStore& map, int width_px) {
+  if (width_px < 200 || width_px > 20000) return fail("render width must be between 200 and 20000 px");
+  const MapLayout layout = layout_map(map);
+  const MapStats stats = map.stats();
+
+  double min_x = 0, max_x = 1, min_y = 0, max_y = 1;
+  bool first = true;
+  auto extend = [&](cv::Point2d p) {
+    if (first) { min_x = max_x = p.x; min_y = max_y = p.y; first = false; return; }
+    min_x = std::min(min_x, p.x); max_x = std::max(max_x, p.x);
+    min_y = std::min(min_y, p.y); max_y = std::max(max_y, p.y);
+  };
+  for (const auto& [id, p] : layout.node_xy_m) extend(p);
+  for (const auto& s : layout.edges) extend(s.end_m);
+  const double extent = std::max({max_x - min_x, max_y - min_y, 1.0});
+  const double cx = 0.5 * (min_x + max_x), cy = 0.5 * (min_y + max_y);
+  const double span_x = std::max(max_x - min_x, 0.05 * extent), span_y = std::max(max_y - min_y, 0.05 * extent);
+
+  const int margin = 70, title_h = 40;
+  const int legend_h = 30 + 24 * static_cast<int>(std::max<std::size_t>(1, stats.per_kind.size()));
+  const double draw_w = width_px - 2.0 * margin;
+  double scale = draw_w / span_x;  // px per metre
+  const double max_draw_h = 2.0 * width_px;
+  if (span_y * scale > max_draw_h) scale = max_draw_h / span_y;
+  const int draw_h = static_cast<int>(std::ceil(span_y * scale));
+  const int height = title_h + draw_h + 2 * margin + legend_h;
+  cv::Mat img(height, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  const double ox = width_px / 2.0, oy = title_h + margin + draw_h / 2.0;
+  auto px = [&](cv::Point2d p) {  // odom frame (x right, y up) → image (v down)
+    return cv::Point2d(ox + (p.x - cx) * scale, oy - (p.y - cy) * scale);
+  };
+  auto ipt = [](cv::Point2d p) { return cv::Point(cvRound(p.x), cvRound(p.y)); };
+
+  // Grid.
+  const double grid_m = nice_step(100.0 / scale);
+  for (double gx = std::floor((cx - ox / scale) / grid_m) * grid_m; px({gx, 0}).x < width_px; gx += grid_m) {
+    cv::line(img, ipt({px({gx, 0}).x, static_cast<double>(title_h)}), ipt({px({gx, 0}).x, static_cast<double>(height - legend_h)}),
+             cv::Scalar(235, 235, 235), 1);
+  }
+  for (double gy = std::floor((cy - (height - oy) / scale) / grid_m) * grid_m; px({0, gy}).y > title_h; gy += grid_m) {
+    if (px({0, gy}).y > height - legend_h) continue;
+    cv::line(img, ipt({0.0, px({0, gy}).y}), ipt({static_cast<double>(width_px), px({0, gy}).y}), cv::Scalar(235, 235, 235), 1);
+  }
+
+  // Edges.
+  const auto& edges = map.edges();
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    const auto& s = layout.edges[i];
+    const cv::Point2d a = px(s.start_m), b = px(s.end_m), t = px(s.to_node_m);
+    const double len_px = cv::norm(b - a);
+    const cv::Scalar colour = kind_colour(edges[i].kind);
+    if (len_px < 1.0) {
+      cv::circle(img, ipt(a), 10, colour, 2, cv::LINE_AA);  // zero-length or loop edge
+    } else {
+      cv::arrowedLine(img, ipt(a), ipt(b), colour, 3, cv::LINE_AA, 0, std::min(0.3, 14.0 / len_px));
+    }
+    if (cv::norm(b - t) > 2.0) dashed_line(img, b, t, cv::Scalar(150, 150, 150));  // odometric drift at loop closure
+  }
+  // Nodes.
+  for (const auto& n : map.nodes()) {
+    const cv::Point p = ipt(px(layout.node_xy_m.at(n.id)));
+    cv::circle(img, p, 6, cv::Scalar(30, 30, 30), cv::FILLED, cv::LINE_AA);
+    cv::circle(img, p, 3, cv::Scalar(255, 255, 255), cv::FILLED, cv::LINE_AA);
+    const std::string label = n.name.empty() ? n.id : n.name;
+    cv::putText(img, label, p + cv::Point(9, -8), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 3, cv::LINE_AA);
+    cv::putText(img, label, p + cv::Point(9, -8), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(20, 20, 20), 1, cv::LINE_AA);
+  }
+  // Title.
+  char title[256];
+  std::snprintf(title, sizeof title, "map '%s': %zu nodes, %zu edges, %.1f m", map.name().c_str(), stats.nodes,
+                stats.total.edges, stats.total.length_m);
+  cv::putText(img, title, {15, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.7, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  // Scale bar.
+  const double bar_m = nice_step(0.2 * draw_w / scale);
+  const int bar_px = cvRound(bar_m * scale);
+  const int bar_y = height - legend_h - 20;
+  cv::line(img, {20, bar_y}, {20 + bar_px, bar_y}, cv::Scalar(0, 0, 0), 2);
+  cv::line(img, {20, bar_y - 5}, {20, bar_y + 5}, cv::Scalar(0, 0, 0), 2);
+  cv::line(img, {20 + bar_px, bar_y - 5}, {20 + bar_px, bar_y + 5}, cv::Scalar(0, 0, 0), 2);
+  cv::putText(img, metres_text(bar_m), {25 + bar_px, bar_y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  // Legend.
+  int ly = height - legend_h + 20;
+  cv::line(img, {0, height - legend_h}, {width_px, height - legend_h}, cv::Scalar(200, 200, 200), 1);
+  if (stats.per_kind.empty()) {
+    cv::putText(img, "(no edges)", {20, ly + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  for (const auto& [kind, k] : stats.per_kind) {
+    cv::line(img, {20, ly}, {60, ly}, kind_colour(kind), 4, cv::LINE_AA);
+    char text[256];
+    std::snprintf(text, sizeof text, "%s: %zu edges, %.1f m, %.0f B/m", kind.c_str(), k.edges, k.length_m, k.bytes_per_m());
+    cv::putText(img, text, {70, ly + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    ly += 24;
+  }
+  return img;
+}
+
+}  // namespace visnav::map_detail

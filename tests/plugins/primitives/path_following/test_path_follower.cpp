@@ -346,9 +346,20 @@ TEST(PathFollower, AppearanceAdaptationBlendsWithThePreviousModels) {
   EXPECT_GT(v_plain - v_first, 20.0);
 
   // reset() forgets the previous models.
+  const auto models_a = [&] {
+    auto f = make_follower(p);
+    (void)run(f, sa.bgr);
+    return f.reference_models();
+  }();
   blended.reset();
   (void)run(blended, sb.bgr);
   EXPECT_NEAR(v_of_largest(blended.reference_models()), v_plain, 1.0);
+
+  // Priming with a stored appearance summary is the same as having seen that frame.
+  auto primed = make_follower(p);
+  primed.set_prior_models(models_a);
+  (void)run(primed, sb.bgr);
+  EXPECT_NEAR(v_of_largest(primed.reference_models()), v_blend, 1e-9);
 }
 
 TEST(PathFollower, BuffersAreReusedAcrossFramesAndHorizons) {

@@ -1,0 +1,35 @@
+// libvisnav_path_following.so — the segmentation-based path-following primitive (nodes plugin).
+//
+// Provides the `visnav pathseg` command. The behaviour-tree node FollowPathEdge (issue 5) is
+// registered in register_nodes() once the behaviour-tree engine is available; until then the
+// registrar adds no node types.
+#include "cmd_pathseg.hpp"
+#include "visnav/plugin.hpp"
+
+namespace {
+
+visnav::Status register_nodes(visnav::bt::NodeRegistry& /*registry*/, visnav::HostServices& /*host*/) {
+  return visnav::ok();
+}
+
+int pathseg_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
+  try {
+    return visnav::path_following::run_pathseg(argc, argv, host);
+  } catch (const std::exception& e) {
+    host.logger().error("pathseg", std::string("unexpected exception: ") + e.what());
+    return 1;
+  } catch (...) {
+    host.logger().error("pathseg", "unexpected non-standard exception");
+    return 1;
+  }
+}
+
+const visnav::CommandEntry kCommands[] = {
+    {"pathseg", "segment the path in one image and draw the stages (seed 000 Fig. 2)", &pathseg_entry},
+};
+
+}  // namespace
+
+VISNAV_PLUGIN(visnav::PluginKind::nodes, "path_following", "0.1.0",
+              "Segmentation-based path following (superpixels + Gaussian path models, seed 000 Sec. 4)",
+              nullptr, 0, &register_nodes, kCommands, 1)

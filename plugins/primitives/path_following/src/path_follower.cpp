@@ -1,0 +1,520 @@
+#include "visnav/path_following/path_follower.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ximgproc/segmentation.hpp>
+
+namespace visnav::path_following {
+
+namespace {
+
+struct HueTable {
+  std::array<double, 180> cos_h{};
+  std::array<double, 180> sin_h{};
+  HueTable() {
+    for (int h = 0; h < 180; ++h) {
+      const double rad = 2.0 * h * std::numbers::pi / 180.0;  // OpenCV 8-bit hue is degrees / 2
+      cos_h[static_cast<std::size_t>(h)] = std::cos(rad);
+      sin_h[static_cast<std::size_t>(h)] = std::sin(rad);
+    }
+  }
+};
+
+const HueTable& hue_table() {
+  static const HueTable table;
+  return table;
+}
+
+Eigen::Matrix3d regularised(const Eigen::Matrix3d& cov, double noise_floor) {
+  return cov + Eigen::Matrix3d::Identity() * (noise_floor * noise_floor);
+}
+
+std::string describe_type(const cv::Mat& m) {
+  return std::to_string(m.channels()) + "-channel " + (m.depth() == CV_8U ? std::string("8-bit") : "non-8-bit");
+}
+
+}  // namespace
+
+std::string_view to_string(PathStatus status) {
+  switch (status) {
+    case PathStatus::ok: return "ok";
+    case PathStatus::path_lost: return "path lost";
+    case PathStatus::path_fills_image: return "path fills image";
+    case PathStatus::dark_frame: return "dark frame";
+    case PathStatus::no_reference: return "no reference";
+  }
+  return "unknown";
+}
+
+ColourModel ColourMoments::model() const {
+  ColourModel m;
+  m.pixels = n;
+  if (n <= 0.0) return m;
+  m.mean = sum / n;
+  m.cov = sum_sq / n - m.mean * m.mean.transpose();
+  m.cov = 0.5 * (m.cov + m.cov.transpose());
+  // Guard tiny negative variances from cancellation.
+  for (int i = 0; i < 3; ++i) m.cov(i, i) = std::max(m.cov(i, i), 0.0);
+  return m;
+}
+
+Eigen::Vector3d hsv_cone_feature(std::uint8_t h, std::uint8_t s, std::uint8_t v) {
+  const auto& t = hue_table();
+  const std::size_t hi = std::min<std::size_t>(h, 179);
+  return {s * t.cos_h[hi], s * t.sin_h[hi], static_cast<double>(v)};
+}
+
+double merge_distance_sq(const ColourModel& a, const ColourModel& b, double noise_floor) {
+  const Eigen::Vector3d d = a.mean - b.mean;
+  const Eigen::Matrix3d c = regularised(a.cov + b.cov, noise_floor);
+  return d.dot(c.ldlt().solve(d));
+}
+
+double class_distance_sq(const ColourModel& segment, const ColourModel& reference, double noise_floor) {
+  const Eigen::Vector3d d = segment.mean - reference.mean;
+  const Eigen::Matrix3d c = regularised(reference.cov, noise_floor);
+  return d.dot(c.ldlt().solve(d));
+}
+
+HorizonEstimate detect_horizon(const cv::Mat& bgr, const PathFollowerParams& params, cv::Mat& row_means_scratch) {
+  HorizonEstimate h;
+  const int rows = bgr.rows;
+  const int max_row = std::max(0, rows - kMinGroundRowsPx);
+  auto clamp_row = [&](double r) { return std::clamp(static_cast<int>(std::lround(r)), 0, max_row); };
+  if (params.horizon_mode == "row") {
+    h.row_px = clamp_row(params.horizon_row_px);
+    return h;
+  }
+  h.row_px = clamp_row(params.horizon_ratio * rows);
+  if (params.horizon_mode != "auto" || bgr.empty()) return h;
+
+  cv::reduce(bgr, row_means_scratch, 1, cv::REDUCE_AVG, CV_32F);  // rows × 1, CV_32FC3
+  const int win = params.horizon_window_px;
+  const int lo = std::max(win, static_cast<int>(std::ceil(params.horizon_search_min_ratio * rows)));
+  const int hi = std::min(rows - win, static_cast<int>(std::floor(params.horizon_search_max_ratio * rows)));
+  double best = -1.0;
+  int best_row = -1;
+  for (int r = lo; r <= hi; ++r) {
+    cv::Vec3d above(0, 0, 0), below(0, 0, 0);
+    for (int i = 0; i < win; ++i) {
+      above += cv::Vec3d(row_means_scratch.at<cv::Vec3f>(r - 1 - i, 0));
+      below += cv::Vec3d(row_means_scratch.at<cv::Vec3f>(r + i, 0));
+    }
+    const double contrast = cv::norm(above - below) / win;
+    if (contrast > best) {
+      best = contrast;
+      best_row = r;
+    }
+  }
+  if (best_row >= 0) h.contrast = best;
+  if (best_row >= 0 && best >= params.horizon_min_contrast) {
+    h.row_px = clamp_row(best_row);
+    h.detected = true;
+  }
+  return h;
+}
+
+Twist steering_command(std::span<const cv::Point2f> middle_points, int image_width_px, int ground_rows,
+                       const PathFollowerParams& params, double& offset) {
+  offset = 0.0;
+  Twist cmd;
+  if (middle_points.empty() || image_width_px <= 0 || ground_rows <= 0) return cmd;
+  const double half_w = 0.5 * image_width_px;
+  double sum = 0.0;
+  for (const auto& p : middle_points) sum += (p.x - half_w) / half_w;
+  const double n = static_cast<double>(middle_points.size());
+  offset = sum / n;
+  cmd.angular_radps = std::clamp(-params.alpha_radps * offset, -params.max_angular_radps, params.max_angular_radps);
+  const double v = params.beta_mps * std::min(1.0, n / ground_rows) -
+                   params.turn_slowdown_mps_per_radps * std::abs(cmd.angular_radps);
+  cmd.linear_mps = std::clamp(v, 0.0, params.max_linear_mps);
+  return cmd;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Result<PathFollower> PathFollower::create(const PathFollowerParams& params) {
+  auto valid = params.validate();
+  if (!valid) return valid.error().with_context("path follower params");
+  return PathFollower(params);
+}
+
+PathFollower::PathFollower(const PathFollowerParams& params) : params_(params) {
+  const double area_scale = params_.seg_scale * params_.seg_scale;
+  const int min_size = std::max(1, static_cast<int>(std::lround(params_.seg_min_size_px * area_scale)));
+  segmenter_ = cv::ximgproc::segmentation::createGraphSegmentation(params_.seg_sigma, static_cast<float>(params_.seg_k),
+                                                                    min_size);
+  if (params_.opening_kernel_px > 0)
+    opening_kernel_ = cv::getStructuringElement(cv::MORPH_ELLIPSE,
+                                                cv::Size(params_.opening_kernel_px, params_.opening_kernel_px));
+}
+
+PathFollower::PathFollower(PathFollower&&) noexcept = default;
+PathFollower& PathFollower::operator=(PathFollower&&) noexcept = default;
+PathFollower::~PathFollower() = default;
+
+void PathFollower::reset() {
+  previous_models_.clear();
+  stages_.reference_models.clear();
+}
+
+void PathFollower::ensure_buffers(cv::Size size) {
+  if (size == buffer_size_) return;
+  buffer_size_ = size;
+  blurred_.create(size, CV_8UC3);
+  hsv_.create(size, CV_8UC3);
+  labels_.create(size, CV_32SC1);
+  roi_.create(size, CV_8UC1);
+  classified_.create(size, CV_8UC1);
+  opened_.create(size, CV_8UC1);
+  components_.create(size, CV_32SC1);
+  region_.create(size, CV_8UC1);
+  if (params_.seg_scale < 1.0) {
+    const cv::Size small(std::max(1, static_cast<int>(std::lround(size.width * params_.seg_scale))),
+                         std::max(1, static_cast<int>(std::lround(size.height * params_.seg_scale))));
+    small_.create(small, CV_8UC3);
+    small_labels_.create(small, CV_32SC1);
+  }
+  roi_rows_ = roi_cols_ = -1;
+}
+
+void PathFollower::build_reference_roi(int ground_rows, int width) {
+  if (ground_rows == roi_rows_ && width == roi_cols_) return;
+  roi_rows_ = ground_rows;
+  roi_cols_ = width;
+  cv::Mat roi = roi_.rowRange(0, ground_rows);
+  roi.setTo(0);
+  const double cx = 0.5 * width;
+  const double bottom_half = 0.5 * params_.ref_bottom_width_ratio * width;
+  const double top_half = 0.5 * params_.ref_top_width_ratio * width;
+  const int height = std::max(1, static_cast<int>(std::lround(params_.ref_height_ratio * ground_rows)));
+  const int y_bottom = ground_rows - 1;
+  const int y_top = std::max(0, ground_rows - height);
+  const std::array<cv::Point, 4> corners{
+      cv::Point(static_cast<int>(std::lround(cx - bottom_half)), y_bottom),
+      cv::Point(static_cast<int>(std::lround(cx + bottom_half)) - 1, y_bottom),
+      cv::Point(static_cast<int>(std::lround(cx + top_half)) - 1, y_top),
+      cv::Point(static_cast<int>(std::lround(cx - top_half)), y_top)};
+  cv::fillConvexPoly(roi, corners.data(), static_cast<int>(corners.size()), cv::Scalar(255));
+}
+
+void PathFollower::accumulate_segment_statistics(const cv::Mat& hsv, const cv::Mat& labels, const cv::Mat& roi,
+                                                 int segments) {
+  segment_stats_.assign(static_cast<std::size_t>(segments), SegmentStats{});
+  const auto& t = hue_table();
+  for (int y = 0; y < hsv.rows; ++y) {
+    const auto* px = hsv.ptr<cv::Vec3b>(y);
+    const auto* lab = labels.ptr<int>(y);
+    const auto* in_roi = roi.ptr<std::uint8_t>(y);
+    for (int x = 0; x < hsv.cols; ++x) {
+      const cv::Vec3b& p = px[x];
+      const std::size_t hi = std::min<std::size_t>(p[0], 179);
+      const Eigen::Vector3d f(p[1] * t.cos_h[hi], p[1] * t.sin_h[hi], static_cast<double>(p[2]));
+      SegmentStats& s = segment_stats_[static_cast<std::size_t>(lab[x])];
+      s.moments.add(f);
+      if (in_roi[x] != 0) {
+        s.roi_moments.add(f);
+        s.roi_pixels += 1.0;
+      }
+    }
+  }
+}
+
+int PathFollower::learn_reference_models(double roi_pixels) {
+  const double merge_sq = params_.ref_merge_distance * params_.ref_merge_distance;
+  const auto segments = segment_stats_.size();
+  order_.clear();
+  for (std::size_t s = 0; s < segments; ++s)
+    if (segment_stats_[s].roi_pixels > 0.0) order_.push_back(static_cast<int>(s));
+  std::sort(order_.begin(), order_.end(), [&](int a, int b) {
+    return segment_stats_[static_cast<std::size_t>(a)].roi_pixels > segment_stats_[static_cast<std::size_t>(b)].roi_pixels;
+  });
+
+  // Greedy merge, largest contribution to the reference region first. Only the pixels inside the
+  // reference region count, so a segment that leaks across the path edge does not drag the
+  // surroundings into the path model.
+  clusters_.clear();
+  segment_cluster_.assign(segments, -1);
+  for (int s : order_) {
+    const SegmentStats& st = segment_stats_[static_cast<std::size_t>(s)];
+    const ColourModel m = st.roi_moments.model();
+    int best = -1;
+    double best_d = merge_sq;
+    for (std::size_t c = 0; c < clusters_.size(); ++c) {
+      const double d = merge_distance_sq(m, clusters_[c].model, params_.colour_noise_floor);
+      if (d <= best_d) {
+        best_d = d;
+        best = static_cast<int>(c);
+      }
+    }
+    if (best < 0) {
+      clusters_.push_back(Cluster{st.roi_moments, m, st.roi_pixels});
+      best = static_cast<int>(clusters_.size()) - 1;
+    } else {
+      Cluster& c = clusters_[static_cast<std::size_t>(best)];
+      c.moments.merge(st.roi_moments);
+      c.model = c.moments.model();
+      c.roi_pixels += st.roi_pixels;
+    }
+    segment_cluster_[static_cast<std::size_t>(s)] = best;
+  }
+
+  // Keep the models that cover enough of the reference region, largest coverage first.
+  kept_clusters_.clear();
+  for (std::size_t c = 0; c < clusters_.size(); ++c)
+    if (roi_pixels > 0.0 && clusters_[c].roi_pixels / roi_pixels >= params_.ref_min_coverage)
+      kept_clusters_.push_back(static_cast<int>(c));
+  std::sort(kept_clusters_.begin(), kept_clusters_.end(), [&](int a, int b) {
+    return clusters_[static_cast<std::size_t>(a)].roi_pixels > clusters_[static_cast<std::size_t>(b)].roi_pixels;
+  });
+  auto& models = stages_.reference_models;
+  models.clear();
+  for (int c : kept_clusters_) models.push_back(clusters_[static_cast<std::size_t>(c)].model);
+
+  // Appearance adaptation: blend each model with the closest previous one (moment matching of
+  // the two-component mixture with weights 1 − b and b).
+  const double b = params_.model_blend;
+  if (b > 0.0 && !previous_models_.empty()) {
+    for (auto& m : models) {
+      const ColourModel* closest = nullptr;
+      double best_d = merge_sq;
+      for (const auto& p : previous_models_) {
+        const double d = merge_distance_sq(m, p, params_.colour_noise_floor);
+        if (d <= best_d) {
+          best_d = d;
+          closest = &p;
+        }
+      }
+      if (closest == nullptr) continue;
+      const Eigen::Vector3d mean = (1.0 - b) * m.mean + b * closest->mean;
+      const Eigen::Vector3d da = m.mean - mean;
+      const Eigen::Vector3d db = closest->mean - mean;
+      m.cov = (1.0 - b) * (m.cov + da * da.transpose()) + b * (closest->cov + db * db.transpose());
+      m.mean = mean;
+    }
+  }
+
+  reference_inverse_.clear();
+  for (const auto& m : models) reference_inverse_.push_back(regularised(m.cov, params_.colour_noise_floor).inverse());
+  return static_cast<int>(models.size());
+}
+
+void PathFollower::classify_segments(int segments, int used_models) {
+  const double limit_sq = params_.class_distance * params_.class_distance;
+  const auto& models = stages_.reference_models;
+  const std::size_t used = std::min(models.size(), static_cast<std::size_t>(std::max(used_models, 0)));
+  segment_is_path_.assign(static_cast<std::size_t>(segments), 0);
+  for (std::size_t s = 0; s < static_cast<std::size_t>(segments); ++s) {
+    const ColourMoments& mo = segment_stats_[s].moments;
+    if (mo.n <= 0.0) continue;
+    const Eigen::Vector3d mean = mo.sum / mo.n;
+    for (std::size_t r = 0; r < used; ++r) {
+      const Eigen::Vector3d d = mean - models[r].mean;
+      if (d.dot(reference_inverse_[r] * d) <= limit_sq) {
+        segment_is_path_[s] = 1;
+        break;
+      }
+    }
+  }
+}
+
+int PathFollower::extract_region(int segments, int used_models, const cv::Mat& labels, const cv::Mat& roi) {
+  const int ground_rows = labels.rows;
+  const int width = labels.cols;
+  classify_segments(segments, used_models);
+  cv::Mat classified = classified_.rowRange(0, ground_rows);
+  for (int y = 0; y < ground_rows; ++y) {
+    const auto* lab = labels.ptr<int>(y);
+    auto* dst = classified.ptr<std::uint8_t>(y);
+    for (int x = 0; x < width; ++x) dst[x] = segment_is_path_[static_cast<std::size_t>(lab[x])] != 0 ? 255 : 0;
+  }
+  cv::Mat opened = opened_.rowRange(0, ground_rows);
+  if (!opening_kernel_.empty()) cv::morphologyEx(classified, opened, cv::MORPH_OPEN, opening_kernel_);
+  else classified.copyTo(opened);
+
+  cv::Mat components = components_.rowRange(0, ground_rows);
+  const int component_count = cv::connectedComponents(opened, components, 8, CV_32S);
+  component_overlap_.assign(static_cast<std::size_t>(std::max(component_count, 1)), 0.0);
+  for (int y = 0; y < ground_rows; ++y) {
+    const auto* c = components.ptr<int>(y);
+    const auto* in_roi = roi.ptr<std::uint8_t>(y);
+    for (int x = 0; x < width; ++x)
+      if (in_roi[x] != 0 && c[x] > 0) component_overlap_[static_cast<std::size_t>(c[x])] += 1.0;
+  }
+  int best = 0;
+  for (int c = 1; c < component_count; ++c)
+    if (component_overlap_[static_cast<std::size_t>(c)] > component_overlap_[static_cast<std::size_t>(best)]) best = c;
+  cv::Mat region = region_.rowRange(0, ground_rows);
+  if (best == 0) {
+    region.setTo(0);
+    return 0;
+  }
+  cv::compare(components, cv::Scalar(best), region, cv::CMP_EQ);
+  return cv::countNonZero(region);
+}
+
+void PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const {
+  out.clear();
+  for (int y = 0; y < region.rows; ++y) {
+    const auto* p = region.ptr<std::uint8_t>(y);
+    int left = -1;
+    for (int x = 0; x < region.cols; ++x)
+      if (p[x] != 0) { left = x; break; }
+    if (left < 0) continue;
+    int right = left;
+    for (int x = region.cols - 1; x > left; --x)
+      if (p[x] != 0) { right = x; break; }
+    // Continuous coordinates: pixel i spans [i, i+1), so a band symmetric about the image
+    // centre has its middle exactly at w/2.
+    out.emplace_back(0.5f * static_cast<float>(left + right + 1), static_cast<float>(y + row_offset));
+  }
+}
+
+Result<PathEstimate> PathFollower::process(const cv::Mat& bgr) {
+  PathEstimate out;
+  VISNAV_TRY(process(bgr, out));
+  return out;
+}
+
+Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
+  if (bgr.empty()) return fail("path follower: empty image");
+  if (bgr.type() != CV_8UC3)
+    return fail("path follower: expected an 8-bit 3-channel BGR image (CV_8UC3), got a " + describe_type(bgr) +
+                " image");
+  if (bgr.cols < kMinImageWidthPx || bgr.rows < kMinImageHeightPx)
+    return fail("path follower: image " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
+                " is smaller than the minimum " + std::to_string(kMinImageWidthPx) + "x" +
+                std::to_string(kMinImageHeightPx));
+  ensure_buffers(bgr.size());
+
+  const int rows = bgr.rows;
+  const int width = bgr.cols;
+  out.horizon = detect_horizon(bgr, params_, row_means_);
+  const int top = std::min(out.horizon.row_px + params_.horizon_margin_px, rows - kMinGroundRowsPx);
+  const int ground_rows = rows - top;
+  const double ground_pixels = static_cast<double>(ground_rows) * width;
+  const cv::Mat ground = bgr.rowRange(top, rows);
+
+  out.status = PathStatus::ok;
+  out.ground_top_px = top;
+  out.mask.create(bgr.size(), CV_8UC1);
+  out.mask.setTo(0);
+  out.contour.clear();
+  out.middle_points.clear();
+  out.area_share = 0.0;
+  out.mean_offset = 0.0;
+  out.segments = 0;
+  out.reference_models = 0;
+  out.command = Twist{};
+
+  stages_.ground_top_px = top;
+  stages_.blurred = cv::Mat();
+  stages_.labels = cv::Mat();
+  stages_.reference_roi = cv::Mat();
+  stages_.classified = cv::Mat();
+  stages_.opened = cv::Mat();
+  stages_.segment_is_reference.clear();
+
+  const cv::Scalar mean_bgr = cv::mean(ground);
+  out.mean_intensity = (mean_bgr[0] + mean_bgr[1] + mean_bgr[2]) / 3.0;
+  if (out.mean_intensity < params_.dark_mean_intensity) {
+    out.status = PathStatus::dark_frame;
+    stages_.reference_models.clear();
+    return ok();
+  }
+
+  // Segmentation (Sec. 4.1). Buffers are views of the top rows of the full-size buffers so that a
+  // moving horizon never reallocates.
+  cv::Mat blurred = blurred_.rowRange(0, ground_rows);
+  if (params_.median_blur_px > 1) cv::medianBlur(ground, blurred, params_.median_blur_px);
+  else ground.copyTo(blurred);
+  cv::Mat labels = labels_.rowRange(0, ground_rows);
+  if (params_.seg_scale < 1.0) {
+    const int small_rows = std::clamp(static_cast<int>(std::lround(ground_rows * params_.seg_scale)), 1, small_.rows);
+    cv::Mat small = small_.rowRange(0, small_rows);
+    cv::Mat small_labels = small_labels_.rowRange(0, small_rows);
+    cv::resize(blurred, small, small.size(), 0.0, 0.0, cv::INTER_AREA);
+    segmenter_->processImage(small, small_labels);
+    cv::resize(small_labels, labels, labels.size(), 0.0, 0.0, cv::INTER_NEAREST);
+  } else {
+    segmenter_->processImage(blurred, labels);
+  }
+  double max_label = 0.0;
+  cv::minMaxIdx(labels, nullptr, &max_label);
+  const int segments = static_cast<int>(max_label) + 1;
+  out.segments = segments;
+  stages_.blurred = blurred;
+  stages_.labels = labels;
+
+  // Segment models and reference models (Sec. 4.2, steps 1-2).
+  cv::Mat hsv = hsv_.rowRange(0, ground_rows);
+  cv::cvtColor(blurred, hsv, cv::COLOR_BGR2HSV);
+  build_reference_roi(ground_rows, width);
+  const cv::Mat roi = roi_.rowRange(0, ground_rows);
+  stages_.reference_roi = roi;
+  accumulate_segment_statistics(hsv, labels, roi, segments);
+  const double roi_pixels = cv::countNonZero(roi);
+  out.reference_models = learn_reference_models(roi_pixels);
+  if (out.reference_models == 0) {
+    out.status = PathStatus::no_reference;
+    return ok();
+  }
+
+  // Classification (step 3), mask, opening and the connected region overlapping the reference
+  // region most (step 4). When the reference region straddles the path edge, the surroundings'
+  // model passes the coverage test too and the region swallows (nearly) the whole image; then
+  // the least covering models are dropped one by one while the region is larger than
+  // multi_model_max_share.
+  int used = out.reference_models;
+  int region_pixels = 0;
+  for (;; --used) {
+    region_pixels = extract_region(segments, used, labels, roi);
+    if (used == 1 || region_pixels / ground_pixels <= params_.multi_model_max_share) break;
+  }
+  out.reference_models = used;
+  stages_.reference_models.resize(static_cast<std::size_t>(used));
+  previous_models_ = stages_.reference_models;  // what the next frame blends with
+  stages_.segment_is_reference.assign(static_cast<std::size_t>(segments), 0);
+  for (std::size_t s = 0; s < static_cast<std::size_t>(segments); ++s)
+    for (int k = 0; k < used; ++k)
+      if (segment_cluster_[s] == kept_clusters_[static_cast<std::size_t>(k)]) stages_.segment_is_reference[s] = 1;
+  stages_.classified = classified_.rowRange(0, ground_rows);
+  stages_.opened = opened_.rowRange(0, ground_rows);
+  if (region_pixels == 0) {
+    out.status = PathStatus::path_lost;
+    return ok();
+  }
+  const cv::Mat region = region_.rowRange(0, ground_rows);
+  region.copyTo(out.mask.rowRange(top, rows));
+  out.area_share = region_pixels / ground_pixels;
+
+  // Contour and middle points (Sec. 4.3).
+  cv::findContours(region, contours_, hierarchy_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE, cv::Point(0, top));
+  std::size_t largest = 0;
+  double largest_area = -1.0;
+  for (std::size_t i = 0; i < contours_.size(); ++i) {
+    const double a = std::abs(cv::contourArea(contours_[i]));
+    if (a > largest_area) {
+      largest_area = a;
+      largest = i;
+    }
+  }
+  if (!contours_.empty()) out.contour.assign(contours_[largest].begin(), contours_[largest].end());
+  extract_middle_points(region, top, out.middle_points);
+
+  double offset = 0.0;
+  const Twist command = steering_command(out.middle_points, width, ground_rows, params_, offset);
+  out.mean_offset = offset;
+  if (out.area_share < params_.min_area_share) out.status = PathStatus::path_lost;
+  else if (out.area_share > params_.fill_area_share) out.status = PathStatus::path_fills_image;
+  if (out.status == PathStatus::ok) out.command = command;
+  return ok();
+}
+
+}  // namespace visnav::path_following

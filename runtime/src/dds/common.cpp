@@ -1,0 +1,112 @@
+// Parts of visnav/dds.hpp that do not touch Cyclone DDS (built with or without DDS).
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "visnav/dds.hpp"
+
+namespace visnav::dds {
+
+namespace msg {
+Time Time::from_seconds(double t_s) {
+  Time t;
+  double whole = std::floor(t_s);
+  double frac = t_s - whole;
+  auto ns = static_cast<std::int64_t>(std::llround(frac * 1e9));
+  if (ns >= 1000000000) { whole += 1.0; ns -= 1000000000; }
+  t.sec = static_cast<std::int32_t>(whole);
+  t.nanosec = static_cast<std::uint32_t>(ns);
+  return t;
+}
+}  // namespace msg
+
+std::string ros_topic(std::string_view ros_name) {
+  if (ros_name.rfind("rt/", 0) == 0) return std::string(ros_name);
+  while (!ros_name.empty() && ros_name.front() == '/') ros_name.remove_prefix(1);
+  return "rt/" + std::string(ros_name);
+}
+
+std::string loopback_config_xml() {
+  return "<CycloneDDS><Domain Id=\"any\"><General><Interfaces><NetworkInterface address=\"127.0.0.1\"/>"
+         "</Interfaces><AllowMulticast>false</AllowMulticast></General>"
+         "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>100</MaxAutoParticipantIndex>"
+         "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>";
+}
+
+double epoch_now_s() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+Result<Reliability> parse_reliability(std::string_view text) {
+  if (text == "best_effort") return Reliability::best_effort;
+  if (text == "reliable") return Reliability::reliable;
+  return fail("reliability '" + std::string(text) + "' is not one of: best_effort reliable");
+}
+
+Result<Durability> parse_durability(std::string_view text) {
+  if (text == "volatile") return Durability::volatile_data;
+  if (text == "transient_local") return Durability::transient_local;
+  return fail("durability '" + std::string(text) + "' is not one of: volatile transient_local");
+}
+
+const char* to_string(Reliability r) { return r == Reliability::reliable ? "reliable" : "best_effort"; }
+const char* to_string(Durability d) { return d == Durability::transient_local ? "transient_local" : "volatile"; }
+
+double yaw_from_quaternion(const msg::Quaternion& q) {
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+}
+
+msg::Quaternion quaternion_from_yaw(double yaw_rad) {
+  return msg::Quaternion{0.0, 0.0, std::sin(0.5 * yaw_rad), std::cos(0.5 * yaw_rad)};
+}
+
+Status fill_image_message(const cv::Mat& image, msg::Image& out) {
+  if (image.empty() || (image.type() != CV_8UC1 && image.type() != CV_8UC3))
+    return fail("fill_image_message: expected a non-empty CV_8UC1 or CV_8UC3 image");
+  const int channels = image.channels();
+  out.height = static_cast<std::uint32_t>(image.rows);
+  out.width = static_cast<std::uint32_t>(image.cols);
+  out.encoding = channels == 1 ? "mono8" : "bgr8";
+  out.is_bigendian = 0;
+  out.step = static_cast<std::uint32_t>(image.cols * channels);
+  out.data.resize(static_cast<std::size_t>(out.step) * out.height);
+  for (int r = 0; r < image.rows; ++r)
+    std::memcpy(out.data.data() + static_cast<std::size_t>(r) * out.step, image.ptr(r), out.step);
+  return ok();
+}
+
+const char* to_string(msg::ControlCommand command) {
+  switch (command) {
+    case msg::ControlCommand::pause: return "pause";
+    case msg::ControlCommand::resume: return "resume";
+    case msg::ControlCommand::abort: return "abort";
+    case msg::ControlCommand::swap_detector: return "swap_detector";
+  }
+  return "unknown";
+}
+
+Result<msg::ControlCommand> parse_control_command(std::string_view text) {
+  for (auto c : {msg::ControlCommand::pause, msg::ControlCommand::resume, msg::ControlCommand::abort,
+                 msg::ControlCommand::swap_detector})
+    if (text == to_string(c)) return c;
+  return fail("control command '" + std::string(text) + "' is not one of: pause resume abort swap_detector");
+}
+
+Status TelemetryParams::validate() const {
+  if (telemetry_topic.empty()) return fail("telemetry_topic must not be empty");
+  if (control_topic.empty()) return fail("control_topic must not be empty");
+  if (telemetry_topic == control_topic) return fail("telemetry_topic and control_topic must differ");
+  return ok();
+}
+
+const ParamSchema<TelemetryParams>& TelemetryParams::schema() {
+  static const auto s = ParamSchema<TelemetryParams>{}
+      .field("domain_id", &TelemetryParams::domain_id, "DDS domain id").range(0, 232)
+      .field("partition", &TelemetryParams::partition, "DDS partition (empty = default partition)")
+      .field("telemetry_topic", &TelemetryParams::telemetry_topic, "DDS topic of visnav/msg/Telemetry")
+      .field("control_topic", &TelemetryParams::control_topic, "DDS topic of visnav/msg/Control");
+  return s;
+}
+
+}  // namespace visnav::dds

@@ -1,0 +1,160 @@
+// DDS telemetry publisher and mission-control endpoints (visnav/dds.hpp), built on the typed
+// Writer/Subscription layer only.
+#include <deque>
+#include <mutex>
+
+#include "visnav/dds.hpp"
+
+namespace visnav::dds {
+
+namespace {
+
+Qos telemetry_qos() { return Qos{Reliability::reliable, Durability::volatile_data, 10, 0.0}; }
+Qos control_qos() { return Qos{Reliability::reliable, Durability::volatile_data, 32, 0.0}; }
+
+msg::Header stamped_now(const char* frame_id) {
+  msg::Header h;
+  h.stamp = msg::Time::from_seconds(epoch_now_s());
+  h.frame_id = frame_id;
+  return h;
+}
+
+}  // namespace
+
+// ---- DdsTelemetry ---------------------------------------------------------------------------
+
+struct DdsTelemetry::Impl {
+  Participant participant;
+  Writer<msg::Telemetry> writer;
+  Logger* logger;
+  msg::Telemetry sample;  // reused between publishes
+  std::uint64_t published = 0;
+  WarningLimiter limiter{5.0};
+};
+
+DdsTelemetry::DdsTelemetry(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+DdsTelemetry::~DdsTelemetry() = default;
+
+Result<std::unique_ptr<DdsTelemetry>> DdsTelemetry::create(const TelemetryParams& params, Logger& logger) {
+  VISNAV_TRY(params.validate());
+  VISNAV_ASSIGN(auto participant, Participant::create(params.domain_id));
+  VISNAV_ASSIGN(auto writer, Writer<msg::Telemetry>::create(
+                                 participant, EndpointOptions{params.telemetry_topic, telemetry_qos(), params.partition}));
+  auto impl = std::unique_ptr<Impl>(new Impl{std::move(participant), std::move(writer), &logger, {}, 0, WarningLimiter{5.0}});
+  return std::unique_ptr<DdsTelemetry>(new DdsTelemetry(std::move(impl)));
+}
+
+void DdsTelemetry::publish(const NavStatus& status) {
+  auto& s = impl_->sample;
+  s.header = stamped_now("visnav");
+  s.sequence_number = ++impl_->published;
+  s.node_path = status.node_path;
+  s.map_node = status.map_node;
+  s.edge = status.edge;
+  s.distance_m = status.distance_m;
+  s.matches = status.matches;
+  s.inliers = status.inliers;
+  s.offset_px = status.offset_px;
+  s.linear_mps = status.command.linear_mps;
+  s.angular_radps = status.command.angular_radps;
+  s.status = status.status;
+  auto st = impl_->writer.write(s);
+  if (!st && impl_->limiter.allow(epoch_now_s())) impl_->logger->warn("dds.telemetry", st.error().message);
+}
+
+std::uint64_t DdsTelemetry::published() const { return impl_->published; }
+int DdsTelemetry::matched_readers() const { return impl_->writer.matched_readers(); }
+
+// ---- ControlSubscriber ----------------------------------------------------------------------
+
+struct ControlSubscriber::Impl {
+  static constexpr std::size_t kMaxPending = 256;
+  Participant participant;
+  Logger* logger = nullptr;
+  WarningLimiter limiter{1.0};
+  std::mutex mutex;
+  std::deque<ControlRequest> pending;
+  std::unique_ptr<Subscription<msg::Control>> subscription;  // last: stopped first
+
+  explicit Impl(Participant p) : participant(std::move(p)) {}
+  ~Impl() { subscription.reset(); }
+};
+
+ControlSubscriber::ControlSubscriber(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ControlSubscriber::~ControlSubscriber() = default;
+
+Result<std::unique_ptr<ControlSubscriber>> ControlSubscriber::create(const TelemetryParams& params, Logger& logger) {
+  VISNAV_TRY(params.validate());
+  VISNAV_ASSIGN(auto participant, Participant::create(params.domain_id));
+  auto impl = std::make_unique<Impl>(participant);
+  impl->logger = &logger;
+  Impl* raw = impl.get();
+  auto on_sample = [raw](msg::Control&& c, const SampleInfo& info) {
+    const auto code = c.command;
+    if (code < static_cast<std::uint8_t>(msg::ControlCommand::pause) ||
+        code > static_cast<std::uint8_t>(msg::ControlCommand::swap_detector)) {
+      if (raw->limiter.allow(info.receive_time_s))
+        raw->logger->warn("dds.control", "dropped a control request with unknown command code " + std::to_string(code));
+      return;
+    }
+    ControlRequest r{static_cast<msg::ControlCommand>(code), std::move(c.argument), info.receive_time_s};
+    if (r.command == msg::ControlCommand::swap_detector && r.argument.empty()) {
+      if (raw->limiter.allow(info.receive_time_s))
+        raw->logger->warn("dds.control", "dropped a swap_detector request without a detector type");
+      return;
+    }
+    std::lock_guard lock(raw->mutex);
+    if (raw->pending.size() >= Impl::kMaxPending) raw->pending.pop_front();
+    raw->pending.push_back(std::move(r));
+  };
+  auto on_warning = [raw](const std::string& message) { raw->logger->warn("dds.control", message); };
+  VISNAV_ASSIGN(impl->subscription, Subscription<msg::Control>::create(
+                                         participant, EndpointOptions{params.control_topic, control_qos(), params.partition},
+                                         on_sample, on_warning));
+  return std::unique_ptr<ControlSubscriber>(new ControlSubscriber(std::move(impl)));
+}
+
+std::vector<ControlRequest> ControlSubscriber::take_pending() {
+  std::lock_guard lock(impl_->mutex);
+  std::vector<ControlRequest> out(std::make_move_iterator(impl_->pending.begin()),
+                                  std::make_move_iterator(impl_->pending.end()));
+  impl_->pending.clear();
+  return out;
+}
+
+int ControlSubscriber::matched_writers() const { return impl_->subscription->stats().matched_writers; }
+
+// ---- ControlPublisher -----------------------------------------------------------------------
+
+struct ControlPublisher::Impl {
+  Participant participant;
+  Writer<msg::Control> writer;
+  std::uint64_t sequence = 0;
+};
+
+ControlPublisher::ControlPublisher(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ControlPublisher::~ControlPublisher() = default;
+
+Result<std::unique_ptr<ControlPublisher>> ControlPublisher::create(const TelemetryParams& params) {
+  VISNAV_TRY(params.validate());
+  VISNAV_ASSIGN(auto participant, Participant::create(params.domain_id));
+  VISNAV_ASSIGN(auto writer, Writer<msg::Control>::create(
+                                 participant, EndpointOptions{params.control_topic, control_qos(), params.partition}));
+  auto impl = std::unique_ptr<Impl>(new Impl{std::move(participant), std::move(writer), 0});
+  return std::unique_ptr<ControlPublisher>(new ControlPublisher(std::move(impl)));
+}
+
+Status ControlPublisher::send(msg::ControlCommand command, const std::string& argument) {
+  msg::Control c;
+  c.header = stamped_now("visnav");
+  c.sequence_number = ++impl_->sequence;
+  c.command = static_cast<std::uint8_t>(command);
+  c.argument = argument;
+  return impl_->writer.write(c);
+}
+
+bool ControlPublisher::wait_for_subscribers(int count, double timeout_s) const {
+  return impl_->writer.wait_for_readers(count, timeout_s);
+}
+
+}  // namespace visnav::dds

@@ -1,15 +1,15 @@
 // libvisnav_path_following.so — the segmentation-based path-following primitive (nodes plugin).
 //
-// Provides the `visnav pathseg` command. The behaviour-tree node FollowPathEdge (issue 5) is
-// registered in register_nodes() once the behaviour-tree engine is available; until then the
-// registrar adds no node types.
+// Provides the behaviour-tree nodes FollowPathEdge and TeachPathEdge (nodes.hpp) and the
+// `visnav pathseg` command.
 #include "cmd_pathseg.hpp"
+#include "nodes.hpp"
 #include "visnav/plugin.hpp"
 
 namespace {
 
-visnav::Status register_nodes(visnav::bt::NodeRegistry& /*registry*/, visnav::HostServices& /*host*/) {
-  return visnav::ok();
+visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostServices& host) {
+  return visnav::path_following::register_path_nodes(registry, host);
 }
 
 int pathseg_entry(int argc, char** argv, visnav::HostServices& host) noexcept {

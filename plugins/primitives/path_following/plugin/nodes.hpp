@@ -1,0 +1,18 @@
+// Behaviour-tree nodes of the path-following primitive (protocol: docs/navigation.md).
+//  * FollowPathEdge — replays an edge of kind `path_following`: follows the visible path with
+//    control law (1) until the odometric distance reaches the edge's length; FAILURE "path lost"
+//    when the path is not seen for longer than grace_s.
+//  * TeachPathEdge — teaches such an edge: records only its odometric length and the path's
+//    appearance (the reference colour models), seed 000 Sec. 2 advantage 4.
+// Thread-safety: tick thread only.
+#pragma once
+
+#include "visnav/bt/registry.hpp"
+#include "visnav/host.hpp"
+
+namespace visnav::path_following {
+
+/// Registers FollowPathEdge and TeachPathEdge.
+Status register_path_nodes(bt::NodeRegistry& registry, HostServices& host);
+
+}  // namespace visnav::path_following

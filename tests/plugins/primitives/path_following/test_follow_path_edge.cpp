@@ -1,0 +1,156 @@
+// FollowPathEdge / TeachPathEdge end to end: the real loader, the real sim robot and camera
+// plugins, the behaviour-tree engine and the map store. Teach a 5 m path edge on straight6m,
+// then replay it from 0.5 m beside the path and check the ground truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "visnav/runner.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+
+namespace {
+
+fs::path temp_dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("visnav_follow_path_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::unique_ptr<Session> make_session(const fs::path& dir) {
+  const fs::path cfg = dir / "setup.yaml";
+  std::ofstream(cfg) << "robot: {type: sim, params: {world: straight6m, odom_scale_error_pct: 2}}\n"
+                        "camera: {type: sim, params: {width_px: 320, height_px: 240}}\n"
+                        "nodes: [path_following]\n"
+                        "run: {tick: frame, rate_hz: 10, lockstep: on, log_level: warn}\n";
+  auto config = load_run_config(cfg.string(), {});
+  EXPECT_TRUE(config.ok()) << (config.ok() ? "" : config.error().message);
+  SessionOptions so;
+  so.map_path = (dir / "map").string();
+  auto session = Session::create(std::move(*config), so);
+  EXPECT_TRUE(session.ok()) << (session.ok() ? "" : session.error().message);
+  return session.ok() ? std::move(*session) : nullptr;
+}
+
+Result<bt::Tree> tree_from(Session& s, const fs::path& dir, const std::string& body) {
+  const fs::path file = dir / "tree.xml";
+  std::ofstream(file) << "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" << body << "</BehaviorTree></root>";
+  return s.load_tree(file.string());
+}
+
+}  // namespace
+
+TEST(FollowPathEdge, TeachesThenFollowsThePathBackToItsCentreFromHalfAMetreOff) {
+  const fs::path dir = temp_dir("closed_loop");
+  auto session = make_session(dir);
+  ASSERT_TRUE(session);
+  SimulationControl* sim = session->robot().simulation();
+  ASSERT_NE(sim, nullptr);
+
+  {  // teach: the "operator" drives 5 m along the path centre
+    auto teach = tree_from(*session, dir, R"(<TeachPathEdge edge_from="" edge_to="" finish="{finish}"/>)");
+    ASSERT_TRUE(teach.ok()) << teach.error().message;
+    teach->blackboard().set("finish", false);
+    RunOptions ro;
+    ro.after_tick = [&](const TickInfo&) {
+      const auto odom = session->robot().latest_odometry();
+      if (odom && odom->distance_m >= 5.0) teach->blackboard().set("finish", true);
+      else (void)session->robot().send_command({0.4, 0.0});
+      return true;
+    };
+    const RunReport report = run_tree(*session, *teach, ro);
+    ASSERT_EQ(report.outcome, RunOutcome::success) << report.reason;
+  }
+  MapStore& map = *session->map();
+  ASSERT_EQ(map.edges().size(), 1u);
+  const EdgeRecord edge = map.edges()[0];
+  EXPECT_EQ(edge.kind, "path_following");
+  EXPECT_NEAR(edge.length_m, 5.0, 0.1);
+  EXPECT_GE(edge.statistics.at("colour_models"), 1.0);
+  EXPECT_LT(edge.payload_bytes, 2000u);  // the edge stores almost nothing (seed 000 Sec. 2, 4.)
+  EXPECT_TRUE(map.validate().empty());
+
+  // replay from 0.5 m to the left of the centre line (the path is 1.6 m wide along +x)
+  ASSERT_TRUE(sim->set_ground_truth_pose({0.0, 0.5, 0.0}).ok());
+  auto replay = tree_from(*session, dir, "<FollowPathEdge edge=\"" + edge.id + "\"/>");
+  ASSERT_TRUE(replay.ok()) << replay.error().message;
+  double max_abs_y = 0.0;
+  RunOptions ro;
+  ro.after_tick = [&](const TickInfo&) {
+    max_abs_y = std::max(max_abs_y, std::abs(sim->ground_truth_pose().y_m));
+    return true;
+  };
+  const RunReport report = run_tree(*session, *replay, ro);
+  ASSERT_EQ(report.outcome, RunOutcome::success) << report.reason;
+  const Pose2D end = sim->ground_truth_pose();
+  std::printf("closed loop: start offset 0.50 m, max |offset| %.3f m, end offset %.3f m after %.2f m\n", max_abs_y,
+              end.y_m, end.x_m);
+  EXPECT_LT(max_abs_y, 0.8) << "left the path polygon";
+  EXPECT_LE(std::abs(end.y_m), 0.2) << "end offset from the centre line";
+  EXPECT_GT(end.x_m, 4.0);  // it travelled the edge
+  fs::remove_all(dir);
+}
+
+TEST(FollowPathEdge, FailsWithPathLostWhenNoPathIsInView) {
+  const fs::path dir = temp_dir("lost");
+  auto session = make_session(dir);
+  ASSERT_TRUE(session);
+  SimulationControl* sim = session->robot().simulation();
+  {  // a short path edge
+    auto teach = tree_from(*session, dir, R"(<TeachPathEdge edge_from="" edge_to="" finish="{finish}"/>)");
+    ASSERT_TRUE(teach.ok());
+    teach->blackboard().set("finish", false);
+    RunOptions ro;
+    ro.after_tick = [&](const TickInfo&) {
+      const auto odom = session->robot().latest_odometry();
+      if (odom && odom->distance_m >= 2.0) teach->blackboard().set("finish", true);
+      else (void)session->robot().send_command({0.4, 0.0});
+      return true;
+    };
+    ASSERT_EQ(run_tree(*session, *teach, ro).outcome, RunOutcome::success);
+  }
+  // Face away from the path, out in the grass: no path in view.
+  ASSERT_TRUE(sim->set_ground_truth_pose({5.0, 6.0, 1.5708}).ok());
+  auto replay = tree_from(*session, dir, "<FollowPathEdge edge=\"" + session->map()->edges()[0].id + "\" grace_s=\"0.5\"/>");
+  ASSERT_TRUE(replay.ok());
+  const double x0 = sim->ground_truth_pose().x_m, y0 = sim->ground_truth_pose().y_m;
+  const RunReport report = run_tree(*session, *replay);
+  EXPECT_EQ(report.outcome, RunOutcome::failure);
+  // it did not wander off: at most the grace period at low speed
+  const Pose2D p = sim->ground_truth_pose();
+  EXPECT_LT(std::hypot(p.x_m - x0, p.y_m - y0), 0.5);
+  fs::remove_all(dir);
+}
+
+TEST(FollowPathEdge, RejectsAnEdgeOfAnotherKindOrACorruptPayloadWithoutMoving) {
+  const fs::path dir = temp_dir("bad_edge");
+  auto session = make_session(dir);
+  ASSERT_TRUE(session);
+  MapStore& map = *session->map();
+  NodeRecord n;
+  n.name = "a";
+  auto a = *map.add_node(n);
+  EdgeRecord e;
+  e.from = a;
+  e.to = a;
+  e.kind = "feature_segment";
+  e.length_m = 3;
+  std::vector<std::uint8_t> garbage(40, 0xAB);
+  auto wrong_kind = *map.add_edge(e, garbage);
+  e.kind = "path_following";
+  auto corrupt = *map.add_edge(e, garbage);
+  for (const auto& id : {wrong_kind, corrupt, std::string("no_such_edge")}) {
+    auto replay = tree_from(*session, dir, "<FollowPathEdge edge=\"" + id + "\"/>");
+    ASSERT_TRUE(replay.ok());
+    const Pose2D before = session->robot().simulation()->ground_truth_pose();
+    EXPECT_EQ(run_tree(*session, *replay).outcome, RunOutcome::failure) << id;
+    const Pose2D after = session->robot().simulation()->ground_truth_pose();
+    EXPECT_LT(std::hypot(after.x_m - before.x_m, after.y_m - before.y_m), 1e-6) << id;
+  }
+  fs::remove_all(dir);
+}

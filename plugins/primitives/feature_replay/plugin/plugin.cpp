@@ -1,18 +1,35 @@
 // libvisnav_feature_replay.so — the feature-based teach-and-replay primitive (nodes plugin).
 //
-// Provides the `visnav align` command. The behaviour-tree nodes TeachFeatureEdge and
-// ReplayFeatureEdge (issue 4, item 5) are thin adapters over the core
-// (visnav/feature_replay/*.hpp) and are registered in register_nodes() in a later step; until
-// then the registrar adds no node types.
+// Provides the behaviour-tree nodes TeachFeatureEdge and ReplayFeatureEdge (issue 4, item 5;
+// thin adapters over the core visnav/feature_replay/*.hpp, see nodes.hpp) and the
+// `visnav align` command.
 #include <exception>
+#include <memory>
 #include <string>
 
 #include "cmd_align.hpp"
+#include "nodes.hpp"
+#include "visnav/bt/registry.hpp"
 #include "visnav/plugin.hpp"
 
 namespace {
 
-visnav::Status register_nodes(visnav::bt::NodeRegistry& /*registry*/, visnav::HostServices& /*host*/) {
+visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostServices& host) {
+  using visnav::feature_replay::ReplayFeatureEdge;
+  using visnav::feature_replay::TeachFeatureEdge;
+  VISNAV_TRY(registry.register_node<TeachFeatureEdge>(
+      "TeachFeatureEdge",
+      "Records a feature edge while the operator drives: style segment (feature_segment, seed 000) or localmaps "
+      "(feature_localmaps, seed 002)",
+      [&host](const std::string& name, const visnav::bt::NodeConfig& config) {
+        return std::make_unique<TeachFeatureEdge>(name, config, host);
+      }));
+  VISNAV_TRY(registry.register_node<ReplayFeatureEdge>(
+      "ReplayFeatureEdge",
+      "Traverses a feature_segment or feature_localmaps edge, steering by histogram voting of feature offsets",
+      [&host](const std::string& name, const visnav::bt::NodeConfig& config) {
+        return std::make_unique<ReplayFeatureEdge>(name, config, host);
+      }));
   return visnav::ok();
 }
 

@@ -1,0 +1,354 @@
+// TeachFeatureEdge / ReplayFeatureEdge loaded from the real libvisnav_feature_replay.so through
+// the real loader, on a kinematic fake robot, a fake detector (synthetic features with fixed
+// random descriptors) and a fresh map folder:
+//  * teaching writes an edge of the right kind with a payload the core parses, the protocol's
+//    length/azimuth/end_heading_rad and the statistics, and never commands the robot;
+//  * replaying an edge of an unknown kind or with a corrupted payload fails with a clear logged
+//    message and never moves the robot;
+//  * bad inputs (empty frame, wrong-size frame, no features, a few features on one side) do not
+//    crash, are reported in telemetry and keep the recorded command (style B) / drive straight
+//    (style A) instead of steering on noise.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <random>
+
+#include "visnav/bt/registry.hpp"
+#include "visnav/bt/tree.hpp"
+#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_replay/segment_map.hpp"
+#include "visnav/loader.hpp"
+#include "visnav/map.hpp"
+#include "visnav/runtime_host.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+using bt::NodeStatus;
+namespace fr = visnav::feature_replay;
+
+namespace {
+
+class KinematicRobot final : public Robot {
+ public:
+  explicit KinematicRobot(FrameBus& bus) : bus_(bus) { publish(); }
+  Status send_command(const Twist& c) override {
+    command_ = c;
+    ++commands_;
+    return ok();
+  }
+  std::optional<Odometry> latest_odometry() override { return odom_; }
+  void step(double dt_s) {
+    odom_.pose.heading_rad += command_.angular_radps * dt_s;
+    odom_.pose.x_m += command_.linear_mps * dt_s * std::cos(odom_.pose.heading_rad);
+    odom_.pose.y_m += command_.linear_mps * dt_s * std::sin(odom_.pose.heading_rad);
+    odom_.distance_m += command_.linear_mps * dt_s;
+    odom_.timestamp_s += dt_s;
+    odom_.twist = command_;
+    publish();
+  }
+  void publish() { bus_.publish_odometry(odom_); }
+  Odometry odom_;
+  Twist command_;
+  int commands_ = 0;
+
+ private:
+  FrameBus& bus_;
+};
+
+/// Returns `next` (an error for an empty image, like the real detectors).
+class FakeDetector final : public Detector {
+ public:
+  Status detect(const cv::Mat& image, Features& out) override {
+    if (image.empty()) return fail("empty image");
+    out.keypoints = next.keypoints;
+    next.descriptors.copyTo(out.descriptors);
+    out.norm = DescriptorNorm::hamming;
+    return ok();
+  }
+  [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
+  Features next;
+};
+
+class CaptureLogger final : public Logger {
+ public:
+  void log(LogLevel level, std::string_view component, std::string_view message) override {
+    std::lock_guard lock(mutex_);
+    text_ += (level == LogLevel::error ? "E " : "I ") + std::string(component) + ": " + std::string(message) + "\n";
+  }
+  [[nodiscard]] std::string text() const {
+    std::lock_guard lock(mutex_);
+    return text_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::string text_;
+};
+
+class CaptureTelemetry final : public Telemetry {
+ public:
+  void publish(const NavStatus& status) override { statuses.push_back(status); }
+  std::vector<NavStatus> statuses;
+};
+
+/// A scene of `n` features with fixed random 32-byte descriptors at random image positions.
+struct Scene {
+  std::vector<cv::Point2f> positions;
+  cv::Mat descriptors;
+  explicit Scene(int n, unsigned seed = 7) : descriptors(n, 32, CV_8UC1) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(20.f, 300.f), v(20.f, 220.f);
+    std::uniform_int_distribution<int> byte(0, 255);
+    for (int i = 0; i < n; ++i) {
+      positions.emplace_back(u(rng), v(rng));
+      for (int j = 0; j < 32; ++j) descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(rng));
+    }
+  }
+  /// The scene shifted horizontally by `du_px`; only features with u < max_u_px, at most `limit`.
+  [[nodiscard]] Features view(float du_px, float max_u_px = 1e9f, int limit = 1 << 30) const {
+    Features f;
+    std::vector<int> rows;
+    for (int i = 0; i < static_cast<int>(positions.size()) && static_cast<int>(rows.size()) < limit; ++i) {
+      if (positions[i].x + du_px >= max_u_px) continue;
+      f.keypoints.emplace_back(positions[i].x + du_px, positions[i].y, 7.f, -1.f, 10.f);
+      rows.push_back(i);
+    }
+    f.descriptors.create(static_cast<int>(rows.size()), 32, CV_8UC1);
+    for (std::size_t r = 0; r < rows.size(); ++r) descriptors.row(rows[r]).copyTo(f.descriptors.row(static_cast<int>(r)));
+    return f;
+  }
+};
+
+class FeatureNodes : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("visnav_fr_nodes_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    auto map = MapStore::create(dir_.string(), "test");
+    ASSERT_TRUE(map.ok()) << map.error().message;
+    map_.emplace(std::move(*map));
+    map_->set_sync(false);
+    auto lib = loader_.load_library("feature_replay");
+    ASSERT_TRUE(lib.ok()) << lib.error().message;
+    host_.set_frame_bus(&bus_);
+    host_.set_robot(&robot_);
+    host_.set_map(&*map_);
+    host_.set_active_detector(&detector_);
+    host_.set_telemetry(&telemetry_);
+    ASSERT_TRUE(bt::register_builtin_nodes(registry_).ok());
+    bool found = false;
+    for (const auto& p : loader_.nodes_plugins()) {
+      if (p.library == *lib) {
+        auto st = p.register_nodes(registry_, host_);
+        ASSERT_TRUE(st.ok()) << st.error().message;
+        found = true;
+      }
+    }
+    ASSERT_TRUE(found);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  bt::Tree load(const std::string& body) {
+    const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" + body + "</BehaviorTree></root>";
+    bt::LoadOptions options;
+    options.clock = &clock_;
+    auto tree = bt::load_tree_string(xml, registry_, options);
+    EXPECT_TRUE(tree.ok()) << (tree.ok() ? "" : tree.error().message);
+    return std::move(*tree);
+  }
+
+  void publish_frame(int width = 320, int height = 240) {
+    Frame f;
+    f.timestamp_s = clock_.now_s();
+    f.sequence = ++sequence_;
+    if (width > 0) f.image = cv::Mat(height, width, CV_8UC1, cv::Scalar(128));
+    bus_.publish_frame(f);
+  }
+
+  /// One tick: publish a frame with `features`, tick, move the robot 0.1 s.
+  NodeStatus tick(bt::Tree& tree, const Features& features, int width = 320, int height = 240) {
+    detector_.next = features;
+    publish_frame(width, height);
+    const NodeStatus s = tree.tick_once();
+    robot_.step(0.1);
+    clock_.advance(0.1);
+    return s;
+  }
+
+  /// Teaches one edge while the "operator" (the test) drives `commands` for 10 ticks each.
+  std::string teach(const std::string& style, const std::vector<Twist>& commands) {
+    auto tree = load("<TeachFeatureEdge style=\"" + style +
+                     "\" edge_from=\"\" edge_to=\"\" finish=\"{finish_edge}\" edge=\"{taught_edge}\"/>");
+    int frame = 0;
+    for (const Twist& c : commands) {
+      robot_.command_ = c;  // the operator; the node itself never commands
+      for (int i = 0; i < 10; ++i, ++frame) EXPECT_EQ(tick(tree, scene_.view(-1.5f * frame)), NodeStatus::running);
+    }
+    tree.blackboard().set("finish_edge", true);
+    EXPECT_EQ(tick(tree, scene_.view(-1.5f * frame)), NodeStatus::success) << logger_.text();
+    auto id = tree.blackboard().get<std::string>("taught_edge");
+    EXPECT_TRUE(id.ok());
+    return id ? *id : std::string();
+  }
+
+  std::string add_edge(const std::string& kind, const std::vector<std::uint8_t>& body, double length_m = 5.0) {
+    NodeRecord n;
+    n.name = "a";
+    const std::string a = *map_->add_node(n);
+    EdgeRecord e;
+    e.from = a;
+    e.to = a;
+    e.kind = kind;
+    e.length_m = length_m;
+    e.statistics["image_width_px"] = 320;  // as TeachFeatureEdge records them
+    e.statistics["image_height_px"] = 240;
+    auto id = map_->add_edge(e, body);
+    EXPECT_TRUE(id.ok()) << id.error().message;
+    return *id;
+  }
+
+  fs::path dir_;
+  PluginLoader loader_{std::vector<std::string>{VISNAV_TEST_PLUGIN_DIR}};
+  CaptureLogger logger_;
+  ManualClock clock_;
+  RuntimeHost host_{loader_, logger_, clock_};
+  bt::NodeRegistry registry_;
+  FrameBus bus_;
+  KinematicRobot robot_{bus_};
+  FakeDetector detector_;
+  CaptureTelemetry telemetry_;
+  std::optional<MapStore> map_;
+  Scene scene_{200};
+  std::uint64_t sequence_ = 0;
+};
+
+TEST_F(FeatureNodes, TeachSegmentWritesAParsableEdgeWithTheProtocolFields) {
+  robot_.odom_.pose.heading_rad = 0.3;
+  robot_.publish();
+  const std::string id = teach("segment", {{1.0, 0.05}, {1.0, 0.05}});
+  const EdgeRecord* e = map_->find_edge(id);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->kind, "feature_segment");
+  EXPECT_NEAR(e->length_m, 2.0, 1e-6);
+  EXPECT_NEAR(e->azimuth_rad, 0.3, 1e-9);
+  EXPECT_NEAR(e->statistics.at("end_heading_rad"), 0.4, 1e-6);
+  EXPECT_GT(e->statistics.at("landmarks"), 100.0);
+  EXPECT_EQ(e->statistics.at("image_width_px"), 320.0);
+  EXPECT_EQ(map_->find_node(e->from)->name, "start");
+  EXPECT_EQ(map_->find_node(e->to)->name, "end");
+  auto body = map_->read_payload(id);
+  ASSERT_TRUE(body.ok()) << body.error().message;
+  EXPECT_EQ(e->statistics.at("bytes"), static_cast<double>(body->size()));
+  auto seg = fr::SegmentMap::deserialize(*body);
+  ASSERT_TRUE(seg.ok()) << seg.error().message;
+  EXPECT_EQ(static_cast<double>(seg->landmarks.size()), e->statistics.at("landmarks"));
+  EXPECT_EQ(robot_.commands_, 0) << "the teach node must never command the robot";
+
+  // Replaying it with bad frames drives straight at the set speed (omega 0), never steering.
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  auto replay = load("<ReplayFeatureEdge edge=\"" + id + "\" speed_mps=\"0.3\"/>");
+  EXPECT_EQ(tick(replay, scene_.view(0.f), 0), NodeStatus::running);  // empty frame
+  EXPECT_EQ(telemetry_.statuses.back().status, "bad frame");
+  EXPECT_EQ(robot_.command_.linear_mps, 0.3);
+  EXPECT_EQ(robot_.command_.angular_radps, 0.0);
+  EXPECT_EQ(tick(replay, Features{}), NodeStatus::running);  // no features
+  EXPECT_EQ(telemetry_.statuses.back().status, "no features");
+  EXPECT_EQ(robot_.command_.angular_radps, 0.0);
+  EXPECT_EQ(tick(replay, scene_.view(-3.f)), NodeStatus::running);  // the scene as taught
+  EXPECT_EQ(telemetry_.statuses.back().status, "steering");
+  EXPECT_GT(telemetry_.statuses.back().inliers, 50);
+  EXPECT_EQ(telemetry_.statuses.back().edge, id);
+}
+
+TEST_F(FeatureNodes, TeachLocalMapsRecordsTheOperatorsCommands) {
+  const std::string id = teach("localmaps", {{0.5, 0.2}, {0.5, -0.1}});
+  const EdgeRecord* e = map_->find_edge(id);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->kind, "feature_localmaps");
+  EXPECT_NEAR(e->length_m, 1.0, 1e-6);
+  auto body = map_->read_payload(id);
+  ASSERT_TRUE(body.ok()) << body.error().message;
+  auto path = fr::LocalMapPath::deserialize(*body);
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  EXPECT_GE(path->maps.size(), 5u);
+  EXPECT_EQ(static_cast<double>(path->maps.size()), e->statistics.at("local_maps"));
+  EXPECT_NEAR(path->command_at(0.2).angular_radps, 0.2, 1e-6);
+  EXPECT_NEAR(path->command_at(0.8).angular_radps, -0.1, 1e-6);
+  EXPECT_NEAR(path->command_at(0.8).linear_mps, 0.5, 1e-6);
+  EXPECT_EQ(robot_.commands_, 0);
+}
+
+TEST_F(FeatureNodes, UnknownKindFailsWithAClearMessageAndNeverMoves) {
+  const std::string id = add_edge("path_following", {1, 2, 3});
+  auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\"/>");
+  EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::failure);
+  EXPECT_NE(logger_.text().find("has kind 'path_following'"), std::string::npos) << logger_.text();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+TEST_F(FeatureNodes, CorruptedPayloadFailsWithAClearMessageAndNeverMoves) {
+  const std::string id = add_edge("feature_segment", {'V', 'N', 'F', 'A', 9, 9, 9, 9, 1, 2, 3});
+  auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\"/>");
+  EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::failure);
+  EXPECT_NE(logger_.text().find("edge " + id + " payload"), std::string::npos) << logger_.text();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+  // An unknown edge id fails the same way.
+  auto tree2 = load("<ReplayFeatureEdge edge=\"nope\"/>");
+  EXPECT_EQ(tick(tree2, scene_.view(0.f)), NodeStatus::failure);
+  EXPECT_NE(logger_.text().find("unknown edge 'nope'"), std::string::npos);
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+TEST_F(FeatureNodes, BadInputsKeepTheRecordedCommand) {
+  fr::LocalMapPath path;
+  path.length_m = 3.0;
+  for (int i = 0; i <= 6; ++i) {
+    fr::LocalMap m;
+    m.distance_m = 0.5 * i;
+    m.positions_px = scene_.positions;
+    m.descriptors = scene_.descriptors.clone();
+    path.maps.push_back(std::move(m));
+  }
+  path.commands.push_back({0.0, Twist{0.5, 0.2}});
+  path.commands.push_back({3.0, Twist{}});
+  const std::string id = add_edge("feature_localmaps", path.serialize(), 3.0);
+  auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\" correction_gain_radps_per_px=\"0.004\"/>");
+  // A good frame with the scene 20 px to the right: the robot is turned left -> steer right.
+  EXPECT_EQ(tick(tree, scene_.view(20.f)), NodeStatus::running);
+  EXPECT_EQ(telemetry_.statuses.back().status, "steering");
+  EXPECT_NEAR(telemetry_.statuses.back().offset_px, 20.0, 0.5);
+  EXPECT_NEAR(robot_.command_.angular_radps, 0.2 - 0.004 * 20.0, 0.003);
+  struct Case {
+    const char* what;
+    Features features;
+    int width, height;
+    const char* status;
+  };
+  const Case cases[] = {
+      {"empty frame", scene_.view(20.f), 0, 0, "bad frame"},
+      {"wrong-size frame", scene_.view(20.f), 640, 480, "bad frame"},
+      {"no features", Features{}, 320, 240, "no features"},
+      {"all features on one side", scene_.view(20.f, 60.f, 4), 320, 240, "low confidence"},
+  };
+  for (const Case& c : cases) {
+    EXPECT_EQ(tick(tree, c.features, c.width, c.height), NodeStatus::running) << c.what;
+    EXPECT_EQ(telemetry_.statuses.back().status, c.status) << c.what;
+    EXPECT_NEAR(robot_.command_.linear_mps, 0.5, 1e-6) << c.what;  // payload stores f32
+    EXPECT_NEAR(robot_.command_.angular_radps, 0.2, 1e-6) << c.what << ": the recorded command must be kept";
+  }
+  // Drive to the end: SUCCESS with the robot stopped.
+  NodeStatus s = NodeStatus::running;
+  for (int i = 0; i < 200 && s == NodeStatus::running; ++i) s = tick(tree, scene_.view(0.f));
+  EXPECT_EQ(s, NodeStatus::success);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_NEAR(robot_.odom_.distance_m, 3.0, 0.15);
+}
+
+}  // namespace

@@ -1,0 +1,375 @@
+// `visnav record`: record a run (frames, odometry, commands, times) from any camera and robot
+// plugin, optionally while running a mission tree. Format: docs/recorded_runs.md; played back by
+// `visnav play` (robot and camera type `recorded`).
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "args.hpp"
+#include "command.hpp"
+#include "visnav/runner.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kUsage =
+    "usage: visnav record --config C -o RUN [--tree T] [--bb key=value]... [--duration-s S] [--map M] [--set k=v]...\n"
+    "                     [--image-format png|jpg] [--jpeg-quality Q] [--force]\n"
+    "                     [--plugin-path DIR]... [--log-level L]\n"
+    "\n"
+    "Builds the robot and camera named in the config C (any plugins: sim, v4l2, video, dds, ...)\n"
+    "and records into the folder RUN (docs/recorded_runs.md): every frame the run used (PNG,\n"
+    "lossless, or JPEG), every odometry reading, one line per tick with the command sent, and the\n"
+    "simulator's ground truth when the robot is simulated. Every line and image is flushed as it\n"
+    "is written, so a killed recording keeps everything before the kill.\n"
+    "\n"
+    "With --tree the mission runs exactly as `visnav run` runs it and is recorded tick by tick;\n"
+    "without, frames and odometry are recorded until --duration-s or Ctrl-C.\n"
+    "\n"
+    "  --config C           run configuration (docs/config.md)\n"
+    "  -o RUN               output folder (created; must be empty unless --force)\n"
+    "  --tree T             mission tree to run while recording\n"
+    "  --bb key=value       blackboard entry before the first tick (as `visnav run --bb`; kept in run.yaml)\n"
+    "  --duration-s S       stop after S s of run time (0 = until the tree ends / Ctrl-C)\n"
+    "  --map M              map folder for the tree (as `visnav run --map`)\n"
+    "  --set k=v            config override (repeatable)\n"
+    "  --image-format F     png (default, lossless: bit-exact playback) or jpg\n"
+    "  --jpeg-quality Q     1..100 (default 95)\n"
+    "  --force              write into a non-empty RUN (files of an earlier recording are replaced)\n"
+    "  --plugin-path DIR    extra plugin directory\n"
+    "  --log-level L        overrides run.log_level\n"
+    "\n"
+    "Play it back with: visnav play RUN --tree T\n"
+    "Exit status: as `visnav run` (0 success/stopped by duration, 1 failure/error, 2 usage,\n"
+    "3 safety stop, 130 interrupted — the recording is complete up to that moment in every case).\n";
+
+std::string iso_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm {};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::string yaml_quote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out.push_back('\\');
+    out.push_back(c);
+  }
+  return out + "\"";
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const noexcept {
+    if (f != nullptr) std::fclose(f);
+  }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+
+/// Writes the recorded-run files; every row is flushed at once (crash safety).
+class RunWriter {
+ public:
+  static visnav::Result<std::unique_ptr<RunWriter>> create(const std::string& dir, const std::string& image_format,
+                                                           int jpeg_quality, bool with_truth) {
+    std::unique_ptr<RunWriter> w(new RunWriter());
+    w->dir_ = dir;
+    w->ext_ = image_format == "jpg" ? ".jpg" : ".png";
+    w->jpeg_quality_ = jpeg_quality;
+    std::error_code ec;
+    fs::create_directories(fs::path(dir) / "frames", ec);
+    if (ec) return visnav::fail(dir + ": cannot create the run folder: " + ec.message());
+    auto open = [&](const char* name, const char* header, FilePtr& f) -> visnav::Status {
+      const std::string path = (fs::path(dir) / name).string();
+      f.reset(std::fopen(path.c_str(), "w"));
+      if (!f) return visnav::fail(path + ": cannot be written: " + std::strerror(errno));
+      std::fputs(header, f.get());
+      std::fflush(f.get());
+      return visnav::ok();
+    };
+    VISNAV_TRY(open("frames.csv", "index,t_s,sequence,file\n", w->frames_));
+    VISNAV_TRY(open("odometry.csv", "t_s,x_m,y_m,heading_rad,distance_m,linear_mps,angular_radps\n", w->odometry_));
+    VISNAV_TRY(open("commands.csv", "tick,t_s,frame_index,linear_mps,angular_radps,commands_sent\n", w->commands_));
+    if (with_truth) VISNAV_TRY(open("ground_truth.csv", "t_s,x_m,y_m,heading_rad\n", w->truth_));
+    return w;
+  }
+
+  /// Writes the frame unless it is the one written last. Returns its index.
+  visnav::Result<long> frame(const visnav::Frame& f) {
+    if (last_frame_ && last_frame_->first == f.sequence && last_frame_->second == f.timestamp_s) return frame_index_ - 1;
+    char name[32];
+    std::snprintf(name, sizeof name, "%06ld", frame_index_);
+    const std::string rel = std::string("frames/") + name + ext_;
+    const fs::path final_path = fs::path(dir_) / rel;
+    const fs::path tmp = fs::path(dir_) / "frames" / (std::string(".") + name + ".tmp" + ext_);
+    std::vector<int> params;
+    if (ext_ == ".jpg") params = {cv::IMWRITE_JPEG_QUALITY, jpeg_quality_};
+    else params = {cv::IMWRITE_PNG_COMPRESSION, 1};
+    bool written = false;
+    try {
+      written = cv::imwrite(tmp.string(), f.image, params);
+    } catch (const cv::Exception& e) {
+      return visnav::fail(tmp.string() + ": cannot encode the frame: " + e.what());
+    }
+    if (!written) return visnav::fail(tmp.string() + ": cannot write the frame");
+    std::error_code ec;
+    fs::rename(tmp, final_path, ec);
+    if (ec) return visnav::fail(final_path.string() + ": cannot rename the frame into place: " + ec.message());
+    std::fprintf(frames_.get(), "%ld,%.17g,%llu,%s\n", frame_index_, f.timestamp_s,
+                 static_cast<unsigned long long>(f.sequence), rel.c_str());
+    std::fflush(frames_.get());
+    last_frame_ = std::make_pair(f.sequence, f.timestamp_s);
+    return frame_index_++;
+  }
+
+  void odometry(const visnav::Odometry& o) {
+    if (last_odometry_s_ && *last_odometry_s_ == o.timestamp_s) return;
+    std::fprintf(odometry_.get(), "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", o.timestamp_s, o.pose.x_m, o.pose.y_m,
+                 o.pose.heading_rad, o.distance_m, o.twist.linear_mps, o.twist.angular_radps);
+    std::fflush(odometry_.get());
+    last_odometry_s_ = o.timestamp_s;
+    ++odometry_rows_;
+  }
+
+  void command(std::uint64_t tick, double t_s, long frame_index, const visnav::Twist& c, std::uint64_t sent) {
+    std::fprintf(commands_.get(), "%llu,%.17g,%ld,%.17g,%.17g,%llu\n", static_cast<unsigned long long>(tick), t_s, frame_index,
+                 c.linear_mps, c.angular_radps, static_cast<unsigned long long>(sent));
+    std::fflush(commands_.get());
+  }
+
+  void truth(double t_s, const visnav::Pose2D& p) {
+    if (!truth_) return;
+    std::fprintf(truth_.get(), "%.17g,%.17g,%.17g,%.17g\n", t_s, p.x_m, p.y_m, p.heading_rad);
+    std::fflush(truth_.get());
+  }
+
+  [[nodiscard]] long frames() const { return frame_index_; }
+  [[nodiscard]] long odometry_rows() const { return odometry_rows_; }
+
+ private:
+  RunWriter() = default;
+  std::string dir_;
+  std::string ext_;
+  int jpeg_quality_ = 95;
+  FilePtr frames_, odometry_, commands_, truth_;
+  long frame_index_ = 0;
+  long odometry_rows_ = 0;
+  std::optional<std::pair<std::uint64_t, double>> last_frame_;
+  std::optional<double> last_odometry_s_;
+};
+
+/// Writes run.yaml crash-safely (temporary file + rename).
+visnav::Status write_run_info(const std::string& dir, const std::string& text) {
+  const fs::path final_path = fs::path(dir) / "run.yaml";
+  const fs::path tmp = fs::path(dir) / ".run.yaml.tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) return visnav::fail(tmp.string() + ": cannot be written");
+  }
+  std::error_code ec;
+  fs::rename(tmp, final_path, ec);
+  if (ec) return visnav::fail(final_path.string() + ": " + ec.message());
+  return visnav::ok();
+}
+
+int record(const std::vector<std::string>& args) {
+  using visnav::cli::Opt;
+  visnav::cli::Args a;
+  if (auto st = a.parse(args, {{"--config", Opt::value}, {"-o", Opt::value}, {"--out", Opt::value}, {"--tree", Opt::value},
+                               {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--set", Opt::repeated}, {"--bb", Opt::repeated},
+                               {"--image-format", Opt::value}, {"--jpeg-quality", Opt::value}, {"--force", Opt::flag},
+                               {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
+      !st)
+    return visnav::cli::usage_error("record", st.error().message);
+  if (auto st = a.require({"--config"}); !st) return visnav::cli::usage_error("record", st.error().message);
+  const std::string out_dir = a.get("-o", a.get("--out"));
+  if (out_dir.empty()) return visnav::cli::usage_error("record", "missing required option: -o RUN");
+  double duration_s = 0.0;
+  int jpeg_quality = 95;
+  try {
+    duration_s = std::stod(a.get("--duration-s", "0"));
+    jpeg_quality = std::stoi(a.get("--jpeg-quality", "95"));
+  } catch (...) {
+    return visnav::cli::usage_error("record", "--duration-s and --jpeg-quality need numbers");
+  }
+  if (duration_s < 0.0) return visnav::cli::usage_error("record", "--duration-s must be >= 0");
+  if (jpeg_quality < 1 || jpeg_quality > 100) return visnav::cli::usage_error("record", "--jpeg-quality must be in [1, 100]");
+  const std::string image_format = a.get("--image-format", "png");
+  if (image_format != "png" && image_format != "jpg")
+    return visnav::cli::usage_error("record", "--image-format must be png or jpg, got '" + image_format + "'");
+
+  std::error_code ec;
+  if (fs::exists(out_dir, ec) && !fs::is_empty(out_dir, ec) && !a.has("--force")) {
+    std::cerr << "visnav record: " << out_dir << " exists and is not empty (use --force to record into it)\n";
+    return 1;
+  }
+
+  const std::string config_file = a.get("--config");
+  const std::vector<std::string> overrides = a.all("--set");
+  auto config = visnav::load_run_config(config_file, overrides);
+  if (!config) {
+    std::cerr << "visnav record: " << config.error().message << "\n";
+    return 1;
+  }
+  if (a.has("--log-level")) {
+    auto level = visnav::parse_log_level(a.get("--log-level"));
+    if (!level) return visnav::cli::usage_error("record", level.error().message);
+    config->run.log_level = a.get("--log-level");
+  }
+  const std::string tree_file = a.get("--tree");
+
+  visnav::SessionOptions so;
+  so.extra_plugin_dirs = a.all("--plugin-path");
+  so.map_path = a.get("--map");
+  so.overrides = overrides;
+  auto session_made = visnav::Session::create(std::move(*config), so);
+  if (!session_made) {
+    std::cerr << "visnav record: " << session_made.error().message << "\n";
+    return 1;
+  }
+  visnav::Session& session = **session_made;
+  std::optional<visnav::bt::Tree> tree;
+  if (!tree_file.empty()) {
+    auto loaded = session.load_tree(tree_file);
+    if (!loaded) {
+      std::cerr << "visnav record: " << loaded.error().message << "\n";
+      return 1;
+    }
+    tree.emplace(std::move(*loaded));
+    if (auto st = visnav::set_blackboard_values(*tree, a.all("--bb")); !st) {
+      std::cerr << "visnav record: " << st.error().message << "\n";
+      return 1;
+    }
+  }
+
+  visnav::SimulationControl* sim = session.robot().simulation();
+  auto writer_made = RunWriter::create(out_dir, image_format, jpeg_quality, sim != nullptr);
+  if (!writer_made) {
+    std::cerr << "visnav record: " << writer_made.error().message << "\n";
+    return 1;
+  }
+  RunWriter& writer = **writer_made;
+  // The configuration used, so `visnav play RUN` can rebuild the same detector and nodes.
+  fs::copy_file(config_file, fs::path(out_dir) / "config.yaml", fs::copy_options::overwrite_existing, ec);
+  if (ec) {
+    std::cerr << "visnav record: cannot copy " << config_file << " into " << out_dir << ": " << ec.message() << "\n";
+    return 1;
+  }
+  std::ostringstream info;
+  info << "format: visnav-recorded-run\nversion: 1\ncreated: " << iso_now() << "\n"
+       << "config: " << yaml_quote(fs::absolute(config_file).lexically_normal().string()) << "\n"
+       << "overrides: [";
+  for (std::size_t i = 0; i < overrides.size(); ++i) info << (i ? ", " : "") << yaml_quote(overrides[i]);
+  info << "]\nblackboard: [";
+  const std::vector<std::string> bb = a.all("--bb");
+  for (std::size_t i = 0; i < bb.size(); ++i) info << (i ? ", " : "") << yaml_quote(bb[i]);
+  info << "]\n"
+       << "robot: " << yaml_quote(session.config().robot.type) << "\ncamera: " << yaml_quote(session.config().camera.type) << "\n"
+       << "tree: " << yaml_quote(tree_file.empty() ? std::string() : fs::absolute(tree_file).lexically_normal().string()) << "\n"
+       << "lockstep: " << (session.lockstep() ? "true" : "false") << "\n"
+       << "image_format: " << image_format << "\n";
+  const std::string header = info.str();
+  if (auto st = write_run_info(out_dir, header + "complete: false\n"); !st) {
+    std::cerr << "visnav record: " << st.error().message << "\n";
+    return 1;
+  }
+
+  visnav::install_signal_handlers();
+  std::string write_error;
+  auto record_tick = [&](std::uint64_t tick, double t_s, bool with_command) -> bool {
+    visnav::FrameBus& bus = session.frame_bus();
+    long frame_index = -1;
+    if (auto f = bus.latest_frame()) {
+      auto idx = writer.frame(*f);
+      if (!idx) {
+        write_error = idx.error().message;
+        return false;
+      }
+      frame_index = *idx;
+    }
+    if (auto o = bus.latest_odometry()) writer.odometry(*o);
+    if (with_command)
+      writer.command(tick, t_s, frame_index, session.robot().last_command(), session.robot().commands_sent());
+    if (sim != nullptr) writer.truth(sim->time_s(), sim->ground_truth_pose());
+    return true;
+  };
+
+  visnav::RunReport report;
+  const double start_s = session.clock().now_s();
+  if (tree) {
+    visnav::RunOptions ro;
+    ro.after_tick = [&](const visnav::TickInfo& t) {
+      if (!record_tick(t.tick, t.t_s, true)) return false;
+      return !(duration_s > 0.0 && t.t_s - start_s >= duration_s);
+    };
+    report = visnav::run_tree(session, *tree, ro);
+  } else {
+    // No mission: grab and record until the duration or a signal.
+    visnav::Camera& camera = session.camera();
+    const double period_s = 1.0 / session.config().run.rate_hz;
+    report.outcome = visnav::RunOutcome::stopped;
+    report.exit_code = 0;
+    for (;;) {
+      if (visnav::signal_flag().load() != 0) {
+        report.outcome = visnav::RunOutcome::interrupted;
+        report.exit_code = 128 + visnav::signal_flag().load();
+        break;
+      }
+      if (duration_s > 0.0 && session.clock().now_s() - start_s >= duration_s) break;
+      if (session.lockstep()) {
+        if (auto st = sim->step(period_s); !st) {
+          report.reason = "simulation step failed: " + st.error().message;
+          break;
+        }
+      }
+      auto grabbed = camera.grab(session.lockstep() ? 0.0 : 0.05);
+      if (!grabbed) {
+        report.reason = "camera: " + grabbed.error().message;  // e.g. the end of a video
+        break;
+      }
+      auto odo = session.robot().latest_odometry();
+      if (odo) session.frame_bus().publish_odometry(*odo);
+      if (grabbed->has_value() && odo) {
+        session.frame_bus().publish_frame(std::move(**grabbed));
+        ++report.ticks;
+        if (!record_tick(report.ticks, session.clock().now_s(), false)) break;
+      } else if (odo) {
+        writer.odometry(*odo);
+      }
+    }
+    report.run_time_s = session.clock().now_s() - start_s;
+    (void)session.robot().stop();
+  }
+  if (!write_error.empty()) {
+    std::cerr << "visnav record: " << write_error << "\n";
+    report.exit_code = 1;
+  }
+  std::ostringstream summary;
+  summary << header << "complete: true\noutcome: " << yaml_quote(visnav::to_string(report.outcome)) << "\n"
+          << "reason: " << yaml_quote(report.reason) << "\nticks: " << report.ticks << "\nframes: " << writer.frames()
+          << "\nodometry_samples: " << writer.odometry_rows() << "\nrun_time_s: " << report.run_time_s << "\n";
+  if (auto st = write_run_info(out_dir, summary.str()); !st) std::cerr << "visnav record: " << st.error().message << "\n";
+  std::cout << "visnav record: " << visnav::to_string(report.outcome) << ", " << writer.frames() << " frames, "
+            << writer.odometry_rows() << " odometry samples, " << report.ticks << " ticks, " << report.run_time_s
+            << " s run time -> " << out_dir << "\n";
+  if (!report.reason.empty()) std::cerr << "visnav record: " << report.reason << "\n";
+  return report.exit_code;
+}
+
+}  // namespace
+
+VISNAV_COMMAND(record, "record", "record a run (frames, odometry, commands) from any camera and robot", kUsage, &record)

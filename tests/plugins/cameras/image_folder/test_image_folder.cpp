@@ -1,0 +1,87 @@
+// The `image_folder` camera (plugins/cameras/image_folder) through the real loader.
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "camera_test_support.hpp"
+
+using namespace visnav::testing;
+
+TEST(ImageFolderCamera, DeliversSortedImagesThenEnds) {
+  const std::string dir = scratch();
+  for (int i = 0; i < 4; ++i) cv::imwrite(dir + "/f" + std::to_string(i * 5) + ".png", test_image(i));
+  LoaderHost h;
+  auto cam = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + dir + "\ncrop_rows: [0, 0.5]\n"), h.host);
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  for (int i = 0; i < 4; ++i) {
+    h.clock.set(0.25 * i);
+    auto f = (*cam)->grab(0.0);
+    ASSERT_TRUE(f.ok()) << f.error().message;
+    ASSERT_TRUE(f->has_value());
+    EXPECT_EQ((*f)->image.size(), cv::Size(64, 24));  // top half
+    EXPECT_EQ(cv::norm((*f)->image, test_image(i)(cv::Rect(0, 0, 64, 24)), cv::NORM_INF), 0.0) << "frame " << i;
+    EXPECT_DOUBLE_EQ((*f)->timestamp_s, 0.25 * i);  // fast pacing: stamped with the run clock
+  }
+  auto end = (*cam)->grab(0.0);
+  ASSERT_FALSE(end.ok());
+  EXPECT_NE(end.error().message.find("end of the image sequence after 4 frames"), std::string::npos) << end.error().message;
+}
+
+TEST(ImageFolderCamera, TimestampsFileWithClockAndRealtimePacing) {
+  const std::string dir = scratch();
+  for (int i = 0; i < 3; ++i) cv::imwrite(dir + "/im" + std::to_string(i) + ".jpg", test_image(i));
+  write_text(dir + "/timestamps.txt", "# t\n100.0\n100.05\n100.10\n");
+  LoaderHost h;
+  auto cam = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + dir + "\npacing: clock\n"), h.host);
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  h.clock.set(99.0);
+  EXPECT_FALSE((*cam)->grab(0.0)->has_value());
+  h.clock.set(100.07);
+  auto f = (*cam)->grab(0.0);
+  ASSERT_TRUE(f.ok() && f->has_value());
+  EXPECT_DOUBLE_EQ((*f)->timestamp_s, 100.05);  // newest due; 100.0 skipped
+  EXPECT_EQ((*f)->sequence, 1u);
+
+  auto rt = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + dir + "\npacing: realtime\n"), h.host);
+  ASSERT_TRUE(rt.ok()) << rt.error().message;
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < 3; ++i) {
+    auto g = (*rt)->grab(1.0);
+    ASSERT_TRUE(g.ok() && g->has_value()) << i;
+  }
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_GT(took, 0.09);  // frames 50 ms apart
+  EXPECT_LT(took, 1.5);  // generous: CI shares 2 cores
+}
+
+TEST(ImageFolderCamera, BadInputIsAClearError) {
+  LoaderHost h;
+  const std::string empty = scratch("_empty");
+  auto none = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + empty + "\n"), h.host);
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().message.find("no images"), std::string::npos) << none.error().message;
+  EXPECT_NE(none.error().message.find(empty), std::string::npos) << none.error().message;
+  auto missing = h.loader.create<visnav::Camera>("image_folder", yaml("folder: /no/such/folder\n"), h.host);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("/no/such/folder"), std::string::npos);
+
+  const std::string dir = scratch();
+  cv::imwrite(dir + "/a.png", test_image(0));
+  write_text(dir + "/b.png", "this is not a png");
+  write_text(dir + "/timestamps.csv", "file,t_s\na.png,1\nb.png,one\n");
+  auto bad_ts = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + dir + "\n"), h.host);
+  ASSERT_FALSE(bad_ts.ok());
+  EXPECT_NE(bad_ts.error().message.find("timestamps.csv:3"), std::string::npos) << bad_ts.error().message;
+  write_text(dir + "/timestamps.csv", "file,t_s\na.png,1\nb.png,2\n");
+  auto cam = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + dir + "\n"), h.host);
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  ASSERT_TRUE((*cam)->grab(0.0).ok());
+  auto broken = (*cam)->grab(0.0);
+  ASSERT_FALSE(broken.ok());
+  EXPECT_NE(broken.error().message.find("b.png"), std::string::npos) << broken.error().message;
+  EXPECT_NE(broken.error().message.find("timestamps.csv:3"), std::string::npos) << broken.error().message;
+
+  auto bad_param = h.loader.create<visnav::Camera>("image_folder", yaml("folder: " + dir + "\npacing: warp\n"), h.host);
+  ASSERT_FALSE(bad_param.ok());
+  EXPECT_NE(bad_param.error().message.find("test.yaml:2"), std::string::npos) << bad_param.error().message;
+}

@@ -2,6 +2,7 @@
 // host's run services, and delegates to navigation_core / the map store.
 #include "nodes.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -180,6 +181,11 @@ bt::PortsList FollowRoute::provided_ports() {
       bt::input_port<std::vector<std::string>>("primitives", kDefaultReplayKinds,
                                                 "which child node replays which edge kind (kind=NodeID;...)"),
       bt::input_port<bool>("turn_at_nodes", "true", "turn in place to the next edge's azimuth at each node"),
+      bt::input_port<std::vector<std::string>>(
+          "heading_holding_kinds", "feature_segment;feature_localmaps",
+          "edge kinds whose primitive ends on the taught heading (turns are measured from the heading at "
+          "the edge's end); after other kinds (path following rounds corners) the turn is measured from the "
+          "heading at the edge's start"),
       bt::output_port<std::string>("edge", "{edge}", "the edge being traversed (children read it)"),
       bt::output_port<std::string>("current_node", "{current_node}", "the last node reached"),
       bt::inout_port<std::string>("previous_edge", "{previous_edge}",
@@ -195,6 +201,8 @@ Status FollowRoute::start() {
   VISNAV_ASSIGN(auto entries, get_input<std::vector<std::string>>("primitives"));
   VISNAV_ASSIGN(kinds_, parse_kind_map(entries));
   VISNAV_ASSIGN(turn_at_nodes_, get_input<bool>("turn_at_nodes"));
+  VISNAV_ASSIGN(heading_holding_kinds_, get_input<std::vector<std::string>>("heading_holding_kinds"));
+  previous_start_heading_.reset();
   VISNAV_ASSIGN(turn_, read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s"));
   child_for_edge_.clear();
   for (const auto& edge_id : route_) {
@@ -228,9 +236,7 @@ NodeStatus FollowRoute::tick() {
       if (!turn_target_) {
         auto previous = get_input<std::string>("previous_edge");
         const EdgeRecord* prev = previous ? map.find_edge(*previous) : nullptr;
-        // Relative to where the previous edge ended when we know it; otherwise the absolute
-        // azimuth in the odom frame (the replay starts where the teach started).
-        turn_target_ = prev != nullptr ? *heading + turn_between_edges_rad(*prev, edge) : edge.azimuth_rad;
+        turn_target_ = turn_target_rad(prev, edge, *heading);
       }
       const double w = turn_command_radps(wrap_angle_rad(*turn_target_ - *heading), turn_);
       if (w != 0.0) {
@@ -241,6 +247,7 @@ NodeStatus FollowRoute::tick() {
     }
     turning_ = false;
     turn_target_.reset();
+    edge_start_heading_ = current_heading_rad(host_);
     if (auto st = set_output("edge", edge.id); !st) return fail_node(host_, *this, st.error().message);
     (void)set_output("current_node", edge.from);
     host_.logger().info(path(), "edge " + edge.id + " (" + edge.kind + ", " + std::to_string(edge.length_m) + " m)");
@@ -252,10 +259,24 @@ NodeStatus FollowRoute::tick() {
   if (child_status == NodeStatus::failure) return fail_node(host_, *this, "edge " + edge.id + " failed");
   (void)set_output("previous_edge", edge.id);
   (void)set_output("current_node", edge.to);
+  previous_start_heading_ = edge_start_heading_;
   ++index_;
   if (index_ >= route_.size()) return NodeStatus::success;
   turning_ = true;
   return NodeStatus::running;
+}
+
+double FollowRoute::turn_target_rad(const EdgeRecord* previous, const EdgeRecord& next, double heading_rad) const {
+  // First edge of a mission: the absolute azimuth in the odom frame (the replay starts where the
+  // teach started).
+  if (previous == nullptr) return next.azimuth_rad;
+  const bool holds_heading = std::find(heading_holding_kinds_.begin(), heading_holding_kinds_.end(),
+                                       previous->kind) != heading_holding_kinds_.end();
+  // The previous edge's primitive ended on its taught heading: turn relative to now.
+  if (holds_heading || !previous_start_heading_) return heading_rad + turn_between_edges_rad(*previous, next);
+  // It followed the shape of the terrain (e.g. rounded a corner): measure from the heading the
+  // robot had, aligned with the previous edge's azimuth, when that edge started.
+  return *previous_start_heading_ + wrap_angle_rad(next.azimuth_rad - previous->azimuth_rad);
 }
 
 void FollowRoute::halt() {

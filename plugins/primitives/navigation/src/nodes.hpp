@@ -70,9 +70,13 @@ class FollowRoute final : public bt::ControlNode {
 
  private:
   Status start();
+  [[nodiscard]] double turn_target_rad(const EdgeRecord* previous, const EdgeRecord& next, double heading_rad) const;
 
   HostServices& host_;
   std::vector<std::string> route_;
+  std::vector<std::string> heading_holding_kinds_;
+  std::optional<double> edge_start_heading_;      ///< odom heading when the current edge started
+  std::optional<double> previous_start_heading_;  ///< same for the previous edge of this run
   KindMap kinds_;
   std::vector<std::size_t> child_for_edge_;
   TurnParams turn_;

@@ -72,7 +72,9 @@ class FollowPathEdge final : public bt::StatefulActionNode {
       : StatefulActionNode(name, config), host_(host), monitor_(1.0) {}
 
   static bt::PortsList provided_ports() {
-    bt::PortsList p = {bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind path_following)")};
+    bt::PortsList p = {bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind path_following)"),
+                       bt::input_port<double>("junction_clear_m", "2.0",
+                                              "junction mode for this long after the start node (see path_follower.hpp)")};
     for (auto& c : common_ports()) p.push_back(std::move(c));
     return p;
   }
@@ -106,6 +108,9 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     start_distance_m_ = odom->distance_m;
     length_m_ = edge->length_m;
     edge_id_ = edge->id;
+    auto junction = get_input<double>("junction_clear_m");
+    if (!junction) return failed(junction.error().message);
+    junction_clear_m_ = *junction;
     last_sequence_.reset();
     return on_running();
   }
@@ -124,6 +129,7 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     last_sequence_ = frame->sequence;
     Twist command;
     std::string status;
+    follower_->set_junction_mode(travelled_m < junction_clear_m_);
     if (auto st = follower_->process(frame->image, estimate_); !st) {
       // An unusable frame counts as not seeing the path.
       status = "bad frame: " + st.error().message;
@@ -183,7 +189,8 @@ class FollowPathEdge final : public bt::StatefulActionNode {
   PathLossMonitor monitor_;
   PathLossMonitor::Verdict verdict_ = PathLossMonitor::Verdict::ok;
   NavStatus status_;
-  double offset_px_ = 0.0;  ///< mean path-centre offset from the image centre, px (+ = right)
+  double offset_px_ = 0.0;
+  double junction_clear_m_ = 2.0;  ///< mean path-centre offset from the image centre, px (+ = right)
   double start_distance_m_ = 0.0;
   double length_m_ = 0.0;
   std::string edge_id_;

@@ -121,15 +121,15 @@ HorizonEstimate detect_horizon(const cv::Mat& bgr, const PathFollowerParams& par
 }
 
 Twist steering_command(std::span<const cv::Point2f> middle_points, int image_width_px, int ground_rows,
-                       const PathFollowerParams& params, double& offset) {
+                       const PathFollowerParams& params, double& offset, int path_rows) {
   offset = 0.0;
   Twist cmd;
   if (middle_points.empty() || image_width_px <= 0 || ground_rows <= 0) return cmd;
   const double half_w = 0.5 * image_width_px;
   double sum = 0.0;
   for (const auto& p : middle_points) sum += (p.x - half_w) / half_w;
-  const double n = static_cast<double>(middle_points.size());
-  offset = sum / n;
+  offset = sum / static_cast<double>(middle_points.size());
+  const double n = path_rows >= 0 ? static_cast<double>(path_rows) : static_cast<double>(middle_points.size());
   cmd.angular_radps = std::clamp(-params.alpha_radps * offset, -params.max_angular_radps, params.max_angular_radps);
   const double v = params.beta_mps * std::min(1.0, n / ground_rows) -
                    params.turn_slowdown_mps_per_radps * std::abs(cmd.angular_radps);
@@ -359,8 +359,19 @@ int PathFollower::extract_region(int segments, int used_models, const cv::Mat& l
   return cv::countNonZero(region);
 }
 
-void PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const {
+int PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const {
+  // Junction mode (see the header): rows whose path run reaches an image border are left out of
+  // the steering as long as enough rows lie inside the image.
   out.clear();
+  int path_rows = 0;
+  std::size_t inside = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      if (!junction_mode_) return path_rows;
+      const std::size_t min_inside = std::max<std::size_t>(5, static_cast<std::size_t>(path_rows) / 5);
+      if (inside < min_inside) return path_rows;  // too few: keep every row (the original law)
+      out.clear();
+    }
   for (int y = 0; y < region.rows; ++y) {
     const auto* p = region.ptr<std::uint8_t>(y);
     int left = -1;
@@ -370,10 +381,19 @@ void PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, 
     int right = left;
     for (int x = region.cols - 1; x > left; --x)
       if (p[x] != 0) { right = x; break; }
+    const bool touches_border = junction_mode_ && (left == 0 || right == region.cols - 1);
+    if (pass == 0) {
+      ++path_rows;
+      if (!touches_border) ++inside;
+    } else if (touches_border) {
+      continue;
+    }
     // Continuous coordinates: pixel i spans [i, i+1), so a band symmetric about the image
     // centre has its middle exactly at w/2.
     out.emplace_back(0.5f * static_cast<float>(left + right + 1), static_cast<float>(y + row_offset));
   }
+  }
+  return path_rows;
 }
 
 Result<PathEstimate> PathFollower::process(const cv::Mat& bgr) {
@@ -506,10 +526,10 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
     }
   }
   if (!contours_.empty()) out.contour.assign(contours_[largest].begin(), contours_[largest].end());
-  extract_middle_points(region, top, out.middle_points);
+  const int path_rows = extract_middle_points(region, top, out.middle_points);
 
   double offset = 0.0;
-  const Twist command = steering_command(out.middle_points, width, ground_rows, params_, offset);
+  const Twist command = steering_command(out.middle_points, width, ground_rows, params_, offset, path_rows);
   out.mean_offset = offset;
   if (out.area_share < params_.min_area_share) out.status = PathStatus::path_lost;
   else if (out.area_share > params_.fill_area_share) out.status = PathStatus::path_fills_image;

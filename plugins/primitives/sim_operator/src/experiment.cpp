@@ -189,6 +189,16 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
   SimulationControl* sim = session->robot().simulation();
   if (sim == nullptr) return fail("the experiment needs the simulated robot (robot type sim)");
   Progress progress;
+  // Ground truth and odometry of every tick (evaluation only: the navigation never sees it).
+  std::ofstream trajectory(out_dir / "trajectory.csv");
+  trajectory << "t_s,phase,lap,gt_x_m,gt_y_m,gt_heading_rad,odom_x_m,odom_y_m,odom_heading_rad,odom_distance_m\n";
+  auto log_tick = [&](const TickInfo& t, const char* phase, int lap) {
+    const Pose2D gt = sim->ground_truth_pose();
+    const auto odom = session->robot().latest_odometry();
+    const Odometry od = odom ? *odom : Odometry{};
+    trajectory << t.t_s << ',' << phase << ',' << lap << ',' << gt.x_m << ',' << gt.y_m << ',' << gt.heading_rad << ','
+               << od.pose.x_m << ',' << od.pose.y_m << ',' << od.pose.heading_rad << ',' << od.distance_m << '\n';
+  };
 
   {  // --- teach
     VISNAV_ASSIGN(bt::Tree teach, session->load_tree(project_file("trees/teach_hybrid_route.xml")));
@@ -198,6 +208,7 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
     const double d0 = session->robot().latest_odometry() ? session->robot().latest_odometry()->distance_m : 0.0;
     RunOptions ro;
     ro.after_tick = [&](const TickInfo& t) {
+      log_tick(t, "teach", 0);
       if (t.tick % 3 == 0) r.teach_path.push_back(xy(sim->ground_truth_pose()));
       const auto odom = session->robot().latest_odometry();
       progress.show(style + ": teach", odom ? odom->distance_m - d0 : 0.0, r.route_length_m, "m");
@@ -233,6 +244,7 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
     const double d0 = session->robot().latest_odometry() ? session->robot().latest_odometry()->distance_m : 0.0;
     RunOptions ro;
     ro.after_tick = [&](const TickInfo& t) {
+      log_tick(t, "replay", static_cast<int>(r.lap_ends.size()) + 1);
       if (t.tick % 3 == 0) r.lap_paths.back().push_back(xy(sim->ground_truth_pose()));
       const auto odom = session->robot().latest_odometry();
       std::string phase = style;

@@ -108,10 +108,12 @@ struct HorizonEstimate {
 [[nodiscard]] HorizonEstimate detect_horizon(const cv::Mat& bgr, const PathFollowerParams& params,
                                              cv::Mat& row_means_scratch);
 
-/// Control law (1) as documented above. `middle_points` in image pixels; `ground_rows` = H_g.
-/// Returns the command and writes the mean normalised offset to `offset` (0 when no points).
+/// Control law (1) as documented above. `middle_points` in image pixels; `ground_rows` = H_g;
+/// `path_rows` = n, the rows that contain path (default: one per middle point). Returns the
+/// command and writes the mean normalised offset to `offset` (0 when no points).
 [[nodiscard]] Twist steering_command(std::span<const cv::Point2f> middle_points, int image_width_px,
-                                     int ground_rows, const PathFollowerParams& params, double& offset);
+                                     int ground_rows, const PathFollowerParams& params, double& offset,
+                                     int path_rows = -1);
 
 /// Result of one frame. Geometry is in input-image pixels (origin top-left, u right, v down).
 struct PathEstimate {
@@ -170,6 +172,15 @@ class PathFollower {
   /// recorded when the edge was taught (reference_models() at teach time).
   void set_prior_models(std::vector<ColourModel> models) { previous_models_ = std::move(models); }
 
+  /// Junction mode, for the first metres after a node where several path arms meet (an L
+  /// corner, a T junction): rows whose path run reaches an image border are wider than the view,
+  /// say nothing about the centre of the arm ahead and pull towards the arm the robot came
+  /// from, so they are left out of the steering (when at least 5 rows and a fifth of the path
+  /// rows remain). Off by default: on bends those near rows are the ones that keep the robot
+  /// from cutting the curve. Speed still counts every path row.
+  void set_junction_mode(bool on) { junction_mode_ = on; }
+  [[nodiscard]] bool junction_mode() const { return junction_mode_; }
+
   [[nodiscard]] const PathFollowerParams& params() const { return params_; }
   /// Stages of the last successful process() call.
   [[nodiscard]] const PathStages& stages() const { return stages_; }
@@ -186,7 +197,9 @@ class PathFollower {
   /// Classifies with the first `used_models` reference models, opens, keeps the component
   /// overlapping the reference region most in region_; returns its pixel count.
   int extract_region(int segments, int used_models, const cv::Mat& labels, const cv::Mat& roi);
-  void extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const;
+  /// Row-wise middle points of the region (junction mode: see set_junction_mode); returns the
+  /// number of rows containing path.
+  int extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const;
 
   struct SegmentStats {
     ColourMoments moments;      // all pixels of the segment
@@ -213,6 +226,7 @@ class PathFollower {
   std::vector<Cluster> clusters_;
   std::vector<int> kept_clusters_;  // cluster ids of the reference models, by coverage
   std::vector<ColourModel> previous_models_;
+  bool junction_mode_ = false;
   std::vector<Eigen::Matrix3d> reference_inverse_;
   std::vector<std::uint8_t> segment_is_path_;
   std::vector<double> component_overlap_;

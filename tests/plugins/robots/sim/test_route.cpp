@@ -107,7 +107,7 @@ TEST(SimRoute, CampusRouteHasFeatureAndPathLegsAndIsAbout150m) {
       path_samples_on_path += (*world)->ground_label_at(s.ground_truth.x_m, s.ground_truth.y_m) == vs::LabelClass::path;
     }
   }
-  EXPECT_GT(path_m, 80.0);
+  EXPECT_GT(path_m, 50.0);  // junctions, the road crossing and sharp corners are feature legs
   EXPECT_GT(feature_m, 50.0);
   EXPECT_GT(path_samples_on_path, path_samples * 95 / 100);  // path legs drive on the gravel
 }

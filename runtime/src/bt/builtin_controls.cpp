@@ -9,9 +9,13 @@ namespace {
 
 using S = NodeStatus;
 
-// Sequence: ticks children in order; a RUNNING child is resumed on the next tick (earlier
-// children are not re-ticked); FAILURE resets and restarts from the first child.
-class Sequence final : public ControlNode {
+// Sequence and Fallback are mirror images: children are ticked in order, a RUNNING child is
+// resumed on the next tick (earlier children are not re-ticked), a child returning `Stop` ends
+// the node with `Stop` (children reset, restart from the first child next time), and when every
+// child has completed otherwise the node returns `Done`.
+//   Sequence = <failure, success>: until one fails.   Fallback = <success, failure>: until one succeeds.
+template <NodeStatus Stop, NodeStatus Done>
+class OrderedControl final : public ControlNode {
  public:
   using ControlNode::ControlNode;
   static PortsList provided_ports() { return {}; }
@@ -24,23 +28,17 @@ class Sequence final : public ControlNode {
     while (current_ < n) {
       const S s = children_[current_]->execute_tick();
       all_skipped_ = all_skipped_ && s == S::skipped;
-      switch (s) {
-        case S::running:
-          return S::running;
-        case S::failure:
-          reset_children();
-          current_ = 0;
-          return S::failure;
-        case S::success:
-        case S::skipped:
-        case S::idle:
-          ++current_;
-          break;
+      if (s == S::running) return S::running;
+      if (s == Stop) {
+        reset_children();
+        current_ = 0;
+        return Stop;
       }
+      ++current_;  // Done, skipped (or idle)
     }
     reset_children();
     current_ = 0;
-    return all_skipped_ ? S::skipped : S::success;
+    return all_skipped_ ? S::skipped : Done;
   }
   void halt() override {
     current_ = 0;
@@ -51,6 +49,8 @@ class Sequence final : public ControlNode {
   std::size_t current_ = 0;
   bool all_skipped_ = true;
 };
+using Sequence = OrderedControl<S::failure, S::success>;
+using Fallback = OrderedControl<S::success, S::failure>;
 
 // SequenceWithMemory: like Sequence, but after a FAILURE the next tick resumes at the failed
 // child (children that already succeeded are not ticked again) until the sequence completes.
@@ -94,10 +94,12 @@ class SequenceWithMemory final : public ControlNode {
   bool all_skipped_ = true;
 };
 
-// ReactiveSequence: every tick starts from the first child. When a child is RUNNING, all other
-// children are halted (a previously running later child is interrupted when an earlier one
-// now returns RUNNING); a FAILURE halts everything.
-class ReactiveSequence final : public ControlNode {
+// ReactiveSequence and ReactiveFallback (mirror images, like OrderedControl): every tick starts
+// from the first child. When a child is RUNNING, all other children are halted (a previously
+// running later child is interrupted when an earlier one now returns RUNNING); a child returning
+// `Stop` halts everything and ends the node with `Stop`; all children completed otherwise → `Done`.
+template <NodeStatus Stop, NodeStatus Done>
+class ReactiveControl final : public ControlNode {
  public:
   using ControlNode::ControlNode;
   static PortsList provided_ports() { return {}; }
@@ -110,104 +112,23 @@ class ReactiveSequence final : public ControlNode {
     for (std::size_t i = 0; i < n; ++i) {
       const S s = children_[i]->execute_tick();
       all_skipped = all_skipped && s == S::skipped;
-      switch (s) {
-        case S::running:
-          for (std::size_t j = 0; j < n; ++j)
-            if (j != i) halt_child(j);
-          return S::running;
-        case S::failure:
-          reset_children();
-          return S::failure;
-        case S::skipped:
-          halt_child(i);
-          break;
-        case S::success:
-        case S::idle:
-          break;
+      if (s == S::running) {
+        for (std::size_t j = 0; j < n; ++j)
+          if (j != i) halt_child(j);
+        return S::running;
       }
+      if (s == Stop) {
+        reset_children();
+        return Stop;
+      }
+      if (s == S::skipped) halt_child(i);
     }
     reset_children();
-    return all_skipped ? S::skipped : S::success;
+    return all_skipped ? S::skipped : Done;
   }
 };
-
-// Fallback: ticks children in order until one succeeds; a RUNNING child is resumed next tick.
-class Fallback final : public ControlNode {
- public:
-  using ControlNode::ControlNode;
-  static PortsList provided_ports() { return {}; }
-
- protected:
-  NodeStatus tick() override {
-    if (status() == S::idle) all_skipped_ = true;
-    set_status(S::running);
-    const std::size_t n = children_.size();
-    while (current_ < n) {
-      const S s = children_[current_]->execute_tick();
-      all_skipped_ = all_skipped_ && s == S::skipped;
-      switch (s) {
-        case S::running:
-          return S::running;
-        case S::success:
-          reset_children();
-          current_ = 0;
-          return S::success;
-        case S::failure:
-        case S::skipped:
-        case S::idle:
-          ++current_;
-          break;
-      }
-    }
-    reset_children();
-    current_ = 0;
-    return all_skipped_ ? S::skipped : S::failure;
-  }
-  void halt() override {
-    current_ = 0;
-    ControlNode::halt();
-  }
-
- private:
-  std::size_t current_ = 0;
-  bool all_skipped_ = true;
-};
-
-// ReactiveFallback: every tick starts from the first child; a RUNNING child halts the others,
-// a SUCCESS halts everything.
-class ReactiveFallback final : public ControlNode {
- public:
-  using ControlNode::ControlNode;
-  static PortsList provided_ports() { return {}; }
-
- protected:
-  NodeStatus tick() override {
-    bool all_skipped = true;
-    set_status(S::running);
-    const std::size_t n = children_.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      const S s = children_[i]->execute_tick();
-      all_skipped = all_skipped && s == S::skipped;
-      switch (s) {
-        case S::running:
-          for (std::size_t j = 0; j < n; ++j)
-            if (j != i) halt_child(j);
-          return S::running;
-        case S::success:
-          reset_children();
-          return S::success;
-        case S::skipped:
-          halt_child(i);
-          break;
-        case S::failure:
-        case S::idle:
-          break;
-      }
-    }
-    reset_children();
-    return all_skipped ? S::skipped : S::failure;
-  }
-};
+using ReactiveSequence = ReactiveControl<S::failure, S::success>;
+using ReactiveFallback = ReactiveControl<S::success, S::failure>;
 
 // Parallel: ticks every child that has not completed yet. SUCCESS once success_count children
 // succeeded, FAILURE once failure_count failed or success became impossible; either way the

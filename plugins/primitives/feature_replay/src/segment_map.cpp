@@ -7,6 +7,8 @@
 #include <numeric>
 #include <string>
 
+#include <opencv2/core.hpp>
+
 #include "binary_io.hpp"
 
 namespace visnav::feature_replay {
@@ -118,11 +120,8 @@ Result<SegmentMap> SegmentMap::deserialize(std::span<const std::uint8_t> body) {
     l.last_px = {io::from_fixed_px(u1), io::from_fixed_px(v1)};
     m.max_span_m = std::max(m.max_span_m, static_cast<double>(l.last_distance_m) - l.first_distance_m);
   }
-  if (kind == 1 && count > 0) {
-    for (int i = 0; i < m.descriptors.rows; ++i)
-      for (int j = 0; j < m.descriptors.cols; ++j)
-        if (!std::isfinite(m.descriptors.at<float>(i, j))) return fail("segment payload: non-finite descriptor value");
-  }
+  if (kind == 1 && count > 0 && !cv::checkRange(m.descriptors))
+    return fail("segment payload: non-finite descriptor value");
   auto valid = m.validate();
   if (!valid) return valid.error().with_context("segment payload");
   return m;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # `make bench`: runs every bench_* program in BUILD_DIR/bin, one after the other.
 #   scripts/bench.sh BUILD_DIR [extra Google Benchmark arguments...]
+# bench_map and bench_replay generate their maps once and keep them in $TMPDIR/visnav_bench_maps
+# (~0.8 GB; delete the folder to free the space or to force regeneration).
 set -euo pipefail
 build="${1:-build}"
 shift || true

@@ -13,23 +13,16 @@ namespace {
 using namespace visnav;
 using namespace visnav::recorded;
 
-struct ImageFolderParams {
+struct ImageFolderParams : ImageOptions {  // + the image pipeline keys (add_image_fields)
   std::string folder;
   std::string timestamps_file;
   double frame_rate_hz = 10.0;
   std::string pacing = "fast";
   bool loop = false;
-  // image pipeline (add_image_fields)
-  std::string calibration_file;
-  std::vector<double> crop_px;
-  std::vector<double> crop_rows;
-  int resize_width_px = 0;
-  int resize_height_px = 0;
-  bool grey = false;
 
   [[nodiscard]] Status validate() const {
     if (folder.empty()) return fail("key 'folder' is required (the image folder)");
-    return image_options_of(*this).validate();
+    return ImageOptions::validate();
   }
   static const ParamSchema<ImageFolderParams>& schema() {
     static const auto s = [] {
@@ -58,7 +51,7 @@ class ImageFolderCamera final : public ImageListCamera {
     const std::string base = config_folder(node.where().file);
     const std::string folder = resolve_path(p.folder, base);
     VISNAV_ASSIGN(FrameList list, list_image_folder(folder, resolve_path(p.timestamps_file, base), p.frame_rate_hz));
-    VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(image_options_of(p), base));
+    VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(p, base));
     host.logger().info("camera_image_folder", folder + ": " + std::to_string(list.frames.size()) + " images, pacing " + p.pacing);
     return std::make_unique<ImageFolderCamera>(std::move(list), parse_pacing(p.pacing), std::move(pipeline), host.clock(), p.loop);
   }

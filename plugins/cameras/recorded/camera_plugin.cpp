@@ -12,20 +12,14 @@ namespace {
 using namespace visnav;
 using namespace visnav::recorded;
 
-struct RecordedCameraParams {
+struct RecordedCameraParams : ImageOptions {  // + the image pipeline keys (add_image_fields), normally off:
+                                              // recorded frames are already processed
   std::string run_dir;
   std::string pacing = "clock";
-  // image pipeline (add_image_fields); normally off: recorded frames are already processed
-  std::string calibration_file;
-  std::vector<double> crop_px;
-  std::vector<double> crop_rows;
-  int resize_width_px = 0;
-  int resize_height_px = 0;
-  bool grey = false;
 
   [[nodiscard]] Status validate() const {
     if (run_dir.empty()) return fail("key 'run_dir' is required (the recorded-run folder)");
-    return image_options_of(*this).validate();
+    return ImageOptions::validate();
   }
   static const ParamSchema<RecordedCameraParams>& schema() {
     static const auto s = [] {
@@ -51,7 +45,7 @@ class RecordedCamera final : public ImageListCamera {
     const std::string base = config_folder(node.where().file);
     const std::string dir = resolve_path(p.run_dir, base);
     VISNAV_ASSIGN(FrameList list, read_run_frames(dir));
-    VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(image_options_of(p), base));
+    VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(p, base));
     host.logger().info("camera_recorded", dir + ": " + std::to_string(list.frames.size()) + " frames, pacing " + p.pacing);
     return std::make_unique<RecordedCamera>(std::move(list), parse_pacing(p.pacing), std::move(pipeline), host.clock(), false);
   }

@@ -44,7 +44,7 @@ namespace {
 using namespace visnav;
 using namespace visnav::recorded;
 
-struct V4l2Params {
+struct V4l2Params : ImageOptions {  // + the image pipeline keys (add_image_fields)
   std::string device = "/dev/video0";
   int width_px = 640;
   int height_px = 480;
@@ -59,18 +59,12 @@ struct V4l2Params {
   int min_exposure = 1;
   int max_exposure = 2000;
   double open_timeout_s = 5.0;
-  std::string calibration_file;
-  std::vector<double> crop_px;
-  std::vector<double> crop_rows;
-  int resize_width_px = 0;
-  int resize_height_px = 0;
-  bool grey = false;
 
   [[nodiscard]] Status validate() const {
     if (device.empty()) return fail("key 'device' is required (e.g. /dev/video0)");
     if (!pixel_format.empty() && pixel_format.size() != 4) return fail("key 'pixel_format': a FOURCC of 4 characters (MJPG, YUYV), got '" + pixel_format + "'");
     if (min_exposure > max_exposure) return fail("key 'min_exposure': must not exceed max_exposure");
-    return image_options_of(*this).validate();
+    return ImageOptions::validate();
   }
   static const ParamSchema<V4l2Params>& schema() {
     static const auto s = [] {
@@ -158,7 +152,7 @@ class V4l2Camera final : public Camera {
     VISNAV_ASSIGN(Params p, Params::schema().parse(node));
     const std::string base = config_folder(node.where().file);
     VISNAV_TRY(probe_device(p.device));
-    VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(image_options_of(p), base));
+    VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(p, base));
 
     // Open on a helper thread so a wedged driver cannot hang the runtime.
     auto shared = std::make_shared<cv::VideoCapture>();

@@ -26,21 +26,15 @@ using namespace visnav;
 using namespace visnav::recorded;
 namespace fs = std::filesystem;
 
-struct VideoParams {
+struct VideoParams : ImageOptions {  // + the image pipeline keys (add_image_fields)
   std::string file;
   std::string pacing = "realtime";
   double frame_rate_hz = 0.0;
   bool loop = false;
-  std::string calibration_file;
-  std::vector<double> crop_px;
-  std::vector<double> crop_rows;
-  int resize_width_px = 0;
-  int resize_height_px = 0;
-  bool grey = false;
 
   [[nodiscard]] Status validate() const {
     if (file.empty()) return fail("key 'file' is required (the video file)");
-    return image_options_of(*this).validate();
+    return ImageOptions::validate();
   }
   static const ParamSchema<VideoParams>& schema() {
     static const auto s = [] {
@@ -69,7 +63,7 @@ class VideoCamera final : public Camera {
     std::error_code ec;
     if (!fs::exists(cam->path_, ec)) return fail("video file '" + cam->path_ + "': no such file");
     if (!fs::is_regular_file(cam->path_, ec)) return fail("video file '" + cam->path_ + "': not a regular file");
-    VISNAV_ASSIGN(cam->pipeline_, ImagePipeline::create(image_options_of(p), base));
+    VISNAV_ASSIGN(cam->pipeline_, ImagePipeline::create(p, base));
     VISNAV_TRY(cam->open());
     // A file that opens but yields no frame (truncated, not a video) is rejected now, not at the first tick.
     VISNAV_TRY(cam->decode_next());

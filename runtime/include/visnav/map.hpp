@@ -195,7 +195,9 @@ class MapStore {
 
   [[nodiscard]] const std::vector<NodeRecord>& nodes() const;  ///< in insertion order
   [[nodiscard]] const std::vector<EdgeRecord>& edges() const;  ///< in insertion order
-  /// nullptr if unknown. Pointers stay valid until the next mutating call.
+  /// nullptr if unknown. Pointers stay valid until the next mutating call. The lookups below
+  /// (find_*, resolve_node, outgoing, incoming) use hashed indices: their cost does not grow with
+  /// the number of nodes or edges (a tree may call them every tick).
   [[nodiscard]] const NodeRecord* find_node(std::string_view id) const;
   [[nodiscard]] const NodeRecord* find_node_by_name(std::string_view name) const;  ///< first match
   [[nodiscard]] const EdgeRecord* find_edge(std::string_view id) const;

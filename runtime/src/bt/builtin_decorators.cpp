@@ -6,7 +6,11 @@ namespace {
 
 using S = NodeStatus;
 
-class Inverter final : public DecoratorNode {
+// Inverter, ForceSuccess/ForceFailure and KeepRunningUntilFailure tick the child once and only
+// translate its completion: SUCCESS -> OnSuccess, FAILURE -> OnFailure (the child is reset);
+// RUNNING, SKIPPED and IDLE are passed through.
+template <S OnSuccess, S OnFailure>
+class MapCompletion final : public DecoratorNode {
  public:
   using DecoratorNode::DecoratorNode;
   static PortsList provided_ports() { return {}; }
@@ -15,78 +19,56 @@ class Inverter final : public DecoratorNode {
   NodeStatus tick() override {
     set_status(S::running);
     const S s = child_->execute_tick();
-    switch (s) {
-      case S::success:
-        reset_child();
-        return S::failure;
-      case S::failure:
-        reset_child();
-        return S::success;
-      case S::running:
-      case S::skipped:
-      case S::idle:
-        break;
-    }
-    return s;
+    if (!is_completed(s)) return s;
+    reset_child();
+    return s == S::success ? OnSuccess : OnFailure;
   }
 };
 
+using Inverter = MapCompletion<S::failure, S::success>;  // SUCCESS <-> FAILURE
 template <S Forced>
-class ForceStatus final : public DecoratorNode {
+using ForceStatus = MapCompletion<Forced, Forced>;
+// RUNNING while the child succeeds (re-ticking it next tick), FAILURE when it fails.
+using KeepRunningUntilFailure = MapCompletion<S::running, S::failure>;
+
+// Repeat and RetryUntilSuccessful share one loop: the child is re-ticked while it completes with
+// `Traits::again` (within one tick while it completes synchronously), up to the count in port
+// `Traits::port`; the other completed status stops the loop and is returned at once. Reaching
+// the count returns `again`. A count of -1 loops forever; then the node returns RUNNING after
+// each completed cycle so a synchronous child cannot block the tick thread. SKIPPED/IDLE from
+// the child: SKIPPED.
+template <typename Traits>
+class CountedLoop final : public DecoratorNode {
  public:
   using DecoratorNode::DecoratorNode;
-  static PortsList provided_ports() { return {}; }
+  static PortsList provided_ports() { return {input_port<int>(Traits::port, Traits::port_description)}; }
 
  protected:
   NodeStatus tick() override {
+    constexpr S again = Traits::again;
+    constexpr S stop = again == S::success ? S::failure : S::success;
+    const auto limit = get_input<int>(Traits::port);
+    if (!limit || *limit < -1) return S::failure;
     set_status(S::running);
-    const S s = child_->execute_tick();
-    if (is_completed(s)) {
-      reset_child();
-      return Forced;
-    }
-    return s;
-  }
-};
-
-// Repeat: re-ticks a succeeding child num_cycles times (within one tick while the child
-// completes synchronously); FAILURE stops the loop. num_cycles = -1 repeats forever; in that
-// case the node returns RUNNING after each completed cycle so a synchronous child cannot
-// block the tick thread.
-class Repeat final : public DecoratorNode {
- public:
-  using DecoratorNode::DecoratorNode;
-  static PortsList provided_ports() {
-    return {input_port<int>("num_cycles", "repeat a successful child up to N times (-1: forever)")};
-  }
-
- protected:
-  NodeStatus tick() override {
-    const auto cycles = get_input<int>("num_cycles");
-    if (!cycles || *cycles < -1) return S::failure;
-    set_status(S::running);
-    while (*cycles == -1 || count_ < *cycles) {
+    while (*limit == -1 || count_ < *limit) {
       const S s = child_->execute_tick();
-      switch (s) {
-        case S::success:
-          ++count_;
-          reset_child();
-          if (*cycles == -1) return S::running;
-          break;
-        case S::failure:
-          count_ = 0;
-          reset_child();
-          return S::failure;
-        case S::running:
-          return S::running;
-        case S::skipped:
-        case S::idle:
-          reset_child();
-          return S::skipped;
+      if (s == again) {
+        ++count_;
+        reset_child();
+        if (*limit == -1) return S::running;
+      } else if (s == stop) {
+        count_ = 0;
+        reset_child();
+        return stop;
+      } else if (s == S::running) {
+        return S::running;
+      } else {  // skipped, idle
+        reset_child();
+        return S::skipped;
       }
     }
     count_ = 0;
-    return S::success;
+    return again;
   }
   void halt() override {
     count_ = 0;
@@ -94,62 +76,56 @@ class Repeat final : public DecoratorNode {
   }
 
  private:
-  int count_ = 0;
+  int count_ = 0;  // completed cycles (Repeat) / failed attempts (RetryUntilSuccessful)
 };
+
+// Repeat: re-ticks a succeeding child num_cycles times; FAILURE stops the loop.
+struct RepeatTraits {
+  static constexpr S again = S::success;
+  static constexpr const char* port = "num_cycles";
+  static constexpr const char* port_description = "repeat a successful child up to N times (-1: forever)";
+};
+using Repeat = CountedLoop<RepeatTraits>;
 
 // RetryUntilSuccessful: re-ticks a failing child up to num_attempts times; SUCCESS stops.
-// num_attempts = -1 retries forever (returning RUNNING after each failed attempt).
-class RetryUntilSuccessful final : public DecoratorNode {
- public:
-  using DecoratorNode::DecoratorNode;
-  static PortsList provided_ports() {
-    return {input_port<int>("num_attempts", "attempts before giving up (-1: forever)")};
-  }
-
- protected:
-  NodeStatus tick() override {
-    const auto attempts = get_input<int>("num_attempts");
-    if (!attempts || *attempts < -1) return S::failure;
-    set_status(S::running);
-    while (*attempts == -1 || tries_ < *attempts) {
-      const S s = child_->execute_tick();
-      switch (s) {
-        case S::success:
-          tries_ = 0;
-          reset_child();
-          return S::success;
-        case S::failure:
-          ++tries_;
-          reset_child();
-          if (*attempts == -1) return S::running;
-          break;
-        case S::running:
-          return S::running;
-        case S::skipped:
-        case S::idle:
-          reset_child();
-          return S::skipped;
-      }
-    }
-    tries_ = 0;
-    return S::failure;
-  }
-  void halt() override {
-    tries_ = 0;
-    DecoratorNode::halt();
-  }
-
- private:
-  int tries_ = 0;
+struct RetryTraits {
+  static constexpr S again = S::failure;
+  static constexpr const char* port = "num_attempts";
+  static constexpr const char* port_description = "attempts before giving up (-1: forever)";
 };
+using RetryUntilSuccessful = CountedLoop<RetryTraits>;
 
 double msec_to_s(int msec) { return static_cast<double>(msec) * 1e-3; }
 
-// Timeout: the child must complete within msec of the first tick, else it is halted and the
-// node returns FAILURE. msec <= 0: no limit.
-class Timeout final : public DecoratorNode {
+// Shared by Timeout and Delay: a timer started at the first tick (`started_`), forgotten when the
+// child completes or the node is halted.
+class TimedDecorator : public DecoratorNode {
  public:
   using DecoratorNode::DecoratorNode;
+
+ protected:
+  /// Ticks the child; when it completes the timer is forgotten and the child reset.
+  NodeStatus tick_child() {
+    const S s = child_->execute_tick();
+    if (is_completed(s)) {
+      started_ = false;
+      reset_child();
+    }
+    return s;
+  }
+  void halt() override {
+    started_ = false;
+    DecoratorNode::halt();
+  }
+
+  bool started_ = false;
+};
+
+// Timeout: the child must complete within msec of the first tick, else it is halted and the
+// node returns FAILURE. msec <= 0: no limit.
+class Timeout final : public TimedDecorator {
+ public:
+  using TimedDecorator::TimedDecorator;
   static PortsList provided_ports() {
     return {input_port<int>("msec", "time limit in milliseconds, from the first tick")};
   }
@@ -168,27 +144,17 @@ class Timeout final : public DecoratorNode {
       halt_child();
       return S::failure;
     }
-    const S s = child_->execute_tick();
-    if (is_completed(s)) {
-      started_ = false;
-      reset_child();
-    }
-    return s;
-  }
-  void halt() override {
-    started_ = false;
-    DecoratorNode::halt();
+    return tick_child();
   }
 
  private:
-  bool started_ = false;
   double start_s_ = 0.0;
 };
 
 // Delay: waits delay_msec from the first tick (RUNNING), then ticks the child.
-class Delay final : public DecoratorNode {
+class Delay final : public TimedDecorator {
  public:
-  using DecoratorNode::DecoratorNode;
+  using TimedDecorator::TimedDecorator;
   static PortsList provided_ports() {
     return {input_port<int>("delay_msec", "delay before ticking the child, in milliseconds")};
   }
@@ -203,20 +169,10 @@ class Delay final : public DecoratorNode {
       set_status(S::running);
     }
     if (clock().now_s() < deadline_s_) return S::running;
-    const S s = child_->execute_tick();
-    if (is_completed(s)) {
-      started_ = false;
-      reset_child();
-    }
-    return s;
-  }
-  void halt() override {
-    started_ = false;
-    DecoratorNode::halt();
+    return tick_child();
   }
 
  private:
-  bool started_ = false;
   double deadline_s_ = 0.0;
 };
 
@@ -248,32 +204,6 @@ class RunOnce final : public DecoratorNode {
  private:
   bool done_ = false;
   S result_ = S::idle;
-};
-
-// KeepRunningUntilFailure: RUNNING while the child succeeds (re-ticking it), FAILURE when it fails.
-class KeepRunningUntilFailure final : public DecoratorNode {
- public:
-  using DecoratorNode::DecoratorNode;
-  static PortsList provided_ports() { return {}; }
-
- protected:
-  NodeStatus tick() override {
-    set_status(S::running);
-    const S s = child_->execute_tick();
-    switch (s) {
-      case S::failure:
-        reset_child();
-        return S::failure;
-      case S::success:
-        reset_child();
-        return S::running;
-      case S::running:
-      case S::skipped:
-      case S::idle:
-        break;
-    }
-    return s;
-  }
 };
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <set>
+#include <unordered_map>
 
 #include "map/graph_io.hpp"
 #include "visnav/map.hpp"
@@ -120,7 +121,17 @@ std::span<const std::uint8_t> as_bytes(const std::string& s) {
   return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()};
 }
 
-std::string next_free_id(char prefix, std::size_t start, const std::map<std::string, std::size_t, std::less<>>& used) {
+/// Hash of the string indices below; transparent so lookups by string_view do not allocate.
+struct StringHash {
+  using is_transparent = void;
+  std::size_t operator()(std::string_view s) const noexcept { return std::hash<std::string_view>{}(s); }
+};
+/// The in-memory indices of the graph are hashed: a lookup costs the same on a 10 km map as on a
+/// 100 m one (trees may query the map every tick; bench/replay measures it).
+template <typename V>
+using StringIndex = std::unordered_map<std::string, V, StringHash, std::equal_to<>>;
+
+std::string next_free_id(char prefix, std::size_t start, const StringIndex<std::size_t>& used) {
   for (std::size_t k = start;; ++k) {
     std::string id = prefix + std::to_string(k);
     if (used.count(id) == 0) return id;
@@ -132,21 +143,37 @@ std::string next_free_id(char prefix, std::size_t start, const std::map<std::str
 struct MapStore::Impl {
   std::string dir;
   map_detail::Graph graph;
-  std::map<std::string, std::size_t, std::less<>> node_index;
-  std::map<std::string, std::size_t, std::less<>> edge_index;
-  std::map<std::string, std::vector<std::size_t>, std::less<>> out_edges;
-  std::map<std::string, std::vector<std::size_t>, std::less<>> in_edges;
+  StringIndex<std::size_t> node_index;
+  StringIndex<std::size_t> name_index;  // display name -> first node (insertion order) with it
+  StringIndex<std::size_t> edge_index;
+  StringIndex<std::vector<std::size_t>> out_edges;
+  StringIndex<std::vector<std::size_t>> in_edges;
   bool autoflush = true;
   bool sync = true;
   bool dirty = false;
 
   void index() {
     node_index.clear();
+    name_index.clear();
     edge_index.clear();
     out_edges.clear();
     in_edges.clear();
-    for (std::size_t i = 0; i < graph.nodes.size(); ++i) node_index.emplace(graph.nodes[i].id, i);
+    node_index.reserve(graph.nodes.size());
+    name_index.reserve(graph.nodes.size());
+    edge_index.reserve(graph.edges.size());
+    for (std::size_t i = 0; i < graph.nodes.size(); ++i) index_node(i);
     for (std::size_t i = 0; i < graph.edges.size(); ++i) index_edge(i);
+  }
+  void index_node(std::size_t i) {
+    node_index.emplace(graph.nodes[i].id, i);
+    name_index.emplace(graph.nodes[i].name, i);  // keeps an earlier node of the same name
+  }
+  void unindex_last_node() {
+    const auto& n = graph.nodes.back();
+    const std::size_t i = graph.nodes.size() - 1;
+    node_index.erase(n.id);
+    if (auto it = name_index.find(n.name); it != name_index.end() && it->second == i) name_index.erase(it);
+    graph.nodes.pop_back();
   }
   void index_edge(std::size_t i) {
     const auto& e = graph.edges[i];
@@ -251,13 +278,12 @@ Result<std::string> MapStore::add_node(NodeRecord node) {
   }
   const std::string id = node.id;
   m.graph.nodes.push_back(std::move(node));
-  m.node_index.emplace(id, m.graph.nodes.size() - 1);
+  m.index_node(m.graph.nodes.size() - 1);
   m.dirty = true;
   if (m.autoflush) {
     auto st = m.write_graph();
     if (!st) {
-      m.node_index.erase(id);
-      m.graph.nodes.pop_back();
+      m.unindex_last_node();
       return std::move(st).error();
     }
   }
@@ -338,8 +364,8 @@ const NodeRecord* MapStore::find_node(std::string_view id) const {
 }
 
 const NodeRecord* MapStore::find_node_by_name(std::string_view name) const {
-  for (const auto& n : impl_->graph.nodes) if (n.name == name) return &n;
-  return nullptr;
+  auto it = impl_->name_index.find(name);
+  return it == impl_->name_index.end() ? nullptr : &impl_->graph.nodes[it->second];
 }
 
 const EdgeRecord* MapStore::find_edge(std::string_view id) const {

@@ -127,6 +127,34 @@ TEST(MapStore, AssignsIdsAndRejectsBadRecordsWithoutChangingTheMap) {
   EXPECT_EQ(reopened->find_node("y")->name, "chodba \xc5\xa1\xc3\xad\xc5\x99ka");
 }
 
+TEST(MapStore, NodeNamesResolveToTheFirstNodeOfThatNameBeforeAndAfterReopening) {
+  // find_node_by_name uses an index (bench/replay: O(1) on a 10 km map); its contract is still
+  // "first match in insertion order", and an id wins over a name.
+  TempDir tmp;
+  {
+    auto map = MapStore::create(tmp / "m", "m");
+    ASSERT_TRUE(map);
+    ASSERT_TRUE(map->add_node(node("a", "door")));
+    ASSERT_TRUE(map->add_node(node("b", "door")));
+    ASSERT_TRUE(map->add_node(node("c", "a")));  // named like node a's id
+    ASSERT_TRUE(map->add_node(node("d")));       // empty name
+    ASSERT_TRUE(map->add_node(node("e")));
+    EXPECT_EQ(map->find_node_by_name("door")->id, "a");
+    EXPECT_EQ(map->find_node_by_name("")->id, "d");
+    EXPECT_EQ(map->find_node_by_name("nowhere"), nullptr);
+    EXPECT_EQ((*map->resolve_node("a"))->id, "a");
+    EXPECT_FALSE(map->add_node(node("f", "co\xff\xffrridor")));  // rejected: no trace in the index
+    EXPECT_EQ(map->find_node_by_name("co\xff\xffrridor"), nullptr);
+  }
+  auto map = MapStore::open(tmp / "m");
+  ASSERT_TRUE(map);
+  EXPECT_EQ(map->find_node_by_name("door")->id, "a");
+  EXPECT_EQ(map->find_node_by_name("a")->id, "c");
+  EXPECT_EQ(map->find_node_by_name("")->id, "d");
+  EXPECT_EQ((*map->resolve_node("door"))->id, "a");
+  EXPECT_FALSE(map->resolve_node("nowhere"));
+}
+
 TEST(MapStore, CreateRefusesAnExistingMapAndOpenExplainsMissingOnes) {
   TempDir tmp;
   ASSERT_TRUE(MapStore::create(tmp / "m", "m"));

@@ -17,6 +17,7 @@
 // Thread-safety: one thread per pipeline (apply() reuses the remap tables and a work buffer).
 #pragma once
 
+#include <concepts>
 #include <string>
 #include <vector>
 
@@ -67,32 +68,25 @@ class ImagePipeline {
 /// The folder of the config file a params node came from ("" for built-in/CLI values).
 [[nodiscard]] std::string config_folder(const std::string& file_of_params);
 
-/// Adds the image keys to a camera's schema, so every camera documents them the same way.
-/// P must have members calibration_file, crop_px, crop_rows, resize_width_px, resize_height_px
-/// and grey of the ImageOptions types.
+/// Adds the image keys (the ImageOptions members) to a camera's schema, so every camera documents
+/// them the same way. A camera's params struct derives from ImageOptions, which gives it those
+/// members and the image part of validation (call ImageOptions::validate() from its own
+/// validate()); ImagePipeline::create() takes the struct as it is:
+///   struct VideoParams : ImageOptions { std::string file; ...
+///     Status validate() const { if (file.empty()) return fail(...); return ImageOptions::validate(); } };
 template <typename P>
+  requires std::derived_from<P, ImageOptions>
 ParamSchema<P>& add_image_fields(ParamSchema<P>& s) {
-  s.field("calibration_file", &P::calibration_file,
-          "OpenCV YAML/XML with camera_matrix and distortion_coefficients; frames are undistorted; '' = off")
-      .field("crop_px", &P::crop_px, "crop x;y;width;height, px of the undistorted image; empty = none")
-      .field("crop_rows", &P::crop_rows, "keep rows first;last as fractions of the height (0;0.5 = top half); empty = all")
-      .field("resize_width_px", &P::resize_width_px, "output width, px; 0 = keep (or keep the aspect ratio)").range(0, 16384)
-      .field("resize_height_px", &P::resize_height_px, "output height, px; 0 = keep (or keep the aspect ratio)").range(0, 16384)
-      .field("grey", &P::grey, "deliver 8-bit grey frames (CV_8UC1)");
+  // Explicit field types: &P::grey names ImageOptions::grey, converted to a member of P.
+  s.template field<std::string>("calibration_file", &P::calibration_file,
+                                "OpenCV YAML/XML with camera_matrix and distortion_coefficients; frames are undistorted; '' = off")
+      .template field<std::vector<double>>("crop_px", &P::crop_px, "crop x;y;width;height, px of the undistorted image; empty = none")
+      .template field<std::vector<double>>("crop_rows", &P::crop_rows,
+                                           "keep rows first;last as fractions of the height (0;0.5 = top half); empty = all")
+      .template field<int>("resize_width_px", &P::resize_width_px, "output width, px; 0 = keep (or keep the aspect ratio)").range(0, 16384)
+      .template field<int>("resize_height_px", &P::resize_height_px, "output height, px; 0 = keep (or keep the aspect ratio)").range(0, 16384)
+      .template field<bool>("grey", &P::grey, "deliver 8-bit grey frames (CV_8UC1)");
   return s;
-}
-
-/// The ImageOptions part of a camera's params (see add_image_fields).
-template <typename P>
-ImageOptions image_options_of(const P& p) {
-  ImageOptions o;
-  o.calibration_file = p.calibration_file;
-  o.crop_px = p.crop_px;
-  o.crop_rows = p.crop_rows;
-  o.resize_width_px = p.resize_width_px;
-  o.resize_height_px = p.resize_height_px;
-  o.grey = p.grey;
-  return o;
 }
 
 }  // namespace visnav::recorded

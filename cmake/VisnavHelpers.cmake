@@ -60,8 +60,12 @@ function(visnav_add_test name)
     set(ARG_TIMEOUT 120)
   endif()
   include(GoogleTest)
+  # gtest_discover_tests flattens list-valued properties (CMake 3.25 splits "a;b" into separate
+  # set_tests_properties arguments), so several labels are joined into one: "closed_loop-dds".
+  # `ctest -L` takes a regular expression, so `-L dds` and `-L closed_loop` both still select it.
+  string(REPLACE ";" "-" label_joined "${ARG_LABELS}")
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${label_joined}")
 endfunction()
 
 # visnav_add_benchmark(<name> SOURCES ... [LIBS ...])

@@ -20,7 +20,7 @@ constexpr const char* kUsage =
     "       visnav monitor --send pause|resume|abort|swap_detector [--arg DETECTOR] [--domain N] [--partition P]\n"
     "                      [--control-topic T] [--wait S]\n"
     "\n"
-    "Prints every visnav/msg/Telemetry sample published by `visnav run` (config `telemetry_dds:`)\n"
+    "Prints every visnav/msg/Telemetry sample published by `visnav run` (config block `dds:`)\n"
     "as one line: sequence, status, behaviour-tree node, map node and edge, distance along the edge,\n"
     "image offset, inliers/matches and the command (v, w). With --send, publishes one control request\n"
     "instead and exits.\n"
@@ -85,7 +85,7 @@ int monitor(const std::vector<std::string>& args) {
     const bool matched = (*publisher)->wait_for_subscribers(1, *wait_s);
     if (!matched) {
       std::cerr << "visnav monitor: no control subscriber on '" << params.control_topic << "' (domain "
-                << params.domain_id << ") within " << *wait_s << " s; is `visnav run` running with telemetry_dds?\n";
+                << params.domain_id << ") within " << *wait_s << " s; is `visnav run` running with a `dds:` config block?\n";
       return 1;
     }
     if (auto st = (*publisher)->send(*command, a.get("--arg")); !st) {

@@ -26,8 +26,11 @@ constexpr const char* kUsage =
     "  --log-level L      overrides run.log_level\n"
     "\n"
     "Editing the config file while running applies parameter changes live (see docs/config.md).\n"
+    "With a `dds:` block in C, every tick's status is published on DDS and pause / resume /\n"
+    "abort / swap_detector requests are obeyed (`visnav monitor`, docs/dds.md).\n"
     "Exit status: 0 tree SUCCESS, 1 tree FAILURE or setup/validation error, 2 usage error,\n"
-    "3 safety stop (stale data, sensor failure), 130 interrupted (SIGINT: tree halted, robot stopped).\n";
+    "3 safety stop (stale data, sensor failure), 130 interrupted (SIGINT or an abort request:\n"
+    "tree halted, robot stopped).\n";
 
 int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
@@ -61,6 +64,9 @@ int run(const std::vector<std::string>& args) {
   std::cout << "visnav run: " << visnav::to_string(r.outcome) << " after " << r.ticks << " ticks, "
             << r.run_time_s << " s run time (" << r.wall_time_s << " s wall)";
   if (r.overruns > 0) std::cout << ", " << r.overruns << " overruns";
+  if (r.control_applied > 0 || r.control_rejected > 0)
+    std::cout << ", " << r.control_applied << " control requests applied, " << r.control_rejected << " rejected";
+  if (r.pauses > 0) std::cout << ", paused " << r.pauses << "x for " << r.paused_s << " s";
   std::cout << "\n";
   if (!r.reason.empty()) std::cerr << "visnav run: " << r.reason << "\n";
   return r.exit_code;

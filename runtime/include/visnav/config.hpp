@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "visnav/config_node.hpp"
+#include "visnav/dds.hpp"
 #include "visnav/params.hpp"
 #include "visnav/result.hpp"
 
@@ -55,6 +56,25 @@ struct RunSettings {
   static const ParamSchema<RunSettings>& schema();
 };
 
+/// The optional top-level `dds:` block: telemetry and mission control of `visnav run` over
+/// Cyclone DDS (docs/dds.md). Present and not `enabled: false` → `visnav run` publishes every
+/// NavStatus on `endpoints.telemetry_topic` (besides `run.telemetry_file`, when set) and obeys
+/// pause/resume/abort/swap_detector requests on `endpoints.control_topic`.
+struct DdsSettings {
+  bool enabled = false;    ///< false when the block is absent or says `enabled: false`
+  bool telemetry = true;   ///< publish NavStatus on the telemetry topic
+  bool control = true;     ///< subscribe the control topic
+  dds::TelemetryParams endpoints;  ///< domain_id, partition, telemetry_topic, control_topic
+  SourceLocation where;    ///< location of the block (for error messages)
+
+  /// Key docs of the block (enabled, telemetry, control, then TelemetryParams' keys).
+  [[nodiscard]] static std::vector<ParamDoc> docs();
+};
+
+/// Parses a `dds:` block (a map, or null = all defaults, enabled). Errors name file:line and
+/// the key: unknown keys, wrong types, `domain_id` outside [0, 232], equal or empty topics.
+[[nodiscard]] Result<DdsSettings> parse_dds_settings(const ConfigNode& node);
+
 /// A parsed, validated run configuration.
 struct RunConfig {
   std::string file;                               ///< path of the YAML file (empty if from a string)
@@ -65,10 +85,12 @@ struct RunConfig {
   std::optional<std::vector<std::string>> nodes;  ///< nodes plugins to load; nullopt = all found
   RunSettings run;
   std::vector<std::string> plugin_path;           ///< extra plugin dirs (relative to the file's folder)
+  DdsSettings dds;                                ///< the `dds:` block (disabled when absent)
 };
 
 /// Validates the structure of a run config (known top-level keys, sections with `type`,
-/// the `run:` block through RunSettings::schema()). Plugin params are checked by the plugins.
+/// the `run:` block through RunSettings::schema(), the `dds:` block through
+/// parse_dds_settings()). Plugin params are checked by the plugins.
 [[nodiscard]] Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file = {});
 
 /// Reads `path`, applies `overrides` (`key.path=value` each) and parses the run config.

@@ -436,7 +436,8 @@ struct ControlRequest {
 
 /// Receives control requests on `control_topic` (reliable, keep-last 32) on its own thread and
 /// queues them; the tick thread drains the queue with `take_pending()` between ticks.
-/// Unknown command codes are dropped with a warning.
+/// Unknown command codes and `swap_detector` without a type are dropped with a warning
+/// (at most one per second) and counted in `rejected()`.
 class ControlSubscriber {
  public:
   [[nodiscard]] static Result<std::unique_ptr<ControlSubscriber>> create(const TelemetryParams& params, Logger& logger);
@@ -444,6 +445,8 @@ class ControlSubscriber {
   /// Requests received since the last call, oldest first. Thread-safe.
   [[nodiscard]] std::vector<ControlRequest> take_pending();
   [[nodiscard]] int matched_writers() const;
+  /// Requests dropped as malformed so far (unknown code, swap_detector without a type). Thread-safe.
+  [[nodiscard]] std::uint64_t rejected() const;
 
  private:
   struct Impl;

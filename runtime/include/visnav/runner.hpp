@@ -16,8 +16,10 @@
 // `plugin_path` + SessionOptions::extra_plugin_dirs; scanned once), host services, robot
 // (host.robot() is set before the camera is created, so a simulated camera can follow the
 // simulated robot), the run clock (simulated time in lock-step, else wall time), camera,
-// detector (optional), map (`map_path`), telemetry file, node registry (built-in nodes, then
-// each selected `nodes` plugin's registrar).
+// detector (optional), map (`map_path`), telemetry sinks (the `run.telemetry_file` JSON lines
+// and, with an enabled `dds:` block, DDS telemetry — both fed by one FanOutTelemetry that is the
+// host's telemetry), the DDS control subscriber (`dds.control`), node registry (built-in nodes,
+// then each selected `nodes` plugin's registrar).
 //
 // Tick loop (run_tree), per tick:
 //   lock-step (simulated robot, run.lockstep auto/on): step(1/rate_hz) → grab → odometry →
@@ -25,7 +27,24 @@
 //   tick: frame — wait for a new camera frame (short waits, so signals are seen), publish
 //     it with the newest odometry, tick;
 //   tick: rate  — every 1/rate_hz s (wall): take a frame if one is ready, odometry, tick.
-// Between ticks: live config reload (see Session::poll_config_reload), stop requests.
+// Between ticks: live config reload (see Session::poll_config_reload), stop requests, and the
+// mission-control requests of the `dds:` control topic (Session::control()), in arrival order:
+//   pause   — the robot is commanded to zero at once and again on every loop iteration while
+//             paused (a keep-alive for robots with a cmd_vel timeout); the tree is not ticked
+//             and not halted (RUNNING nodes resume where they were); telemetry publishes
+//             status "paused"; after_tick is not called. Lock-step simulation keeps stepping,
+//             paced at real time (1/rate_hz of wall time per step), so the robot brakes and
+//             simulated time passes. Sensor failures and max_duration_s still end the run;
+//             stale or missing data does not (the robot is already stopped): it is logged once.
+//   resume  — ticking continues. Data must be fresh again within startup_timeout_s of the
+//             resume (the tree is not ticked before); else safety stop as usual.
+//   abort   — tree halted, robot stopped, outcome interrupted (exit 130), reason "aborted by
+//             control topic".
+//   swap_detector TYPE — Session::swap_detector(TYPE) between ticks; an unknown type or a
+//             failing factory is rejected with a warning and the old detector kept.
+// A pause while paused or a resume while running is ignored (logged). Rejected requests
+// (malformed ones dropped by the subscriber and refused swaps) are counted in
+// RunReport::control_rejected.
 // Safety (in the runtime, not the nodes): newest frame older than max_frame_age_s, newest
 // odometry older than max_odometry_age_s, no data within startup_timeout_s, or a camera/robot
 // error → tree halted, robot stopped, reason logged, outcome safety_stop. A tick taking longer
@@ -49,6 +68,7 @@
 
 #include "visnav/bt/tree.hpp"
 #include "visnav/config.hpp"
+#include "visnav/dds.hpp"
 #include "visnav/devices.hpp"
 #include "visnav/host.hpp"
 #include "visnav/loader.hpp"
@@ -119,8 +139,22 @@ class Session {
   [[nodiscard]] MapStore* map() { return map_ ? &*map_ : nullptr; }
   [[nodiscard]] bt::NodeRegistry& registry() { return *registry_; }
   [[nodiscard]] bool lockstep() const { return lockstep_; }
-  /// Telemetry publish count (0 without a telemetry file).
-  [[nodiscard]] std::uint64_t telemetry_published() const { return telemetry_ ? telemetry_->published() : 0; }
+  /// Number of NavStatus published through host().telemetry() (0 without a telemetry sink:
+  /// no `run.telemetry_file` and no DDS telemetry).
+  [[nodiscard]] std::uint64_t telemetry_published() const { return telemetry_.published(); }
+  /// DDS telemetry publisher (nullptr unless the `dds:` block enables telemetry).
+  [[nodiscard]] dds::DdsTelemetry* dds_telemetry() { return dds_telemetry_.get(); }
+  /// DDS mission-control subscriber (nullptr unless the `dds:` block enables control); the run
+  /// loop drains it between ticks.
+  [[nodiscard]] dds::ControlSubscriber* control() { return control_.get(); }
+
+  /// Replaces the active detector with a new one of `type` (default params, any library that
+  /// provides it), between ticks (tick thread only). The new detector is created first: an
+  /// unknown type or a failing factory returns the error and keeps the old detector. On
+  /// success config().detector becomes {type, no params} (a later live reload compares against
+  /// it, so editing the file's detector section swaps again). Requesting the active type is a
+  /// no-op (ok).
+  Status swap_detector(const std::string& type);
 
   /// Loads, validates and instantiates a tree with the run clock. Validation errors (all of
   /// them, file:line each) are the error message; nothing is instantiated then.
@@ -132,7 +166,7 @@ class Session {
   /// log_level, reload_poll_s} take effect. Rejected (old config kept, reason logged and
   /// returned): parse/validation errors, a failing detector factory, and changes that need a
   /// restart (robot/camera type or plugin, nodes, plugin_path, run.tick, run.lockstep,
-  /// run.trace_file, run.telemetry_file). A robot/camera reconfigure error keeps that object's
+  /// run.trace_file, run.telemetry_file, the `dds:` block). A robot/camera reconfigure error keeps that object's
   /// old params and is logged; the rest is applied. Returns true when something changed.
   Result<bool> reload_config();
   /// Cheap check (a stat at most every run.reload_poll_s of wall time, or always with
@@ -157,7 +191,10 @@ class Session {
   std::unique_ptr<SimulationClock> sim_clock_;
   FrameBus frame_bus_;
   std::unique_ptr<RuntimeHost> host_;
-  std::unique_ptr<JsonLinesTelemetry> telemetry_;
+  std::unique_ptr<JsonLinesTelemetry> telemetry_file_;
+  std::unique_ptr<dds::DdsTelemetry> dds_telemetry_;
+  FanOutTelemetry telemetry_;  // the host's telemetry when it has a sink
+  std::unique_ptr<dds::ControlSubscriber> control_;
   std::optional<MapStore> map_;
   PluginPtr<Robot> robot_;
   std::unique_ptr<GuardedRobot> guard_;
@@ -196,13 +233,18 @@ struct RunOptions {
 struct RunReport {
   RunOutcome outcome = RunOutcome::error;
   /// Process exit status: success 0, failure 1, safety_stop 3, interrupted 128+signal
-  /// (130 for SIGINT), stopped 0, error 1.
+  /// (130 for SIGINT and for an abort request on the control topic), stopped 0, error 1.
   int exit_code = 1;
   std::string reason;           ///< why the run ended (failure, safety, error), empty on success
   std::uint64_t ticks = 0;
   std::uint64_t overruns = 0;
   double run_time_s = 0.0;      ///< on the run clock
   double wall_time_s = 0.0;
+  // Mission control (the `dds:` control topic).
+  std::uint64_t control_applied = 0;   ///< requests carried out (pause, resume, abort, swaps)
+  std::uint64_t control_rejected = 0;  ///< malformed requests dropped + swaps refused
+  std::uint64_t pauses = 0;            ///< number of pauses
+  double paused_s = 0.0;               ///< run-clock time spent paused
 };
 
 /// Runs `tree` on `session` until it finishes or is stopped (see the file comment).

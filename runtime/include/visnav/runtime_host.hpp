@@ -14,6 +14,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "visnav/devices.hpp"
 #include "visnav/host.hpp"
@@ -95,6 +96,29 @@ class JsonLinesTelemetry final : public Telemetry {
   JsonLinesTelemetry(std::FILE* file, const Clock& clock) : file_(file), clock_(&clock) {}
   std::FILE* file_;
   const Clock* clock_;
+  std::uint64_t published_ = 0;
+};
+
+/// Forwards every NavStatus to several sinks in order (e.g. the JSON-lines file and DDS) and
+/// counts the calls. The sinks are borrowed and must outlive the fan-out. Used from the tick
+/// thread only (like every Telemetry).
+class FanOutTelemetry final : public Telemetry {
+ public:
+  FanOutTelemetry() = default;
+  /// Adds a sink (nullptr is ignored).
+  void add(Telemetry* sink) {
+    if (sink != nullptr) sinks_.push_back(sink);
+  }
+  void publish(const NavStatus& status) override {
+    ++published_;
+    for (Telemetry* sink : sinks_) sink->publish(status);
+  }
+  /// Number of publish() calls so far.
+  [[nodiscard]] std::uint64_t published() const { return published_; }
+  [[nodiscard]] std::size_t sinks() const { return sinks_.size(); }
+
+ private:
+  std::vector<Telemetry*> sinks_;
   std::uint64_t published_ = 0;
 };
 

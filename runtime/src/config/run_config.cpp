@@ -125,6 +125,57 @@ const ParamSchema<RunSettings>& RunSettings::schema() {
   return s;
 }
 
+std::vector<ParamDoc> DdsSettings::docs() {
+  std::vector<ParamDoc> out = {
+      {"enabled", "bool", "true", "false: ignore the block (no DDS endpoints are created)", ""},
+      {"telemetry", "bool", "true", "publish every NavStatus on telemetry_topic", ""},
+      {"control", "bool", "true", "obey pause/resume/abort/swap_detector requests on control_topic", ""},
+  };
+  for (auto& d : dds::TelemetryParams::schema().docs()) out.push_back(std::move(d));
+  return out;
+}
+
+Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
+  DdsSettings settings;
+  settings.enabled = true;
+  settings.where = node.where();
+  if (node.is_null()) return settings;
+  if (!node.is_map()) return fail(node.where().str() + ": 'dds' must be a map (keys: enabled, telemetry, control, "
+                                                       "domain_id, partition, telemetry_topic, control_topic)");
+  ConfigNode endpoints = ConfigNode::make_map(node.where());
+  std::vector<std::string> errors;
+  for (const auto& [key, value] : node.entries()) {
+    bool* flag = key == "enabled" ? &settings.enabled
+                 : key == "telemetry" ? &settings.telemetry
+                 : key == "control" ? &settings.control
+                                    : nullptr;
+    if (flag == nullptr) {
+      endpoints.set(key, value);
+      continue;
+    }
+    auto parsed = value.is_scalar() ? detail::parse_bool(value.scalar()) : Result<bool>(fail("expected true or false"));
+    if (!parsed) {
+      errors.push_back(value.where().str() + ": key '" + key + "': " + parsed.error().message + " (in 'dds')");
+      continue;
+    }
+    *flag = *parsed;
+  }
+  for (const auto& [key, value] : endpoints.entries()) {
+    const auto docs = dds::TelemetryParams::schema().docs();
+    const bool known = std::any_of(docs.begin(), docs.end(), [&key](const ParamDoc& d) { return d.name == key; });
+    if (!known)
+      errors.push_back(value.where().str() + ": unknown key '" + key + "' in 'dds' (known keys: " +
+                       key_list({"enabled", "telemetry", "control", "domain_id", "partition", "telemetry_topic",
+                                 "control_topic"}) +
+                       ")");
+  }
+  if (!errors.empty()) return fail(join_lines(errors));
+  auto endpoints_parsed = dds::TelemetryParams::schema().parse(endpoints);
+  if (!endpoints_parsed) return fail(endpoints_parsed.error().message + " (in 'dds')");
+  settings.endpoints = std::move(endpoints_parsed).value();
+  return settings;
+}
+
 Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file) {
   RunConfig config;
   config.file = file;
@@ -133,7 +184,7 @@ Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& fi
   const std::string where_file = file.empty() ? root.where().str() : file;
 
   if (!root.is_map()) {
-    return fail(where_file + ": a run config must be a map with the sections robot, camera, detector, nodes, run, plugin_path");
+    return fail(where_file + ": a run config must be a map with the sections robot, camera, detector, nodes, run, plugin_path, dds");
   }
 
   bool have_robot = false;
@@ -173,9 +224,16 @@ Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& fi
       }
       auto valid = config.run.validate();
       if (!valid) errors.push_back(value.where().str() + ": " + valid.error().message);
+    } else if (key == "dds") {
+      auto parsed = parse_dds_settings(value);
+      if (!parsed) {
+        errors.push_back(parsed.error().message);
+        continue;
+      }
+      config.dds = std::move(parsed).value();
     } else {
       errors.push_back(value.where().str() + ": unknown top-level key '" + key + "' (known keys: " +
-                       key_list({"robot", "camera", "detector", "nodes", "run", "plugin_path"}) + ")");
+                       key_list({"robot", "camera", "detector", "nodes", "run", "plugin_path", "dds"}) + ")");
     }
   }
   if (!have_robot) errors.push_back(where_file + ": missing section 'robot' (e.g. robot: {type: sim})");

@@ -1,5 +1,6 @@
 // DDS telemetry publisher and mission-control endpoints (visnav/dds.hpp), built on the typed
 // Writer/Subscription layer only.
+#include <atomic>
 #include <deque>
 #include <mutex>
 
@@ -74,6 +75,7 @@ struct ControlSubscriber::Impl {
   WarningLimiter limiter{1.0};
   std::mutex mutex;
   std::deque<ControlRequest> pending;
+  std::atomic<std::uint64_t> rejected{0};
   std::unique_ptr<Subscription<msg::Control>> subscription;  // last: stopped first
 
   explicit Impl(Participant p) : participant(std::move(p)) {}
@@ -93,14 +95,18 @@ Result<std::unique_ptr<ControlSubscriber>> ControlSubscriber::create(const Telem
     const auto code = c.command;
     if (code < static_cast<std::uint8_t>(msg::ControlCommand::pause) ||
         code > static_cast<std::uint8_t>(msg::ControlCommand::swap_detector)) {
+      const std::uint64_t n = ++raw->rejected;
       if (raw->limiter.allow(info.receive_time_s))
-        raw->logger->warn("dds.control", "dropped a control request with unknown command code " + std::to_string(code));
+        raw->logger->warn("dds.control", "dropped a control request with unknown command code " + std::to_string(code) +
+                                             " (" + std::to_string(n) + " rejected so far)");
       return;
     }
     ControlRequest r{static_cast<msg::ControlCommand>(code), std::move(c.argument), info.receive_time_s};
     if (r.command == msg::ControlCommand::swap_detector && r.argument.empty()) {
+      const std::uint64_t n = ++raw->rejected;
       if (raw->limiter.allow(info.receive_time_s))
-        raw->logger->warn("dds.control", "dropped a swap_detector request without a detector type");
+        raw->logger->warn("dds.control", "dropped a swap_detector request without a detector type (" +
+                                             std::to_string(n) + " rejected so far)");
       return;
     }
     std::lock_guard lock(raw->mutex);
@@ -123,6 +129,7 @@ std::vector<ControlRequest> ControlSubscriber::take_pending() {
 }
 
 int ControlSubscriber::matched_writers() const { return impl_->subscription->stats().matched_writers; }
+std::uint64_t ControlSubscriber::rejected() const { return impl_->rejected.load(); }
 
 // ---- ControlPublisher -----------------------------------------------------------------------
 

@@ -1,4 +1,5 @@
-// The tick loop: lock-step / per-frame / fixed-rate ticking, safety checks, stop requests.
+// The tick loop: lock-step / per-frame / fixed-rate ticking, safety checks, stop requests,
+// mission control (pause / resume / abort / swap_detector from the DDS control topic).
 #include <csignal>
 #include <cstdio>
 #include <exception>
@@ -100,6 +101,15 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
   std::optional<double> last_odometry_s;
   auto next_deadline = std::chrono::steady_clock::now();
 
+  // Mission control (see runner.hpp): paused = robot held at zero, tree not ticked.
+  dds::ControlSubscriber* control = session.control();
+  const std::uint64_t control_rejected_at_start = control != nullptr ? control->rejected() : 0;
+  bool paused = false;
+  double paused_since_s = 0.0;
+  bool after_resume = false;  // data must be fresh again within startup_timeout_s of resumed_at_s
+  double resumed_at_s = 0.0;
+  bool hold_logged = false;   // "stale data while holding" logged once per hold
+
   auto finish = [&](RunOutcome outcome, std::string reason) -> RunReport {
     try {
       if (tree.status() == bt::NodeStatus::running) tree.halt();
@@ -116,6 +126,8 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
       log.error("run", "halting the tree threw");
     }
     tree.remove_observer(observer);
+    if (paused) report.paused_s += clock.now_s() - paused_since_s;
+    if (control != nullptr) report.control_rejected += control->rejected() - control_rejected_at_start;
     if (outcome == RunOutcome::safety_stop) robot.latch(reason);
     if (auto st = robot.stop(); !st) log.error("run", "could not stop the robot: " + st.error().message);
     report.outcome = outcome;
@@ -147,13 +159,59 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
       log.warn("run", std::string("stop requested (signal ") + std::to_string(stop.load()) + "), halting the tree");
       return finish(RunOutcome::interrupted, "interrupted by signal " + std::to_string(stop.load()));
     }
+    if (control != nullptr) {
+      for (dds::ControlRequest& request : control->take_pending()) {
+        switch (request.command) {
+          case dds::msg::ControlCommand::pause:
+            if (paused) {
+              log.info("run", "control: pause while paused, ignored");
+              break;
+            }
+            paused = true;
+            paused_since_s = clock.now_s();
+            hold_logged = false;
+            ++report.pauses;
+            ++report.control_applied;
+            if (auto st = robot.stop(); !st) log.error("run", "could not stop the robot: " + st.error().message);
+            log.warn("run", "paused by the control topic: robot stopped, tree not ticked (resume to continue)");
+            break;
+          case dds::msg::ControlCommand::resume:
+            if (!paused) {
+              log.info("run", "control: resume while not paused, ignored");
+              break;
+            }
+            paused = false;
+            report.paused_s += clock.now_s() - paused_since_s;
+            after_resume = true;
+            resumed_at_s = clock.now_s();
+            hold_logged = false;
+            ++report.control_applied;
+            log.info("run", "resumed by the control topic after " + fmt_s(clock.now_s() - paused_since_s) + " s paused");
+            break;
+          case dds::msg::ControlCommand::abort:
+            ++report.control_applied;
+            log.warn("run", "abort requested on the control topic, halting the tree");
+            return finish(RunOutcome::interrupted, "aborted by control topic");
+          case dds::msg::ControlCommand::swap_detector: {
+            const std::string old_type = session.config().detector ? session.config().detector->type : "none";
+            if (auto st = session.swap_detector(request.argument); st) {
+              ++report.control_applied;
+            } else {
+              ++report.control_rejected;
+              log.warn("run", "control: swap_detector rejected, keeping detector '" + old_type + "': " + st.error().message);
+            }
+            break;
+          }
+        }
+      }
+    }
     session.poll_config_reload();
     const RunSettings& rs = session.config().run;
     const double period_s = 1.0 / rs.rate_hz;
 
-    // --- pace (fixed rate, real time): wait for this tick's deadline, in short slices so a
-    // stop request is seen quickly even at low rates ---
-    if (!lockstep && rs.tick == "rate") {
+    // --- pace (fixed rate, real time; and a paused lock-step simulation): wait for this
+    // tick's deadline, in short slices so a stop request is seen quickly even at low rates ---
+    if ((!lockstep && rs.tick == "rate") || (lockstep && paused)) {
       const auto now = std::chrono::steady_clock::now();
       if (next_deadline < now) next_deadline = now;  // behind: do not try to catch up
       while (std::chrono::steady_clock::now() < next_deadline && stop.load() == 0)
@@ -185,24 +243,52 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
     }
 
     // --- safety ---
+    // While paused (robot held at zero) and within startup_timeout_s after a resume, stale or
+    // missing data holds the tree instead of ending the run.
     const double now_s = clock.now_s();
+    if (after_resume && now_s - resumed_at_s > rs.startup_timeout_s) after_resume = false;
+    const bool holding = paused || after_resume;
+    std::string data_problem;
     if (!last_frame_s || !last_odometry_s) {
-      if (now_s - start_s > rs.startup_timeout_s) {
+      if (now_s - start_s > rs.startup_timeout_s && !holding) {
         return finish(RunOutcome::safety_stop, std::string("no ") + (!last_frame_s ? "camera frame" : "odometry") +
                                                    " within startup_timeout_s = " + fmt_s(rs.startup_timeout_s) + " s");
       }
-      continue;
+      data_problem = std::string("no ") + (!last_frame_s ? "camera frame" : "odometry") + " yet";
+    } else if (now_s - *last_frame_s > rs.max_frame_age_s) {
+      data_problem = "stale camera data: newest frame is " + fmt_s(now_s - *last_frame_s) +
+                     " s old (max_frame_age_s = " + fmt_s(rs.max_frame_age_s) + ")";
+    } else if (now_s - *last_odometry_s > rs.max_odometry_age_s) {
+      data_problem = "stale odometry: newest reading is " + fmt_s(now_s - *last_odometry_s) +
+                     " s old (max_odometry_age_s = " + fmt_s(rs.max_odometry_age_s) + ")";
     }
-    if (now_s - *last_frame_s > rs.max_frame_age_s) {
-      return finish(RunOutcome::safety_stop, "stale camera data: newest frame is " + fmt_s(now_s - *last_frame_s) +
-                                                 " s old (max_frame_age_s = " + fmt_s(rs.max_frame_age_s) + ")");
+    if (!data_problem.empty() && !holding) {
+      if (!last_frame_s || !last_odometry_s) continue;  // still starting up
+      return finish(RunOutcome::safety_stop, data_problem);
     }
-    if (now_s - *last_odometry_s > rs.max_odometry_age_s) {
-      return finish(RunOutcome::safety_stop, "stale odometry: newest reading is " + fmt_s(now_s - *last_odometry_s) +
-                                                 " s old (max_odometry_age_s = " + fmt_s(rs.max_odometry_age_s) + ")");
+    if (!data_problem.empty() && !hold_logged) {
+      log.warn("run", data_problem + (paused ? " while paused" : " after resume") +
+                          "; the tree is ticked again only with fresh data");
+      hold_logged = true;
+    }
+    if (data_problem.empty() && after_resume && !paused) {
+      after_resume = false;  // fresh data after a resume: normal checks from now on
+      hold_logged = false;
     }
     if (rs.max_duration_s > 0.0 && now_s - start_s >= rs.max_duration_s)
       return finish(RunOutcome::failure, "max_duration_s = " + fmt_s(rs.max_duration_s) + " s reached");
+    if (paused) {
+      // Keep-alive zero (robots with a cmd_vel timeout) and a "paused" status for monitors.
+      if (auto st = robot.stop(); !st) log.error("run", "could not stop the robot: " + st.error().message);
+      if (Telemetry* t = session.host().telemetry(); t != nullptr) {
+        NavStatus s;
+        s.node_path = active_path(tree);
+        s.status = "paused";
+        t->publish(s);
+      }
+      continue;
+    }
+    if (!data_problem.empty()) continue;  // holding after a resume until the data is fresh
     if (!lockstep && rs.tick == "frame" && !new_frame) continue;
 
     // --- tick ---

@@ -20,6 +20,12 @@ std::string spec_label(const char* section, const PluginSpec& spec) {
 
 bool same_identity(const PluginSpec& a, const PluginSpec& b) { return a.type == b.type && a.plugin == b.plugin; }
 
+bool same_dds(const DdsSettings& a, const DdsSettings& b) {
+  return a.enabled == b.enabled && a.telemetry == b.telemetry && a.control == b.control &&
+         a.endpoints.domain_id == b.endpoints.domain_id && a.endpoints.partition == b.endpoints.partition &&
+         a.endpoints.telemetry_topic == b.endpoints.telemetry_topic && a.endpoints.control_topic == b.endpoints.control_topic;
+}
+
 }  // namespace
 
 // --- GuardedRobot -----------------------------------------------------------------------------
@@ -170,9 +176,31 @@ Status Session::build(const SessionOptions& options) {
   }
 
   if (!config_.run.telemetry_file.empty()) {
-    VISNAV_ASSIGN(telemetry_, JsonLinesTelemetry::open(config_.run.telemetry_file, host_->clock()));
-    host_->set_telemetry(telemetry_.get());
+    VISNAV_ASSIGN(telemetry_file_, JsonLinesTelemetry::open(config_.run.telemetry_file, host_->clock()));
+    telemetry_.add(telemetry_file_.get());
   }
+  if (config_.dds.enabled) {
+    const std::string where = "dds block at " + config_.dds.where.str();
+    const dds::TelemetryParams& endpoints = config_.dds.endpoints;
+    if (config_.dds.telemetry) {
+      auto made = dds::DdsTelemetry::create(endpoints, *logger_);
+      if (!made) return made.error().with_context(where + ": telemetry on '" + endpoints.telemetry_topic + "'");
+      dds_telemetry_ = std::move(made).value();
+      telemetry_.add(dds_telemetry_.get());
+    }
+    if (config_.dds.control) {
+      auto made = dds::ControlSubscriber::create(endpoints, *logger_);
+      if (!made) return made.error().with_context(where + ": control on '" + endpoints.control_topic + "'");
+      control_ = std::move(made).value();
+    }
+    logger_->info("run", "DDS domain " + std::to_string(endpoints.domain_id) +
+                             (endpoints.partition.empty() ? "" : ", partition '" + endpoints.partition + "'") +
+                             (dds_telemetry_ ? ": telemetry on '" + endpoints.telemetry_topic + "'" : ":") +
+                             (control_ ? std::string(dds_telemetry_ ? "," : "") + " control on '" +
+                                             endpoints.control_topic + "'"
+                                       : ""));
+  }
+  if (telemetry_.sinks() > 0) host_->set_telemetry(&telemetry_);
 
   registry_ = std::make_unique<bt::NodeRegistry>();
   VISNAV_TRY(register_all_nodes(*registry_, loader_, *host_, config_.nodes));
@@ -223,6 +251,26 @@ bool Session::poll_config_reload(bool force) {
   return applied && *applied;
 }
 
+Status Session::swap_detector(const std::string& type) {
+  if (type.empty()) return fail("swap_detector: no detector type given");
+  if (config_.detector && config_.detector->type == type && detector_) {
+    logger_->info("run", "swap_detector: '" + type + "' is already the active detector");
+    return ok();
+  }
+  PluginSpec spec;
+  spec.type = type;
+  spec.where = SourceLocation{"control topic", 0};
+  spec.params.set_where(spec.where);
+  auto made = loader_.create<Detector>(spec.type, spec.params, *host_);
+  if (!made) return made.error().with_context("swap_detector '" + type + "'");
+  const std::string old_type = config_.detector ? config_.detector->type : std::string("none");
+  host_->set_active_detector(made->get());
+  detector_ = std::move(made).value();  // the old detector is destroyed here, between ticks
+  config_.detector = std::move(spec);
+  logger_->info("run", "active detector is now '" + type + "' (was '" + old_type + "'), swapped by the control topic");
+  return ok();
+}
+
 Result<bool> Session::reload_config() {
   auto reject = [this](const std::string& why) -> Error {
     ++reloads_rejected_;
@@ -244,6 +292,7 @@ Result<bool> Session::reload_config() {
   if (next.run.lockstep != config_.run.lockstep) restart.push_back("run.lockstep");
   if (next.run.trace_file != config_.run.trace_file) restart.push_back("run.trace_file");
   if (next.run.telemetry_file != config_.run.telemetry_file) restart.push_back("run.telemetry_file");
+  if (!same_dds(next.dds, config_.dds)) restart.push_back("dds");
   if (!restart.empty()) {
     std::string keys;
     for (const auto& k : restart) keys += (keys.empty() ? "" : ", ") + k;

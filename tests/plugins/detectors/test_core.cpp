@@ -180,6 +180,146 @@ TEST(Star, IntegralMatchesOpenCv) {
   EXPECT_EQ(cv::norm(star.integral(), ref, cv::NORM_INF), 0.0);
 }
 
+// A direct, unoptimised restatement of the filter of star.hpp: star sums from per-row
+// prefix sums (no slanted tables), per-pixel scale selection, a plain NMS window scan and the
+// line test. The optimised detector must return exactly the same keypoints.
+std::vector<cv::KeyPoint> reference_star(const cv::Mat& img, const StarParams& p) {
+  const int w = img.cols, h = img.rows;
+  cv::Mat prefix(h, w + 1, CV_32S, cv::Scalar(0));  // prefix(y, x + 1) = sum of row y up to x
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) prefix.at<int>(y, x + 1) = prefix.at<int>(y, x) + img.at<std::uint8_t>(y, x);
+  auto row_sum = [&](int y, int x0, int x1) { return prefix.at<int>(y, x1 + 1) - prefix.at<int>(y, x0); };
+  struct R {
+    int n, r;
+    double area;
+  };
+  auto radius = [](int n) {
+    const int r = static_cast<int>(std::lround(n * std::sqrt(2.0)));
+    return R{n, r, (2.0 * n + 1) * (2.0 * n + 1) + 2.0 * r * r + 2.0 * r + 1.0};
+  };
+  auto star_sum = [&](const R& rad, int x, int y) {
+    int sum = 0;
+    for (int dy = -rad.n; dy <= rad.n; ++dy) sum += row_sum(y + dy, x - rad.n, x + rad.n);
+    for (int dy = -rad.r; dy <= rad.r; ++dy) {
+      const int half = rad.r - std::abs(dy);
+      sum += row_sum(y + dy, x - half, x + half);
+    }
+    return sum;
+  };
+  struct Sc {
+    R in, out;
+    float wi, wr;
+    int margin;
+  };
+  std::vector<Sc> scales;
+  for (int inner : {1, 2, 3, 4, 6, 8, 11, 16, 23, 32}) {
+    if (4 * inner + 1 > p.max_size_px) break;
+    const R a = radius(inner), b = radius(2 * inner);
+    scales.push_back({a, b, static_cast<float>(1.0 / a.area), static_cast<float>(1.0 / (b.area - a.area)),
+                      std::max(b.n, b.r)});
+  }
+  cv::Mat resp(h, w, CV_32F, cv::Scalar(0));
+  cv::Mat scale(h, w, CV_8U, cv::Scalar(0));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (std::size_t i = 0; i < scales.size(); ++i) {
+        const Sc& s = scales[i];
+        if (x < s.margin || y < s.margin || x >= w - s.margin || y >= h - s.margin) continue;
+        const float fin = static_cast<float>(star_sum(s.in, x, y));
+        const float v = fin * s.wi - (static_cast<float>(star_sum(s.out, x, y)) - fin) * s.wr;
+        if (std::fabs(v) > std::fabs(resp.at<float>(y, x))) {
+          resp.at<float>(y, x) = v;
+          scale.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(i);
+        }
+      }
+  auto is_line = [&](int x, int y, int sc) {
+    const int delta = std::max(1, 2 * scales[static_cast<std::size_t>(sc)].in.n / 4), rad = 4 * delta;
+    double lxx = 0, lyy = 0, lxy = 0;
+    int bxx = 0, byy = 0, bxy = 0;
+    for (int sy = y - rad; sy <= y + rad; sy += delta)
+      for (int sx = x - rad; sx <= x + rad; sx += delta) {
+        if (sy < 1 || sy > h - 2 || sx < 1 || sx > w - 2) continue;
+        const double lx = resp.at<float>(sy, sx + 1) - resp.at<float>(sy, sx - 1);
+        const double ly = resp.at<float>(sy + 1, sx) - resp.at<float>(sy - 1, sx);
+        lxx += lx * lx;
+        lyy += ly * ly;
+        lxy += lx * ly;
+        auto same = [&](int yy, int xx) { return int(scale.at<std::uint8_t>(yy, xx) == sc); };
+        const int bx = same(sy, sx + 1) - same(sy, sx - 1), by = same(sy + 1, sx) - same(sy - 1, sx);
+        bxx += bx * bx;
+        byy += by * by;
+        bxy += bx * by;
+      }
+    const double tr = lxx + lyy, trb = bxx + byy;
+    return (tr > 0 && tr * tr >= p.line_threshold_projected * (lxx * lyy - lxy * lxy)) ||
+           (trb > 0 && trb * trb >= p.line_threshold_binarized * (double(bxx) * byy - double(bxy) * bxy));
+  };
+  std::vector<cv::KeyPoint> out;
+  const int k = p.suppress_nonmax_size_px / 2, edge = std::max(k, p.border_px);
+  for (int y = edge; y < h - edge; ++y)
+    for (int x = edge; x < w - edge; ++x) {
+      const float v = resp.at<float>(y, x);
+      if (!(std::fabs(v) > p.response_threshold)) continue;
+      bool extremum = true;
+      for (int dy = -k; dy <= k; ++dy)
+        for (int dx = -k; dx <= k; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          const float nv = resp.at<float>(y + dy, x + dx);
+          const bool earlier = dy < 0 || (dy == 0 && dx < 0);
+          if (v > 0 ? (nv > v || (earlier && nv == v)) : (nv < v || (earlier && nv == v))) extremum = false;
+        }
+      const int sc = scale.at<std::uint8_t>(y, x);
+      if (!extremum || is_line(x, y, sc)) continue;
+      out.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(4 * scales[sc].in.n + 1), -1.0F,
+                       std::fabs(v), sc, v > 0 ? 1 : -1);
+    }
+  return out;
+}
+
+TEST(Star, OptimisedDetectorMatchesTheDirectDefinitionExactly) {
+  // Odd sizes (vector tails), borders where only some scales fit, 7 and all 10 scales, plateaus
+  // (ties in the NMS) from a quantised image, and a real photo when available.
+  cv::Mat noise(157, 243, CV_8UC1);
+  cv::RNG rng(5);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat smooth;
+  cv::GaussianBlur(noise, smooth, cv::Size(0, 0), 2.5);
+  cv::normalize(smooth, smooth, 0, 255, cv::NORM_MINMAX);
+  cv::Mat quantised = smooth / 40 * 40;
+  std::vector<cv::Mat> images = {smooth, quantised};
+  const cv::Mat bgr = photo("motorcycle_left.png");
+  if (!bgr.empty()) {
+    cv::Mat grey;
+    cv::cvtColor(bgr(cv::Rect(300, 150, 211, 190)), grey, cv::COLOR_BGR2GRAY);
+    images.push_back(grey);
+  }
+  for (int max_size : {45, 129, 13}) {
+    for (double threshold : {3.0, 12.0}) {
+      StarParams p;
+      p.max_size_px = max_size;
+      p.response_threshold = threshold;
+      p.border_px = max_size == 13 ? 9 : 0;
+      StarDetector star(p);
+      for (std::size_t i = 0; i < images.size(); ++i) {
+        std::vector<cv::KeyPoint> got;
+        star.detect(images[i], got);
+        const auto want = reference_star(images[i], p);
+        ASSERT_EQ(got.size(), want.size()) << "image " << i << " max_size " << max_size << " threshold " << threshold;
+        for (std::size_t j = 0; j < got.size(); ++j) {
+          EXPECT_EQ(got[j].pt, want[j].pt) << j;
+          EXPECT_EQ(got[j].response, want[j].response) << j;
+          EXPECT_EQ(got[j].octave, want[j].octave) << j;
+          EXPECT_EQ(got[j].size, want[j].size) << j;
+          EXPECT_EQ(got[j].class_id, want[j].class_id) << j;
+        }
+        if (max_size == 45 && threshold == 3.0) {
+          EXPECT_GT(got.size(), 20U) << "image " << i;
+        }
+      }
+    }
+  }
+}
+
 // ------------------------------------------------------------------------------------ BRIEF
 
 TEST(Brief, PatternIsFixedAndInsideThePatch) {

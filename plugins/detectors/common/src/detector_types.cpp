@@ -1,11 +1,15 @@
 // The detector types: parameter schemas, validation, and the per-type detection pipelines.
+// The shared parts (params → adaptive threshold, BRIEF fields and their validation, the
+// detect → top-N → describe tail) live in DetectorType::apply, DetectorBase and the helpers
+// below; each type keeps only what is its own.
 #include "visnav/detectors/detector_types.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
-#include "output_buffer.hpp"
 
 namespace visnav::detectors {
 
@@ -20,40 +24,103 @@ void add_brief_fields(ParamSchema<P>& s) {
       .range(1, 15);
 }
 
-BriefParams brief_params(int patch, int kernel, bool upright) {
+/// BriefParams of a type with BriefFields.
+template <typename P>
+BriefParams brief_params(const P& p) {
   BriefParams b;
-  b.patch_size_px = patch;
-  b.kernel_size_px = kernel;
-  b.upright = upright;
+  b.patch_size_px = p.patch_size_px;
+  b.kernel_size_px = p.kernel_size_px;
+  b.upright = p.upright;
   return b;
 }
 
-Status validate_brief(int patch, int kernel, bool upright) { return brief_params(patch, kernel, upright).validate(); }
+/// Common fields + BRIEF fields of a type with BriefFields.
+template <typename P>
+Status validate_common_and_brief(const P& p) {
+  VISNAV_TRY(p.validate_common());
+  return brief_params(p).validate();
+}
 
 int rounded(double threshold) { return std::max(1, static_cast<int>(std::lround(threshold))); }
 
-// Removes keypoints the BRIEF patch cannot describe, so the adaptive count sees usable ones.
-void drop_border(std::vector<cv::KeyPoint>& kps, int border, int w, int h) {
-  std::erase_if(kps, [&](const cv::KeyPoint& kp) {
+/// Config name → OpenCV enum; the names also give the schema's one_of list.
+template <typename E>
+using NamedValues = std::vector<std::pair<std::string, E>>;
+
+template <typename E>
+std::vector<std::string> names_of(const NamedValues<E>& table) {
+  std::vector<std::string> names;
+  for (const auto& [name, value] : table) names.push_back(name);
+  return names;
+}
+
+template <typename E>
+E value_of(const NamedValues<E>& table, const std::string& name) {
+  for (const auto& [n, value] : table)
+    if (n == name) return value;
+  return table.front().second;  // unreachable after one_of(): the schema rejects other names
+}
+
+const NamedValues<cv::AgastFeatureDetector::DetectorType>& agast_types() {
+  static const NamedValues<cv::AgastFeatureDetector::DetectorType> t = {
+      {"OAST_9_16", cv::AgastFeatureDetector::OAST_9_16},
+      {"AGAST_5_8", cv::AgastFeatureDetector::AGAST_5_8},
+      {"AGAST_7_12d", cv::AgastFeatureDetector::AGAST_7_12d},
+      {"AGAST_7_12s", cv::AgastFeatureDetector::AGAST_7_12s}};
+  return t;
+}
+
+const NamedValues<cv::FastFeatureDetector::DetectorType>& fast_types() {
+  static const NamedValues<cv::FastFeatureDetector::DetectorType> t = {
+      {"TYPE_9_16", cv::FastFeatureDetector::TYPE_9_16},
+      {"TYPE_5_8", cv::FastFeatureDetector::TYPE_5_8},
+      {"TYPE_7_12", cv::FastFeatureDetector::TYPE_7_12}};
+  return t;
+}
+
+// The STAR part of star_brief's params (response threshold: the adaptive one, set per frame).
+StarParams star_params(const StarBriefParams& p, int border_px) {
+  StarParams sp;
+  sp.max_size_px = p.max_size_px;
+  sp.response_threshold = p.threshold;
+  sp.line_threshold_projected = p.line_threshold_projected;
+  sp.line_threshold_binarized = p.line_threshold_binarized;
+  sp.suppress_nonmax_size_px = p.suppress_nonmax_size_px;
+  sp.border_px = border_px;
+  return sp;
+}
+
+}  // namespace
+
+// ----------------------------------------------------------------------- shared frame tails
+
+void DetectorBase::describe_strongest(BriefExtractor& brief, const cv::Mat& grey, Features& out, int& raw_count,
+                                      const cv::Mat& integral) {
+  const int border = brief.border_px();
+  const int w = grey.cols;
+  const int h = grey.rows;
+  std::erase_if(raw_keypoints_, [&](const cv::KeyPoint& kp) {
     const long xi = std::lround(kp.pt.x);
     const long yi = std::lround(kp.pt.y);
     return xi < border || yi < border || xi >= w - border || yi >= h - border;
   });
+  raw_count = static_cast<int>(raw_keypoints_.size());
+  keep_strongest(target_keypoints());
+  brief.compute(grey, raw_keypoints_, out.descriptors, integral);
+  out.keypoints.swap(raw_keypoints_);
 }
 
-}  // namespace
+void DetectorBase::output_strongest(Features& out, int& raw_count) {
+  raw_count = static_cast<int>(raw_keypoints_.size());
+  select_strongest(target_keypoints(), out);
+}
 
 // ------------------------------------------------------------------------------ star_brief
 
 Status StarBriefParams::validate() const {
   VISNAV_TRY(validate_common());
-  StarParams sp;
-  sp.max_size_px = max_size_px;
-  sp.line_threshold_projected = line_threshold_projected;
-  sp.line_threshold_binarized = line_threshold_binarized;
-  sp.suppress_nonmax_size_px = suppress_nonmax_size_px;
-  VISNAV_TRY(sp.validate());
-  return validate_brief(patch_size_px, kernel_size_px, upright);
+  VISNAV_TRY(star_params(*this, 0).validate());
+  return brief_params(*this).validate();
 }
 
 const ParamSchema<StarBriefParams>& StarBriefParams::schema() {
@@ -70,55 +137,35 @@ const ParamSchema<StarBriefParams>& StarBriefParams::schema() {
         .range(1, 1000)
         .field("suppress_nonmax_size_px", &StarBriefParams::suppress_nonmax_size_px,
                "non-maximum suppression window side (odd)")
-        .range(3, 31)
-        .field("patch_size_px", &StarBriefParams::patch_size_px, "BRIEF patch side S (tests ~ N(0, (S/5)²))")
-        .range(16, 96)
-        .field("kernel_size_px", &StarBriefParams::kernel_size_px, "BRIEF smoothing box side (odd; 7 ≈ Gaussian σ = 2)")
-        .range(1, 15);
+        .range(3, 31);
+    add_brief_fields(sc);
     return sc;
   }();
   return s;
 }
 
-Status StarBriefDetector::apply(const StarBriefParams& p, bool first) {
-  VISNAV_TRY(p.validate());
-  BriefParams bp = brief_params(p.patch_size_px, p.kernel_size_px, p.upright);
-  VISNAV_TRY(brief_.set_params(bp));
-  StarParams sp;
-  sp.max_size_px = p.max_size_px;
-  sp.response_threshold = p.threshold;
-  sp.line_threshold_projected = p.line_threshold_projected;
-  sp.line_threshold_binarized = p.line_threshold_binarized;
-  sp.suppress_nonmax_size_px = p.suppress_nonmax_size_px;
-  sp.border_px = brief_.border_px();
-  VISNAV_TRY(star_.set_params(sp));
-  apply_common(p, first);
-  return ok();
+Status StarBriefDetector::setup(const StarBriefParams& p) {
+  VISNAV_TRY(brief_.set_params(brief_params(p)));
+  return star_.set_params(star_params(p, brief_.border_px()));
 }
 
 Status StarBriefDetector::run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) {
   star_.set_response_threshold(threshold);
-  star_.detect(grey, raw_keypoints_);
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  keep_strongest(params_.target_keypoints);
-  brief_.compute(grey, raw_keypoints_, out.descriptors, star_.integral());
-  out.keypoints.swap(raw_keypoints_);
+  star_.detect(grey, raw_keypoints_);  // border_px = BRIEF's border: every keypoint can be described
+  describe_strongest(brief_, grey, out, raw_count, star_.integral());
   return ok();
 }
 
 // ------------------------------------------------------------------------------ agast_brief
 
-Status AgastBriefParams::validate() const {
-  VISNAV_TRY(validate_common());
-  return validate_brief(patch_size_px, kernel_size_px, upright);
-}
+Status AgastBriefParams::validate() const { return validate_common_and_brief(*this); }
 
 const ParamSchema<AgastBriefParams>& AgastBriefParams::schema() {
   static const ParamSchema<AgastBriefParams> s = [] {
     ParamSchema<AgastBriefParams> sc;
     add_common_fields(sc, "AGAST intensity difference, grey levels (applied rounded)", 1, 255);
     sc.field("agast_type", &AgastBriefParams::agast_type, "AGAST mask")
-        .one_of({"AGAST_5_8", "AGAST_7_12d", "AGAST_7_12s", "OAST_9_16"})
+        .one_of(names_of(agast_types()))
         .field("nonmax_suppression", &AgastBriefParams::nonmax_suppression, "AGAST non-maximum suppression");
     add_brief_fields(sc);
     return sc;
@@ -126,42 +173,29 @@ const ParamSchema<AgastBriefParams>& AgastBriefParams::schema() {
   return s;
 }
 
-Status AgastBriefDetector::apply(const AgastBriefParams& p, bool first) {
-  VISNAV_TRY(p.validate());
-  VISNAV_TRY(brief_.set_params(brief_params(p.patch_size_px, p.kernel_size_px, p.upright)));
-  auto type = cv::AgastFeatureDetector::OAST_9_16;
-  if (p.agast_type == "AGAST_5_8") type = cv::AgastFeatureDetector::AGAST_5_8;
-  if (p.agast_type == "AGAST_7_12d") type = cv::AgastFeatureDetector::AGAST_7_12d;
-  if (p.agast_type == "AGAST_7_12s") type = cv::AgastFeatureDetector::AGAST_7_12s;
-  agast_ = cv::AgastFeatureDetector::create(rounded(p.threshold), p.nonmax_suppression, type);
-  apply_common(p, first);
+Status AgastBriefDetector::setup(const AgastBriefParams& p) {
+  VISNAV_TRY(brief_.set_params(brief_params(p)));
+  agast_ = cv::AgastFeatureDetector::create(rounded(p.threshold), p.nonmax_suppression, value_of(agast_types(), p.agast_type));
   return ok();
 }
 
 Status AgastBriefDetector::run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) {
   agast_->setThreshold(rounded(threshold));
   agast_->detect(grey, raw_keypoints_);
-  drop_border(raw_keypoints_, brief_.border_px(), grey.cols, grey.rows);
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  keep_strongest(params_.target_keypoints);
-  brief_.compute(grey, raw_keypoints_, out.descriptors);
-  out.keypoints.swap(raw_keypoints_);
+  describe_strongest(brief_, grey, out, raw_count);
   return ok();
 }
 
 // ------------------------------------------------------------------------------ fast_brief
 
-Status FastBriefParams::validate() const {
-  VISNAV_TRY(validate_common());
-  return validate_brief(patch_size_px, kernel_size_px, upright);
-}
+Status FastBriefParams::validate() const { return validate_common_and_brief(*this); }
 
 const ParamSchema<FastBriefParams>& FastBriefParams::schema() {
   static const ParamSchema<FastBriefParams> s = [] {
     ParamSchema<FastBriefParams> sc;
     add_common_fields(sc, "FAST intensity difference, grey levels (applied rounded)", 1, 255);
     sc.field("fast_type", &FastBriefParams::fast_type, "FAST circle")
-        .one_of({"TYPE_5_8", "TYPE_7_12", "TYPE_9_16"})
+        .one_of(names_of(fast_types()))
         .field("nonmax_suppression", &FastBriefParams::nonmax_suppression, "FAST non-maximum suppression");
     add_brief_fields(sc);
     return sc;
@@ -169,25 +203,16 @@ const ParamSchema<FastBriefParams>& FastBriefParams::schema() {
   return s;
 }
 
-Status FastBriefDetector::apply(const FastBriefParams& p, bool first) {
-  VISNAV_TRY(p.validate());
-  VISNAV_TRY(brief_.set_params(brief_params(p.patch_size_px, p.kernel_size_px, p.upright)));
-  auto type = cv::FastFeatureDetector::TYPE_9_16;
-  if (p.fast_type == "TYPE_5_8") type = cv::FastFeatureDetector::TYPE_5_8;
-  if (p.fast_type == "TYPE_7_12") type = cv::FastFeatureDetector::TYPE_7_12;
-  fast_ = cv::FastFeatureDetector::create(rounded(p.threshold), p.nonmax_suppression, type);
-  apply_common(p, first);
+Status FastBriefDetector::setup(const FastBriefParams& p) {
+  VISNAV_TRY(brief_.set_params(brief_params(p)));
+  fast_ = cv::FastFeatureDetector::create(rounded(p.threshold), p.nonmax_suppression, value_of(fast_types(), p.fast_type));
   return ok();
 }
 
 Status FastBriefDetector::run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) {
   fast_->setThreshold(rounded(threshold));
   fast_->detect(grey, raw_keypoints_);
-  drop_border(raw_keypoints_, brief_.border_px(), grey.cols, grey.rows);
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  keep_strongest(params_.target_keypoints);
-  brief_.compute(grey, raw_keypoints_, out.descriptors);
-  out.keypoints.swap(raw_keypoints_);
+  describe_strongest(brief_, grey, out, raw_count);
   return ok();
 }
 
@@ -196,7 +221,7 @@ Status FastBriefDetector::run(const cv::Mat& grey, double threshold, Features& o
 Status GfttBriefParams::validate() const {
   VISNAV_TRY(validate_common());
   if (block_size_px % 2 == 0) return fail("block_size_px must be odd");
-  return validate_brief(patch_size_px, kernel_size_px, upright);
+  return brief_params(*this).validate();
 }
 
 const ParamSchema<GfttBriefParams>& GfttBriefParams::schema() {
@@ -216,12 +241,10 @@ const ParamSchema<GfttBriefParams>& GfttBriefParams::schema() {
   return s;
 }
 
-Status GfttBriefDetector::apply(const GfttBriefParams& p, bool first) {
-  VISNAV_TRY(p.validate());
-  VISNAV_TRY(brief_.set_params(brief_params(p.patch_size_px, p.kernel_size_px, p.upright)));
+Status GfttBriefDetector::setup(const GfttBriefParams& p) {
+  VISNAV_TRY(brief_.set_params(brief_params(p)));
   gftt_ = cv::GFTTDetector::create(p.target_keypoints, p.threshold, p.min_distance_px, p.block_size_px, p.use_harris,
                                    p.harris_k);
-  apply_common(p, first);
   return ok();
 }
 
@@ -238,11 +261,7 @@ Status GfttBriefDetector::run(const cv::Mat& grey, double threshold, Features& o
     mask_border_ = border;
   }
   gftt_->detect(grey, raw_keypoints_, mask_);
-  drop_border(raw_keypoints_, border, grey.cols, grey.rows);
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  keep_strongest(params_.target_keypoints);
-  brief_.compute(grey, raw_keypoints_, out.descriptors);
-  out.keypoints.swap(raw_keypoints_);
+  describe_strongest(brief_, grey, out, raw_count);
   return ok();
 }
 
@@ -272,12 +291,10 @@ const ParamSchema<OrbParams>& OrbParams::schema() {
   return s;
 }
 
-Status OrbDetector::apply(const OrbParams& p, bool first) {
-  VISNAV_TRY(p.validate());
+Status OrbDetector::setup(const OrbParams& p) {
   orb_ = cv::ORB::create(static_cast<int>(std::ceil(p.target_keypoints * p.headroom_ratio)),
                          static_cast<float>(p.scale_factor), p.pyramid_levels, p.edge_threshold_px, 0, 2,
                          cv::ORB::HARRIS_SCORE, p.patch_size_px, rounded(p.threshold));
-  apply_common(p, first);
   return ok();
 }
 
@@ -291,8 +308,7 @@ Status OrbDetector::run(const cv::Mat& grey, double threshold, Features& out, in
   } else {
     orb_->detectAndCompute(grey, cv::noArray(), raw_keypoints_, raw_descriptors_);
   }
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  select_strongest(params_.target_keypoints, out);
+  output_strongest(out, raw_count);
   return ok();
 }
 
@@ -315,9 +331,7 @@ const ParamSchema<SiftParams>& SiftParams::schema() {
   return s;
 }
 
-Status SiftDetector::apply(const SiftParams& p, bool first) {
-  VISNAV_TRY(p.validate());
-  apply_common(p, first);
+Status SiftDetector::setup(const SiftParams& /*p*/) {
   sift_.release();  // rebuilt at the next frame with the current threshold
   return ok();
 }
@@ -348,8 +362,7 @@ Status SiftDetector::run(const cv::Mat& grey, double threshold, Features& out, i
   } else {
     sift_->detectAndCompute(grey, cv::noArray(), raw_keypoints_, raw_descriptors_);
   }
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  select_strongest(params_.target_keypoints, out);
+  output_strongest(out, raw_count);
   return ok();
 }
 
@@ -377,19 +390,16 @@ const ParamSchema<AkazeParams>& AkazeParams::schema() {
   return s;
 }
 
-Status AkazeDetector::apply(const AkazeParams& p, bool first) {
-  VISNAV_TRY(p.validate());
+Status AkazeDetector::setup(const AkazeParams& p) {
   akaze_ = cv::AKAZE::create(p.upright ? cv::AKAZE::DESCRIPTOR_MLDB_UPRIGHT : cv::AKAZE::DESCRIPTOR_MLDB,
                              p.descriptor_size_bits, 3, static_cast<float>(p.threshold), p.octaves, p.octave_layers);
-  apply_common(p, first);
   return ok();
 }
 
 Status AkazeDetector::run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) {
   akaze_->setThreshold(threshold);
   akaze_->detectAndCompute(grey, cv::noArray(), raw_keypoints_, raw_descriptors_);
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  select_strongest(params_.target_keypoints, out);
+  output_strongest(out, raw_count);
   return ok();
 }
 
@@ -415,10 +425,8 @@ const ParamSchema<BriskParams>& BriskParams::schema() {
   return s;
 }
 
-Status BriskDetector::apply(const BriskParams& p, bool first) {
-  VISNAV_TRY(p.validate());
-  apply_common(p, first);
-  brisk_.release();
+Status BriskDetector::setup(const BriskParams& /*p*/) {
+  brisk_.release();  // rebuilt at the next frame with the current threshold
   return ok();
 }
 
@@ -429,8 +437,7 @@ Status BriskDetector::run(const cv::Mat& grey, double threshold, Features& out, 
     brisk_threshold_ = t;
   }
   brisk_->detectAndCompute(grey, cv::noArray(), raw_keypoints_, raw_descriptors_);
-  raw_count = static_cast<int>(raw_keypoints_.size());
-  select_strongest(params_.target_keypoints, out);
+  output_strongest(out, raw_count);
   return ok();
 }
 

@@ -107,6 +107,15 @@ class DetectorBase : public Detector {
   /// Writes the `n` strongest of raw_keypoints_/raw_descriptors_ to `out`.
   void select_strongest(int n, Features& out);
 
+  /// Finishes a detector + our BRIEF frame: drops the raw keypoints BRIEF cannot describe (so
+  /// the adaptive count sees usable ones), sets `raw_count`, keeps the target_keypoints
+  /// strongest and describes them into `out`. `integral`: optional integral image of `grey`.
+  void describe_strongest(BriefExtractor& brief, const cv::Mat& grey, Features& out, int& raw_count,
+                          const cv::Mat& integral = cv::Mat());
+  /// Finishes a detector-with-descriptor frame (raw_keypoints_/raw_descriptors_): sets
+  /// `raw_count` and writes the target_keypoints strongest to `out`.
+  void output_strongest(Features& out, int& raw_count);
+
   AdaptiveThreshold adaptive_;
   std::vector<cv::KeyPoint> raw_keypoints_;
   cv::Mat raw_descriptors_;
@@ -119,8 +128,10 @@ class DetectorBase : public Detector {
   int last_raw_count_ = 0;
 };
 
-/// CRTP helper: schema parsing for create() and reconfigure(); Derived implements
-/// `Status apply(const P& params, bool first)` and `static constexpr const char* kTypeName`.
+/// CRTP helper: schema parsing for create() and reconfigure(), and apply(): validate() the
+/// params, let Derived set its detector up, then store them and (re)initialise the adaptive
+/// threshold. Derived implements `Status setup(const P& params)` (called once validate()
+/// passed; reachable through `friend DetectorType`) and `static constexpr const char* kTypeName`.
 template <typename Derived, typename P>
 class DetectorType : public DetectorBase {
  public:
@@ -146,27 +157,36 @@ class DetectorType : public DetectorBase {
   [[nodiscard]] const char* type_name() const override { return Derived::kTypeName; }
   [[nodiscard]] const P& params() const { return params_; }
 
- protected:
-  /// Stores params and (re)initialises the adaptive threshold.
-  void apply_common(const P& params, bool first) {
+  /// Validates and applies `params`; `first`: on creation (the adaptive threshold starts at
+  /// `threshold`), else a live reload (the adapted threshold survives unless `threshold` changed).
+  Status apply(const P& params, bool first) {
+    VISNAV_TRY(params.validate());
+    VISNAV_TRY(static_cast<Derived*>(this)->setup(params));
     params_ = params;
     if (first) adaptive_ = AdaptiveThreshold(params.adaptive());
     else adaptive_.reconfigure(params.adaptive());
+    return ok();
   }
+
+ protected:
   P params_;
 };
 
 // ---------------------------------------------------------------------------------------------
 // star_brief
 
-struct StarBriefParams : CommonParams {
+/// BRIEF fields of the types that describe with our BriefExtractor.
+struct BriefFields {
+  int patch_size_px = 48;
+  int kernel_size_px = 7;
+};
+
+struct StarBriefParams : CommonParams, BriefFields {
   StarBriefParams() { threshold = 30; min_threshold = 2; max_threshold = 250; }
   int max_size_px = 45;
   double line_threshold_projected = 10;
   double line_threshold_binarized = 8;
   int suppress_nonmax_size_px = 5;
-  int patch_size_px = 48;
-  int kernel_size_px = 7;
   [[nodiscard]] Status validate() const;
   static const ParamSchema<StarBriefParams>& schema();
 };
@@ -174,10 +194,11 @@ struct StarBriefParams : CommonParams {
 class StarBriefDetector final : public DetectorType<StarBriefDetector, StarBriefParams> {
  public:
   static constexpr const char* kTypeName = "star_brief";
-  Status apply(const StarBriefParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const StarBriefParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -187,11 +208,6 @@ class StarBriefDetector final : public DetectorType<StarBriefDetector, StarBrief
 
 // ---------------------------------------------------------------------------------------------
 // OpenCV detectors + our BRIEF
-
-struct BriefFields {
-  int patch_size_px = 48;
-  int kernel_size_px = 7;
-};
 
 struct AgastBriefParams : CommonParams, BriefFields {
   AgastBriefParams() { threshold = 15; min_threshold = 2; max_threshold = 120; }
@@ -204,10 +220,11 @@ struct AgastBriefParams : CommonParams, BriefFields {
 class AgastBriefDetector final : public DetectorType<AgastBriefDetector, AgastBriefParams> {
  public:
   static constexpr const char* kTypeName = "agast_brief";
-  Status apply(const AgastBriefParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const AgastBriefParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -226,10 +243,11 @@ struct FastBriefParams : CommonParams, BriefFields {
 class FastBriefDetector final : public DetectorType<FastBriefDetector, FastBriefParams> {
  public:
   static constexpr const char* kTypeName = "fast_brief";
-  Status apply(const FastBriefParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const FastBriefParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -250,10 +268,11 @@ struct GfttBriefParams : CommonParams, BriefFields {
 class GfttBriefDetector final : public DetectorType<GfttBriefDetector, GfttBriefParams> {
  public:
   static constexpr const char* kTypeName = "gftt_brief";
-  Status apply(const GfttBriefParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const GfttBriefParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -280,10 +299,11 @@ struct OrbParams : CommonParams {
 class OrbDetector final : public DetectorType<OrbDetector, OrbParams> {
  public:
   static constexpr const char* kTypeName = "orb";
-  Status apply(const OrbParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const OrbParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -303,10 +323,11 @@ struct SiftParams : CommonParams {
 class SiftDetector final : public DetectorType<SiftDetector, SiftParams> {
  public:
   static constexpr const char* kTypeName = "sift";
-  Status apply(const SiftParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::l2; }
 
  protected:
+  friend DetectorType;
+  Status setup(const SiftParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -328,10 +349,11 @@ struct AkazeParams : CommonParams {
 class AkazeDetector final : public DetectorType<AkazeDetector, AkazeParams> {
  public:
   static constexpr const char* kTypeName = "akaze";
-  Status apply(const AkazeParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const AkazeParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:
@@ -349,10 +371,11 @@ struct BriskParams : CommonParams {
 class BriskDetector final : public DetectorType<BriskDetector, BriskParams> {
  public:
   static constexpr const char* kTypeName = "brisk";
-  Status apply(const BriskParams& params, bool first);
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  protected:
+  friend DetectorType;
+  Status setup(const BriskParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:

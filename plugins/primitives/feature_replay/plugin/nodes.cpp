@@ -264,6 +264,9 @@ bt::PortsList ReplayFeatureEdge::provided_ports() {
       bt::input_port<double>("distance_margin_m", "0", "style A: widen each landmark's visibility window"),
       bt::input_port<double>("ratio", "0.7", "matching: Lowe ratio test"),
       bt::input_port<double>("min_confidence", "0.25", "histogram confidence below which no correction is applied"),
+      bt::input_port<double>("carried_m", "{edge_carried_m}",
+                             "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
+                             "unset counts as 0)"),
       bt::output_port<int>("lap", "{lap}", "style B: 0-based lap being driven"),
   };
 }
@@ -344,8 +347,11 @@ NodeStatus ReplayFeatureEdge::on_start() {
   if (auto st = load_edge(); !st) return failed(st.error().message);
   auto odom = host_.frame_bus()->latest_odometry();
   if (!odom) return failed("no odometry yet");
-  if (segment_) segment_->begin(odom->distance_m);
-  if (localmaps_) localmaps_->begin(odom->distance_m);
+  // The edge counts as started `carried_m` before here (FollowRoute; an unset entry counts as 0).
+  const auto carried = get_input<double>("carried_m");
+  const double origin_m = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
+  if (segment_) segment_->begin(origin_m);
+  if (localmaps_) localmaps_->begin(origin_m);
   have_frame_ = false;
   last_command_ = Twist{};
   last_state_ = ReplayState::steering;

@@ -56,6 +56,12 @@ double turn_between_edges_rad(const EdgeRecord& previous, const EdgeRecord& next
   return wrap_angle_rad(next.azimuth_rad - end_heading);
 }
 
+double carried_distance_m(double beyond_end_m, double taught_gap_m, double turn_rad, double max_carry_m) {
+  if (!std::isfinite(beyond_end_m) || !std::isfinite(taught_gap_m) || !std::isfinite(turn_rad) || !(max_carry_m > 0.0))
+    return 0.0;
+  return std::clamp((beyond_end_m - taught_gap_m) * std::cos(turn_rad), -max_carry_m, max_carry_m);
+}
+
 Result<KindMap> parse_kind_map(const std::vector<std::string>& entries) {
   KindMap out;
   for (const auto& entry : entries) {

@@ -186,6 +186,13 @@ bt::PortsList FollowRoute::provided_ports() {
           "edge kinds whose primitive ends on the taught heading (turns are measured from the heading at "
           "the edge's end); after other kinds (path following rounds corners) the turn is measured from the "
           "heading at the edge's start"),
+      bt::input_port<bool>("carry_overshoot", "true",
+                           "start each edge as far along as the robot already is: the distance it travelled past "
+                           "the previous edge's end node (last-frame overshoot plus stopping distance) minus the gap "
+                           "recorded when teaching (statistic start_gap_m), projected onto the new edge's direction"),
+      bt::input_port<double>("max_carry_m", "0.5", "clamp of |carried_m|, m (> 0)"),
+      bt::output_port<double>("carried_m", "{edge_carried_m}",
+                              "distance of the edge already covered when it starts (children read it; 0 when off)"),
       bt::output_port<std::string>("edge", "{edge}", "the edge being traversed (children read it)"),
       bt::output_port<std::string>("current_node", "{current_node}", "the last node reached"),
       bt::inout_port<std::string>("previous_edge", "{previous_edge}",
@@ -202,6 +209,9 @@ Status FollowRoute::start() {
   VISNAV_ASSIGN(kinds_, parse_kind_map(entries));
   VISNAV_ASSIGN(turn_at_nodes_, get_input<bool>("turn_at_nodes"));
   VISNAV_ASSIGN(heading_holding_kinds_, get_input<std::vector<std::string>>("heading_holding_kinds"));
+  VISNAV_ASSIGN(carry_overshoot_, get_input<bool>("carry_overshoot"));
+  VISNAV_ASSIGN(max_carry_m_, get_input<double>("max_carry_m"));
+  if (!(max_carry_m_ > 0.0)) return fail("max_carry_m must be > 0");
   previous_start_heading_.reset();
   VISNAV_ASSIGN(turn_, read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s"));
   child_for_edge_.clear();
@@ -248,9 +258,26 @@ NodeStatus FollowRoute::tick() {
     turning_ = false;
     turn_target_.reset();
     edge_start_heading_ = current_heading_rad(host_);
+    // Where the new edge starts, in odometric distance: here, less what the robot overshot the
+    // previous edge's end node by (when that edge leads straight into this one).
+    const auto odom = host_.frame_bus() != nullptr ? host_.frame_bus()->latest_odometry() : std::nullopt;
+    double carried_m = 0.0;
+    auto previous = get_input<std::string>("previous_edge");
+    if (carry_overshoot_ && odom && ended_at_m_ && previous && *previous == ended_edge_) {
+      if (const EdgeRecord* prev = map.find_edge(ended_edge_)) {
+        double taught_gap_m = 0.0;
+        if (auto it = edge.statistics.find(kStartGapStatistic); it != edge.statistics.end()) taught_gap_m = it->second;
+        carried_m = carried_distance_m(odom->distance_m - *ended_at_m_, taught_gap_m,
+                                       turn_between_edges_rad(*prev, edge), max_carry_m_);
+      }
+    }
+    edge_origin_m_.reset();
+    if (odom) edge_origin_m_ = odom->distance_m - carried_m;
+    if (auto st = set_output("carried_m", carried_m); !st) return fail_node(host_, *this, st.error().message);
     if (auto st = set_output("edge", edge.id); !st) return fail_node(host_, *this, st.error().message);
     (void)set_output("current_node", edge.from);
-    host_.logger().info(path(), "edge " + edge.id + " (" + edge.kind + ", " + std::to_string(edge.length_m) + " m)");
+    host_.logger().info(path(), "edge " + edge.id + " (" + edge.kind + ", " + std::to_string(edge.length_m) +
+                                    " m, carried " + std::to_string(carried_m) + " m)");
   }
   const std::size_t child_index = child_for_edge_[index_];
   const NodeStatus child_status = children_[child_index]->execute_tick();
@@ -260,6 +287,9 @@ NodeStatus FollowRoute::tick() {
   (void)set_output("previous_edge", edge.id);
   (void)set_output("current_node", edge.to);
   previous_start_heading_ = edge_start_heading_;
+  ended_at_m_.reset();
+  if (edge_origin_m_) ended_at_m_ = *edge_origin_m_ + edge.length_m;
+  ended_edge_ = edge.id;
   ++index_;
   if (index_ >= route_.size()) return NodeStatus::success;
   turning_ = true;
@@ -335,6 +365,8 @@ NodeStatus TeachRoute::tick() {
     nodes_created_ = 1;
     active_child_.reset();
     taught_.clear();
+    last_end_m_.reset();
+    pending_gap_m_.reset();
     (void)set_output("current_node", current_id_);
     (void)set_output("finish_edge", false);
   }
@@ -366,7 +398,18 @@ NodeStatus TeachRoute::tick() {
     if (s == NodeStatus::running) return NodeStatus::running;
     if (!edge_to_) return fail_node(host_, *this, "a teaching child finished before the operator ended its edge");
     // Edge stored by the child.
-    if (auto edge = get_input<std::string>("taught_edge"); edge) taught_.push_back(*edge);
+    if (auto edge = get_input<std::string>("taught_edge"); edge) {
+      taught_.push_back(*edge);
+      // How far the robot had rolled on between the previous edge's end and this edge's start
+      // (FollowRoute subtracts it from the overshoot it carries into this edge).
+      if (pending_gap_m_)
+        if (auto st = host_.map()->set_edge_statistic(*edge, kStartGapStatistic, *pending_gap_m_); !st)
+          host_.logger().warn(path(), "edge " + *edge + ": " + st.error().message);
+    }
+    pending_gap_m_.reset();
+    last_end_m_.reset();
+    if (FrameBus* bus = host_.frame_bus())
+      if (auto odom = bus->latest_odometry()) last_end_m_ = odom->distance_m;
     (void)set_output("route", taught_);
     current_id_ = *edge_to_;
     (void)set_output("current_node", current_id_);
@@ -389,6 +432,10 @@ NodeStatus TeachRoute::tick() {
   }
   if (!active_child_) return fail_node(host_, *this, "kind '" + kind + "' needs a child " + *node_id + " under TeachRoute");
   active_kind_ = kind;
+  pending_gap_m_.reset();
+  if (last_end_m_)
+    if (FrameBus* bus = host_.frame_bus())
+      if (auto odom = bus->latest_odometry()) pending_gap_m_ = std::max(0.0, odom->distance_m - *last_end_m_);
   (void)set_output("edge_from", current_id_);
   (void)set_output("edge_to", std::string());
   (void)set_output("finish_edge", false);

@@ -58,7 +58,9 @@ class AtNode final : public bt::ConditionNode {
 };
 
 /// Traverses a route edge by edge: turns to the edge's azimuth at each node, publishes the edge
-/// id on {edge} and ticks the child registered for the edge's kind until it succeeds.
+/// id on {edge} and ticks the child registered for the edge's kind until it succeeds. With
+/// carry_overshoot, {edge_carried_m} tells the child how far along the new edge the robot already
+/// is (the previous edge's overshoot past its end node, see carried_distance_m).
 class FollowRoute final : public bt::ControlNode {
  public:
   FollowRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -81,6 +83,11 @@ class FollowRoute final : public bt::ControlNode {
   std::vector<std::size_t> child_for_edge_;
   TurnParams turn_;
   bool turn_at_nodes_ = true;
+  bool carry_overshoot_ = true;
+  double max_carry_m_ = 0.5;
+  std::optional<double> edge_origin_m_;  ///< odometric distance at which the current edge counts as started
+  std::optional<double> ended_at_m_;     ///< odometric distance of the last finished edge's end node
+  std::string ended_edge_;               ///< that edge's id
   std::size_t index_ = 0;
   bool turning_ = true;
   std::optional<double> turn_target_;
@@ -111,6 +118,8 @@ class TeachRoute final : public bt::ControlNode {
   std::string active_kind_;
   std::optional<std::string> edge_to_;
   std::vector<std::string> taught_;
+  std::optional<double> last_end_m_;     ///< odometric distance when the last edge was stored
+  std::optional<double> pending_gap_m_;  ///< distance between that and the start of the edge being taught
 };
 
 }  // namespace visnav::nav

@@ -55,6 +55,7 @@ Result<PathFollowerParams> params_from_ports(const bt::TreeNode& node) {
   VISNAV_ASSIGN(p.alpha_radps, node.get_input<double>("steer_gain_radps"));
   VISNAV_ASSIGN(p.grace_s, node.get_input<double>("grace_s"));
   VISNAV_ASSIGN(p.model_blend, node.get_input<double>("model_blend"));
+  VISNAV_ASSIGN(p.taught_gate_distance, node.get_input<double>("taught_gate_distance"));
   VISNAV_TRY(p.validate());
   return p;
 }
@@ -63,7 +64,10 @@ bt::PortsList common_ports() {
   return {bt::input_port<double>("max_speed_mps", "0.5", "forward speed limit"),
           bt::input_port<double>("steer_gain_radps", "0.8", "alpha of control law (1): ω per unit mean offset"),
           bt::input_port<double>("grace_s", "1.0", "path may be unseen this long before FAILURE \"path lost\""),
-          bt::input_port<double>("model_blend", "0.3", "weight of the previous frame's path colour models")};
+          bt::input_port<double>("model_blend", "0.3", "weight of the previous frame's path colour models"),
+          bt::input_port<double>("taught_gate_distance", "6",
+                                 "replay: re-learned path models farther than this (sigma) from the taught appearance "
+                                 "summary are rejected, keeping the previous/taught models; 0 = off")};
 }
 
 class FollowPathEdge final : public bt::StatefulActionNode {
@@ -74,7 +78,13 @@ class FollowPathEdge final : public bt::StatefulActionNode {
   static bt::PortsList provided_ports() {
     bt::PortsList p = {bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind path_following)"),
                        bt::input_port<double>("junction_clear_m", "2.0",
-                                              "junction mode for this long after the start node (see path_follower.hpp)")};
+                                              "junction mode for this long after the start node (see path_follower.hpp)"),
+                       bt::input_port<double>("carried_m", "{edge_carried_m}",
+                                              "distance of the edge already covered at the start (FollowRoute's "
+                                              "overshoot carry; unset counts as 0)"),
+                       bt::input_port<double>("junction_approach_m", "0",
+                                              "junction mode also for this long before the edge's end node (an L corner "
+                                              "or junction ahead pulls the follower into cutting it); 0 = off")};
     for (auto& c : common_ports()) p.push_back(std::move(c));
     return p;
   }
@@ -101,16 +111,22 @@ class FollowPathEdge final : public bt::StatefulActionNode {
       params_ = key(*params);
     }
     follower_->reset();
+    follower_->set_taught_models(*models);  // the gate (inactive when taught_gate_distance = 0)
     if (params->model_blend > 0.0) follower_->set_prior_models(*models);
     monitor_ = PathLossMonitor(params->grace_s);
     auto odom = host_.frame_bus()->latest_odometry();
     if (!odom) return failed("no odometry");
-    start_distance_m_ = odom->distance_m;
+    const auto carried = get_input<double>("carried_m");  // unset (no FollowRoute) counts as 0
+    start_distance_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
     length_m_ = edge->length_m;
     edge_id_ = edge->id;
     auto junction = get_input<double>("junction_clear_m");
     if (!junction) return failed(junction.error().message);
     junction_clear_m_ = *junction;
+    auto approach = get_input<double>("junction_approach_m");
+    if (!approach) return failed(approach.error().message);
+    if (!(*approach >= 0.0)) return failed("junction_approach_m must be >= 0");
+    junction_approach_m_ = *approach;
     last_sequence_.reset();
     return on_running();
   }
@@ -129,13 +145,16 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     last_sequence_ = frame->sequence;
     Twist command;
     std::string status;
-    follower_->set_junction_mode(travelled_m < junction_clear_m_);
+    follower_->set_junction_mode(travelled_m < junction_clear_m_ || length_m_ - travelled_m < junction_approach_m_);
     if (auto st = follower_->process(frame->image, estimate_); !st) {
       // An unusable frame counts as not seeing the path.
       status = "bad frame: " + st.error().message;
       verdict_ = monitor_.update(frame->timestamp_s, PathStatus::no_reference);
     } else {
       status = std::string(to_string(estimate_.status));
+      if (estimate_.reference_source != ReferenceSource::learned)
+        status += " (path models drifted from the taught appearance: " +
+                  std::string(to_string(estimate_.reference_source)) + " models kept)";
       verdict_ = monitor_.update(frame->timestamp_s, estimate_.status);
       command = estimate_.command;  // zero unless the path is seen
       offset_px_ = estimate_.mean_offset * frame->image.cols / 2.0;
@@ -159,10 +178,12 @@ class FollowPathEdge final : public bt::StatefulActionNode {
 
  private:
   struct ParamsKey {
-    double speed, gain, grace, blend;
+    double speed, gain, grace, blend, gate;
     bool operator==(const ParamsKey&) const = default;
   };
-  static ParamsKey key(const PathFollowerParams& p) { return {p.max_linear_mps, p.alpha_radps, p.grace_s, p.model_blend}; }
+  static ParamsKey key(const PathFollowerParams& p) {
+    return {p.max_linear_mps, p.alpha_radps, p.grace_s, p.model_blend, p.taught_gate_distance};
+  }
 
   void publish(double distance_m, const Twist& command, const std::string& status) {
     Telemetry* t = host_.telemetry();
@@ -191,6 +212,7 @@ class FollowPathEdge final : public bt::StatefulActionNode {
   NavStatus status_;
   double offset_px_ = 0.0;
   double junction_clear_m_ = 2.0;  ///< mean path-centre offset from the image centre, px (+ = right)
+  double junction_approach_m_ = 0.0;
   double start_distance_m_ = 0.0;
   double length_m_ = 0.0;
   std::string edge_id_;
@@ -224,7 +246,7 @@ class TeachPathEdge final : public bt::StatefulActionNode {
       follower_.emplace(std::move(*made));
     }
     follower_->reset();
-    models_.clear();
+    summary_.emplace(*params);
     frames_ = 0;
     seen_ok_ = 0;
     start_distance_m_ = odom->distance_m;
@@ -244,7 +266,7 @@ class TeachPathEdge final : public bt::StatefulActionNode {
       last_sequence_ = frame->sequence;
       if (frames_++ % std::max(1, every ? *every : 5) == 0) {
         if (follower_->process(frame->image, estimate_).ok() && estimate_.status == PathStatus::ok) {
-          models_ = follower_->reference_models();
+          summary_->add_frame(follower_->reference_models());
           ++seen_ok_;
         }
       }
@@ -285,9 +307,10 @@ class TeachPathEdge final : public bt::StatefulActionNode {
     e.length_m = std::max(0.0, odom.distance_m - start_distance_m_);
     e.azimuth_rad = azimuth_rad_;
     e.statistics["end_heading_rad"] = odom.pose.heading_rad;
-    e.statistics["colour_models"] = static_cast<double>(models_.size());
+    const std::vector<ColourModel> models = summary_ ? summary_->summary() : std::vector<ColourModel>{};
+    e.statistics["colour_models"] = static_cast<double>(models.size());
     e.statistics["frames_path_seen"] = static_cast<double>(seen_ok_);
-    auto id = map.add_edge(e, encode_models(models_));
+    auto id = map.add_edge(e, encode_models(models));
     if (!id) return failed(id.error().message);
     (void)set_output("edge", *id);
     return NodeStatus::success;
@@ -300,7 +323,7 @@ class TeachPathEdge final : public bt::StatefulActionNode {
   HostServices& host_;
   std::optional<PathFollower> follower_;
   PathEstimate estimate_;
-  std::vector<ColourModel> models_;
+  std::optional<AppearanceSummary> summary_;  ///< the path's appearance over the edge (see path_follower.hpp)
   int frames_ = 0;
   int seen_ok_ = 0;
   double start_distance_m_ = 0.0;

@@ -1,9 +1,11 @@
 // Behaviour-tree nodes of the path-following primitive (protocol: docs/navigation.md).
 //  * FollowPathEdge — replays an edge of kind `path_following`: follows the visible path with
 //    control law (1) until the odometric distance reaches the edge's length; FAILURE "path lost"
-//    when the path is not seen for longer than grace_s.
+//    when the path is not seen for longer than grace_s. The edge's appearance summary gates the
+//    re-learned reference models (taught_gate_distance, see path_follower.hpp).
 //  * TeachPathEdge — teaches such an edge: records only its odometric length and the path's
-//    appearance (the reference colour models), seed 000 Sec. 2 advantage 4.
+//    appearance summary (AppearanceSummary over the teach frames' reference colour models),
+//    seed 000 Sec. 2 advantage 4.
 // Thread-safety: tick thread only.
 #pragma once
 

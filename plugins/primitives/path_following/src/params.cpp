@@ -11,6 +11,10 @@ Status PathFollowerParams::validate() const {
     return fail("min_area_share (" + std::to_string(min_area_share) + ") must be below fill_area_share (" +
                 std::to_string(fill_area_share) + ")");
   if (model_blend >= 1.0) return fail("model_blend must be below 1 (1 would never learn)");
+  if (taught_gate_distance > 0.0 && taught_gate_distance < class_distance)
+    return fail("taught_gate_distance (" + std::to_string(taught_gate_distance) +
+                ") must be 0 (off) or at least class_distance (" + std::to_string(class_distance) +
+                "): a tighter gate would reject models the classification calls path");
   return ok();
 }
 
@@ -52,6 +56,9 @@ const ParamSchema<PathFollowerParams>& PathFollowerParams::schema() {
           .field("colour_noise_floor", &P::colour_noise_floor, "std added to every colour axis (feature levels)")
           .range(0.1, 100.0)
           .field("model_blend", &P::model_blend, "weight of the previous frame's reference models").range(0.0, 0.99)
+          .field("taught_gate_distance", &P::taught_gate_distance,
+                 "reject re-learned path models farther than this from the taught appearance (sigma, 0 = off)")
+          .range(0.0, 100.0)
           .field("opening_kernel_px", &P::opening_kernel_px, "morphological opening kernel (0 = off)").range(0, 51)
           .field("dark_mean_intensity", &P::dark_mean_intensity, "mean grey level below which the frame is dark")
           .range(0.0, 255.0)

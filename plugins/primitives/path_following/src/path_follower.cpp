@@ -52,6 +52,15 @@ std::string_view to_string(PathStatus status) {
   return "unknown";
 }
 
+std::string_view to_string(ReferenceSource source) {
+  switch (source) {
+    case ReferenceSource::learned: return "learned";
+    case ReferenceSource::previous: return "previous";
+    case ReferenceSource::taught: return "taught";
+  }
+  return "unknown";
+}
+
 ColourModel ColourMoments::model() const {
   ColourModel m;
   m.pixels = n;
@@ -80,6 +89,68 @@ double class_distance_sq(const ColourModel& segment, const ColourModel& referenc
   const Eigen::Vector3d d = segment.mean - reference.mean;
   const Eigen::Matrix3d c = regularised(reference.cov, noise_floor);
   return d.dot(c.ldlt().solve(d));
+}
+
+ColourModel pool_models(const ColourModel& a, const ColourModel& b) {
+  const double na = std::max(a.pixels, 1.0);
+  const double nb = std::max(b.pixels, 1.0);
+  const double wa = na / (na + nb);
+  const double wb = 1.0 - wa;
+  ColourModel m;
+  m.mean = wa * a.mean + wb * b.mean;
+  const Eigen::Vector3d da = a.mean - m.mean;
+  const Eigen::Vector3d db = b.mean - m.mean;
+  m.cov = wa * (a.cov + da * da.transpose()) + wb * (b.cov + db * db.transpose());
+  m.pixels = na + nb;
+  return m;
+}
+
+AppearanceSummary::AppearanceSummary(const PathFollowerParams& params, double min_frame_share)
+    : merge_distance_(params.ref_merge_distance),
+      noise_floor_(params.colour_noise_floor),
+      min_frame_share_(std::clamp(min_frame_share, 1e-6, 1.0)) {}
+
+void AppearanceSummary::clear() {
+  frames_ = 0;
+  clusters_.clear();
+}
+
+void AppearanceSummary::add_frame(std::span<const ColourModel> models) {
+  if (models.empty()) return;
+  const int frame = frames_++;
+  const double limit_sq = merge_distance_ * merge_distance_;
+  for (const auto& m : models) {
+    if (!m.mean.allFinite() || !m.cov.allFinite()) continue;
+    Cluster* best = nullptr;
+    double best_d = limit_sq;
+    for (auto& c : clusters_) {
+      const double d = merge_distance_sq(m, c.model, noise_floor_);
+      if (d <= best_d) {
+        best_d = d;
+        best = &c;
+      }
+    }
+    if (best == nullptr) {
+      clusters_.push_back(Cluster{m, 0, -1});
+      best = &clusters_.back();
+    } else {
+      best->model = pool_models(best->model, m);
+    }
+    if (best->last_frame != frame) {  // several models of one frame in a cluster count once
+      best->last_frame = frame;
+      ++best->frames;
+    }
+  }
+}
+
+std::vector<ColourModel> AppearanceSummary::summary() const {
+  std::vector<const Cluster*> order;
+  for (const auto& c : clusters_) order.push_back(&c);
+  std::stable_sort(order.begin(), order.end(), [](const Cluster* a, const Cluster* b) { return a->frames > b->frames; });
+  std::vector<ColourModel> out;
+  for (std::size_t i = 0; i < order.size(); ++i)
+    if (i == 0 || order[i]->frames >= min_frame_share_ * frames_) out.push_back(order[i]->model);
+  return out;
 }
 
 HorizonEstimate detect_horizon(const cv::Mat& bgr, const PathFollowerParams& params, cv::Mat& row_means_scratch) {
@@ -162,6 +233,48 @@ PathFollower::~PathFollower() = default;
 void PathFollower::reset() {
   previous_models_.clear();
   stages_.reference_models.clear();
+  taught_models_.clear();
+  taught_inverse_.clear();
+}
+
+void PathFollower::set_taught_models(std::vector<ColourModel> models) {
+  taught_models_.clear();
+  taught_inverse_.clear();
+  for (auto& m : models) {
+    if (!m.mean.allFinite() || !m.cov.allFinite()) continue;
+    taught_inverse_.push_back(regularised(m.cov, params_.colour_noise_floor).inverse());
+    taught_models_.push_back(std::move(m));
+  }
+}
+
+void PathFollower::gate_reference_models() {
+  gated_models_ = 0;
+  reference_source_ = ReferenceSource::learned;
+  auto& models = stages_.reference_models;
+  if (!(params_.taught_gate_distance > 0.0) || taught_models_.empty() || models.empty()) return;
+  const double limit_sq = params_.taught_gate_distance * params_.taught_gate_distance;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    bool near_taught = false;
+    for (std::size_t t = 0; t < taught_models_.size() && !near_taught; ++t) {
+      const Eigen::Vector3d d = models[i].mean - taught_models_[t].mean;
+      near_taught = d.dot(taught_inverse_[t] * d) <= limit_sq;
+    }
+    if (!near_taught) continue;
+    if (kept != i) {
+      models[kept] = models[i];
+      kept_clusters_[kept] = kept_clusters_[i];
+    }
+    ++kept;
+  }
+  gated_models_ = static_cast<int>(models.size() - kept);
+  models.resize(kept);
+  kept_clusters_.resize(kept);
+  if (kept > 0) return;
+  // Every re-learned model drifted: keep the previous accepted ones, else the taught ones.
+  reference_source_ = previous_models_.empty() ? ReferenceSource::taught : ReferenceSource::previous;
+  models = previous_models_.empty() ? taught_models_ : previous_models_;
+  kept_clusters_.assign(models.size(), -1);
 }
 
 void PathFollower::ensure_buffers(cv::Size size) {
@@ -277,10 +390,13 @@ int PathFollower::learn_reference_models(double roi_pixels) {
   models.clear();
   for (int c : kept_clusters_) models.push_back(clusters_[static_cast<std::size_t>(c)].model);
 
+  // Taught-appearance gate (see the header), before blending so a rejected model never leaks in.
+  gate_reference_models();
+
   // Appearance adaptation: blend each model with the closest previous one (moment matching of
   // the two-component mixture with weights 1 − b and b).
   const double b = params_.model_blend;
-  if (b > 0.0 && !previous_models_.empty()) {
+  if (b > 0.0 && !previous_models_.empty() && reference_source_ == ReferenceSource::learned) {
     for (auto& m : models) {
       const ColourModel* closest = nullptr;
       double best_d = merge_sq;
@@ -324,7 +440,8 @@ void PathFollower::classify_segments(int segments, int used_models) {
   }
 }
 
-int PathFollower::extract_region(int segments, int used_models, const cv::Mat& labels, const cv::Mat& roi) {
+int PathFollower::extract_region(int segments, int used_models, const cv::Mat& labels, const cv::Mat& roi,
+                                 bool all_large_components) {
   const int ground_rows = labels.rows;
   const int width = labels.cols;
   classify_segments(segments, used_models);
@@ -341,16 +458,37 @@ int PathFollower::extract_region(int segments, int used_models, const cv::Mat& l
   cv::Mat components = components_.rowRange(0, ground_rows);
   const int component_count = cv::connectedComponents(opened, components, 8, CV_32S);
   component_overlap_.assign(static_cast<std::size_t>(std::max(component_count, 1)), 0.0);
+  component_pixels_.assign(static_cast<std::size_t>(std::max(component_count, 1)), 0.0);
   for (int y = 0; y < ground_rows; ++y) {
     const auto* c = components.ptr<int>(y);
     const auto* in_roi = roi.ptr<std::uint8_t>(y);
-    for (int x = 0; x < width; ++x)
-      if (in_roi[x] != 0 && c[x] > 0) component_overlap_[static_cast<std::size_t>(c[x])] += 1.0;
+    for (int x = 0; x < width; ++x) {
+      if (c[x] <= 0) continue;
+      component_pixels_[static_cast<std::size_t>(c[x])] += 1.0;
+      if (in_roi[x] != 0) component_overlap_[static_cast<std::size_t>(c[x])] += 1.0;
+    }
+  }
+  cv::Mat region = region_.rowRange(0, ground_rows);
+  if (all_large_components) {
+    // Another surface is in the trapezoid (the gate rejected a model): it cannot anchor the region.
+    // Every path component of at least min_area_share of the ground image counts — e.g. the gravel
+    // left and right of a crossing road and beyond it — so the row-wise middles stay on the path.
+    const double min_pixels = std::max(1.0, params_.min_area_share * ground_rows * width);
+    int count = 0;
+    for (int y = 0; y < ground_rows; ++y) {
+      const auto* c = components.ptr<int>(y);
+      auto* dst = region.ptr<std::uint8_t>(y);
+      for (int x = 0; x < width; ++x) {
+        const bool in = c[x] > 0 && component_pixels_[static_cast<std::size_t>(c[x])] >= min_pixels;
+        dst[x] = in ? 255 : 0;
+        count += in ? 1 : 0;
+      }
+    }
+    return count;
   }
   int best = 0;
   for (int c = 1; c < component_count; ++c)
     if (component_overlap_[static_cast<std::size_t>(c)] > component_overlap_[static_cast<std::size_t>(best)]) best = c;
-  cv::Mat region = region_.rowRange(0, ground_rows);
   if (best == 0) {
     region.setTo(0);
     return 0;
@@ -431,6 +569,8 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   out.mean_offset = 0.0;
   out.segments = 0;
   out.reference_models = 0;
+  out.gated_models = 0;
+  out.reference_source = ReferenceSource::learned;
   out.command = Twist{};
 
   stages_.ground_top_px = top;
@@ -481,6 +621,8 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   accumulate_segment_statistics(hsv, labels, roi, segments);
   const double roi_pixels = cv::countNonZero(roi);
   out.reference_models = learn_reference_models(roi_pixels);
+  out.gated_models = gated_models_;
+  out.reference_source = reference_source_;
   if (out.reference_models == 0) {
     out.status = PathStatus::no_reference;
     return ok();
@@ -494,7 +636,7 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   int used = out.reference_models;
   int region_pixels = 0;
   for (;; --used) {
-    region_pixels = extract_region(segments, used, labels, roi);
+    region_pixels = extract_region(segments, used, labels, roi, gated_models_ > 0);
     if (used == 1 || region_pixels / ground_pixels <= params_.multi_model_max_share) break;
   }
   out.reference_models = used;
@@ -503,7 +645,9 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   stages_.segment_is_reference.assign(static_cast<std::size_t>(segments), 0);
   for (std::size_t s = 0; s < static_cast<std::size_t>(segments); ++s)
     for (int k = 0; k < used; ++k)
-      if (segment_cluster_[s] == kept_clusters_[static_cast<std::size_t>(k)]) stages_.segment_is_reference[s] = 1;
+      if (kept_clusters_[static_cast<std::size_t>(k)] >= 0 &&
+          segment_cluster_[s] == kept_clusters_[static_cast<std::size_t>(k)])
+        stages_.segment_is_reference[s] = 1;
   stages_.classified = classified_.rowRange(0, ground_rows);
   stages_.opened = opened_.rowRange(0, ground_rows);
   if (region_pixels == 0) {

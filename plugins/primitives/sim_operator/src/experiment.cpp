@@ -1,5 +1,6 @@
 #include "experiment.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "visnav/bt/tree.hpp"
+#include "visnav/map.hpp"
 #include "visnav/path_following/exp_fit.hpp"
 #include "visnav/runner.hpp"
 #include "visnav_sim/commands.hpp"
@@ -67,6 +69,13 @@ constexpr const char* kUsage =
     "  --out DIR       output folder (default out/experiment): maps, CSVs, PNGs, report.md\n"
     "  --set k=v       config override, e.g. --set robot.params.odom_scale_error_pct=5\n"
     "\n"
+    "Per style, DIR/<style>/ holds the map, trajectory.csv (ground truth and odometry of every\n"
+    "tick), loops.csv (each loop's end position and error, split into along-track (forward +)\n"
+    "and cross-track (left +) components in the frame of the heading where teaching ended) and\n"
+    "edges.csv (where each replayed edge ended against where the same edge ended when taught,\n"
+    "in the taught end heading's frame; lap 0 rows are the taught ends), for finding the edges\n"
+    "that introduce an error.\n"
+    "\n"
     "Exit status: 0 done, 1 a run failed, 2 usage error.\n";
 
 struct Options {
@@ -80,8 +89,21 @@ struct Options {
   std::vector<std::string> overrides;
 };
 
+/// Ground-truth pose of the robot when a primitive finished an edge (teach or replay).
+struct EdgeEnd {
+  int lap = 0;  ///< 0 = teach
+  int index = 0;  ///< position in the lap's route
+  std::string edge;
+  std::string kind;
+  Pose2D pose;
+  double odom_distance_m = 0.0;
+};
+
 struct StyleResult {
   std::string style;
+  std::vector<EdgeEnd> taught_edge_ends;
+  std::vector<EdgeEnd> replay_edge_ends;
+  double taught_end_heading_rad = 0.0;
   bool ok = false;
   std::string failure;
   cv::Point2d taught_end;
@@ -206,6 +228,16 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
                                              std::string("force_kind=") + (style == "feature" ? "feature_segment" : ""),
                                              std::string("close_loop=") + (route.closed ? "true" : "false")}));
     const double d0 = session->robot().latest_odometry() ? session->robot().latest_odometry()->distance_m : 0.0;
+    teach.add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+      if (to != bt::NodeStatus::success) return;
+      if (node.registration_id() != "TeachFeatureEdge" && node.registration_id() != "TeachPathEdge") return;
+      EdgeEnd e;
+      e.index = static_cast<int>(r.taught_edge_ends.size());
+      if (auto id = node.blackboard().get<std::string>("taught_edge")) e.edge = *id;
+      e.pose = sim->ground_truth_pose();
+      if (auto od = session->robot().latest_odometry()) e.odom_distance_m = od->distance_m;
+      r.taught_edge_ends.push_back(std::move(e));
+    });
     RunOptions ro;
     ro.after_tick = [&](const TickInfo& t) {
       log_tick(t, "teach", 0);
@@ -219,7 +251,10 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
     if (report.outcome != RunOutcome::success) return fail("teaching failed: " + report.reason);
   }
   r.taught_end = xy(sim->ground_truth_pose());
+  r.taught_end_heading_rad = sim->ground_truth_pose().heading_rad;
   r.teach_path.push_back(r.taught_end);
+  for (auto& e : r.taught_edge_ends)
+    if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
 
   // --- displace (the robot is carried sideways; odometry does not see it)
   Pose2D displaced = sim->ground_truth_pose();
@@ -233,8 +268,21 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
     VISNAV_TRY(set_blackboard_values(patrol, {"start=start", std::string("loops=").append(std::to_string(o.loops))}));
     r.lap_paths.emplace_back();
     // A lap ends when FollowRoute succeeds.
+    int lap_edge = 0;
     patrol.add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+      if (to == bt::NodeStatus::success &&
+          (node.registration_id() == "ReplayFeatureEdge" || node.registration_id() == "FollowPathEdge")) {
+        EdgeEnd e;
+        e.lap = static_cast<int>(r.lap_ends.size()) + 1;
+        e.index = lap_edge++;
+        if (auto id = node.get_input<std::string>("edge")) e.edge = *id;
+        if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
+        e.pose = sim->ground_truth_pose();
+        if (auto od = session->robot().latest_odometry()) e.odom_distance_m = od->distance_m;
+        r.replay_edge_ends.push_back(std::move(e));
+      }
       if (to == bt::NodeStatus::success && node.registration_id() == "FollowRoute") {
+        lap_edge = 0;
         const cv::Point2d end = xy(sim->ground_truth_pose());
         r.lap_ends.push_back(end);
         r.lap_paths.back().push_back(end);
@@ -272,10 +320,38 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
   r.ok = r.failure.empty() && static_cast<int>(r.lap_ends.size()) == o.loops;
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
+  // Error components in the frame of the taught heading: along-track (forward +), cross-track (left +).
+  auto components = [](const cv::Point2d& d, double heading_rad) {
+    return cv::Point2d(d.x * std::cos(heading_rad) + d.y * std::sin(heading_rad),
+                       -d.x * std::sin(heading_rad) + d.y * std::cos(heading_rad));
+  };
   std::ofstream csv(out_dir / "loops.csv");
-  csv << "loop,end_x_m,end_y_m,error_m\n";
-  for (std::size_t i = 0; i < r.lap_ends.size(); ++i)
-    csv << i + 1 << "," << r.lap_ends[i].x << "," << r.lap_ends[i].y << "," << r.errors_m[i] << "\n";
+  csv << "loop,end_x_m,end_y_m,error_m,along_m,cross_m\n";
+  for (std::size_t i = 0; i < r.lap_ends.size(); ++i) {
+    const cv::Point2d c = components(r.lap_ends[i] - r.taught_end, r.taught_end_heading_rad);
+    csv << i + 1 << "," << r.lap_ends[i].x << "," << r.lap_ends[i].y << "," << r.errors_m[i] << "," << c.x << ","
+        << c.y << "\n";
+  }
+  // Each replayed edge's end against the same edge's end when taught (ground truth).
+  std::ofstream edges(out_dir / "edges.csv");
+  edges << "lap,index,edge,kind,gt_x_m,gt_y_m,gt_heading_rad,odom_distance_m,error_m,along_m,cross_m,heading_error_rad\n";
+  for (const auto& e : r.replay_edge_ends) {
+    const auto taught = std::find_if(r.taught_edge_ends.begin(), r.taught_edge_ends.end(),
+                                     [&](const EdgeEnd& t) { return t.edge == e.edge; });
+    edges << e.lap << "," << e.index << "," << e.edge << "," << e.kind << "," << e.pose.x_m << "," << e.pose.y_m << ","
+          << e.pose.heading_rad << "," << e.odom_distance_m;
+    if (taught == r.taught_edge_ends.end()) {
+      edges << ",,,,\n";
+      continue;
+    }
+    const cv::Point2d d = xy(e.pose) - xy(taught->pose);
+    const cv::Point2d c = components(d, taught->pose.heading_rad);
+    edges << "," << cv::norm(d) << "," << c.x << "," << c.y << ","
+          << std::remainder(e.pose.heading_rad - taught->pose.heading_rad, 2.0 * std::numbers::pi) << "\n";
+  }
+  for (const auto& t : r.taught_edge_ends)
+    edges << 0 << "," << t.index << "," << t.edge << "," << t.kind << "," << t.pose.x_m << "," << t.pose.y_m << ","
+          << t.pose.heading_rad << "," << t.odom_distance_m << ",0,0,0,0\n";
   return r;
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "convergence.hpp"
 #include "experiment.hpp"
 #include "operator_core.hpp"
 #include "visnav/bt/node.hpp"
@@ -107,11 +108,14 @@ Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& hos
 
 const CommandEntry kCommands[] = {
     {"experiment", "teach a route in the simulator, displace, replay N loops, report accuracy (seed 000 eq. 18)",
-     &experiment_command}};
+     &experiment_command},
+    {"convergence", "straight segment from 0.5 m off: fit y = a*exp(-kx) per primitive (seed 000 Fig. 3)",
+     &convergence_command}};
 
 }  // namespace
 }  // namespace visnav::simop
 
 VISNAV_PLUGIN(visnav::PluginKind::nodes, "sim_operator", "0.1.0",
-              "Scripted teaching operator and the `experiment` command for the simulator", nullptr, 0,
-              &visnav::simop::register_sim_operator_nodes, visnav::simop::kCommands, 1)
+              "Scripted teaching operator and the `experiment` and `convergence` commands for the simulator",
+              nullptr, 0, &visnav::simop::register_sim_operator_nodes, visnav::simop::kCommands,
+              sizeof(visnav::simop::kCommands) / sizeof(visnav::simop::kCommands[0]))

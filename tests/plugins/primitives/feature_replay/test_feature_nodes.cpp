@@ -14,7 +14,9 @@
 #include <cmath>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <random>
+#include <utility>
 
 #include "visnav/bt/registry.hpp"
 #include "visnav/bt/tree.hpp"
@@ -352,3 +354,40 @@ TEST_F(FeatureNodes, BadInputsKeepTheRecordedCommand) {
 }
 
 }  // namespace
+
+TEST_F(FeatureNodes, ReplayCountsTheDistanceFollowRouteCarriedIntoTheEdge) {
+  // FollowRoute writes {edge_carried_m}: the distance of the edge the robot already covered when
+  // it starts (the previous edge's overshoot). A 3 m edge with 1 m carried ends after 2 m of
+  // odometry; with the entry unset (standalone use) the whole 3 m are driven.
+  fr::LocalMapPath path;
+  path.length_m = 3.0;
+  for (int i = 0; i <= 6; ++i) {
+    fr::LocalMap m;
+    m.distance_m = 0.5 * i;
+    m.positions_px = scene_.positions;
+    m.descriptors = scene_.descriptors.clone();
+    path.maps.push_back(std::move(m));
+  }
+  path.commands.push_back({0.0, Twist{1.0, 0.0}});
+  path.commands.push_back({3.0, Twist{}});
+  const std::string id = add_edge("feature_localmaps", path.serialize(), 3.0);
+  auto drive = [&](std::optional<double> carried) {
+    robot_.odom_ = Odometry{};
+    robot_.command_ = Twist{};
+    robot_.publish();
+    auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\"/>");
+    if (carried) tree.blackboard().set("edge_carried_m", *carried);
+    EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::running);
+    const double first_distance_m = telemetry_.statuses.back().distance_m;
+    NodeStatus s = NodeStatus::running;
+    for (int i = 0; i < 100 && s == NodeStatus::running; ++i) s = tick(tree, scene_.view(0.f));
+    EXPECT_EQ(s, NodeStatus::success);
+    return std::make_pair(first_distance_m, robot_.odom_.distance_m);
+  };
+  const auto [start_carried, end_carried] = drive(1.0);
+  EXPECT_NEAR(start_carried, 1.0, 1e-9);
+  EXPECT_NEAR(end_carried, 2.0, 0.11);
+  const auto [start_plain, end_plain] = drive(std::nullopt);
+  EXPECT_NEAR(start_plain, 0.0, 1e-9);
+  EXPECT_NEAR(end_plain, 3.0, 0.11);
+}

@@ -136,3 +136,15 @@ TEST(NavigationCore, PlanCycleFailsForNodeOnNoLoop) {
   EXPECT_FALSE(plan_cycle(*map, "nope").ok());
   fs::remove_all(dir);
 }
+
+TEST(NavigationCore, CarriedDistanceProjectsTheOvershootOntoTheNextEdge) {
+  const double q = std::numbers::pi / 2;
+  EXPECT_NEAR(carried_distance_m(0.08, 0.0, 0.0, 0.5), 0.08, 1e-12);    // straight on: all of it
+  EXPECT_NEAR(carried_distance_m(0.08, 0.02, 0.0, 0.5), 0.06, 1e-12);   // less the gap taught
+  EXPECT_NEAR(carried_distance_m(0.08, 0.0, q, 0.5), 0.0, 1e-12);       // a right angle: sideways
+  EXPECT_NEAR(carried_distance_m(0.08, 0.0, std::numbers::pi / 3, 0.5), 0.04, 1e-12);
+  EXPECT_NEAR(carried_distance_m(0.01, 0.03, 0.0, 0.5), -0.02, 1e-12);  // stopped shorter than when taught
+  EXPECT_DOUBLE_EQ(carried_distance_m(3.0, 0.0, 0.0, 0.5), 0.5);        // clamped
+  EXPECT_DOUBLE_EQ(carried_distance_m(-3.0, 0.0, 0.0, 0.5), -0.5);
+  EXPECT_DOUBLE_EQ(carried_distance_m(std::nan(""), 0.0, 0.0, 0.5), 0.0);
+}

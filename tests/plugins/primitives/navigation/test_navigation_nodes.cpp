@@ -46,14 +46,19 @@ class KinematicRobot final : public Robot {
 struct Recorder {
   std::vector<std::string> edges;             // edges replayed, in order
   std::vector<double> heading_at_edge_start;  // robot heading when each edge started
+  std::vector<double> carried_m;              // {edge_carried_m} when each edge started
 };
 
-/// Replay child: drives the edge's length straight ahead at 1 m/s.
+/// Replay child: drives the edge's length straight ahead at 1 m/s, counting the distance
+/// FollowRoute says is already covered ({edge_carried_m}, unset = 0) as the primitives do.
 class TestReplayEdge final : public bt::StatefulActionNode {
  public:
   TestReplayEdge(const std::string& name, const bt::NodeConfig& config, HostServices& host, Recorder& rec)
       : StatefulActionNode(name, config), host_(host), rec_(rec) {}
-  static bt::PortsList provided_ports() { return {bt::input_port<std::string>("edge", "{edge}", "edge")}; }
+  static bt::PortsList provided_ports() {
+    return {bt::input_port<std::string>("edge", "{edge}", "edge"),
+            bt::input_port<double>("carried_m", "{edge_carried_m}", "already covered")};
+  }
   NodeStatus on_start() override {
     auto edge = get_input<std::string>("edge");
     if (!edge) return NodeStatus::failure;
@@ -62,7 +67,9 @@ class TestReplayEdge final : public bt::StatefulActionNode {
     rec_.edges.push_back(*edge);
     auto odom = *host_.frame_bus()->latest_odometry();
     rec_.heading_at_edge_start.push_back(odom.pose.heading_rad);
-    start_m_ = odom.distance_m;
+    auto carried = get_input<double>("carried_m");
+    rec_.carried_m.push_back(carried ? *carried : 0.0);
+    start_m_ = odom.distance_m - rec_.carried_m.back();
     length_m_ = record->length_m;
     return on_running();
   }
@@ -316,6 +323,52 @@ TEST_F(NavigationNodes, FollowRouteRunsEdgesInOrderAndTurnsRelativelyAtNodes) {
   EXPECT_EQ(*tree.blackboard().get<std::string>("previous_edge"), bc);
 }
 
+TEST_F(NavigationNodes, FollowRouteCarriesTheOvershootIntoAStraightContinuation) {
+  // Three edges of 2.05 m; the robot moves 0.1 m per tick, so each edge's primitive stops 0.05 m
+  // past its end node. A → B → C go straight on (the overshoot is carried: the robot must stop
+  // at 4.1 m, where C is, not at 4.2 m); C → D turns +90°, where the overshoot is sideways.
+  auto a = node("A"), b = node("B"), c = node("C"), d = node("D");
+  const double q = std::numbers::pi / 2;
+  edge(a, b, 2.05, 0.0, 0.0);
+  edge(b, c, 2.05, 0.0, 0.0);
+  edge(c, d, 2.05, q, q);
+  auto run_to = [&](const std::string& goal, const std::string& carry) {
+    rec_ = Recorder{};
+    robot_.odom_ = Odometry{};
+    robot_.command_ = Twist{};
+    robot_.publish();
+    auto tree = load(R"(<Sequence><PlanRoute start="A" goal=")" + goal + R"("/>
+        <FollowRoute turn_tolerance_rad="0.01" carry_overshoot=")" + carry +
+                     R"(" primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute></Sequence>)");
+    EXPECT_EQ(run(tree), NodeStatus::success);
+    return robot_.odom_.distance_m;
+  };
+  EXPECT_NEAR(run_to("C", "false"), 4.2, 1e-6);  // each edge counted from where the robot stopped
+  EXPECT_NEAR(run_to("C", "true"), 4.1, 1e-6);
+  ASSERT_EQ(rec_.carried_m.size(), 2u);
+  EXPECT_DOUBLE_EQ(rec_.carried_m[0], 0.0);  // first edge of the run: nothing to carry
+  EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
+  run_to("D", "true");
+  ASSERT_EQ(rec_.carried_m.size(), 3u);
+  EXPECT_NEAR(rec_.carried_m[2], 0.0, 1e-6);  // the 90° turn: the overshoot is lateral, not along C → D
+}
+
+TEST_F(NavigationNodes, FollowRouteSubtractsTheGapTaughtBetweenEdges) {
+  // The teacher also rolled 0.03 m past B before the next edge started (statistic start_gap_m):
+  // only the remaining 0.02 m of the replay's 0.05 m overshoot is carried.
+  auto a = node("A"), b = node("B"), c = node("C");
+  edge(a, b, 2.05, 0.0, 0.0);
+  auto bc = edge(b, c, 2.05, 0.0, 0.0);
+  ASSERT_TRUE(map_->set_edge_statistic(bc, "start_gap_m", 0.03).ok());
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute>
+      </Sequence>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.carried_m.size(), 2u);
+  EXPECT_NEAR(rec_.carried_m[1], 0.02, 1e-6);
+  EXPECT_NEAR(*tree.blackboard().get<double>("edge_carried_m"), 0.02, 1e-6);
+}
+
 TEST_F(NavigationNodes, FollowRouteFailsClearlyWhenNoChildHandlesAKind) {
   auto a = node("A"), b = node("B");
   edge(a, b, 2.0, 0.0, 0.0, "path_following");
@@ -421,6 +474,25 @@ TEST_F(NavigationNodes, TeachRouteCreatesANodeAndEdgeAtEveryPrimitiveSwitch) {
   ASSERT_TRUE(reopened.ok()) << reopened.error().message;
   EXPECT_EQ(reopened->edges().size(), 2u);
   EXPECT_TRUE(reopened->validate().empty());
+}
+
+TEST_F(NavigationNodes, TeachRouteRecordsHowFarTheRobotRolledBetweenEdges) {
+  // Edge 1 ends at tick 10; the robot rolls on for 3 ticks (0.3 m) before edge 2 starts.
+  auto tree = load(R"(<TeachRoute primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  auto& bb = tree.blackboard();
+  bb.set("primitive", std::string("feature_segment"));
+  bb.set("teach_done", false);
+  (void)robot_.send_command({1.0, 0.0});
+  auto op = [&](int i) {
+    if (i == 10) bb.set("primitive", std::string());
+    if (i == 13) bb.set("primitive", std::string("feature_segment"));
+    if (i == 20) bb.set("teach_done", true);
+  };
+  EXPECT_EQ(run(tree, 100, op), NodeStatus::success);
+  ASSERT_EQ(map_->edges().size(), 2u);
+  EXPECT_EQ(map_->edges()[0].statistics.count("start_gap_m"), 0u);  // the first edge has no predecessor
+  ASSERT_EQ(map_->edges()[1].statistics.count("start_gap_m"), 1u);
+  EXPECT_NEAR(map_->edges()[1].statistics.at("start_gap_m"), 0.3, 1e-6);
 }
 
 TEST_F(NavigationNodes, TeachRouteClosesTheLoopOnTheStartNode) {

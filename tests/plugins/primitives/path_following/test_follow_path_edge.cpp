@@ -154,3 +154,62 @@ TEST(FollowPathEdge, RejectsAnEdgeOfAnotherKindOrACorruptPayloadWithoutMoving) {
   }
   fs::remove_all(dir);
 }
+
+// junction_approach_m (junction mode before the edge's end node): on the campus gravel loop the
+// west arm (x = -2, northwards) meets an L corner at y = -6 turning east. A path edge taught
+// along the arm's centre up to y = -9 is replayed from the same start; without the approach
+// mode the follower sees the east arm in the far rows and drifts right towards it in the last
+// metres (about 0.2 m: cutting the corner, which the turn at the next node turns into
+// along-track error); in junction mode for the last 2 m it ends markedly closer to the centre.
+TEST(FollowPathEdge, JunctionApproachReducesTheDriftTowardsAnLCornerAhead) {
+  const fs::path dir = temp_dir("approach");
+  const fs::path cfg = dir / "setup.yaml";
+  std::ofstream(cfg) << "robot: {type: sim, params: {world: campus, start_pose: \"-2;-20;90\"}}\n"
+                        "camera: {type: sim, params: {width_px: 320, height_px: 240}}\n"
+                        "nodes: [path_following]\n"
+                        "run: {tick: frame, rate_hz: 10, lockstep: on, log_level: warn}\n";
+  auto config = load_run_config(cfg.string(), {});
+  ASSERT_TRUE(config.ok()) << config.error().message;
+  SessionOptions so;
+  so.map_path = (dir / "map").string();
+  auto created = Session::create(std::move(*config), so);
+  ASSERT_TRUE(created.ok()) << created.error().message;
+  auto& session = *created;
+  SimulationControl* sim = session->robot().simulation();
+  ASSERT_NE(sim, nullptr);
+  const Pose2D start{-2.0, -20.0, std::acos(0.0)};
+  ASSERT_TRUE(sim->set_ground_truth_pose(start).ok());
+  {  // teach: 11 m along the arm's centre line, steered on the ground truth
+    auto teach = tree_from(*session, dir, R"(<TeachPathEdge edge_from="" edge_to="" finish="{finish}"/>)");
+    ASSERT_TRUE(teach.ok()) << teach.error().message;
+    teach->blackboard().set("finish", false);
+    RunOptions ro;
+    ro.after_tick = [&](const TickInfo&) {
+      const Pose2D p = sim->ground_truth_pose();
+      if (p.y_m >= -9.0) {
+        teach->blackboard().set("finish", true);
+        (void)session->robot().stop();
+      } else {
+        (void)session->robot().send_command({0.5, 1.5 * (start.heading_rad - p.heading_rad) - 0.8 * (p.x_m + 2.0)});
+      }
+      return true;
+    };
+    ASSERT_EQ(run_tree(*session, *teach, ro).outcome, RunOutcome::success);
+  }
+  const std::string edge = session->map()->edges().at(0).id;
+  auto replay_end_offset = [&](const std::string& approach) {
+    EXPECT_TRUE(sim->set_ground_truth_pose(start).ok());
+    auto replay = tree_from(*session, dir, "<FollowPathEdge edge=\"" + edge + "\" junction_approach_m=\"" + approach + "\"/>");
+    EXPECT_TRUE(replay.ok()) << replay.error().message;
+    if (!replay.ok()) return 1e9;
+    const RunReport report = run_tree(*session, *replay);
+    EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason;
+    return sim->ground_truth_pose().x_m + 2.0;  // right of the centre line (east) positive
+  };
+  const double plain = replay_end_offset("0");
+  const double approach = replay_end_offset("2");  // as trees/subtrees/traverse_route.xml
+  std::printf("end offset right of the centre line: junction_approach_m=0 %.3f m, =2 %.3f m\n", plain, approach);
+  EXPECT_GT(plain, 0.12) << "the follower no longer cuts towards the corner: the test lost its point";
+  EXPECT_LT(std::abs(approach), 0.75 * plain);
+  fs::remove_all(dir);
+}

@@ -401,3 +401,98 @@ TEST(Stages, RenderHasFivePanelsWithTheFinalRegionTinted) {
   // Panel 2 (superpixels) differs from black below the horizon.
   EXPECT_NE(drawn.at<cv::Vec3b>(200, 320 + 20), cv::Vec3b(0, 0, 0));
 }
+
+// ---------------------------------------------------------------------- appearance summary
+
+namespace {
+
+pf::ColourModel colour_model(double s_cos, double s_sin, double v, double sd, double pixels = 1000.0) {
+  pf::ColourModel m;
+  m.mean = Eigen::Vector3d(s_cos, s_sin, v);
+  m.cov = Eigen::Matrix3d::Identity() * sd * sd;
+  m.pixels = pixels;
+  return m;
+}
+
+}  // namespace
+
+TEST(AppearanceSummary, PoolsTheRecurringSurfaceAndDropsOneCrossedBriefly) {
+  // 10 frames of gravel with slight drift; 3 of them also show asphalt (a junction), and the edge
+  // ends on the asphalt alone — the last frame's models would have been asphalt.
+  const pf::PathFollowerParams params;
+  pf::AppearanceSummary summary(params);
+  for (int i = 0; i < 10; ++i) {
+    const pf::ColourModel gravel = colour_model(20.0, 10.0, 150.0 + i, 12.0);
+    if (i >= 7) {
+      const std::vector<pf::ColourModel> both = {gravel, colour_model(2.0, 1.0, 85.0, 8.0)};
+      summary.add_frame(both);
+    } else {
+      const std::vector<pf::ColourModel> one = {gravel};
+      summary.add_frame(one);
+    }
+  }
+  summary.add_frame({});  // path not seen: not a frame
+  const std::vector<pf::ColourModel> asphalt_only = {colour_model(2.0, 1.0, 86.0, 8.0)};
+  summary.add_frame(asphalt_only);
+  EXPECT_EQ(summary.frames(), 11);
+  const auto out = summary.summary();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_NEAR(out[0].mean.z(), 154.5, 1e-9);  // pooled gravel: mean of 150..159
+  EXPECT_NEAR(out[0].pixels, 10000.0, 1e-9);
+  EXPECT_GT(out[0].cov(2, 2), 144.0);  // the drift widens the pooled spread
+  summary.clear();
+  EXPECT_EQ(summary.frames(), 0);
+  EXPECT_TRUE(summary.summary().empty());
+}
+
+TEST(AppearanceSummary, KeepsEverySurfaceSeenInMostFramesMostFrequentFirst) {
+  const pf::PathFollowerParams params;
+  pf::AppearanceSummary summary(params, 0.5);
+  for (int i = 0; i < 6; ++i) {
+    std::vector<pf::ColourModel> frame = {colour_model(20.0, 10.0, 150.0, 12.0)};
+    if (i % 2 == 0 || i == 5) frame.push_back(colour_model(-30.0, 40.0, 120.0, 10.0));  // 4 of 6 frames
+    summary.add_frame(frame);
+  }
+  const auto out = summary.summary();
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_NEAR(out[0].mean.z(), 150.0, 1e-9);
+  EXPECT_NEAR(out[1].mean.z(), 120.0, 1e-9);
+}
+
+TEST(AppearanceSummary, PoolModelsIsTheMixtureMoments) {
+  const pf::ColourModel a = colour_model(0.0, 0.0, 100.0, 2.0, 300.0);
+  const pf::ColourModel b = colour_model(0.0, 0.0, 110.0, 4.0, 100.0);
+  const pf::ColourModel m = pf::pool_models(a, b);
+  EXPECT_NEAR(m.mean.z(), 102.5, 1e-12);
+  // 0.75·(4 + 2.5²) + 0.25·(16 + 7.5²)
+  EXPECT_NEAR(m.cov(2, 2), 0.75 * (4.0 + 6.25) + 0.25 * (16.0 + 56.25), 1e-9);
+  EXPECT_NEAR(m.cov(0, 0), 0.75 * 4.0 + 0.25 * 16.0, 1e-12);
+  EXPECT_NEAR(m.pixels, 400.0, 1e-12);
+}
+
+TEST(TaughtGate, RejectsADriftedModelAndFallsBackToTheTaughtOnesWithoutCrashing) {
+  // Synthetic scene: the follower is given a taught model far from the scene's path colour, so
+  // every re-learned model is rejected and the taught (wrong) model is used: a clear status, no
+  // crash, the source reported.
+  pf::PathFollowerParams params;
+  auto follower = std::move(pf::PathFollower::create(params).value());
+  const cv::Mat img = make_scene(SceneSpec{}).bgr;
+  follower.set_taught_models({colour_model(200.0, -150.0, 30.0, 3.0)});
+  pf::PathEstimate est;
+  ASSERT_TRUE(follower.process(img, est).ok());
+  EXPECT_GE(est.gated_models, 1);
+  EXPECT_EQ(est.reference_source, pf::ReferenceSource::taught);
+  EXPECT_NE(est.status, pf::PathStatus::ok);  // nothing in view looks like the taught surface
+  // The next frame falls back to the previous accepted models (those the gate kept last frame).
+  ASSERT_TRUE(follower.process(img, est).ok());
+  EXPECT_EQ(est.reference_source, pf::ReferenceSource::previous);
+  // Non-finite taught models are ignored; reset() clears them (gate inactive again).
+  follower.reset();
+  pf::ColourModel bad = colour_model(0, 0, 0, 1);
+  bad.mean.x() = std::nan("");
+  follower.set_taught_models({bad});
+  EXPECT_TRUE(follower.taught_models().empty());
+  ASSERT_TRUE(follower.process(img, est).ok());
+  EXPECT_EQ(est.gated_models, 0);
+  EXPECT_EQ(est.status, pf::PathStatus::ok);
+}

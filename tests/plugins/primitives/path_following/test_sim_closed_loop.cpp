@@ -127,3 +127,45 @@ TEST(SimClosedLoop, LateralOffsetDecaysExponentiallyOnTheStraightSegment) {
     EXPECT_LT(fit->rms, 0.1);
   }
 }
+
+// Campus, the gravel loop's north-south leg (x = 32, heading south) across the junction with the
+// asphalt service road (y = -16, 3 m wide, leaving east). The appearance summary is learned at
+// the start (as TeachPathEdge records it); with the taught-appearance gate the robot crosses the
+// asphalt and keeps to the gravel beyond it. Without the gate (printed for comparison, not
+// asserted) the re-learned models adopt the asphalt and the robot turns east onto the road.
+TEST(SimClosedLoop, CrossesTheAsphaltServiceRoadOnTheGravelPathWithTheTaughtAppearanceGate) {
+  auto world = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/campus.yaml");
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  for (const bool gate : {false, true}) {
+    sim::Renderer renderer(*world, sim::CameraModel{});
+    pf::PathFollowerParams params;
+    if (!gate) params.taught_gate_distance = 0.0;
+    auto follower = std::move(pf::PathFollower::create(params).value());
+    Unicycle robot{visnav::Pose2D{32.0, -9.0, -std::numbers::pi / 2.0}};
+    cv::Mat bgr;
+    pf::PathEstimate est;
+    renderer.render(robot.pose, bgr);
+    ASSERT_TRUE(follower.process(bgr, est).ok());
+    ASSERT_EQ(est.status, pf::PathStatus::ok);
+    follower.set_taught_models(follower.reference_models());
+    double max_dx = 0.0;
+    int steps = 0, gated_frames = 0, not_ok = 0;
+    for (; steps < 320 && robot.pose.y_m > -23.0; ++steps) {
+      renderer.render(robot.pose, bgr);
+      ASSERT_TRUE(follower.process(bgr, est).ok());
+      if (est.reference_source != pf::ReferenceSource::learned) ++gated_frames;
+      if (est.status != pf::PathStatus::ok) ++not_ok;
+      robot.step(est.command);
+      max_dx = std::max(max_dx, std::abs(robot.pose.x_m - 32.0));
+      if (max_dx > 1.5) break;  // left the path (without the gate: onto the road)
+    }
+    std::printf("junction %s gate: %d steps, end (%.2f, %.2f), max |x - 32| %.2f m, %d frames on the taught/previous "
+                "models, %d non-ok frames\n",
+                gate ? "with" : "without", steps, robot.pose.x_m, robot.pose.y_m, max_dx, gated_frames, not_ok);
+    if (gate) {
+      EXPECT_LE(robot.pose.y_m, -23.0) << "crossed the junction";
+      EXPECT_LT(max_dx, 1.1) << "stayed on the 2.2 m gravel path";
+      EXPECT_GT(gated_frames, 0);
+    }
+  }
+}

@@ -36,9 +36,13 @@ struct Figures {
   double min_iou = 1.0;
   int frames = 0;
   int ok_frames = 0;
+  int gated_frames = 0;  ///< frames where the taught-appearance gate rejected a model
 };
 
-Figures evaluate(const std::string& world_name, const std::vector<View>& views) {
+/// Mean IoU of `views`; with `taught`, the follower first learns the appearance summary from
+/// that view (as TeachPathEdge records it) and gates every frame against it (default
+/// taught_gate_distance).
+Figures evaluate(const std::string& world_name, const std::vector<View>& views, const View* taught = nullptr) {
   Figures fig;
   const std::string path = std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/" + world_name + ".yaml";
   auto world = sim::load_world(path);
@@ -62,6 +66,16 @@ Figures evaluate(const std::string& world_name, const std::vector<View>& views) 
   const char* dump = std::getenv("VISNAV_PATHSEG_DUMP");
   cv::Mat bgr, labels, truth;
   pf::PathEstimate est;
+  if (taught != nullptr) {
+    renderer.render(visnav::Pose2D{taught->x_m, taught->y_m, taught->heading_deg * std::numbers::pi / 180.0}, bgr);
+    EXPECT_TRUE(follower.process(bgr, est).ok());
+    EXPECT_EQ(est.status, pf::PathStatus::ok) << "taught view";
+    std::vector<pf::ColourModel> summary = follower.reference_models();
+    EXPECT_FALSE(summary.empty());
+    follower.reset();
+    follower.set_taught_models(std::move(summary));
+  }
+  int gated_frames = 0;
   double sum = 0.0;
   for (const auto& v : views) {
     renderer.render(visnav::Pose2D{v.x_m, v.y_m, v.heading_deg * std::numbers::pi / 180.0}, bgr, &labels);
@@ -70,12 +84,15 @@ Figures evaluate(const std::string& world_name, const std::vector<View>& views) 
     EXPECT_TRUE(st.ok());
     if (!st.ok()) continue;
     const double iou = pf::testing::mask_iou(est.mask, truth);
+    if (est.gated_models > 0) ++gated_frames;
     sum += iou;
     fig.min_iou = std::min(fig.min_iou, iou);
     ++fig.frames;
     if (est.status == pf::PathStatus::ok) ++fig.ok_frames;
-    std::printf("%s (%.2f, %.2f, %+.0f deg): status %s IoU %.3f omega %+.3f\n", world_name.c_str(), v.x_m, v.y_m,
-                v.heading_deg, std::string(pf::to_string(est.status)).c_str(), iou, est.command.angular_radps);
+    std::printf("%s%s (%.2f, %.2f, %+.0f deg): status %s IoU %.3f omega %+.3f gated %d (%s)\n", world_name.c_str(),
+                taught != nullptr ? " gated" : "", v.x_m, v.y_m, v.heading_deg,
+                std::string(pf::to_string(est.status)).c_str(), iou, est.command.angular_radps, est.gated_models,
+                std::string(pf::to_string(est.reference_source)).c_str());
     if (dump != nullptr) {
       char name[256];
       std::snprintf(name, sizeof name, "%s/%s_%.2f_%.2f_%+.0f.png", dump, world_name.c_str(), v.x_m, v.y_m,
@@ -84,25 +101,19 @@ Figures evaluate(const std::string& world_name, const std::vector<View>& views) 
     }
   }
   if (fig.frames > 0) fig.mean_iou = sum / fig.frames;
+  fig.gated_frames = gated_frames;
   return fig;
 }
 
-}  // namespace
-
-TEST(SimSegmentation, Straight6mPathIoU) {
+std::vector<View> straight6m_views() {
   std::vector<View> views;
   for (double x : {0.0, 1.5, 3.0, 4.5})
     for (double y : {-0.5, -0.25, 0.0, 0.25, 0.5})
       for (double h : {-15.0, 0.0, 15.0}) views.push_back({x, y, h});
-  const auto fig = evaluate("straight6m", views);
-  std::printf("straight6m: %d frames, %d ok, mean IoU %.3f, min IoU %.3f\n", fig.frames, fig.ok_frames, fig.mean_iou,
-              fig.min_iou);
-  EXPECT_EQ(fig.ok_frames, fig.frames);
-  EXPECT_GE(fig.mean_iou, 0.85);
-  EXPECT_GE(fig.min_iou, 0.75);
+  return views;
 }
 
-TEST(SimSegmentation, CampusGravelLoopIoU) {
+std::vector<View> campus_views() {
   // Along the gravel loop's east-west leg (y = -26, heading west) and north-south leg
   // (x = 32, heading south), on and beside the centre line.
   std::vector<View> views;
@@ -110,9 +121,152 @@ TEST(SimSegmentation, CampusGravelLoopIoU) {
     for (double dy : {-0.5, 0.0, 0.5}) views.push_back({x, -26.0 + dy, 180.0});
   for (double y : {-8.0, -12.0, -20.0})
     for (double dx : {-0.5, 0.0, 0.5}) views.push_back({32.0 + dx, y, -90.0});
-  const auto fig = evaluate("campus", views);
-  std::printf("campus: %d frames, %d ok, mean IoU %.3f, min IoU %.3f\n", fig.frames, fig.ok_frames, fig.mean_iou,
-              fig.min_iou);
+  return views;
+}
+
+}  // namespace
+
+// Each IoU figure is measured twice: as before (no taught summary) and with the taught-appearance
+// gate (summary learned from one view on the path centre, as TeachPathEdge records it; default
+// taught_gate_distance). The gate must not cost segmentation quality.
+TEST(SimSegmentation, Straight6mPathIoU) {
+  const View taught{0.0, 0.0, 0.0};
+  const auto fig = evaluate("straight6m", straight6m_views());
+  const auto gated = evaluate("straight6m", straight6m_views(), &taught);
+  std::printf("straight6m: %d frames, %d ok, mean IoU %.3f, min IoU %.3f; with the taught-appearance gate: %d ok, "
+              "mean IoU %.3f, min IoU %.3f (a model rejected in %d frames)\n",
+              fig.frames, fig.ok_frames, fig.mean_iou, fig.min_iou, gated.ok_frames, gated.mean_iou, gated.min_iou,
+              gated.gated_frames);
+  EXPECT_EQ(fig.ok_frames, fig.frames);
+  EXPECT_GE(fig.mean_iou, 0.85);
+  EXPECT_GE(fig.min_iou, 0.75);
+  EXPECT_EQ(gated.ok_frames, gated.frames);
+  EXPECT_GE(gated.mean_iou, 0.85);
+  EXPECT_GE(gated.mean_iou, fig.mean_iou - 0.01);
+  EXPECT_GE(gated.min_iou, 0.75);
+}
+
+TEST(SimSegmentation, CampusGravelLoopIoU) {
+  const View taught{32.0, -9.0, -90.0};
+  const auto fig = evaluate("campus", campus_views());
+  const auto gated = evaluate("campus", campus_views(), &taught);
+  std::printf("campus: %d frames, %d ok, mean IoU %.3f, min IoU %.3f; with the taught-appearance gate: %d ok, mean "
+              "IoU %.3f, min IoU %.3f (a model rejected in %d frames)\n",
+              fig.frames, fig.ok_frames, fig.mean_iou, fig.min_iou, gated.ok_frames, gated.mean_iou, gated.min_iou,
+              gated.gated_frames);
   EXPECT_GE(fig.ok_frames, fig.frames - 2);
   EXPECT_GE(fig.mean_iou, 0.85);
+  EXPECT_GE(gated.ok_frames, gated.frames - 2);
+  EXPECT_GE(gated.mean_iou, 0.85);
+  EXPECT_GE(gated.mean_iou, fig.mean_iou - 0.01);
+}
+
+// Campus: the asphalt service road crosses the east side of the gravel loop's north-south leg at
+// y = -16. Standing on the asphalt with the trapezoid on it, the ungated follower re-learns
+// asphalt as "path"; with the taught gravel summary the gate rejects that model, keeps the gravel
+// one and the region is the gravel ahead.
+TEST(SimSegmentation, TaughtAppearanceGateKeepsTheGravelModelOnCrossingAsphalt) {
+  auto world = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/campus.yaml");
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  int gravel_id = -1, asphalt_id = -1;
+  for (std::size_t i = 0; i < (*world)->regions.size(); ++i) {
+    if ((*world)->regions[i].name == "gravel_loop") gravel_id = static_cast<int>(i) + 1;
+    if ((*world)->regions[i].name == "service_road") asphalt_id = static_cast<int>(i) + 1;
+  }
+  ASSERT_GT(gravel_id, 0);
+  ASSERT_GT(asphalt_id, 0);
+  sim::Renderer renderer(*world, sim::CameraModel{});
+  const auto pose = [](double x, double y, double deg) { return visnav::Pose2D{x, y, deg * std::numbers::pi / 180.0}; };
+  cv::Mat bgr, labels, ids;
+
+  // Teach: the appearance summary on the gravel, north of the junction.
+  auto teacher = std::move(pf::PathFollower::create(pf::PathFollowerParams{}).value());
+  renderer.render(pose(32.0, -9.0, -90.0), bgr);
+  pf::PathEstimate est;
+  ASSERT_TRUE(teacher.process(bgr, est).ok());
+  ASSERT_EQ(est.status, pf::PathStatus::ok);
+  const std::vector<pf::ColourModel> summary = teacher.reference_models();
+  ASSERT_FALSE(summary.empty());
+
+  // Share of the region's pixels on a given world region.
+  auto share_on = [&](const cv::Mat& mask, int id) {
+    const double region = cv::countNonZero(mask);
+    if (region <= 0) return 0.0;
+    cv::Mat on;
+    cv::bitwise_and(mask != 0, ids == id, on);
+    return cv::countNonZero(on) / region;
+  };
+  // Distance of a model's mean to the nearest taught model (the gate's distance).
+  auto gate_distance = [&](const pf::ColourModel& m) {
+    double best = 1e300;
+    for (const auto& t : summary) best = std::min(best, std::sqrt(pf::class_distance_sq(m, t, pf::PathFollowerParams{}.colour_noise_floor)));
+    return best;
+  };
+
+  // On the gravel (no asphalt in the trapezoid) the re-learned models pass the gate.
+  for (const double y : {-7.0, -11.0, -12.5, -20.0, -23.0}) {
+    auto follower = std::move(pf::PathFollower::create(pf::PathFollowerParams{}).value());
+    follower.set_taught_models(summary);
+    renderer.render(pose(32.0, y, -90.0), bgr);
+    ASSERT_TRUE(follower.process(bgr, est).ok());
+    double worst = 0.0;
+    for (const auto& m : follower.reference_models()) worst = std::max(worst, gate_distance(m));
+    std::printf("gravel at y = %.1f: %d models, largest distance to the taught summary %.2f sigma, gated %d\n", y,
+                est.reference_models, worst, est.gated_models);
+    EXPECT_EQ(est.gated_models, 0) << "y = " << y;
+    EXPECT_EQ(est.reference_source, pf::ReferenceSource::learned);
+  }
+
+  // On the asphalt.
+  for (const auto& at : {pose(32.5, -14.5, -90.0), pose(32.3, -16.0, -95.0)}) {
+    renderer.render(at, bgr, &labels, &ids);
+    auto ungated = std::move(pf::PathFollower::create(pf::PathFollowerParams{}).value());
+    ASSERT_TRUE(ungated.process(bgr, est).ok());
+    ASSERT_FALSE(ungated.reference_models().empty());
+    const double learned_distance = gate_distance(ungated.reference_models().front());
+    const double ungated_on_asphalt = share_on(est.mask, asphalt_id);
+    const double ungated_on_gravel = share_on(est.mask, gravel_id);
+
+    auto gated = std::move(pf::PathFollower::create(pf::PathFollowerParams{}).value());
+    gated.set_taught_models(summary);
+    ASSERT_TRUE(gated.process(bgr, est).ok());
+    const double gated_on_asphalt = share_on(est.mask, asphalt_id);
+    const double gated_on_gravel = share_on(est.mask, gravel_id);
+    std::printf("asphalt at (%.1f, %.1f): re-learned model %.2f sigma from the taught gravel; ungated region %.0f%% "
+                "asphalt / %.0f%% gravel; gated (%d rejected, %s models): status %s, region %.0f%% asphalt / %.0f%% "
+                "gravel, omega %+.3f\n",
+                at.x_m, at.y_m, learned_distance, 100 * ungated_on_asphalt, 100 * ungated_on_gravel, est.gated_models,
+                std::string(pf::to_string(est.reference_source)).c_str(), std::string(pf::to_string(est.status)).c_str(),
+                100 * gated_on_asphalt, 100 * gated_on_gravel, est.command.angular_radps);
+    EXPECT_GT(learned_distance, pf::PathFollowerParams{}.taught_gate_distance);
+    EXPECT_GT(ungated_on_asphalt, 0.8) << "the ungated follower takes the asphalt for the path";
+    EXPECT_GE(est.gated_models, 1);
+    EXPECT_EQ(est.reference_source, pf::ReferenceSource::taught);
+    ASSERT_EQ(gated.reference_models().size(), summary.size());
+    EXPECT_TRUE(gated.reference_models().front().mean.isApprox(summary.front().mean));
+    EXPECT_EQ(est.status, pf::PathStatus::ok);
+    EXPECT_GT(gated_on_gravel, 0.8) << "the gated region is the gravel ahead";
+    EXPECT_LT(gated_on_asphalt, 0.1);
+  }
+
+  // Gate off (taught_gate_distance = 0): the taught models change nothing.
+  pf::PathFollowerParams off;
+  off.taught_gate_distance = 0.0;
+  auto no_gate = std::move(pf::PathFollower::create(off).value());
+  no_gate.set_taught_models(summary);
+  renderer.render(pose(32.5, -14.5, -90.0), bgr, &labels, &ids);
+  ASSERT_TRUE(no_gate.process(bgr, est).ok());
+  EXPECT_EQ(est.gated_models, 0);
+  EXPECT_GT(share_on(est.mask, asphalt_id), 0.8);
+}
+
+TEST(SimSegmentation, TaughtGateDistanceIsValidated) {
+  pf::PathFollowerParams p;
+  p.taught_gate_distance = 0.0;
+  EXPECT_TRUE(p.validate().ok());
+  p.taught_gate_distance = p.class_distance - 0.5;  // tighter than the classification: refused
+  EXPECT_FALSE(p.validate().ok());
+  visnav::ConfigNode node;
+  node.set("taught_gate_distance", visnav::ConfigNode::make_scalar("-1", {"test", 1}));
+  EXPECT_FALSE(pf::PathFollowerParams::schema().parse(node).ok());
 }

@@ -40,6 +40,19 @@ struct TurnParams {
 /// Relative turns are immune to the odometric heading drift accumulated since teaching.
 [[nodiscard]] double turn_between_edges_rad(const EdgeRecord& previous, const EdgeRecord& next);
 
+/// Edge statistic written by TeachRoute: odometric distance the robot travelled between the end
+/// of the previous edge and the start of this one while teaching (its stopping distance), m.
+inline constexpr const char* kStartGapStatistic = "start_gap_m";
+
+/// Along-track distance the robot has already covered of the next edge when that edge starts
+/// (FollowRoute's `carried_m`): the previous edge's primitive stops only once the odometric
+/// length is reached, so the robot starts the next edge `beyond_end_m` past the previous edge's
+/// end (the last frame's overshoot plus the stopping distance). While teaching it also stopped
+/// past the node, by `taught_gap_m`. The difference, projected onto the next edge's direction
+/// (`turn_rad` between them; a 90° turn projects to 0), clamped to ±max_carry_m (>= 0).
+[[nodiscard]] double carried_distance_m(double beyond_end_m, double taught_gap_m, double turn_rad,
+                                        double max_carry_m);
+
 /// A "kind=NodeID" table mapping edge kinds to the behaviour-tree node that handles them.
 using KindMap = std::vector<std::pair<std::string, std::string>>;
 

@@ -50,6 +50,10 @@ struct PathFollowerParams {
   double class_distance = 3.0;       ///< a segment is path when its mean is this close to a reference model
   double colour_noise_floor = 4.0;   ///< std added in quadrature on every colour axis (regularises Σ)
   double model_blend = 0.0;          ///< weight of the previous frame's reference models, [0, 1)
+  /// Taught-appearance gate (PathFollower::set_taught_models): a re-learned reference model whose
+  /// mean is farther than this (classification distance in the taught model's spread, σ) from
+  /// every taught model is rejected; 0 = off. Without taught models the gate is inactive.
+  double taught_gate_distance = 6.0;
 
   // --- Mask post-processing and status. ---
   int opening_kernel_px = 5;         ///< elliptic opening kernel size (0 = off)

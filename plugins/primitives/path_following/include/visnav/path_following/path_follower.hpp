@@ -9,6 +9,16 @@
 //   mean to the nearest reference model → binary mask → morphological opening → the connected
 //   component with the largest overlap with the trapezoid → its external contour → row-wise
 //   middle points → control law (1).
+// Taught-appearance gate (taught_gate_distance > 0 and taught models set with
+//   set_taught_models, e.g. the edge's appearance summary): every re-learned reference model
+//   whose mean lies farther than taught_gate_distance from every taught model (classification
+//   distance, measured in the taught model's spread) is rejected before blending. When all are
+//   rejected (the trapezoid stands on another surface, e.g. asphalt crossing a gravel path) the
+//   previous frame's accepted models are used, or the taught models when there are none.
+//   Whenever the gate rejected a model, the trapezoid holds another surface and cannot anchor the
+//   region: the region is then every path component of at least min_area_share of the ground
+//   image (the gravel left and right of a crossing road and beyond it), not only the one
+//   overlapping the trapezoid, so the row-wise middle points stay on the taught path.
 // Edge-straddling fallback: when that component covers more than multi_model_max_share of the
 //   ground image and several reference models were kept, the least covering model is dropped and the
 //   classification repeated (the trapezoid then straddled the path edge and the surroundings'
@@ -62,6 +72,15 @@ enum class PathStatus {
 
 [[nodiscard]] std::string_view to_string(PathStatus status);
 
+/// Origin of the reference models a frame was classified with (see the taught-appearance gate).
+enum class ReferenceSource {
+  learned,   ///< re-learned from this frame's reference region (possibly blended)
+  previous,  ///< every re-learned model failed the gate: the previous frame's accepted models
+  taught,    ///< every re-learned model failed the gate and there were none: the taught models
+};
+
+[[nodiscard]] std::string_view to_string(ReferenceSource source);
+
 /// Smallest accepted input image.
 inline constexpr int kMinImageWidthPx = 32;
 inline constexpr int kMinImageHeightPx = 24;
@@ -96,6 +115,41 @@ struct ColourMoments {
 [[nodiscard]] double class_distance_sq(const ColourModel& segment, const ColourModel& reference,
                                        double noise_floor);
 
+/// Pools two models as a pixel-weighted mixture (moment matching); pixels add up. A model with
+/// no pixels counts as one pixel.
+[[nodiscard]] ColourModel pool_models(const ColourModel& a, const ColourModel& b);
+
+/// The appearance summary of a taught edge (TeachPathEdge): a streaming clustering of the
+/// reference models of the frames seen while teaching. Each frame's models are matched to the
+/// nearest cluster within ref_merge_distance (merge distance) and pooled into it, or start a new
+/// cluster; a cluster counts the frames it was seen in. summary() keeps the clusters seen in at
+/// least `min_frame_share` of the frames (always the most frequent one), most frequent first — so
+/// a surface crossed briefly (a road at a junction, a shadow) stays out of the summary wherever
+/// the edge ends. Memory grows with the number of distinct surfaces, not with the edge length.
+/// Not thread-safe; plain value type.
+class AppearanceSummary {
+ public:
+  /// `params` supplies ref_merge_distance and colour_noise_floor; min_frame_share in (0, 1].
+  explicit AppearanceSummary(const PathFollowerParams& params, double min_frame_share = 0.5);
+  /// One frame's reference models (ignored when empty: the path was not seen).
+  void add_frame(std::span<const ColourModel> models);
+  [[nodiscard]] std::vector<ColourModel> summary() const;
+  [[nodiscard]] int frames() const { return frames_; }
+  void clear();
+
+ private:
+  struct Cluster {
+    ColourModel model;
+    int frames = 0;
+    int last_frame = -1;
+  };
+  double merge_distance_ = 2.0;
+  double noise_floor_ = 4.0;
+  double min_frame_share_ = 0.5;
+  int frames_ = 0;
+  std::vector<Cluster> clusters_;
+};
+
 /// Horizon estimate for one image.
 struct HorizonEstimate {
   int row_px = 0;          ///< first row of the sky/far part's boundary; ground starts below it
@@ -128,6 +182,8 @@ struct PathEstimate {
   double mean_intensity = 0.0;            ///< mean grey level of the ground image
   int segments = 0;                       ///< number of superpixels
   int reference_models = 0;               ///< reference models used for classification
+  int gated_models = 0;                   ///< re-learned models rejected by the taught-appearance gate
+  ReferenceSource reference_source = ReferenceSource::learned;  ///< where the models in use came from
   Twist command;                          ///< (v, ω); zero unless status == ok
 };
 
@@ -164,9 +220,16 @@ class PathFollower {
   /// Convenience form returning a fresh estimate (allocates).
   Result<PathEstimate> process(const cv::Mat& bgr);
 
-  /// Forgets the reference models carried to the next frame for blending (call at the start
-  /// of a new edge). Frames without reference models (dark, no reference) keep the previous ones.
+  /// Forgets the reference models carried to the next frame for blending and the taught models
+  /// of the gate (call at the start of a new edge, then set_taught_models / set_prior_models).
+  /// Frames without reference models (dark, no reference) keep the previous ones.
   void reset();
+
+  /// Sets the taught appearance the re-learned reference models are gated against (see the file
+  /// comment; active when taught_gate_distance > 0). Empty: no gate. Models with a non-finite
+  /// mean or covariance are ignored.
+  void set_taught_models(std::vector<ColourModel> models);
+  [[nodiscard]] const std::vector<ColourModel>& taught_models() const { return taught_models_; }
 
   /// Sets the models the next frame blends with (model_blend > 0), e.g. the appearance summary
   /// recorded when the edge was taught (reference_models() at teach time).
@@ -193,10 +256,15 @@ class PathFollower {
   void build_reference_roi(int ground_rows, int width);
   void accumulate_segment_statistics(const cv::Mat& hsv, const cv::Mat& labels, const cv::Mat& roi, int segments);
   int learn_reference_models(double roi_pixels);
+  /// The taught-appearance gate on stages_.reference_models / kept_clusters_ (parallel);
+  /// sets gated_models_ and reference_source_.
+  void gate_reference_models();
   void classify_segments(int segments, int used_models);
   /// Classifies with the first `used_models` reference models, opens, keeps the component
-  /// overlapping the reference region most in region_; returns its pixel count.
-  int extract_region(int segments, int used_models, const cv::Mat& labels, const cv::Mat& roi);
+  /// overlapping the reference region most in region_ (with `all_large_components`: every
+  /// component of at least min_area_share of the ground image); returns the region's pixel count.
+  int extract_region(int segments, int used_models, const cv::Mat& labels, const cv::Mat& roi,
+                     bool all_large_components);
   /// Row-wise middle points of the region (junction mode: see set_junction_mode); returns the
   /// number of rows containing path.
   int extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const;
@@ -224,12 +292,17 @@ class PathFollower {
   std::vector<int> order_;
   std::vector<int> segment_cluster_;
   std::vector<Cluster> clusters_;
-  std::vector<int> kept_clusters_;  // cluster ids of the reference models, by coverage
+  std::vector<int> kept_clusters_;  // cluster id of each reference model (−1: not from this frame)
   std::vector<ColourModel> previous_models_;
+  std::vector<ColourModel> taught_models_;
+  std::vector<Eigen::Matrix3d> taught_inverse_;  // (Σt + λI)⁻¹ per taught model
+  int gated_models_ = 0;
+  ReferenceSource reference_source_ = ReferenceSource::learned;
   bool junction_mode_ = false;
   std::vector<Eigen::Matrix3d> reference_inverse_;
   std::vector<std::uint8_t> segment_is_path_;
   std::vector<double> component_overlap_;
+  std::vector<double> component_pixels_;
   std::vector<std::vector<cv::Point>> contours_;
   std::vector<cv::Vec4i> hierarchy_;
   PathStages stages_;

@@ -1,0 +1,62 @@
+#include "sim_session_util.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#ifndef VISNAV_SOURCE_DIR
+#error "VISNAV_SOURCE_DIR must name the source tree (target_compile_definitions)"
+#endif
+
+namespace fs = std::filesystem;
+
+namespace visnav::simop {
+
+std::string project_file(const std::string& path) {
+  if (path.empty() || fs::exists(path) || fs::path(path).is_absolute()) return path;
+  const fs::path in_source = fs::path(VISNAV_SOURCE_DIR) / path;
+  return fs::exists(in_source) ? in_source.string() : path;
+}
+
+Result<double> parse_number(const std::string& text, double lo, double hi, const std::string& what) {
+  char* end = nullptr;
+  const double x = std::strtod(text.c_str(), &end);
+  if (text.empty() || end == text.c_str() || *end != '\0' || !std::isfinite(x) || !(x >= lo && x <= hi))
+  {
+    std::ostringstream range;  // shortest form: [1, 100], [0.05, 2]
+    range << "[" << lo << ", " << hi << "]";
+    return fail(what + ": '" + text + "' is not a number in " + range.str());
+  }
+  return x;
+}
+
+std::string fixed(double v, int precision) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(precision) << v;
+  return s.str();
+}
+
+void ProgressLine::show(const std::string& phase, double done, double total, const std::string& unit) {
+  const auto now = std::chrono::steady_clock::now();
+  if (drawn_ && now - last_ < std::chrono::milliseconds(500) && done < total) return;
+  last_ = now;
+  drawn_ = true;
+  const int width = 30;
+  const double share = total > 0 ? std::clamp(done / total, 0.0, 1.0) : 0.0;
+  const int filled = static_cast<int>(share * width);
+  std::fprintf(stderr, "\r  %-30s [%s%s] %6.1f / %.1f %s   ", phase.c_str(), std::string(filled, '#').c_str(),
+               std::string(width - filled, '.').c_str(), done, total, unit.c_str());
+  std::fflush(stderr);
+}
+
+void ProgressLine::end() {
+  if (!drawn_) return;
+  std::fprintf(stderr, "\n");
+  drawn_ = false;
+}
+
+}  // namespace visnav::simop

@@ -3,12 +3,7 @@
 // runtime is SIGKILLed, with an odometry subscriber in this test process.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -17,91 +12,18 @@
 #include <fstream>
 #include <mutex>
 
+#include "child_process.hpp"
 #include "dds_test_util.hpp"
 #include "visnav/dds.hpp"
 
-extern char** environ;
-
 namespace dds = visnav::dds;
 namespace fs = std::filesystem;
+using dds::testing::ChildProcess;
 using dds::testing::eventually;
+using dds::testing::slurp;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-/// A child process with its stdout on a pipe (stderr goes to a log file).
-class Child {
- public:
-  Child(const std::vector<std::string>& args, const std::string& stderr_path) {
-    int out[2];
-    if (::pipe(out) != 0) return;
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, out[1], STDOUT_FILENO);
-    posix_spawn_file_actions_addclose(&fa, out[0]);
-    posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    if (posix_spawn(&pid_, argv[0], &fa, nullptr, argv.data(), environ) != 0) pid_ = -1;
-    posix_spawn_file_actions_destroy(&fa);
-    ::close(out[1]);
-    stdout_fd_ = out[0];
-    ::fcntl(stdout_fd_, F_SETFL, O_NONBLOCK);
-  }
-  ~Child() {
-    if (pid_ > 0 && !exited_) {
-      ::kill(pid_, SIGKILL);
-      int st = 0;
-      ::waitpid(pid_, &st, 0);
-    }
-    if (stdout_fd_ >= 0) ::close(stdout_fd_);
-  }
-  [[nodiscard]] bool started() const { return pid_ > 0; }
-  /// Reads stdout until `text` appears or `timeout_s` passes.
-  bool wait_for_output(const std::string& text, double timeout_s) {
-    const auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
-    while (Clock::now() < end) {
-      if (output_.find(text) != std::string::npos) return true;
-      pollfd p{stdout_fd_, POLLIN, 0};
-      if (::poll(&p, 1, 20) > 0) {
-        char buf[4096];
-        const ssize_t n = ::read(stdout_fd_, buf, sizeof buf);
-        if (n > 0) output_.append(buf, static_cast<std::size_t>(n));
-      }
-      if (exited()) return output_.find(text) != std::string::npos;
-    }
-    return output_.find(text) != std::string::npos;
-  }
-  void signal(int sig) { ::kill(pid_, sig); }
-  /// True once the process has exited (reaps it).
-  bool exited() {
-    if (exited_) return true;
-    int st = 0;
-    if (::waitpid(pid_, &st, WNOHANG) == pid_) {
-      exited_ = true;
-      status_ = st;
-    }
-    return exited_;
-  }
-  /// Waits for exit; returns the exit code (128+signal when killed), or -1 on timeout.
-  int wait(double timeout_s) {
-    if (!eventually([&] { return exited(); }, timeout_s)) return -1;
-    return WIFEXITED(status_) ? WEXITSTATUS(status_) : 128 + WTERMSIG(status_);
-  }
-
- private:
-  pid_t pid_ = -1;
-  int stdout_fd_ = -1;
-  std::string output_;
-  bool exited_ = false;
-  int status_ = 0;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 struct OdomSample {
   Clock::time_point received;
@@ -154,8 +76,8 @@ class TwoProcess : public ::testing::Test {
     }
   }
 
-  std::unique_ptr<Child> start_simd() {
-    auto c = std::make_unique<Child>(
+  std::unique_ptr<ChildProcess> start_simd() {
+    auto c = std::make_unique<ChildProcess>(
         std::vector<std::string>{VISNAV_TEST_CLI, "simd", "--world", "straight6m", "--domain", std::to_string(domain_),
                                  "--partition", partition_, "--duration", "60", "--camera-rate", "10"},
         (dir_ / "simd.log").string());
@@ -163,8 +85,8 @@ class TwoProcess : public ::testing::Test {
     EXPECT_TRUE(c->wait_for_output("simd: ready", 20.0)) << slurp(dir_ / "simd.log");
     return c;
   }
-  std::unique_ptr<Child> start_run() {
-    auto c = std::make_unique<Child>(
+  std::unique_ptr<ChildProcess> start_run() {
+    auto c = std::make_unique<ChildProcess>(
         std::vector<std::string>{VISNAV_TEST_CLI, "run", "--config", (dir_ / "run.yaml").string(), "--tree",
                                  (dir_ / "drive.xml").string(), "--plugin-path", VISNAV_TEST_FIXTURE_PLUGIN_DIR},
         (dir_ / "run.log").string());
@@ -273,7 +195,7 @@ TEST_F(TwoProcess, MonitorPrintsTelemetryAndSendsControlRequests) {
   auto control = dds::ControlSubscriber::create(params, logger);
   ASSERT_TRUE(control.ok()) << control.error().message;
 
-  Child monitor({VISNAV_TEST_CLI, "monitor", "--domain", std::to_string(domain_), "--partition", partition_, "--count",
+  ChildProcess monitor({VISNAV_TEST_CLI, "monitor", "--domain", std::to_string(domain_), "--partition", partition_, "--count",
                  "2", "--duration", "20"},
                 (dir_ / "monitor.log").string());
   ASSERT_TRUE(monitor.started());
@@ -293,11 +215,11 @@ TEST_F(TwoProcess, MonitorPrintsTelemetryAndSendsControlRequests) {
   (*telemetry)->publish(s);
   ASSERT_TRUE(monitor.wait_for_output("arrived", 10.0)) << slurp(dir_ / "monitor.log");
   EXPECT_EQ(monitor.wait(5.0), 0);
-  EXPECT_TRUE(monitor.wait_for_output("replaying", 0.1));  // output so far is kept by Child
+  EXPECT_TRUE(monitor.wait_for_output("replaying", 0.1));  // output so far is kept by ChildProcess
   EXPECT_TRUE(monitor.wait_for_output("Main/Replay", 0.1));
   EXPECT_TRUE(monitor.wait_for_output("inl   61/90", 0.1));
 
-  Child send({VISNAV_TEST_CLI, "monitor", "--send", "swap_detector", "--arg", "orb", "--domain", std::to_string(domain_),
+  ChildProcess send({VISNAV_TEST_CLI, "monitor", "--send", "swap_detector", "--arg", "orb", "--domain", std::to_string(domain_),
               "--partition", partition_, "--wait", "10"},
              (dir_ / "send.log").string());
   ASSERT_TRUE(send.started());

@@ -83,14 +83,8 @@ struct DdsMission {
   std::atomic<int> no_signal{0};
 
   bool start(const std::string& config, const std::string& tree_xml) {
-    dir.write("tree.xml", tree_xml);
-    auto s = visnav::test::fixture_session(dir.write("c.yaml", config), &log);
-    if (!s) {
-      ADD_FAILURE() << s.error().message;
-      return false;
-    }
-    session = std::move(s).value();
-    return true;
+    session = visnav::test::start_fixture_session(dir, config, tree_xml, &log);
+    return session != nullptr;
   }
   /// Fixture robot/camera/detector + the dds block of this test's endpoints.
   bool start_default(const std::string& tree_xml, const std::string& run = "{}", const std::string& dds_extra = "") {
@@ -98,12 +92,7 @@ struct DdsMission {
   }
   RunReport run(RunOptions options = {}) {
     if (options.stop_requested == nullptr) options.stop_requested = &no_signal;
-    auto tree = session->load_tree(dir.file("tree.xml"));
-    if (!tree) {
-      ADD_FAILURE() << tree.error().message;
-      return {};
-    }
-    return run_tree(*session, *tree, options);
+    return visnav::test::run_tree_file(*session, dir.file("tree.xml"), options);
   }
   std::unique_ptr<dds::ControlPublisher> publisher() {
     auto p = dds::ControlPublisher::create(endpoints);

@@ -116,4 +116,27 @@ inline Result<std::unique_ptr<Session>> fixture_session(const std::string& confi
   return Session::create(std::move(config), fixture_options(logger));
 }
 
+/// Writes `tree_xml` as tree.xml and `config` as c.yaml into `dir` and creates a session on the
+/// fixture plugins; fails the test (nullptr) on error.
+inline std::unique_ptr<Session> start_fixture_session(const TempDir& dir, const std::string& config,
+                                                      const std::string& tree_xml, Logger* logger) {
+  dir.write("tree.xml", tree_xml);
+  auto s = fixture_session(dir.write("c.yaml", config), logger);
+  if (!s) {
+    ADD_FAILURE() << s.error().message;
+    return nullptr;
+  }
+  return std::move(s).value();
+}
+
+/// Loads `tree_file` into `session` and runs it; fails the test (empty report) when it does not load.
+inline RunReport run_tree_file(Session& session, const std::string& tree_file, const RunOptions& options) {
+  auto tree = session.load_tree(tree_file);
+  if (!tree) {
+    ADD_FAILURE() << tree.error().message;
+    return {};
+  }
+  return run_tree(session, *tree, options);
+}
+
 }  // namespace visnav::test

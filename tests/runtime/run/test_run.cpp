@@ -17,24 +17,13 @@ struct Mission {
 
   /// Creates the session; fails the test (and returns false) on error.
   bool start(const std::string& config, const std::string& tree_xml = visnav::test::drive_tree(1.0)) {
-    dir.write("tree.xml", tree_xml);
-    auto s = visnav::test::fixture_session(dir.write("c.yaml", config), &log);
-    if (!s) {
-      ADD_FAILURE() << s.error().message;
-      return false;
-    }
-    session = std::move(s).value();
-    return true;
+    session = visnav::test::start_fixture_session(dir, config, tree_xml, &log);
+    return session != nullptr;
   }
   RunReport run(RunOptions options = {}) {
     std::atomic<int> no_signal{0};
     if (options.stop_requested == nullptr) options.stop_requested = &no_signal;
-    auto tree = session->load_tree(dir.file("tree.xml"));
-    if (!tree) {
-      ADD_FAILURE() << tree.error().message;
-      return {};
-    }
-    return run_tree(*session, *tree, options);
+    return visnav::test::run_tree_file(*session, dir.file("tree.xml"), options);
   }
 };
 

@@ -224,37 +224,23 @@ ReplayTrace replay(const ConvergenceOptions& o, const Taught& taught, const std:
   return tr;
 }
 
-std::string join(const std::vector<std::string>& v, const std::string& sep) {
-  std::string s;
-  for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
-  return s;
-}
-
 Result<ConvergenceOptions> parse(int argc, char** argv) {
   ConvergenceOptions o;
   o.progress = true;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> Result<std::string> {
-      if (i + 1 >= argc) return fail(arg + " needs a value");
-      return std::string(argv[++i]);
-    };
-    auto number = [&](double lo, double hi) -> Result<double> {
-      VISNAV_ASSIGN(std::string v, value());
-      return parse_number(v, lo, hi, arg);
-    };
-    if (arg == "--world") { VISNAV_ASSIGN(o.world, value()); }
-    else if (arg == "--length") { VISNAV_ASSIGN(o.length_m, number(0.5, 1000.0)); }
-    else if (arg == "--displace") { VISNAV_ASSIGN(o.displacement_m, number(0.01, 5.0)); }
-    else if (arg == "--replays") { VISNAV_ASSIGN(double n, number(1, 100)); o.replays = static_cast<int>(n); }
-    else if (arg == "--speed") { VISNAV_ASSIGN(o.speed_mps, number(0.05, 2.0)); }
-    else if (arg == "--noise") { VISNAV_ASSIGN(o.camera_noise_std, number(0.0, 50.0)); }
-    else if (arg == "--seed") { VISNAV_ASSIGN(double s, number(0, 1e6)); o.first_seed = static_cast<int>(s); }
-    else if (arg == "--config") { VISNAV_ASSIGN(o.config, value()); }
-    else if (arg == "--out") { VISNAV_ASSIGN(o.out_dir, value()); }
-    else if (arg == "--set") { VISNAV_ASSIGN(std::string v, value()); o.overrides.push_back(v); }
+  for (OptionReader in(argc, argv); in.next();) {
+    const std::string& arg = in.arg();
+    if (arg == "--world") { VISNAV_ASSIGN(o.world, in.value()); }
+    else if (arg == "--length") { VISNAV_ASSIGN(o.length_m, in.number(0.5, 1000.0)); }
+    else if (arg == "--displace") { VISNAV_ASSIGN(o.displacement_m, in.number(0.01, 5.0)); }
+    else if (arg == "--replays") { VISNAV_ASSIGN(double n, in.number(1, 100)); o.replays = static_cast<int>(n); }
+    else if (arg == "--speed") { VISNAV_ASSIGN(o.speed_mps, in.number(0.05, 2.0)); }
+    else if (arg == "--noise") { VISNAV_ASSIGN(o.camera_noise_std, in.number(0.0, 50.0)); }
+    else if (arg == "--seed") { VISNAV_ASSIGN(double s, in.number(0, 1e6)); o.first_seed = static_cast<int>(s); }
+    else if (arg == "--config") { VISNAV_ASSIGN(o.config, in.value()); }
+    else if (arg == "--out") { VISNAV_ASSIGN(o.out_dir, in.value()); }
+    else if (arg == "--set") { VISNAV_ASSIGN(std::string v, in.value()); o.overrides.push_back(v); }
     else if (arg == "--primitives") {
-      VISNAV_ASSIGN(std::string v, value());
+      VISNAV_ASSIGN(std::string v, in.value());
       o.primitives.clear();
       std::stringstream ss(v);
       for (std::string p; std::getline(ss, p, ',');) o.primitives.push_back(p);
@@ -456,18 +442,9 @@ Status write_convergence_outputs(const ConvergenceReport& report, const Converge
 }
 
 int convergence_command(int argc, char** argv, HostServices& /*host*/) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "-h" || a == "--help") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
+  if (print_help_if_asked(argc, argv, kUsage)) return 0;
   auto options = parse(argc, argv);
-  if (!options) {
-    std::cerr << "visnav convergence: " << options.error().message << "\n" << kUsage;
-    return 2;
-  }
+  if (!options) return usage_error("visnav convergence", options.error(), kUsage);
   const ConvergenceOptions& o = *options;
   std::cout << "visnav convergence: world " << o.world << ", segment " << fixed(o.length_m, 2) << " m, "
             << o.replays << " replays from +-" << fixed(o.displacement_m, 2) << " m, primitives "

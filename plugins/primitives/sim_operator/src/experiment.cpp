@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "sim_session_util.hpp"
 #include "visnav/bt/tree.hpp"
 #include "visnav/map.hpp"
 #include "visnav/path_following/exp_fit.hpp"
@@ -119,38 +120,19 @@ struct StyleResult {
   double wall_s = 0.0;
 };
 
-/// Finds a project file: as given, else relative to the source tree.
-std::string project_file(const std::string& path) {
-  if (fs::exists(path) || fs::path(path).is_absolute()) return path;
-  const fs::path in_source = fs::path(VISNAV_SOURCE_DIR) / path;
-  return fs::exists(in_source) ? in_source.string() : path;
-}
-
 Result<Options> parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> Result<std::string> {
-      if (i + 1 >= argc) return fail(arg + " needs a value");
-      return std::string(argv[++i]);
-    };
-    auto number = [&](double lo, double hi) -> Result<double> {
-      VISNAV_ASSIGN(std::string v, value());
-      char* end = nullptr;
-      const double x = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end != '\0' || !(x >= lo && x <= hi))
-        return fail(arg + ": '" + v + "' is not a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-      return x;
-    };
-    if (arg == "--world") { VISNAV_ASSIGN(o.world, value()); }
-    else if (arg == "--route") { VISNAV_ASSIGN(o.route, value()); }
-    else if (arg == "--displace") { VISNAV_ASSIGN(o.displace_m, number(-5.0, 5.0)); }
-    else if (arg == "--loops") { VISNAV_ASSIGN(double n, number(1, 100)); o.loops = static_cast<int>(n); }
-    else if (arg == "--config") { VISNAV_ASSIGN(o.config, value()); }
-    else if (arg == "--out") { VISNAV_ASSIGN(o.out, value()); }
-    else if (arg == "--set") { VISNAV_ASSIGN(std::string v, value()); o.overrides.push_back(v); }
+  for (OptionReader in(argc, argv); in.next();) {
+    const std::string& arg = in.arg();
+    if (arg == "--world") { VISNAV_ASSIGN(o.world, in.value()); }
+    else if (arg == "--route") { VISNAV_ASSIGN(o.route, in.value()); }
+    else if (arg == "--displace") { VISNAV_ASSIGN(o.displace_m, in.number(-5.0, 5.0)); }
+    else if (arg == "--loops") { VISNAV_ASSIGN(double n, in.number(1, 100)); o.loops = static_cast<int>(n); }
+    else if (arg == "--config") { VISNAV_ASSIGN(o.config, in.value()); }
+    else if (arg == "--out") { VISNAV_ASSIGN(o.out, in.value()); }
+    else if (arg == "--set") { VISNAV_ASSIGN(std::string v, in.value()); o.overrides.push_back(v); }
     else if (arg == "--maps") {
-      VISNAV_ASSIGN(std::string v, value());
+      VISNAV_ASSIGN(std::string v, in.value());
       o.maps.clear();
       std::stringstream ss(v);
       for (std::string m; std::getline(ss, m, ',');) {
@@ -165,26 +147,6 @@ Result<Options> parse(int argc, char** argv) {
   if (o.route.empty()) o.route = o.world;
   return o;
 }
-
-/// Progress line on stderr, redrawn at most every 0.5 s of wall time.
-class Progress {
- public:
-  void show(const std::string& phase, double done, double total, const std::string& unit) {
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_ < std::chrono::milliseconds(500) && done < total) return;
-    last_ = now;
-    const int width = 30;
-    const double share = total > 0 ? std::clamp(done / total, 0.0, 1.0) : 0.0;
-    const int filled = static_cast<int>(share * width);
-    std::fprintf(stderr, "\r  %-22s [%s%s] %6.1f / %.1f %s   ", phase.c_str(), std::string(filled, '#').c_str(),
-                 std::string(width - filled, '.').c_str(), done, total, unit.c_str());
-    std::fflush(stderr);
-  }
-  void end() { std::fprintf(stderr, "\n"); }
-
- private:
-  std::chrono::steady_clock::time_point last_{};
-};
 
 cv::Point2d xy(const Pose2D& p) { return {p.x_m, p.y_m}; }
 
@@ -210,7 +172,7 @@ Result<StyleResult> run_style(const Options& o, const std::string& style, const 
   VISNAV_ASSIGN(auto session, Session::create(std::move(config), so));
   SimulationControl* sim = session->robot().simulation();
   if (sim == nullptr) return fail("the experiment needs the simulated robot (robot type sim)");
-  Progress progress;
+  ProgressLine progress(22);
   // Ground truth and odometry of every tick (evaluation only: the navigation never sees it).
   std::ofstream trajectory(out_dir / "trajectory.csv");
   trajectory << "t_s,phase,lap,gt_x_m,gt_y_m,gt_heading_rad,odom_x_m,odom_y_m,odom_heading_rad,odom_distance_m\n";
@@ -431,12 +393,6 @@ cv::Mat draw_errors(const std::vector<StyleResult>& results, int loops) {
   return img;
 }
 
-std::string fmt(double v, int precision = 3) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(precision) << v;
-  return s.str();
-}
-
 std::string report_table(const Options& o, const std::vector<StyleResult>& results) {
   std::ostringstream t;
   t << "| map | loops | errors per loop [m] | ε_acc [m] | ε_rep [m] | k [1/loop] | map bytes | bytes/m | wall [s] |\n"
@@ -445,7 +401,7 @@ std::string report_table(const Options& o, const std::vector<StyleResult>& resul
     std::string errors;
     for (double e : r.errors_m) {
       if (!errors.empty()) errors += ' ';
-      errors += fmt(e);
+      errors += fixed(e);
     }
     std::uint64_t bytes = 0;
     double length = 0;
@@ -454,9 +410,9 @@ std::string report_table(const Options& o, const std::vector<StyleResult>& resul
       length += ks.length_m;
     }
     t << "| " << r.style << " | " << r.lap_ends.size() << "/" << o.loops << " | " << errors << " | "
-      << fmt(r.metrics.accuracy_m) << " | " << fmt(r.metrics.repeatability_m) << " | "
-      << (r.fit ? fmt(r.fit->k) : std::string("-")) << " | " << bytes << " | "
-      << (length > 0 ? fmt(static_cast<double>(bytes) / length, 0) : std::string("-")) << " | " << fmt(r.wall_s, 0)
+      << fixed(r.metrics.accuracy_m) << " | " << fixed(r.metrics.repeatability_m) << " | "
+      << (r.fit ? fixed(r.fit->k) : std::string("-")) << " | " << bytes << " | "
+      << (length > 0 ? fixed(static_cast<double>(bytes) / length, 0) : std::string("-")) << " | " << fixed(r.wall_s, 0)
       << " |\n";
   }
   return t.str();
@@ -465,18 +421,9 @@ std::string report_table(const Options& o, const std::vector<StyleResult>& resul
 }  // namespace
 
 int experiment_command(int argc, char** argv, HostServices& /*host*/) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "-h" || a == "--help") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
+  if (print_help_if_asked(argc, argv, kUsage)) return 0;
   auto options = parse(argc, argv);
-  if (!options) {
-    std::cerr << "visnav experiment: " << options.error().message << "\n" << kUsage;
-    return 2;
-  }
+  if (!options) return usage_error("visnav experiment", options.error(), kUsage);
   const Options& o = *options;
   auto world_path = sim::resolve_world_path(o.world);
   auto route_path = sim::resolve_route_path(o.route);
@@ -500,7 +447,7 @@ int experiment_command(int argc, char** argv, HostServices& /*host*/) {
     std::cerr << "visnav experiment: cannot create " << o.out << ": " << ec.message() << "\n";
     return 1;
   }
-  std::cout << "visnav experiment: world " << o.world << ", route " << *route_path << " (" << fmt(route->waypoint_length_m(), 1)
+  std::cout << "visnav experiment: world " << o.world << ", route " << *route_path << " (" << fixed(route->waypoint_length_m(), 1)
             << " m), displacement " << o.displace_m << " m, " << o.loops << " loops\n";
   std::vector<StyleResult> results;
   int status = 0;
@@ -525,7 +472,7 @@ int experiment_command(int argc, char** argv, HostServices& /*host*/) {
   cv::imwrite((fs::path(o.out) / "errors.png").string(), draw_errors(results, o.loops));
   std::ofstream md(fs::path(o.out) / "report.md");
   md << "# visnav experiment\n\nworld `" << o.world << "`, route `" << *route_path << "` ("
-     << fmt(route->waypoint_length_m(), 1) << " m), lateral displacement " << o.displace_m << " m, " << o.loops
+     << fixed(route->waypoint_length_m(), 1) << " m), lateral displacement " << o.displace_m << " m, " << o.loops
      << " loops, config `" << o.config << "`\n\n"
      << table << "\nε_acc, ε_rep: seed 000 eq. (18) over the loop end positions against the position where teaching "
                  "ended. k: least-squares fit err_i = a·e^(−k·i).\n";

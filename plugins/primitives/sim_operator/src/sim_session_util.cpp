@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <iostream>
 #include <iomanip>
 #include <sstream>
 
@@ -40,6 +41,44 @@ std::string fixed(double v, int precision) {
   return s.str();
 }
 
+std::string join(const std::vector<std::string>& v, const std::string& sep) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
+  return s;
+}
+
+bool print_help_if_asked(int argc, char** argv, const char* usage) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help") {
+      std::cout << usage;
+      return true;
+    }
+  }
+  return false;
+}
+
+int usage_error(const std::string& command, const Error& error, const char* usage) {
+  std::cerr << command << ": " << error.message << "\n" << usage;
+  return 2;
+}
+
+bool OptionReader::next() {
+  if (i_ + 1 >= argc_) return false;
+  arg_ = argv_[++i_];
+  return true;
+}
+
+Result<std::string> OptionReader::value() {
+  if (i_ + 1 >= argc_) return fail(arg_ + " needs a value");
+  return std::string(argv_[++i_]);
+}
+
+Result<double> OptionReader::number(double lo, double hi) {
+  VISNAV_ASSIGN(std::string v, value());
+  return parse_number(v, lo, hi, arg_);
+}
+
 void ProgressLine::show(const std::string& phase, double done, double total, const std::string& unit) {
   const auto now = std::chrono::steady_clock::now();
   if (drawn_ && now - last_ < std::chrono::milliseconds(500) && done < total) return;
@@ -48,7 +87,7 @@ void ProgressLine::show(const std::string& phase, double done, double total, con
   const int width = 30;
   const double share = total > 0 ? std::clamp(done / total, 0.0, 1.0) : 0.0;
   const int filled = static_cast<int>(share * width);
-  std::fprintf(stderr, "\r  %-30s [%s%s] %6.1f / %.1f %s   ", phase.c_str(), std::string(filled, '#').c_str(),
+  std::fprintf(stderr, "\r  %-*s [%s%s] %6.1f / %.1f %s   ", phase_width_, phase.c_str(), std::string(filled, '#').c_str(),
                std::string(width - filled, '.').c_str(), done, total, unit.c_str());
   std::fflush(stderr);
 }

@@ -26,39 +26,15 @@
 #include "visnav/map.hpp"
 #include "visnav/runtime_host.hpp"
 
+#include "fake_devices.hpp"
+
 namespace fs = std::filesystem;
 using namespace visnav;
 using bt::NodeStatus;
+using visnav::test::KinematicRobot;
 namespace fr = visnav::feature_replay;
 
 namespace {
-
-class KinematicRobot final : public Robot {
- public:
-  explicit KinematicRobot(FrameBus& bus) : bus_(bus) { publish(); }
-  Status send_command(const Twist& c) override {
-    command_ = c;
-    ++commands_;
-    return ok();
-  }
-  std::optional<Odometry> latest_odometry() override { return odom_; }
-  void step(double dt_s) {
-    odom_.pose.heading_rad += command_.angular_radps * dt_s;
-    odom_.pose.x_m += command_.linear_mps * dt_s * std::cos(odom_.pose.heading_rad);
-    odom_.pose.y_m += command_.linear_mps * dt_s * std::sin(odom_.pose.heading_rad);
-    odom_.distance_m += command_.linear_mps * dt_s;
-    odom_.timestamp_s += dt_s;
-    odom_.twist = command_;
-    publish();
-  }
-  void publish() { bus_.publish_odometry(odom_); }
-  Odometry odom_;
-  Twist command_;
-  int commands_ = 0;
-
- private:
-  FrameBus& bus_;
-};
 
 /// Returns `next` (an error for an empty image, like the real detectors).
 class FakeDetector final : public Detector {
@@ -127,41 +103,15 @@ struct Scene {
 class FeatureNodes : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("visnav_fr_nodes_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    auto map = MapStore::create(dir_.string(), "test");
-    ASSERT_TRUE(map.ok()) << map.error().message;
-    map_.emplace(std::move(*map));
-    map_->set_sync(false);
-    auto lib = loader_.load_library("feature_replay");
-    ASSERT_TRUE(lib.ok()) << lib.error().message;
-    host_.set_frame_bus(&bus_);
-    host_.set_robot(&robot_);
-    host_.set_map(&*map_);
+    dir_ = visnav::test::fresh_test_dir("visnav_fr_nodes");
+    ASSERT_TRUE(visnav::test::attach_scratch_map(host_, bus_, robot_, map_, dir_));
     host_.set_active_detector(&detector_);
     host_.set_telemetry(&telemetry_);
-    ASSERT_TRUE(bt::register_builtin_nodes(registry_).ok());
-    bool found = false;
-    for (const auto& p : loader_.nodes_plugins()) {
-      if (p.library == *lib) {
-        auto st = p.register_nodes(registry_, host_);
-        ASSERT_TRUE(st.ok()) << st.error().message;
-        found = true;
-      }
-    }
-    ASSERT_TRUE(found);
+    ASSERT_TRUE(visnav::test::register_plugin_nodes(loader_, "feature_replay", registry_, host_));
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  bt::Tree load(const std::string& body) {
-    const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" + body + "</BehaviorTree></root>";
-    bt::LoadOptions options;
-    options.clock = &clock_;
-    auto tree = bt::load_tree_string(xml, registry_, options);
-    EXPECT_TRUE(tree.ok()) << (tree.ok() ? "" : tree.error().message);
-    return std::move(*tree);
-  }
+  bt::Tree load(const std::string& body) { return visnav::test::load_main_tree(body, registry_, &clock_); }
 
   void publish_frame(int width = 320, int height = 240) {
     Frame f;
@@ -211,6 +161,23 @@ class FeatureNodes : public ::testing::Test {
     auto id = map_->add_edge(e, body);
     EXPECT_TRUE(id.ok()) << id.error().message;
     return *id;
+  }
+
+  /// A 3 m feature_localmaps edge: the scene at every 0.5 m, `command` recorded from 0 m, a
+  /// stop at 3 m.
+  std::string add_scene_localmaps_edge(const Twist& command) {
+    fr::LocalMapPath path;
+    path.length_m = 3.0;
+    for (int i = 0; i <= 6; ++i) {
+      fr::LocalMap m;
+      m.distance_m = 0.5 * i;
+      m.positions_px = scene_.positions;
+      m.descriptors = scene_.descriptors.clone();
+      path.maps.push_back(std::move(m));
+    }
+    path.commands.push_back({0.0, command});
+    path.commands.push_back({3.0, Twist{}});
+    return add_edge("feature_localmaps", path.serialize(), 3.0);
   }
 
   fs::path dir_;
@@ -309,18 +276,7 @@ TEST_F(FeatureNodes, CorruptedPayloadFailsWithAClearMessageAndNeverMoves) {
 }
 
 TEST_F(FeatureNodes, BadInputsKeepTheRecordedCommand) {
-  fr::LocalMapPath path;
-  path.length_m = 3.0;
-  for (int i = 0; i <= 6; ++i) {
-    fr::LocalMap m;
-    m.distance_m = 0.5 * i;
-    m.positions_px = scene_.positions;
-    m.descriptors = scene_.descriptors.clone();
-    path.maps.push_back(std::move(m));
-  }
-  path.commands.push_back({0.0, Twist{0.5, 0.2}});
-  path.commands.push_back({3.0, Twist{}});
-  const std::string id = add_edge("feature_localmaps", path.serialize(), 3.0);
+  const std::string id = add_scene_localmaps_edge(Twist{0.5, 0.2});
   auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\" correction_gain_radps_per_px=\"0.004\"/>");
   // A good frame with the scene 20 px to the right: the robot is turned left -> steer right.
   EXPECT_EQ(tick(tree, scene_.view(20.f)), NodeStatus::running);
@@ -359,18 +315,7 @@ TEST_F(FeatureNodes, ReplayCountsTheDistanceFollowRouteCarriedIntoTheEdge) {
   // FollowRoute writes {edge_carried_m}: the distance of the edge the robot already covered when
   // it starts (the previous edge's overshoot). A 3 m edge with 1 m carried ends after 2 m of
   // odometry; with the entry unset (standalone use) the whole 3 m are driven.
-  fr::LocalMapPath path;
-  path.length_m = 3.0;
-  for (int i = 0; i <= 6; ++i) {
-    fr::LocalMap m;
-    m.distance_m = 0.5 * i;
-    m.positions_px = scene_.positions;
-    m.descriptors = scene_.descriptors.clone();
-    path.maps.push_back(std::move(m));
-  }
-  path.commands.push_back({0.0, Twist{1.0, 0.0}});
-  path.commands.push_back({3.0, Twist{}});
-  const std::string id = add_edge("feature_localmaps", path.serialize(), 3.0);
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
   auto drive = [&](std::optional<double> carried) {
     robot_.odom_ = Odometry{};
     robot_.command_ = Twist{};

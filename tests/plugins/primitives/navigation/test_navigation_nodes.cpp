@@ -13,35 +13,14 @@
 #include "visnav/map.hpp"
 #include "visnav/runtime_host.hpp"
 
+#include "fake_devices.hpp"
+
 namespace fs = std::filesystem;
 using namespace visnav;
 using bt::NodeStatus;
+using visnav::test::KinematicRobot;
 
 namespace {
-
-/// Unicycle robot integrating the last command over `step(dt)`.
-class KinematicRobot final : public Robot {
- public:
-  explicit KinematicRobot(FrameBus& bus) : bus_(bus) { publish(); }
-  Status send_command(const Twist& c) override { command_ = c; ++commands_; return ok(); }
-  std::optional<Odometry> latest_odometry() override { return odom_; }
-  void step(double dt_s) {
-    odom_.pose.heading_rad += command_.angular_radps * dt_s;
-    odom_.pose.x_m += command_.linear_mps * dt_s * std::cos(odom_.pose.heading_rad);
-    odom_.pose.y_m += command_.linear_mps * dt_s * std::sin(odom_.pose.heading_rad);
-    odom_.distance_m += command_.linear_mps * dt_s;
-    odom_.timestamp_s += dt_s;
-    odom_.twist = command_;
-    publish();
-  }
-  void publish() { bus_.publish_odometry(odom_); }
-  Odometry odom_;
-  Twist command_;
-  int commands_ = 0;
-
- private:
-  FrameBus& bus_;
-};
 
 struct Recorder {
   std::vector<std::string> edges;             // edges replayed, in order
@@ -143,28 +122,9 @@ struct Leg {
 class NavigationNodes : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("visnav_nav_nodes_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    auto map = MapStore::create(dir_.string(), "test");
-    ASSERT_TRUE(map.ok()) << map.error().message;
-    map_.emplace(std::move(*map));
-    map_->set_sync(false);
-    auto lib = loader_.load_library("navigation");
-    ASSERT_TRUE(lib.ok()) << lib.error().message;
-    host_.set_frame_bus(&bus_);
-    host_.set_robot(&robot_);
-    host_.set_map(&*map_);
-    ASSERT_TRUE(bt::register_builtin_nodes(registry_).ok());
-    bool found = false;
-    for (const auto& p : loader_.nodes_plugins()) {
-      if (p.library == *lib) {
-        auto st = p.register_nodes(registry_, host_);
-        ASSERT_TRUE(st.ok()) << st.error().message;
-        found = true;
-      }
-    }
-    ASSERT_TRUE(found);
+    dir_ = visnav::test::fresh_test_dir("visnav_nav_nodes");
+    ASSERT_TRUE(visnav::test::attach_scratch_map(host_, bus_, robot_, map_, dir_));
+    ASSERT_TRUE(visnav::test::register_plugin_nodes(loader_, "navigation", registry_, host_));
     auto* host = &host_;
     auto* rec = &rec_;
     ASSERT_TRUE((registry_.register_node<TestReplayEdge>(
@@ -181,13 +141,17 @@ class NavigationNodes : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  bt::Tree load(const std::string& body) {
-    const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" + body + "</BehaviorTree></root>";
-    bt::LoadOptions options;
-    options.clock = &clock_;
-    auto tree = bt::load_tree_string(xml, registry_, options);
-    EXPECT_TRUE(tree.ok()) << (tree.ok() ? "" : tree.error().message);
-    return std::move(*tree);
+  bt::Tree load(const std::string& body) { return visnav::test::load_main_tree(body, registry_, &clock_); }
+
+  /// A TeachRoute (extra attributes `attributes`) over TestTeachEdge for feature_segment, the
+  /// operator asking for a feature_segment edge and driving 1 m/s.
+  bt::Tree teach_route(const std::string& attributes = "") {
+    auto tree = load("<TeachRoute" + attributes +
+                     " primitives=\"feature_segment=TestTeachEdge\"><TestTeachEdge/></TeachRoute>");
+    tree.blackboard().set("primitive", std::string("feature_segment"));
+    tree.blackboard().set("teach_done", false);
+    (void)robot_.send_command({1.0, 0.0});
+    return tree;
   }
 
   /// Ticks at 10 Hz until the tree finishes (or max_ticks), stepping the robot after each tick.
@@ -478,11 +442,8 @@ TEST_F(NavigationNodes, TeachRouteCreatesANodeAndEdgeAtEveryPrimitiveSwitch) {
 
 TEST_F(NavigationNodes, TeachRouteRecordsHowFarTheRobotRolledBetweenEdges) {
   // Edge 1 ends at tick 10; the robot rolls on for 3 ticks (0.3 m) before edge 2 starts.
-  auto tree = load(R"(<TeachRoute primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  auto tree = teach_route();
   auto& bb = tree.blackboard();
-  bb.set("primitive", std::string("feature_segment"));
-  bb.set("teach_done", false);
-  (void)robot_.send_command({1.0, 0.0});
   auto op = [&](int i) {
     if (i == 10) bb.set("primitive", std::string());
     if (i == 13) bb.set("primitive", std::string("feature_segment"));
@@ -496,11 +457,8 @@ TEST_F(NavigationNodes, TeachRouteRecordsHowFarTheRobotRolledBetweenEdges) {
 }
 
 TEST_F(NavigationNodes, TeachRouteClosesTheLoopOnTheStartNode) {
-  auto tree = load(R"(<TeachRoute close_loop="true" primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  auto tree = teach_route(" close_loop=\"true\"");
   auto& bb = tree.blackboard();
-  bb.set("primitive", std::string("feature_segment"));
-  bb.set("teach_done", false);
-  (void)robot_.send_command({1.0, 0.0});
   auto op = [&](int i) {
     if (i == 20) bb.set("teach_done", true);
   };
@@ -511,11 +469,8 @@ TEST_F(NavigationNodes, TeachRouteClosesTheLoopOnTheStartNode) {
 }
 
 TEST_F(NavigationNodes, TeachRouteHaltKeepsCompletedEdgesOnly) {
-  auto tree = load(R"(<TeachRoute primitives="feature_segment=TestTeachEdge"><TestTeachEdge/></TeachRoute>)");
+  auto tree = teach_route();
   auto& bb = tree.blackboard();
-  bb.set("primitive", std::string("feature_segment"));
-  bb.set("teach_done", false);
-  (void)robot_.send_command({1.0, 0.0});
   auto op = [&](int i) {
     if (i == 10) bb.set("primitive", std::string());      // end edge 1
     if (i == 12) bb.set("primitive", std::string("feature_segment"));  // start edge 2

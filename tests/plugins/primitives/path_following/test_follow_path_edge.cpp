@@ -8,39 +8,19 @@
 #include <filesystem>
 #include <fstream>
 
+#include "path_session.hpp"
 #include "visnav/runner.hpp"
 
 namespace fs = std::filesystem;
 using namespace visnav;
+using visnav::test::tree_from;
 
 namespace {
 
-fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("visnav_follow_path_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir(const std::string& name) { return visnav::test::path_test_dir(name); }
 
 std::unique_ptr<Session> make_session(const fs::path& dir) {
-  const fs::path cfg = dir / "setup.yaml";
-  std::ofstream(cfg) << "robot: {type: sim, params: {world: straight6m, odom_scale_error_pct: 2}}\n"
-                        "camera: {type: sim, params: {width_px: 320, height_px: 240}}\n"
-                        "nodes: [path_following]\n"
-                        "run: {tick: frame, rate_hz: 10, lockstep: on, log_level: warn}\n";
-  auto config = load_run_config(cfg.string(), {});
-  EXPECT_TRUE(config.ok()) << (config.ok() ? "" : config.error().message);
-  SessionOptions so;
-  so.map_path = (dir / "map").string();
-  auto session = Session::create(std::move(*config), so);
-  EXPECT_TRUE(session.ok()) << (session.ok() ? "" : session.error().message);
-  return session.ok() ? std::move(*session) : nullptr;
-}
-
-Result<bt::Tree> tree_from(Session& s, const fs::path& dir, const std::string& body) {
-  const fs::path file = dir / "tree.xml";
-  std::ofstream(file) << "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" << body << "</BehaviorTree></root>";
-  return s.load_tree(file.string());
+  return visnav::test::make_path_session(dir, "world: straight6m, odom_scale_error_pct: 2");
 }
 
 }  // namespace
@@ -163,18 +143,8 @@ TEST(FollowPathEdge, RejectsAnEdgeOfAnotherKindOrACorruptPayloadWithoutMoving) {
 // along-track error); in junction mode for the last 2 m it ends markedly closer to the centre.
 TEST(FollowPathEdge, JunctionApproachReducesTheDriftTowardsAnLCornerAhead) {
   const fs::path dir = temp_dir("approach");
-  const fs::path cfg = dir / "setup.yaml";
-  std::ofstream(cfg) << "robot: {type: sim, params: {world: campus, start_pose: \"-2;-20;90\"}}\n"
-                        "camera: {type: sim, params: {width_px: 320, height_px: 240}}\n"
-                        "nodes: [path_following]\n"
-                        "run: {tick: frame, rate_hz: 10, lockstep: on, log_level: warn}\n";
-  auto config = load_run_config(cfg.string(), {});
-  ASSERT_TRUE(config.ok()) << config.error().message;
-  SessionOptions so;
-  so.map_path = (dir / "map").string();
-  auto created = Session::create(std::move(*config), so);
-  ASSERT_TRUE(created.ok()) << created.error().message;
-  auto& session = *created;
+  auto session = visnav::test::make_path_session(dir, "world: campus, start_pose: \"-2;-20;90\"");
+  ASSERT_TRUE(session);
   SimulationControl* sim = session->robot().simulation();
   ASSERT_NE(sim, nullptr);
   const Pose2D start{-2.0, -20.0, std::acos(0.0)};

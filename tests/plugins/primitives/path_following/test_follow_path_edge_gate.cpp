@@ -15,37 +15,23 @@
 #include <fstream>
 #include <numbers>
 
+#include "path_session.hpp"
 #include "visnav/runner.hpp"
 
 namespace fs = std::filesystem;
 using namespace visnav;
 
 TEST(FollowPathEdgeGate, CrossesTheAsphaltServiceRoadOnTheTaughtGravel) {
-  const fs::path dir = fs::temp_directory_path() / ("visnav_follow_path_gate_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const fs::path cfg = dir / "setup.yaml";
-  std::ofstream(cfg) << "robot: {type: sim, params: {world: campus, start_pose: \"32;-9;-90\"}}\n"
-                        "camera: {type: sim, params: {width_px: 320, height_px: 240}}\n"
-                        "nodes: [path_following]\n"
-                        "run: {tick: frame, rate_hz: 10, lockstep: on, log_level: error}\n";
-  auto config = load_run_config(cfg.string(), {});
-  ASSERT_TRUE(config.ok()) << config.error().message;
+  const fs::path dir = visnav::test::path_test_dir("gate");
   SessionOptions so;
-  so.map_path = (dir / "map").string();
   so.use_default_plugin_path = false;
   so.extra_plugin_dirs = {VISNAV_TEST_PLUGIN_DIR};
-  auto created = Session::create(std::move(*config), so);
-  ASSERT_TRUE(created.ok()) << created.error().message;
-  auto& session = *created;
+  auto session = visnav::test::make_path_session(dir, "world: campus, start_pose: \"32;-9;-90\"", "error", so);
+  ASSERT_TRUE(session);
   SimulationControl* sim = session->robot().simulation();
   ASSERT_NE(sim, nullptr);
   const double south = -std::numbers::pi / 2.0;
-  auto tree_from = [&](const std::string& body) {
-    const fs::path file = dir / "tree.xml";
-    std::ofstream(file) << "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">" << body << "</BehaviorTree></root>";
-    return session->load_tree(file.string());
-  };
+  auto tree_from = [&](const std::string& body) { return visnav::test::tree_from(*session, dir, body); };
 
   {  // teach: 14 m along the centre line x = 32, steered on the ground truth
     auto teach = tree_from(R"(<TeachPathEdge edge_from="" edge_to="" finish="{finish}"/>)");

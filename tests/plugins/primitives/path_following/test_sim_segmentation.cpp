@@ -12,6 +12,7 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -124,6 +125,18 @@ std::vector<View> campus_views() {
   return views;
 }
 
+/// evaluate() without and with the taught-appearance gate (summary learned at `taught`); prints both.
+std::pair<Figures, Figures> evaluate_plain_and_gated(const std::string& world_name, const std::vector<View>& views,
+                                                     const View& taught) {
+  const Figures fig = evaluate(world_name, views);
+  const Figures gated = evaluate(world_name, views, &taught);
+  std::printf("%s: %d frames, %d ok, mean IoU %.3f, min IoU %.3f; with the taught-appearance gate: %d ok, "
+              "mean IoU %.3f, min IoU %.3f (a model rejected in %d frames)\n",
+              world_name.c_str(), fig.frames, fig.ok_frames, fig.mean_iou, fig.min_iou, gated.ok_frames, gated.mean_iou,
+              gated.min_iou, gated.gated_frames);
+  return {fig, gated};
+}
+
 }  // namespace
 
 // Each IoU figure is measured twice: as before (no taught summary) and with the taught-appearance
@@ -131,12 +144,7 @@ std::vector<View> campus_views() {
 // taught_gate_distance). The gate must not cost segmentation quality.
 TEST(SimSegmentation, Straight6mPathIoU) {
   const View taught{0.0, 0.0, 0.0};
-  const auto fig = evaluate("straight6m", straight6m_views());
-  const auto gated = evaluate("straight6m", straight6m_views(), &taught);
-  std::printf("straight6m: %d frames, %d ok, mean IoU %.3f, min IoU %.3f; with the taught-appearance gate: %d ok, "
-              "mean IoU %.3f, min IoU %.3f (a model rejected in %d frames)\n",
-              fig.frames, fig.ok_frames, fig.mean_iou, fig.min_iou, gated.ok_frames, gated.mean_iou, gated.min_iou,
-              gated.gated_frames);
+  const auto [fig, gated] = evaluate_plain_and_gated("straight6m", straight6m_views(), taught);
   EXPECT_EQ(fig.ok_frames, fig.frames);
   EXPECT_GE(fig.mean_iou, 0.85);
   EXPECT_GE(fig.min_iou, 0.75);
@@ -148,12 +156,7 @@ TEST(SimSegmentation, Straight6mPathIoU) {
 
 TEST(SimSegmentation, CampusGravelLoopIoU) {
   const View taught{32.0, -9.0, -90.0};
-  const auto fig = evaluate("campus", campus_views());
-  const auto gated = evaluate("campus", campus_views(), &taught);
-  std::printf("campus: %d frames, %d ok, mean IoU %.3f, min IoU %.3f; with the taught-appearance gate: %d ok, mean "
-              "IoU %.3f, min IoU %.3f (a model rejected in %d frames)\n",
-              fig.frames, fig.ok_frames, fig.mean_iou, fig.min_iou, gated.ok_frames, gated.mean_iou, gated.min_iou,
-              gated.gated_frames);
+  const auto [fig, gated] = evaluate_plain_and_gated("campus", campus_views(), taught);
   EXPECT_GE(fig.ok_frames, fig.frames - 2);
   EXPECT_GE(fig.mean_iou, 0.85);
   EXPECT_GE(gated.ok_frames, gated.frames - 2);

@@ -43,10 +43,12 @@ function(visnav_add_plugin name)
   install(TARGETS ${name} LIBRARY DESTINATION "${VISNAV_INSTALL_PLUGIN_DIR}")
 endfunction()
 
-# visnav_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...]): a GoogleTest binary whose
-# cases are registered with CTest one by one.
+# visnav_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...] [TIMEOUT s] [LSAN_OPTIONS opts]):
+# a GoogleTest binary whose cases are registered with CTest one by one. With VISNAV_SANITIZE the
+# cases run with LSAN_OPTIONS naming cmake/sanitizers/lsan.supp (third-party leaks only) plus
+# the test's own `LSAN_OPTIONS` (colon-separated, e.g. fast_unwind_on_malloc=0).
 function(visnav_add_test name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT;LSAN_OPTIONS" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   visnav_target_settings(${name})
   target_link_libraries(${name} PRIVATE visnav::sdk GTest::gtest GTest::gtest_main ${ARG_LIBS})
@@ -64,8 +66,20 @@ function(visnav_add_test name)
   # set_tests_properties arguments), so several labels are joined into one: "closed_loop-dds".
   # `ctest -L` takes a regular expression, so `-L dds` and `-L closed_loop` both still select it.
   string(REPLACE ";" "-" label_joined "${ARG_LABELS}")
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${label_joined}")
+  # An empty value would be dropped by the same flattening, shifting the next key into its
+  # place, so optional properties are only appended when set.
+  set(properties TIMEOUT ${ARG_TIMEOUT})
+  if(label_joined)
+    list(APPEND properties LABELS "${label_joined}")
+  endif()
+  if(VISNAV_SANITIZE)
+    set(lsan "suppressions=${PROJECT_SOURCE_DIR}/cmake/sanitizers/lsan.supp:print_suppressions=0")
+    if(ARG_LSAN_OPTIONS)
+      string(APPEND lsan ":${ARG_LSAN_OPTIONS}")
+    endif()
+    list(APPEND properties ENVIRONMENT "LSAN_OPTIONS=${lsan}")
+  endif()
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${properties})
 endfunction()
 
 # visnav_add_benchmark(<name> SOURCES ... [LIBS ...])

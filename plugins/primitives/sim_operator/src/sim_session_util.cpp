@@ -9,6 +9,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include <unistd.h>
+
 #ifndef VISNAV_SOURCE_DIR
 #error "VISNAV_SOURCE_DIR must name the source tree (target_compile_definitions)"
 #endif
@@ -79,17 +81,34 @@ Result<double> OptionReader::number(double lo, double hi) {
   return parse_number(v, lo, hi, arg_);
 }
 
+ProgressLine::ProgressLine(int phase_width) : phase_width_(phase_width), terminal_(isatty(fileno(stderr)) != 0) {}
+
 void ProgressLine::show(const std::string& phase, double done, double total, const std::string& unit) {
-  const auto now = std::chrono::steady_clock::now();
-  if (drawn_ && now - last_ < std::chrono::milliseconds(500) && done < total) return;
-  last_ = now;
-  drawn_ = true;
-  const int width = 30;
+  if (phase != last_phase_) {
+    last_phase_ = phase;
+    drawn_full_ = false;
+    last_tenth_ = -1;
+  }
   const double share = total > 0 ? std::clamp(done / total, 0.0, 1.0) : 0.0;
+  const bool full = share >= 1.0;
+  if (terminal_) {
+    const auto now = std::chrono::steady_clock::now();
+    const bool first_full = full && !drawn_full_;
+    if (drawn_ && now - last_ < std::chrono::milliseconds(500) && !first_full) return;
+    last_ = now;
+  } else {
+    const int tenth = static_cast<int>(share * 10.0);
+    if (tenth == last_tenth_) return;
+    last_tenth_ = tenth;
+  }
+  drawn_full_ = drawn_full_ || full;
+  const int width = 30;
   const int filled = static_cast<int>(share * width);
-  std::fprintf(stderr, "\r  %-*s [%s%s] %6.1f / %.1f %s   ", phase_width_, phase.c_str(), std::string(filled, '#').c_str(),
-               std::string(width - filled, '.').c_str(), done, total, unit.c_str());
+  std::fprintf(stderr, "%s  %-*s [%s%s] %6.1f / %.1f %s%s", terminal_ ? "\r" : "", phase_width_, phase.c_str(),
+               std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), done, total, unit.c_str(),
+               terminal_ ? "   " : "\n");
   std::fflush(stderr);
+  drawn_ = terminal_;  // a non-terminal line is already ended
 }
 
 void ProgressLine::end() {

@@ -54,20 +54,26 @@ class OptionReader {
   std::string arg_;
 };
 
-/// One progress line on stderr ("  phase [#####.....] done / total unit"), redrawn at most every
-/// 0.5 s of wall time (and always when done reaches total). The phase is padded to
-/// `phase_width` characters.
+/// Progress on stderr ("  phase [#####.....] done / total unit"), the phase padded to
+/// `phase_width` characters. On a terminal one line is redrawn in place at most every 0.5 s of
+/// wall time (and once more when done first reaches total); when stderr is not a terminal (CI
+/// logs, pipes) a new line is written only when another tenth of the total is done, so logs stay
+/// short.
 class ProgressLine {
  public:
-  explicit ProgressLine(int phase_width = 30) : phase_width_(phase_width) {}
+  explicit ProgressLine(int phase_width = 30);
   void show(const std::string& phase, double done, double total, const std::string& unit);
   /// Ends the line (newline) if something was drawn since the last end().
   void end();
 
  private:
   int phase_width_;
+  bool terminal_;
   std::chrono::steady_clock::time_point last_{};
   bool drawn_ = false;
+  bool drawn_full_ = false;   // the 100 % state was drawn for this phase
+  int last_tenth_ = -1;       // non-terminal: the last tenth written for this phase
+  std::string last_phase_;
 };
 
 }  // namespace visnav::simop

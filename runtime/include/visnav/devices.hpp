@@ -8,6 +8,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -35,6 +36,13 @@ class PluginObject {
 
 /// Hooks only a simulated robot offers. Evaluation code (experiments, tests) reads
 /// ground truth here; navigation code must never call `ground_truth_pose()`.
+/// A contact of a simulated robot's body with an obstacle (walls, fences, tree trunks, posts).
+struct SimCollision {
+  double time_s = 0.0;      ///< simulated time of the first contact
+  Pose2D pose_world;        ///< true pose at the contact (the robot is stopped there)
+  std::string obstacle;     ///< name of the world object hit
+};
+
 class SimulationControl {
  public:
   virtual ~SimulationControl() = default;
@@ -46,6 +54,9 @@ class SimulationControl {
   [[nodiscard]] virtual Pose2D ground_truth_pose() const = 0;
   /// Teleports the robot (world frame); odometry keeps integrating from its current value.
   virtual Status set_ground_truth_pose(const Pose2D& pose_world) = 0;
+  /// Every collision since the robot was created, oldest first (evaluation only; the
+  /// navigation never sees it). Default: a simulator without collision detection.
+  [[nodiscard]] virtual std::vector<SimCollision> collisions() const { return {}; }
 };
 
 /// A mobile base: takes velocity commands, reports odometry.

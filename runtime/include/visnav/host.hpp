@@ -74,6 +74,8 @@ struct NavStatus {
   int inliers = 0;
   double offset_px = 0.0;     ///< horizontal image offset estimate
   Twist command;              ///< command sent this tick
+  double confidence = 0.0;    ///< window-mean confidence of the primitive, [0, 1] (nav_health.hpp)
+  double blind_m = 0.0;       ///< odometric distance since the route was last seen
   std::string status;         ///< short human-readable state ("replaying", "path lost", ...)
 };
 

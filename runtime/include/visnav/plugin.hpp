@@ -43,7 +43,7 @@ namespace visnav {
 namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 
 /// Bumped whenever the descriptor or any SDK class layout changes.
-inline constexpr std::uint32_t kPluginAbiVersion = 1;
+inline constexpr std::uint32_t kPluginAbiVersion = 2;
 
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };
 

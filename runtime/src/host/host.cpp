@@ -78,8 +78,9 @@ void JsonLinesTelemetry::publish(const NavStatus& s) {
   char numbers[256];
   std::snprintf(numbers, sizeof numbers,
                 "\"distance_m\":%.4f,\"matches\":%d,\"inliers\":%d,\"offset_px\":%.3f,\"linear_mps\":%.4f,"
-                "\"angular_radps\":%.4f,",
-                s.distance_m, s.matches, s.inliers, s.offset_px, s.command.linear_mps, s.command.angular_radps);
+                "\"angular_radps\":%.4f,\"confidence\":%.3f,\"blind_m\":%.3f,",
+                s.distance_m, s.matches, s.inliers, s.offset_px, s.command.linear_mps, s.command.angular_radps,
+                s.confidence, s.blind_m);
   char time[48];
   std::snprintf(time, sizeof time, "{\"t_s\":%.4f,", clock_->now_s());
   std::string line = time;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "visnav/bt/nav_health_ports.hpp"
 #include "visnav/map.hpp"
 
 namespace visnav::feature_replay {
@@ -251,7 +252,7 @@ ReplayFeatureEdge::ReplayFeatureEdge(const std::string& name, const bt::NodeConf
     : StatefulActionNode(name, config), host_(host) {}
 
 bt::PortsList ReplayFeatureEdge::provided_ports() {
-  return {
+  bt::PortsList ports = {
       bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind feature_segment or feature_localmaps)"),
       bt::input_port<double>("speed_mps", "0.3", "style A: constant forward speed (style B replays the recorded speed)"),
       bt::input_port<double>("gain_radps_per_px", "0.01",
@@ -269,6 +270,8 @@ bt::PortsList ReplayFeatureEdge::provided_ports() {
                              "unset counts as 0)"),
       bt::output_port<int>("lap", "{lap}", "style B: 0-based lap being driven"),
   };
+  bt::append_lost_policy_ports(ports);
+  return ports;
 }
 
 NodeStatus ReplayFeatureEdge::failed(const std::string& message) {
@@ -311,6 +314,15 @@ Status ReplayFeatureEdge::load_edge() {
   if (!(gain >= 0.0) || !(correction_gain >= 0.0) || !(max_w > 0.0) || !(max_corr >= 0.0) || !(margin >= 0.0))
     return fail("the gains, max_correction_radps and distance_margin_m must be >= 0 and max_angular_radps > 0");
   if (laps < 1) return fail("laps must be >= 1");
+  VISNAV_ASSIGN(LostPolicy policy, bt::read_lost_policy(*this));
+  health_ = NavHealthMonitor(policy);
+  edge_kind_ = edge->kind;
+  max_angular_radps_ = max_w;
+  max_correction_radps_ = max_corr;
+  laps_ = laps;
+  taught_heading_ = TaughtHeading{edge->length_m, 0.0};
+  if (auto it = edge->statistics.find("end_heading_rad"); it != edge->statistics.end())
+    taught_heading_.end_turn_rad = wrap_angle_rad(it->second - edge->azimuth_rad);
   HeadingParams heading;
   heading.ratio = ratio;
   heading.min_confidence = min_conf;
@@ -352,6 +364,10 @@ NodeStatus ReplayFeatureEdge::on_start() {
   const double origin_m = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
   if (segment_) segment_->begin(origin_m);
   if (localmaps_) localmaps_->begin(origin_m);
+  // A closed multi-lap path has no single taught heading profile: no heading check there.
+  std::optional<TaughtHeading> taught;
+  if (segment_ || laps_ == 1) taught = taught_heading_;
+  bt::begin_nav_health(health_, *this, odom->distance_m, odom->pose.heading_rad, taught);
   have_frame_ = false;
   last_command_ = Twist{};
   last_state_ = ReplayState::steering;
@@ -397,6 +413,8 @@ NodeStatus ReplayFeatureEdge::on_running() {
   ReplayState state;
   bool finished;
   double distance_m;
+  double confidence;
+  bool saturated;
   if (segment_) {
     const SegmentReplayOutput out = segment_->step(odom->distance_m, features_, width_px);
     command = out.command;
@@ -406,6 +424,8 @@ NodeStatus ReplayFeatureEdge::on_running() {
     status_.inliers = out.estimate.inliers;
     status_.offset_px = out.estimate.offset_px;
     distance_m = out.distance_m;
+    confidence = out.estimate.confidence;
+    saturated = state == ReplayState::steering && std::abs(command.angular_radps) >= max_angular_radps_ - 1e-9;
   } else {
     const LocalMapReplayOutput out = localmaps_->step(odom->distance_m, features_, width_px);
     command = out.command;
@@ -415,6 +435,9 @@ NodeStatus ReplayFeatureEdge::on_running() {
     status_.inliers = out.estimate.inliers;
     status_.offset_px = out.estimate.offset_px;
     distance_m = out.distance_m;
+    confidence = out.estimate.confidence;
+    saturated = state == ReplayState::steering && max_correction_radps_ > 0.0 &&
+                std::abs(out.correction_radps) >= max_correction_radps_ - 1e-9;
     if (out.lap_completed) {
       (void)set_output("lap", out.lap);
       host_.logger().info(path(), "edge " + edge_id_ + ": lap " + std::to_string(out.lap + 1) + " started");
@@ -426,11 +449,30 @@ NodeStatus ReplayFeatureEdge::on_running() {
   }
   last_state_ = state;
 
+  if (bad_frame != nullptr) confidence = 0.0;
+  const NavHealthVerdict& health =
+      health_.update(odom->distance_m, odom->pose.heading_rad, distance_m, image, confidence, saturated);
+  bt::store_nav_health(health_, *this);
+  // A robot that is not sure where the route is slows down (the recorded curvature is kept).
+  command.linear_mps *= health.speed_factor;
+  command.angular_radps *= health.speed_factor;
+  // An edge must not end SUCCESS on odometry alone while the robot no longer sees the route.
+  const bool blind_at_end = finished && health.state == NavHealthState::slowing;
   if (Telemetry* telemetry = host_.telemetry()) {
     status_.distance_m = distance_m;
-    status_.command = command;
+    status_.command = health.must_stop() || blind_at_end ? Twist{} : command;
+    status_.confidence = health.window_confidence;
+    status_.blind_m = health.blind_m;
     status_.status = bad_frame != nullptr ? "bad frame" : to_string(state);
+    if (health.state != NavHealthState::seeing) status_.status += std::string(" | ") + to_string(health.state);
     telemetry->publish(status_);
+  }
+  if (health.must_stop() || blind_at_end) {
+    const std::string reason = blind_at_end ? "lost: reached the end of the edge without seeing the route for " +
+                                                  format_double(health.blind_m) + " m"
+                                            : health.reason;
+    return failed(reason + " on edge " + edge_id_ + " (" + edge_kind_ + ", " + std::to_string(status_.inliers) +
+                  " inliers, window confidence " + format_double(health.window_confidence) + ")");
   }
   if (finished) {
     (void)robot->stop();

@@ -25,6 +25,7 @@
 #include <string>
 
 #include "visnav/bt/node.hpp"
+#include "visnav/nav_health.hpp"
 #include "visnav/feature_replay/local_map.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/host.hpp"
@@ -98,6 +99,12 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   ReplayState last_state_ = ReplayState::steering;
   bool warned_bad_frame_ = false;
   NavStatus status_;
+  NavHealthMonitor health_;
+  TaughtHeading taught_heading_;
+  double max_angular_radps_ = 0.5;
+  double max_correction_radps_ = 0.3;
+  int laps_ = 1;
+  std::string edge_kind_;
 };
 
 }  // namespace visnav::feature_replay

@@ -191,6 +191,12 @@ bt::PortsList FollowRoute::provided_ports() {
                            "the previous edge's end node (last-frame overshoot plus stopping distance) minus the gap "
                            "recorded when teaching (statistic start_gap_m), projected onto the new edge's direction"),
       bt::input_port<double>("max_carry_m", "0.5", "clamp of |carried_m|, m (> 0)"),
+      bt::input_port<std::string>(
+          "first_edge_turn", "none",
+          "before the first edge of a mission (no previous_edge): none = no turn, the robot starts facing along "
+          "the edge and the edge's own visual correction removes the rest (a replay never depends on the heading "
+          "drift accumulated while teaching); absolute = turn to the edge's odometry-frame azimuth (only when the "
+          "replay's odometry frame is the teach run's)"),
       bt::output_port<double>("carried_m", "{edge_carried_m}",
                               "distance of the edge already covered when it starts (children read it; 0 when off)"),
       bt::output_port<std::string>("edge", "{edge}", "the edge being traversed (children read it)"),
@@ -212,6 +218,10 @@ Status FollowRoute::start() {
   VISNAV_ASSIGN(carry_overshoot_, get_input<bool>("carry_overshoot"));
   VISNAV_ASSIGN(max_carry_m_, get_input<double>("max_carry_m"));
   if (!(max_carry_m_ > 0.0)) return fail("max_carry_m must be > 0");
+  VISNAV_ASSIGN(const std::string first_turn, get_input<std::string>("first_edge_turn"));
+  if (first_turn != "none" && first_turn != "absolute")
+    return fail("port 'first_edge_turn': '" + first_turn + "' is not one of: none, absolute");
+  first_turn_absolute_ = first_turn == "absolute";
   previous_start_heading_.reset();
   VISNAV_ASSIGN(turn_, read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s"));
   child_for_edge_.clear();
@@ -297,9 +307,10 @@ NodeStatus FollowRoute::tick() {
 }
 
 double FollowRoute::turn_target_rad(const EdgeRecord* previous, const EdgeRecord& next, double heading_rad) const {
-  // First edge of a mission: the absolute azimuth in the odom frame (the replay starts where the
-  // teach started).
-  if (previous == nullptr) return next.azimuth_rad;
+  // First edge of a mission: the odometry frame of a replay is not the teach run's (and even in
+  // one process it carries the teach run's heading drift), so by default the robot starts as it
+  // stands and the edge's visual correction aligns it.
+  if (previous == nullptr) return first_turn_absolute_ ? next.azimuth_rad : heading_rad;
   const bool holds_heading = std::find(heading_holding_kinds_.begin(), heading_holding_kinds_.end(),
                                        previous->kind) != heading_holding_kinds_.end();
   // The previous edge's primitive ended on its taught heading: turn relative to now.

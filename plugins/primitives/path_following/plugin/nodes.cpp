@@ -1,10 +1,12 @@
 #include "nodes.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "visnav/bt/nav_health_ports.hpp"
 #include "visnav/bt/node.hpp"
 #include "visnav/map.hpp"
 #include "visnav/path_following/path_follower.hpp"
@@ -86,6 +88,7 @@ class FollowPathEdge final : public bt::StatefulActionNode {
                                               "junction mode also for this long before the edge's end node (an L corner "
                                               "or junction ahead pulls the follower into cutting it); 0 = off")};
     for (auto& c : common_ports()) p.push_back(std::move(c));
+    bt::append_lost_policy_ports(p);
     return p;
   }
 
@@ -127,6 +130,13 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     if (!approach) return failed(approach.error().message);
     if (!(*approach >= 0.0)) return failed("junction_approach_m must be >= 0");
     junction_approach_m_ = *approach;
+    auto policy = bt::read_lost_policy(*this);
+    if (!policy) return failed(policy.error().message);
+    health_ = NavHealthMonitor(*policy);
+    TaughtHeading taught{length_m_, 0.0};
+    if (auto it = edge->statistics.find("end_heading_rad"); it != edge->statistics.end())
+      taught.end_turn_rad = std::remainder(it->second - edge->azimuth_rad, 2.0 * std::numbers::pi);
+    bt::begin_nav_health(health_, *this, odom->distance_m, odom->pose.heading_rad, taught);
     last_sequence_.reset();
     return on_running();
   }
@@ -137,6 +147,12 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     const double travelled_m = odom->distance_m - start_distance_m_;
     if (travelled_m >= length_m_) {
       (void)host_.robot()->stop();
+      // An edge must not end SUCCESS on odometry alone while the robot no longer sees the route.
+      if (health_.verdict().state == NavHealthState::slowing) {
+        publish(travelled_m, Twist{}, "lost");
+        return failed("lost: reached the end of edge " + edge_id_ + " without seeing the path for " +
+                      std::to_string(health_.verdict().blind_m) + " m");
+      }
       publish(travelled_m, Twist{}, "edge done");
       return NodeStatus::success;
     }
@@ -145,12 +161,14 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     last_sequence_ = frame->sequence;
     Twist command;
     std::string status;
+    double confidence = 0.0;
     follower_->set_junction_mode(travelled_m < junction_clear_m_ || length_m_ - travelled_m < junction_approach_m_);
     if (auto st = follower_->process(frame->image, estimate_); !st) {
       // An unusable frame counts as not seeing the path.
       status = "bad frame: " + st.error().message;
       verdict_ = monitor_.update(frame->timestamp_s, PathStatus::no_reference);
     } else {
+      confidence = estimate_.status == PathStatus::ok ? 1.0 : 0.0;
       status = std::string(to_string(estimate_.status));
       if (estimate_.reference_source != ReferenceSource::learned)
         status += " (path models drifted from the taught appearance: " +
@@ -167,6 +185,17 @@ class FollowPathEdge final : public bt::StatefulActionNode {
                     std::string(reason ? to_string(*reason) : std::string_view("unknown")) + " for more than " +
                     std::to_string(monitor_.grace_s()) + " s)");
     }
+    const NavHealthVerdict& health = health_.update(odom->distance_m, odom->pose.heading_rad, travelled_m,
+                                                    frame->image, confidence, /*saturated=*/false);
+    bt::store_nav_health(health_, *this);
+    if (health.must_stop()) {
+      (void)host_.robot()->stop();
+      publish(travelled_m, Twist{}, to_string(health.state));
+      return failed(health.reason + " on edge " + edge_id_ + " (path_following)");
+    }
+    command.linear_mps *= health.speed_factor;
+    command.angular_radps *= health.speed_factor;
+    if (health.state != NavHealthState::seeing) status += std::string(" | ") + to_string(health.state);
     (void)host_.robot()->send_command(command);
     publish(travelled_m, command, status);
     return NodeStatus::running;
@@ -196,6 +225,8 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     status_.offset_px = offset_px_;
     status_.command = command;
     status_.status = status;
+    status_.confidence = health_.verdict().window_confidence;
+    status_.blind_m = health_.verdict().blind_m;
     t->publish(status_);
   }
   NodeStatus failed(const std::string& message) {
@@ -209,6 +240,7 @@ class FollowPathEdge final : public bt::StatefulActionNode {
   PathEstimate estimate_;
   PathLossMonitor monitor_;
   PathLossMonitor::Verdict verdict_ = PathLossMonitor::Verdict::ok;
+  NavHealthMonitor health_;
   NavStatus status_;
   double offset_px_ = 0.0;
   double junction_clear_m_ = 2.0;  ///< mean path-centre offset from the image centre, px (+ = right)

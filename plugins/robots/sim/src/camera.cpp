@@ -45,6 +45,8 @@ const ParamSchema<CameraParams>& CameraParams::schema() {
           .field("shadow_direction_deg", &CameraParams::shadow_direction_deg, "direction of the band normal in the world, deg").range(-360, 360)
           .field("season", &CameraParams::season, "texture season (world textures' `seasons:`); empty = base")
           .field("noise_std", &CameraParams::noise_std, "Gaussian sensor noise std, grey levels").range(0, 100)
+          .field("exposure_jitter", &CameraParams::exposure_jitter, "auto-exposure flicker: std of the log image brightness; 0 = off").range(0, 1)
+          .field("exposure_time_constant_s", &CameraParams::exposure_time_constant_s, "auto-exposure flicker time constant, s").range(0.01, 1000)
           .field("motion_blur_exposure_s", &CameraParams::motion_blur_exposure_s, "exposure time for motion blur, s; 0 = off").range(0, 1)
           .field("drop_probability", &CameraParams::drop_probability, "probability that a frame is dropped").range(0, 1)
           .field("freeze_probability", &CameraParams::freeze_probability, "probability that the previous image is repeated").range(0, 1)
@@ -109,6 +111,10 @@ void CameraCore::apply_appearance(cv::Mat& bgr, const Twist& twist) {
     if (kh > 1 || kv > 1) cv::blur(bgr, bgr, cv::Size(std::max(1, kh), std::max(1, kv)));
   }
   if (!tone_lut_.empty()) cv::LUT(bgr, tone_lut_, bgr);
+  if (params_.exposure_jitter > 0.0) {
+    const double brightness = std::exp(exposure_log_);
+    bgr.convertTo(bgr, -1, brightness, 0.0);
+  }
   if (params_.noise_std > 0.0) {
     cv::RNG rng(rng_());
     noise_buffer_.create(bgr.size(), CV_16SC3);
@@ -138,6 +144,19 @@ std::optional<Frame> CameraCore::grab() {
   if (have_last_ && freeze_draw < params_.freeze_probability) {
     frame.image = last_image_;
     return frame;
+  }
+  if (params_.exposure_jitter > 0.0) {
+    // Exact OU step over the simulated time since the last rendered frame; the draw comes from
+    // the frame's noise seed so the random stream stays one fixed draw count per grab.
+    std::mt19937_64 exposure_rng(noise_seed ^ 0x5DEECE66DULL);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    if (exposure_time_s_ < 0.0) {
+      exposure_log_ = params_.exposure_jitter * unit(exposure_rng);
+    } else {
+      const double decay = std::exp(-std::max(0.0, now - exposure_time_s_) / params_.exposure_time_constant_s);
+      exposure_log_ = exposure_log_ * decay + params_.exposure_jitter * std::sqrt(1.0 - decay * decay) * unit(exposure_rng);
+    }
+    exposure_time_s_ = now;
   }
   const Pose2D pose = params_.latency_s > 0.0 ? robot_->pose_at(frame.timestamp_s) : robot_->ground_truth();
   cv::Mat out = take_buffer(params_.grey ? CV_8UC1 : CV_8UC3);
@@ -207,13 +226,23 @@ Result<std::optional<Frame>> SimCamera::grab(double timeout_s) {
 
 Status SimCamera::reconfigure(const ConfigNode& params) {
   VISNAV_ASSIGN(CameraParams p, CameraParams::schema().parse(params));
-  if (p.robot != params_.robot || p.world != params_.world)
-    return fail("sim camera: 'robot' and 'world' cannot change while running");
+  VISNAV_TRY(p.validate());
+  if (p.robot != params_.robot) return fail("sim camera: 'robot' cannot change while running");
+  // Another world may be shown from now on (a replay in a changed or a wrong world); the robot
+  // keeps driving (and colliding) in its own.
+  std::shared_ptr<const World> world;
+  if (p.world != params_.world && !p.world.empty()) {
+    auto path = resolve_world_path(p.world, relative_to_);
+    if (!path) return path.error().with_context("sim camera: key 'world'");
+    VISNAV_ASSIGN(world, load_world_cached(*path));
+  }
+  const bool back_to_robot_world = p.world.empty() && !params_.world.empty();
   params_ = p;
   if (core_) {
     auto robot = find_robot(params_.robot);
     if (!robot) return robot.error();
-    std::shared_ptr<const World> world = core_->renderer().world_ptr();
+    if (!world) world = back_to_robot_world ? (*robot)->world() : core_->renderer().world_ptr();
+    if (world == nullptr) return fail("sim camera: no world to render");
     core_ = std::make_unique<CameraCore>(params_, *robot, world);
   }
   return ok();

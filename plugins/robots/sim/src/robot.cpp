@@ -59,10 +59,61 @@ const ParamSchema<RobotParams>& RobotParams::schema() {
           .field("odom_heading_drift_degpm", &RobotParams::odom_heading_drift_degpm, "odometric heading drift, deg per metre travelled").range(-90, 90)
           .field("odom_distance_noise_m_per_sqrt_m", &RobotParams::odom_distance_noise_m_per_sqrt_m, "distance noise std, m per sqrt(m) travelled").range(0, 1)
           .field("odom_heading_noise_deg_per_sqrt_m", &RobotParams::odom_heading_noise_deg_per_sqrt_m, "heading noise std, deg per sqrt(m) travelled").range(0, 45)
-          .field("seed", &RobotParams::seed, "seed of the odometry noise").range(0, 2147483647)
+          .field("odom_scale_error_sd_pct", &RobotParams::odom_scale_error_sd_pct, "per-run std of the scale error, %").range(0, 50)
+          .field("odom_wheel_asymmetry_pct", &RobotParams::odom_wheel_asymmetry_pct, "right wheel larger than the left, % (odometric heading drift)").range(-20, 20)
+          .field("odom_wheel_asymmetry_sd_pct", &RobotParams::odom_wheel_asymmetry_sd_pct, "per-run std of the wheel asymmetry, %").range(0, 20)
+          .field("odom_heading_drift_sd_degpm", &RobotParams::odom_heading_drift_sd_degpm, "per-run std of the heading drift, deg/m").range(0, 90)
+          .field("track_width_m", &RobotParams::track_width_m, "wheel separation used by the asymmetry model, m").range(0.05, 10)
+          .field("slip_path_pct", &RobotParams::slip_path_pct, "wheel slip on paths (gravel): body moves this % less than the wheels").range(0, 50)
+          .field("slip_grass_pct", &RobotParams::slip_grass_pct, "wheel slip on grass, %").range(0, 50)
+          .field("slip_other_pct", &RobotParams::slip_other_pct, "wheel slip on pavement, floor and other ground, %").range(0, 50)
+          .field("body_radius_m", &RobotParams::body_radius_m, "collision disc radius, m; 0 = no collisions").range(0, 10)
+          .field("body_height_m", &RobotParams::body_height_m, "walls whose base is higher are passed under, m").range(0.05, 10)
+          .field("trunk_radius_m", &RobotParams::trunk_radius_m, "tree trunks are discs of this radius, m").range(0.01, 5)
+          .field("seed", &RobotParams::seed, "seed of the run's error draw and of the odometry noise").range(0, 2147483647)
           .field("pose_history_s", &RobotParams::pose_history_s, "ground-truth history kept for camera latency, s").range(0.1, 600);
   return s;
 }
+
+RunErrors draw_run_errors(const RobotParams& params) {
+  // A generator of its own, so the draw does not depend on how much noise was consumed.
+  std::mt19937_64 rng(static_cast<std::uint64_t>(params.seed) * 0xD1B54A32D192ED03ULL + 7);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  RunErrors e;
+  e.scale_error_pct = params.odom_scale_error_pct + params.odom_scale_error_sd_pct * unit(rng);
+  e.wheel_asymmetry_pct = params.odom_wheel_asymmetry_pct + params.odom_wheel_asymmetry_sd_pct * unit(rng);
+  e.heading_drift_degpm = params.odom_heading_drift_degpm + params.odom_heading_drift_sd_degpm * unit(rng);
+  return e;
+}
+
+std::vector<CollisionShape> collision_shapes(const World& world, double body_height_m, double trunk_radius_m) {
+  std::vector<CollisionShape> shapes;
+  for (const Wall& w : world.walls) {
+    if (w.base_m >= body_height_m) continue;  // lintels, signs: the body passes under
+    if (w.label == LabelClass::tree) {
+      // A tree is two crossed billboards around its trunk: one disc at their common centre.
+      const cv::Point2d c = 0.5 * (w.from + w.to);
+      const bool seen = std::any_of(shapes.begin(), shapes.end(), [&](const CollisionShape& s) {
+        return s.name == w.name && cv::norm(s.from - c) < 1e-6;
+      });
+      if (!seen) shapes.push_back({c, c, trunk_radius_m, w.name});
+      continue;
+    }
+    shapes.push_back({w.from, w.to, 0.0, w.name});
+  }
+  return shapes;
+}
+
+namespace {
+
+double distance_to_shape(const CollisionShape& s, const cv::Point2d& p) {
+  const cv::Point2d d = s.to - s.from;
+  const double len2 = d.dot(d);
+  const double t = len2 > 0.0 ? std::clamp((p - s.from).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return cv::norm(p - (s.from + t * d)) - s.radius_m;
+}
+
+}  // namespace
 
 Pose2D resolve_start(const RobotParams& params, const World* world) {
   Pose2D start;
@@ -77,6 +128,14 @@ Pose2D resolve_start(const RobotParams& params, const World* world) {
 
 RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<const World> world)
     : params_(std::move(params)), world_(std::move(world)), pose_(start_world), rng_(static_cast<std::uint64_t>(params_.seed)) {
+  run_errors_ = draw_run_errors(params_);
+  if (world_ && params_.body_radius_m > 0.0) {
+    shapes_ = collision_shapes(*world_, params_.body_height_m, params_.trunk_radius_m);
+    in_contact_.assign(shapes_.size(), 0);
+    // A robot placed touching an obstacle starts in contact with it (no collision recorded).
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+      in_contact_[i] = distance_to_shape(shapes_[i], {pose_.x_m, pose_.y_m}) < params_.body_radius_m ? 1 : 0;
+  }
   published_.timestamp_s = 0.0;
   next_publish_s_ = 1.0 / params_.odom_rate_hz;
   history_.emplace_back(0.0, pose_);
@@ -97,7 +156,26 @@ void RobotCore::set_params(const RobotParams& params) {
   p.displacement_lateral_m = params_.displacement_lateral_m;
   p.displacement_longitudinal_m = params_.displacement_longitudinal_m;
   p.displacement_heading_deg = params_.displacement_heading_deg;
+  p.body_radius_m = params_.body_radius_m;  // the collision shapes were built for the body
+  p.body_height_m = params_.body_height_m;
+  p.trunk_radius_m = params_.trunk_radius_m;
+  const bool new_run = p.seed != params_.seed;
   params_ = p;
+  if (new_run) {
+    // A new seed is a new run: new systematic errors and a new noise stream.
+    run_errors_ = draw_run_errors(params_);
+    rng_.seed(static_cast<std::uint64_t>(params_.seed));
+  }
+}
+
+RunErrors RobotCore::run_errors() const {
+  std::lock_guard lock(mutex_);
+  return run_errors_;
+}
+
+std::vector<SimCollision> RobotCore::collisions() const {
+  std::lock_guard lock(mutex_);
+  return collisions_;
 }
 
 void RobotCore::command(const Twist& twist) {
@@ -140,10 +218,18 @@ void RobotCore::substep_locked(double dt) {
     const double w_max = std::abs(velocity_.linear_mps) / params_.min_turning_radius_m;
     velocity_.angular_radps = std::clamp(velocity_.angular_radps, -w_max, w_max);
   }
-  const double v = velocity_.linear_mps;
+  const double v_wheels = velocity_.linear_mps;
   const double w_cmd = velocity_.angular_radps;
+  double slip_pct = params_.slip_other_pct;
+  if (world_ && (params_.slip_path_pct > 0.0 || params_.slip_grass_pct > 0.0 || params_.slip_other_pct > 0.0)) {
+    const LabelClass ground = world_->ground_label_at(pose_.x_m, pose_.y_m);
+    if (ground == LabelClass::path) slip_pct = params_.slip_path_pct;
+    else if (ground == LabelClass::grass) slip_pct = params_.slip_grass_pct;
+  }
+  const double v = v_wheels * (1.0 - slip_pct / 100.0);
   const double w = params_.kinematics == "tracked" ? (1.0 - params_.track_slip) * w_cmd : w_cmd;
   const double th = pose_.heading_rad;
+  const Pose2D before = pose_;
   if (std::abs(w) < 1e-9) {
     pose_.x_m += v * dt * std::cos(th);
     pose_.y_m += v * dt * std::sin(th);
@@ -153,15 +239,40 @@ void RobotCore::substep_locked(double dt) {
     pose_.y_m += -r * (std::cos(th + w * dt) - std::cos(th));
   }
   pose_.heading_rad = wrap_angle(th + w * dt);
-  const double ds = v * dt;
+  double ds = v * dt;
+  double ds_wheels = v_wheels * dt;
+  bool blocked = false;
+  if (!shapes_.empty()) {
+    const cv::Point2d p0(before.x_m, before.y_m), p1(pose_.x_m, pose_.y_m);
+    for (std::size_t i = 0; i < shapes_.size(); ++i) {
+      const double d1 = distance_to_shape(shapes_[i], p1);
+      if (d1 >= params_.body_radius_m) {
+        in_contact_[i] = 0;
+        continue;
+      }
+      const double d0 = distance_to_shape(shapes_[i], p0);
+      if (d1 >= d0) continue;  // touching but moving away (or along): allowed
+      // Blocked: the step is not taken and the robot stops against the obstacle.
+      pose_ = before;
+      velocity_ = Twist{};
+      ds = 0.0;
+      ds_wheels = 0.0;
+      blocked = true;
+      if (!in_contact_[i]) collisions_.push_back(SimCollision{time_s_ + dt, before, shapes_[i].name});
+      in_contact_[i] = 1;
+      break;
+    }
+  }
   true_distance_m_ += ds;
 
-  // odometry: tracked robots measure the track motion, i.e. the commanded yaw (slip is invisible)
-  const double dth_measured_true = w_cmd * dt;
-  const double ads = std::abs(ds);
+  // Odometry measures the wheels: slip is invisible, and so is a tracked robot's skid (the
+  // tracks turn as commanded).
+  const double dth_measured_true = blocked ? 0.0 : w_cmd * dt;
+  const double ads = std::abs(ds_wheels);
   std::normal_distribution<double> unit(0.0, 1.0);
-  double ds_m = ds * (1.0 + params_.odom_scale_error_pct / 100.0);
-  double dth_m = dth_measured_true + params_.odom_heading_drift_degpm * kDeg * ads;
+  double ds_m = ds_wheels * (1.0 + run_errors_.scale_error_pct / 100.0);
+  double dth_m = dth_measured_true + run_errors_.wheel_asymmetry_pct / 100.0 * ds_wheels / params_.track_width_m +
+                 run_errors_.heading_drift_degpm * kDeg * ads;
   if (params_.odom_distance_noise_m_per_sqrt_m > 0.0 && ads > 0.0)
     ds_m += params_.odom_distance_noise_m_per_sqrt_m * std::sqrt(ads) * unit(rng_);
   if (params_.odom_heading_noise_deg_per_sqrt_m > 0.0 && ads > 0.0)
@@ -264,9 +375,13 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, Hos
   auto made = create(p, params.where().file);
   if (!made) return made.error().with_context(params.where().str());
   const Pose2D s = (*made)->core_->ground_truth();
+  const RunErrors e = (*made)->core_->run_errors();
   host.logger().info("robot_sim", "robot '" + p.name + "' (" + p.kinematics + ") starts at x=" + std::to_string(s.x_m) +
                                       " y=" + std::to_string(s.y_m) + " heading=" + std::to_string(s.heading_rad / kDeg) + " deg" +
-                                      (p.world.empty() ? std::string() : " in world '" + p.world + "'"));
+                                      (p.world.empty() ? std::string() : " in world '" + p.world + "'") +
+                                      "; run errors: scale " + std::to_string(e.scale_error_pct) + " %, wheel asymmetry " +
+                                      std::to_string(e.wheel_asymmetry_pct) + " %, drift " +
+                                      std::to_string(e.heading_drift_degpm) + " deg/m");
   return made;
 }
 
@@ -289,6 +404,7 @@ Status SimRobot::send_command(const Twist& command) {
 }
 
 std::optional<Odometry> SimRobot::latest_odometry() { return core_->odometry(); }
+std::vector<SimCollision> SimRobot::collisions() const { return core_->collisions(); }
 Status SimRobot::step(double dt_s) { return core_->step(dt_s); }
 double SimRobot::time_s() const { return core_->time_s(); }
 Pose2D SimRobot::ground_truth_pose() const { return core_->ground_truth(); }

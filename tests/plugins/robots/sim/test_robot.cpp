@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <set>
 
 #include "visnav_sim/registry.hpp"
 #include "visnav_sim/robot.hpp"
+#include "visnav_sim/world.hpp"
 
 namespace vs = visnav::sim;
 using visnav::Pose2D;
@@ -189,4 +191,156 @@ TEST(SimRobot, PluginObjectRegistersByNameAndRejectsDuplicates) {
   EXPECT_EQ(sim->ground_truth_pose().x_m, 5);
   a->reset();
   EXPECT_FALSE(vs::find_robot("unit_robot").ok());
+}
+
+// --- per-run error draws, wheel asymmetry, slip, collisions (issue 12) -------------------
+
+TEST(SimRobotRunErrors, SeedsDifferSameSeedRepeatsAndSdZeroIsTheMean) {
+  vs::RobotParams p = fast_params();
+  p.odom_scale_error_pct = 1.0;
+  p.odom_scale_error_sd_pct = 3.0;
+  p.odom_wheel_asymmetry_sd_pct = 0.2;
+  p.odom_heading_drift_sd_degpm = 0.1;
+  p.seed = 101;
+  const vs::RunErrors a = vs::draw_run_errors(p);
+  const vs::RunErrors a2 = vs::draw_run_errors(p);
+  p.seed = 102;
+  const vs::RunErrors b = vs::draw_run_errors(p);
+  EXPECT_EQ(a.scale_error_pct, a2.scale_error_pct);
+  EXPECT_EQ(a.wheel_asymmetry_pct, a2.wheel_asymmetry_pct);
+  EXPECT_NE(a.scale_error_pct, b.scale_error_pct);
+  EXPECT_NE(a.wheel_asymmetry_pct, b.wheel_asymmetry_pct);
+  // The draws follow the configured distribution: over many seeds mean ~1 %, sd ~3 %.
+  double sum = 0, sum2 = 0;
+  const int n = 4000;
+  for (int s = 0; s < n; ++s) {
+    p.seed = s;
+    const double e = vs::draw_run_errors(p).scale_error_pct;
+    sum += e;
+    sum2 += e * e;
+  }
+  const double mean = sum / n, sd = std::sqrt(sum2 / n - mean * mean);
+  EXPECT_NEAR(mean, 1.0, 0.2);
+  EXPECT_NEAR(sd, 3.0, 0.2);
+  p.odom_scale_error_sd_pct = 0;
+  p.odom_wheel_asymmetry_sd_pct = 0;
+  p.odom_heading_drift_sd_degpm = 0;
+  EXPECT_EQ(vs::draw_run_errors(p).scale_error_pct, 1.0);
+  EXPECT_EQ(vs::draw_run_errors(p).wheel_asymmetry_pct, 0.0);
+}
+
+TEST(SimRobotRunErrors, ANewSeedOnReconfigureIsANewRunTeachAndReplayDoNotCancel) {
+  vs::RobotParams p = fast_params();
+  p.odom_scale_error_sd_pct = 3.0;
+  p.seed = 1;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  drive(r, Twist{1.0, 0.0}, 4.0);
+  const double teach_ratio = r.odometry().distance_m / r.true_distance_m();
+  p.seed = 2;
+  r.set_params(p);
+  const double d0 = r.odometry().distance_m, t0 = r.true_distance_m();
+  drive(r, Twist{1.0, 0.0}, 4.0);
+  const double replay_ratio = (r.odometry().distance_m - d0) / (r.true_distance_m() - t0);
+  EXPECT_NEAR(teach_ratio, 1.0 + vs::draw_run_errors([&] { auto q = p; q.seed = 1; return q; }()).scale_error_pct / 100, 1e-3);
+  EXPECT_NEAR(replay_ratio, 1.0 + r.run_errors().scale_error_pct / 100, 1e-3);
+  // the two runs' odometry disagree, as a real robot's do from day to day
+  EXPECT_GT(std::abs(teach_ratio - replay_ratio), 1e-3);
+}
+
+TEST(SimRobotRunErrors, WheelAsymmetryDriftsTheOdometricHeadingNotTheTrueOne) {
+  vs::RobotParams p = fast_params();
+  p.odom_wheel_asymmetry_pct = 0.4;  // 0.4 % over a 0.4 m track: 0.01 rad per metre
+  p.track_width_m = 0.4;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  drive(r, Twist{1.0, 0.0}, 10.0);
+  EXPECT_NEAR(r.ground_truth().heading_rad, 0.0, 1e-9);
+  EXPECT_NEAR(r.odometry().pose.heading_rad, 0.1, 2e-3);  // 10 m x 0.01 rad/m, left turn read
+}
+
+namespace {
+std::shared_ptr<const vs::World> box_world() {
+  // A 10 x 10 m grass yard with a gravel path strip, one wall across x = 3 and a tree at (0, 3).
+  const char* yaml = R"(
+world:
+  textures:
+    grass: {procedural: noise, color: [90, 140, 60]}
+    gravel: {procedural: noise, color: [150, 140, 120]}
+    brick: {procedural: noise, color: [120, 60, 50]}
+    tree: {procedural: tree, color: [40, 110, 40], size_m: 4.0, pixels: 64}
+  default_ground: {texture: grass, class: grass}
+  regions:
+    - {name: strip, texture: gravel, class: path, polygon: [[-5, -6], [5, -6], [5, -5], [-5, -5]]}
+  walls:
+    - {name: east_wall, texture: brick, height_m: 2, polyline: [[3, -4], [3, 4]]}
+    - {name: sign, texture: brick, base_m: 1.5, height_m: 2.5, polyline: [[-3, -4], [-3, 4]]}
+  trees:
+    - {name: oak, at: [0, 3], height_m: 5, width_m: 3, texture: tree}
+)";
+  auto w = vs::parse_world(yaml, "yard.yaml", ".");
+  EXPECT_TRUE(w.ok()) << (w ? "" : w.error().message);
+  return w ? *w : nullptr;
+}
+}  // namespace
+
+TEST(SimRobotCollisions, AWallStopsTheRobotIsRecordedOnceAndTheRobotCanBackAway) {
+  auto world = box_world();
+  ASSERT_NE(world, nullptr);
+  vs::RobotParams p = fast_params();
+  p.body_radius_m = 0.25;
+  vs::RobotCore r(p, Pose2D{0, 0, 0}, world);
+  drive(r, Twist{1.0, 0.0}, 5.0);  // towards the wall at x = 3
+  ASSERT_EQ(r.collisions().size(), 1u);
+  EXPECT_EQ(r.collisions()[0].obstacle, "east_wall");
+  EXPECT_NEAR(r.ground_truth().x_m, 2.75, 0.06);
+  EXPECT_LE(r.ground_truth().x_m, 2.75 + 1e-9);
+  EXPECT_EQ(r.true_twist().linear_mps, 0.0);
+  const double odom_at_contact = r.odometry().distance_m;
+  drive(r, Twist{1.0, 0.0}, 1.0);  // pushing on: blocked, no new record, the wheels do not turn
+  EXPECT_EQ(r.collisions().size(), 1u);
+  EXPECT_NEAR(r.odometry().distance_m, odom_at_contact, 0.06);
+  drive(r, Twist{-0.5, 0.0}, 1.0);  // backing away is possible
+  EXPECT_LT(r.ground_truth().x_m, 2.4);
+  drive(r, Twist{1.0, 0.0}, 2.0);  // a second contact is a second collision
+  EXPECT_EQ(r.collisions().size(), 2u);
+}
+
+TEST(SimRobotCollisions, TreesAreTrunksHighWallsArePassedUnderAndZeroRadiusIsOff) {
+  auto world = box_world();
+  ASSERT_NE(world, nullptr);
+  vs::RobotParams p = fast_params();
+  p.body_radius_m = 0.25;
+  {
+    vs::RobotCore r(p, Pose2D{0, 0, CV_PI / 2}, world);  // north, towards the oak at (0, 3)
+    drive(r, Twist{1.0, 0.0}, 5.0);
+    ASSERT_EQ(r.collisions().size(), 1u);
+    EXPECT_EQ(r.collisions()[0].obstacle, "oak");
+    EXPECT_NEAR(r.ground_truth().y_m, 3.0 - p.trunk_radius_m - p.body_radius_m, 0.06);
+  }
+  {
+    vs::RobotCore r(p, Pose2D{0, 0, CV_PI}, world);  // west, under the sign (base 1.5 m)
+    drive(r, Twist{1.0, 0.0}, 4.0);
+    EXPECT_TRUE(r.collisions().empty());
+    EXPECT_LT(r.ground_truth().x_m, -3.5);
+  }
+  {
+    p.body_radius_m = 0.0;
+    vs::RobotCore r(p, Pose2D{0, 0, 0}, world);
+    drive(r, Twist{1.0, 0.0}, 5.0);
+    EXPECT_TRUE(r.collisions().empty());
+    EXPECT_GT(r.ground_truth().x_m, 4.0);
+  }
+}
+
+TEST(SimRobotSlip, OnGrassTheBodyMovesLessThanTheOdometryReads) {
+  auto world = box_world();
+  ASSERT_NE(world, nullptr);
+  vs::RobotParams p = fast_params();
+  p.slip_grass_pct = 10;
+  p.slip_path_pct = 2;
+  vs::RobotCore r(p, Pose2D{-4, 0, 0}, world);
+  drive(r, Twist{1.0, 0.0}, 2.0);
+  EXPECT_NEAR(r.true_distance_m() / r.odometry().distance_m, 0.90, 0.01);
+  vs::RobotCore q(p, Pose2D{-4, -5.5, 0}, world);  // on the gravel strip
+  drive(q, Twist{1.0, 0.0}, 2.0);
+  EXPECT_NEAR(q.true_distance_m() / q.odometry().distance_m, 0.98, 0.01);
 }

@@ -8,8 +8,11 @@
 //  2. render at the robot's true pose at (t - latency_s) (RobotCore::pose_at); the frame's
 //     timestamp is that capture time t - latency_s.
 //  3. appearance: motion blur (horizontal box blur of |ω|·exposure·fx pixels plus a vertical
-//     one for forward motion), gain/offset, per-channel colour gains, Gaussian sensor noise;
-//     shadow bands and the season are applied by the renderer.
+//     one for forward motion), gain/offset, per-channel colour gains, auto-exposure flicker
+//     (the image is scaled by e^x, x an Ornstein-Uhlenbeck process of stationary std
+//     exposure_jitter and time constant exposure_time_constant_s, advanced per rendered frame
+//     by simulated time), Gaussian sensor noise; shadow bands and the season are applied by
+//     the renderer.
 // Random draws come from one generator seeded with `seed`: the same params, world and robot
 // motion give bit-identical frames.
 // frame_rate_hz > 0 limits frames to that rate of simulated time (grab returns nullopt when
@@ -57,6 +60,8 @@ struct CameraParams {
   double shadow_direction_deg = 30.0;
   std::string season;             ///< "" = base textures
   double noise_std = 0.0;         ///< Gaussian sensor noise, grey levels
+  double exposure_jitter = 0.0;   ///< std of log brightness of the auto-exposure flicker; 0 = off
+  double exposure_time_constant_s = 2.0;
   double motion_blur_exposure_s = 0.0;  ///< 0 = no motion blur
   // faults
   double drop_probability = 0.0;
@@ -98,6 +103,8 @@ class CameraCore {
   cv::Mat tone_lut_;  // gain/offset/colour gains; empty when they are neutral
   std::vector<cv::Mat> pool_;
   cv::Mat last_image_;
+  double exposure_log_ = 0.0;       // OU state of the auto-exposure flicker
+  double exposure_time_s_ = -1.0;   // simulated time of its last update (< 0: not started)
   Pose2D last_pose_;
   bool have_last_ = false;
 };

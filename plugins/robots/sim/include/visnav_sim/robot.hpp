@@ -9,10 +9,33 @@
 // of simulated time the target velocity becomes zero (watchdog). Motion is integrated in
 // sub-steps of at most integration_step_s with the exact arc of each sub-step.
 //
-// Odometry (odom frame: starts at (0, 0, 0) wherever the robot starts): each sub-step's true
-// increment ds, dθ is measured as ds' = ds (1 + odom_scale_error_pct/100) + N(0, σ_d² |ds|),
-// dθ' = dθ + drift·|ds| + N(0, σ_θ² |ds|) with drift = odom_heading_drift_degpm and
-// σ_d = odom_distance_noise_m_per_sqrt_m, σ_θ = odom_heading_noise_deg_per_sqrt_m; the odometry pose integrates ds', dθ'.
+// Per-run error draw: when the robot is created, and again whenever `seed` changes on
+// reconfigure (an experiment gives the teach run and each replay run their own seed), the
+// run's systematic errors are drawn once from the configured distributions:
+//   scale s = odom_scale_error_pct + N(0, odom_scale_error_sd_pct²)            [%]
+//   wheel asymmetry a = odom_wheel_asymmetry_pct + N(0, odom_wheel_asymmetry_sd_pct²) [%]
+//   drift δ = odom_heading_drift_degpm + N(0, odom_heading_drift_sd_degpm²)    [deg/m]
+// With every *_sd_* at 0 the run errors are the configured values (a deterministic robot).
+//
+// Slip: on the ground class under the robot (World::ground_label_at) the body moves
+// (1 − slip) of what the wheels roll: slip_path_pct on paths, slip_grass_pct on grass,
+// slip_other_pct elsewhere. The wheels (and so the odometry) do not see it.
+//
+// Odometry (odom frame: starts at (0, 0, 0) wherever the robot starts): each sub-step's wheel
+// increment ds_w = ds / (1 − slip) and measured yaw dθ_w (diff-drive and car-like: the true
+// yaw; tracked: the commanded yaw, skid is invisible) are measured as
+//   ds' = ds_w (1 + s/100) + N(0, σ_d² |ds_w|),
+//   dθ' = dθ_w + (a/100)·ds_w / track_width_m + δ·|ds_w| + N(0, σ_θ² |ds_w|)
+// (a right wheel a % larger than the left one reads a left turn of a/track_width rad per metre),
+// σ_d = odom_distance_noise_m_per_sqrt_m, σ_θ = odom_heading_noise_deg_per_sqrt_m; the odometry
+// pose integrates ds', dθ'.
+//
+// Collisions (body_radius_m > 0): the body is a disc. A sub-step that would bring it closer
+// than body_radius_m to a wall whose base is below body_height_m (walls, fences, facades,
+// posts), or to a tree's trunk (a disc of trunk_radius_m at the tree's centre), is not taken:
+// the robot stops there (velocity zero) and the contact is recorded (collisions()); motion
+// away from the obstacle is still possible. One contact is recorded per obstacle until the
+// body is clear of it again.
 // A reading is published at t = 0 and then every 1/odom_rate_hz of simulated time (at the
 // end of the step that crosses the publication time; its timestamp is that step's time).
 // Odometry.distance_m is the signed measured path length.
@@ -62,12 +85,43 @@ struct RobotParams {
   double odom_heading_drift_degpm = 0.0;
   double odom_distance_noise_m_per_sqrt_m = 0.0;
   double odom_heading_noise_deg_per_sqrt_m = 0.0;
+  double odom_scale_error_sd_pct = 0.0;       ///< per-run draw, see the file comment
+  double odom_wheel_asymmetry_pct = 0.0;      ///< right wheel larger than the left, %
+  double odom_wheel_asymmetry_sd_pct = 0.0;
+  double odom_heading_drift_sd_degpm = 0.0;
+  double track_width_m = 0.4;                 ///< wheel separation for the asymmetry model
+  double slip_path_pct = 0.0;                 ///< wheel slip on paths (gravel), %
+  double slip_grass_pct = 0.0;
+  double slip_other_pct = 0.0;                ///< pavement, floor, other ground
+  double body_radius_m = 0.0;                 ///< collision disc; 0 = no collisions
+  double body_height_m = 0.6;                 ///< walls whose base is higher are passed under
+  double trunk_radius_m = 0.25;               ///< tree trunks as discs
   int seed = 1;
   double pose_history_s = 5.0;        ///< how far back pose_at() can look (camera latency)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RobotParams>& schema();
 };
+
+/// The systematic odometry errors of one run (drawn from RobotParams, see the file comment).
+struct RunErrors {
+  double scale_error_pct = 0.0;
+  double wheel_asymmetry_pct = 0.0;
+  double heading_drift_degpm = 0.0;
+};
+/// Draws a run's errors from `params` with its seed (deterministic).
+[[nodiscard]] RunErrors draw_run_errors(const RobotParams& params);
+
+/// An obstacle of the collision model: a segment (radius 0) or a disc (from == to).
+struct CollisionShape {
+  cv::Point2d from;
+  cv::Point2d to;
+  double radius_m = 0.0;
+  std::string name;
+};
+/// The collision shapes of a world for a body of `body_height_m`.
+[[nodiscard]] std::vector<CollisionShape> collision_shapes(const World& world, double body_height_m,
+                                                           double trunk_radius_m);
 
 /// Kinematics + odometry state machine. Pure simulation, no I/O.
 class RobotCore {
@@ -94,6 +148,10 @@ class RobotCore {
   /// Replaces limits, delays and odometry settings (live reconfiguration); the name, world,
   /// kinematics and start settings are ignored.
   void set_params(const RobotParams& params);
+  /// The systematic errors drawn for the current run.
+  [[nodiscard]] RunErrors run_errors() const;
+  /// Every collision so far (see the file comment).
+  [[nodiscard]] std::vector<SimCollision> collisions() const;
   /// World the robot drives in (may be null).
   [[nodiscard]] const std::shared_ptr<const World>& world() const { return world_; }
 
@@ -121,6 +179,10 @@ class RobotCore {
   Odometry published_;
   std::mt19937_64 rng_;
   std::deque<std::pair<double, Pose2D>> history_;
+  RunErrors run_errors_;
+  std::vector<CollisionShape> shapes_;
+  std::vector<char> in_contact_;  // per shape: body currently touching it
+  std::vector<SimCollision> collisions_;
 };
 
 /// Start pose of a robot: params.start_pose (or the world's start, or the origin) with the
@@ -148,6 +210,7 @@ class SimRobot final : public Robot, public SimulationControl {
   [[nodiscard]] double time_s() const override;
   [[nodiscard]] Pose2D ground_truth_pose() const override;
   Status set_ground_truth_pose(const Pose2D& pose_world) override;
+  [[nodiscard]] std::vector<SimCollision> collisions() const override;
 
   [[nodiscard]] const std::shared_ptr<RobotCore>& core() const { return core_; }
 

@@ -12,6 +12,12 @@
 //   * blind: distance since the robot last saw. Up to slow_after_m the primitive goes on as
 //     usual (on odometry: seed 002's field runs survived short outages); beyond it the
 //     forward speed is scaled by slow_speed_factor; beyond max_blind_m the verdict is `lost`.
+//   * uninformative frames: where the map itself expects little to see (the teach run saw
+//     fewer than the primitive's minimum of landmarks there: open grass, a featureless
+//     corner), a frame without a match is no evidence of being lost. Such frames neither
+//     refresh nor grow the blind distance (the count pauses), so short connector edges that
+//     were taught nearly blind are driven on odometry as they were taught. Frozen-camera,
+//     saturation and heading checks still apply.
 //   * frozen camera: the frame's pixels are identical to the previous frame's while the
 //     robot travelled more than max_frozen_m: `frozen`. A stationary robot's identical frames
 //     are not counted (nothing moved).
@@ -96,7 +102,7 @@ class NavHealthMonitor {
   /// One processed frame. `image` may be empty (an unusable frame: confidence should be 0).
   /// `edge_distance_m` is the distance along the edge (for the taught heading).
   const NavHealthVerdict& update(double odom_distance_m, double odom_heading_rad, double edge_distance_m,
-                                 const cv::Mat& image, double confidence, bool saturated);
+                                 const cv::Mat& image, double confidence, bool saturated, bool informative = true);
 
   /// The latest verdict (also returned by update()).
   [[nodiscard]] const NavHealthVerdict& verdict() const { return verdict_; }
@@ -118,6 +124,7 @@ class NavHealthMonitor {
   double confident_at_m_ = 0.0;
   double changed_at_m_ = 0.0;
   double saturated_since_m_ = -1.0;  // < 0: not saturated
+  double last_odom_m_ = 0.0;         // odometric distance of the previous update
   double start_heading_rad_ = 0.0;
   std::optional<TaughtHeading> taught_;
   std::uint64_t last_hash_ = 0;

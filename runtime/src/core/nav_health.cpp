@@ -79,6 +79,7 @@ void NavHealthMonitor::begin(double odom_distance_m, double odom_heading_rad, st
   window_size_ = 0;
   window_next_ = 0;
   saturated_since_m_ = -1.0;
+  last_odom_m_ = odom_distance_m;
   start_heading_rad_ = odom_heading_rad;
   taught_ = taught;
   have_hash_ = false;
@@ -88,9 +89,12 @@ void NavHealthMonitor::begin(double odom_distance_m, double odom_heading_rad, st
 }
 
 const NavHealthVerdict& NavHealthMonitor::update(double odom_distance_m, double odom_heading_rad, double edge_distance_m,
-                                                 const cv::Mat& image, double confidence, bool saturated) {
+                                                 const cv::Mat& image, double confidence, bool saturated,
+                                                 bool informative) {
   NavHealthVerdict& v = verdict_;
   v.reason.clear();
+  const double step_m = std::max(0.0, odom_distance_m - last_odom_m_);
+  last_odom_m_ = odom_distance_m;
 
   // Frozen camera: compare with the previous frame; travel while identical counts.
   if (!image.empty()) {
@@ -109,13 +113,18 @@ const NavHealthVerdict& NavHealthMonitor::update(double odom_distance_m, double 
   // A frozen image can still match the map well, so it must not count as seeing.
   if (identical_frames_ > 0) confidence = 0.0;
 
-  window_[static_cast<std::size_t>(window_next_)] = std::isfinite(confidence) ? std::clamp(confidence, 0.0, 1.0) : 0.0;
-  window_next_ = (window_next_ + 1) % policy_.window_frames;
-  window_size_ = std::min(window_size_ + 1, policy_.window_frames);
+  if (informative || identical_frames_ > 0 || (std::isfinite(confidence) && confidence >= policy_.min_confidence)) {
+    window_[static_cast<std::size_t>(window_next_)] = std::isfinite(confidence) ? std::clamp(confidence, 0.0, 1.0) : 0.0;
+    window_next_ = (window_next_ + 1) % policy_.window_frames;
+    window_size_ = std::min(window_size_ + 1, policy_.window_frames);
+  } else {
+    // Nothing to see here by the map's own account: the blind count pauses.
+    confident_at_m_ = std::min(odom_distance_m, confident_at_m_ + step_m);
+  }
   double sum = 0.0;
   for (int i = 0; i < window_size_; ++i) sum += window_[static_cast<std::size_t>(i)];
-  v.window_confidence = sum / window_size_;
-  if (v.window_confidence >= policy_.min_confidence && window_size_ >= std::min(3, policy_.window_frames))
+  v.window_confidence = window_size_ > 0 ? sum / window_size_ : 0.0;
+  if (window_size_ > 0 && v.window_confidence >= policy_.min_confidence && window_size_ >= std::min(3, policy_.window_frames))
     confident_at_m_ = odom_distance_m;
   v.blind_m = std::max(0.0, odom_distance_m - confident_at_m_);
 

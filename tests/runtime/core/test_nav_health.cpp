@@ -170,3 +170,30 @@ TEST(NavHealth, BlindnessCarriesAcrossEdgesSoShortEdgesCannotHideIt) {
   EXPECT_EQ(fresh.confident_at_m(), 1.0);
   EXPECT_EQ(fresh.changed_at_m(), 1.0);
 }
+
+TEST(NavHealth, WhereTheMapExpectsNothingTheBlindCountPausesButAFrozenCameraStillStops) {
+  LostPolicy p;
+  p.max_blind_m = 3.0;
+  NavHealthMonitor m(p);
+  m.begin(0.0, 0.0, std::nullopt, std::nullopt);
+  int i = 0;
+  double d = 0.0;
+  for (; d < 1.0; d += 0.05) m.update(d, 0.0, d, live_frame(i++), 0.0, false, /*informative=*/true);
+  const double blind = m.verdict().blind_m;
+  EXPECT_GT(blind, 0.8);
+  // 10 m of featureless map: no match is expected, the count pauses
+  for (; d < 11.0; d += 0.05) EXPECT_FALSE(m.update(d, 0.0, d, live_frame(i++), 0.0, false, false).must_stop());
+  EXPECT_NEAR(m.verdict().blind_m, blind, 0.06);
+  // where the map expects landmarks again, blindness grows from where it was
+  bool stopped = false;
+  for (; d < 20.0 && !stopped; d += 0.05) stopped = m.update(d, 0.0, d, live_frame(i++), 0.0, false, true).must_stop();
+  EXPECT_TRUE(stopped);
+  EXPECT_NEAR(d, 11.0 + (3.0 - blind), 0.3);
+  // a frozen camera is a frozen camera wherever the robot is
+  NavHealthMonitor f(p);
+  f.begin(0.0, 0.0, std::nullopt, std::nullopt);
+  const cv::Mat still = live_frame(3);
+  bool frozen = false;
+  for (d = 0.0; d < 3.0 && !frozen; d += 0.05) frozen = f.update(d, 0.0, d, still, 0.0, false, false).must_stop();
+  EXPECT_EQ(f.verdict().state, NavHealthState::frozen);
+}

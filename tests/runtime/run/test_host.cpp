@@ -38,6 +38,8 @@ TEST(Host, TelemetryWritesOneEscapedJsonLinePerStatus) {
     s.edge = "e1";
     s.matches = 42;
     s.command = {0.25, -0.5};
+    s.confidence = 0.75;
+    s.blind_m = 1.25;
     s.status = "line\nbreak";
     (*t)->publish(s);
     clock.advance(0.5);
@@ -48,7 +50,8 @@ TEST(Host, TelemetryWritesOneEscapedJsonLinePerStatus) {
   EXPECT_TRUE(contains(text, "{\"t_s\":1.5000,\"node_path\":\"Main/\\\"quoted\\\"\\\\path\",\"map_node\":\"\",\"edge\":\"e1\""))
       << text;
   EXPECT_TRUE(contains(text, "\"matches\":42,")) << text;
-  EXPECT_TRUE(contains(text, "\"linear_mps\":0.2500,\"angular_radps\":-0.5000,\"status\":\"line\\nbreak\"}\n")) << text;
+  EXPECT_TRUE(contains(text, "\"linear_mps\":0.2500,\"angular_radps\":-0.5000,\"confidence\":0.750,\"blind_m\":1.250,"
+                             "\"status\":\"line\\nbreak\"}\n")) << text;
   EXPECT_TRUE(contains(text, "{\"t_s\":2.0000,")) << text;
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 2);
 }

@@ -265,6 +265,10 @@ bt::PortsList ReplayFeatureEdge::provided_ports() {
       bt::input_port<double>("distance_margin_m", "0", "style A: widen each landmark's visibility window"),
       bt::input_port<double>("ratio", "0.7", "matching: Lowe ratio test"),
       bt::input_port<double>("min_confidence", "0.25", "histogram confidence below which no correction is applied"),
+      bt::input_port<int>("min_expected_features", "15",
+                          "lost policy: where the map holds fewer landmarks/features than this at the current "
+                          "distance, a frame without a match does not count as blind (nothing was seen there "
+                          "when teaching either)"),
       bt::input_port<double>("carried_m", "{edge_carried_m}",
                              "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
                              "unset counts as 0)"),
@@ -315,6 +319,8 @@ Status ReplayFeatureEdge::load_edge() {
     return fail("the gains, max_correction_radps and distance_margin_m must be >= 0 and max_angular_radps > 0");
   if (laps < 1) return fail("laps must be >= 1");
   VISNAV_ASSIGN(LostPolicy policy, bt::read_lost_policy(*this));
+  VISNAV_ASSIGN(min_expected_features_, get_input<int>("min_expected_features"));
+  if (min_expected_features_ < 0) return fail("min_expected_features must be >= 0");
   health_ = NavHealthMonitor(policy);
   edge_kind_ = edge->kind;
   max_angular_radps_ = max_w;
@@ -415,6 +421,7 @@ NodeStatus ReplayFeatureEdge::on_running() {
   double distance_m;
   double confidence;
   bool saturated;
+  bool informative = true;
   if (segment_) {
     const SegmentReplayOutput out = segment_->step(odom->distance_m, features_, width_px);
     command = out.command;
@@ -426,6 +433,7 @@ NodeStatus ReplayFeatureEdge::on_running() {
     distance_m = out.distance_m;
     confidence = out.estimate.confidence;
     saturated = state == ReplayState::steering && std::abs(command.angular_radps) >= max_angular_radps_ - 1e-9;
+    informative = out.expected_landmarks >= min_expected_features_;
   } else {
     const LocalMapReplayOutput out = localmaps_->step(odom->distance_m, features_, width_px);
     command = out.command;
@@ -438,6 +446,10 @@ NodeStatus ReplayFeatureEdge::on_running() {
     confidence = out.estimate.confidence;
     saturated = state == ReplayState::steering && max_correction_radps_ > 0.0 &&
                 std::abs(out.correction_radps) >= max_correction_radps_ - 1e-9;
+    const auto& maps = localmaps_->path().maps;
+    informative = out.map_index < 0 || out.map_index >= static_cast<int>(maps.size()) ||
+                  static_cast<int>(maps[static_cast<std::size_t>(out.map_index)].positions_px.size()) >=
+                      min_expected_features_;
     if (out.lap_completed) {
       (void)set_output("lap", out.lap);
       host_.logger().info(path(), "edge " + edge_id_ + ": lap " + std::to_string(out.lap + 1) + " started");
@@ -451,27 +463,25 @@ NodeStatus ReplayFeatureEdge::on_running() {
 
   if (bad_frame != nullptr) confidence = 0.0;
   const NavHealthVerdict& health =
-      health_.update(odom->distance_m, odom->pose.heading_rad, distance_m, image, confidence, saturated);
+      health_.update(odom->distance_m, odom->pose.heading_rad, distance_m, image, confidence, saturated, informative);
   bt::store_nav_health(health_, *this);
   // A robot that is not sure where the route is slows down (the recorded curvature is kept).
   command.linear_mps *= health.speed_factor;
   command.angular_radps *= health.speed_factor;
-  // An edge must not end SUCCESS on odometry alone while the robot no longer sees the route.
-  const bool blind_at_end = finished && health.state == NavHealthState::slowing;
+  // Blindness at the end of an edge is carried into the next one (confident_at_m), so the
+  // next edge stops within max_blind_m unless it sees the route again.
   if (Telemetry* telemetry = host_.telemetry()) {
     status_.distance_m = distance_m;
-    status_.command = health.must_stop() || blind_at_end ? Twist{} : command;
+    status_.command = health.must_stop() ? Twist{} : command;
     status_.confidence = health.window_confidence;
     status_.blind_m = health.blind_m;
     status_.status = bad_frame != nullptr ? "bad frame" : to_string(state);
-    if (health.state != NavHealthState::seeing) status_.status += std::string(" | ") + to_string(health.state);
+    if (health.state == NavHealthState::slowing || health.must_stop())
+      status_.status += std::string(" | ") + to_string(health.state);
     telemetry->publish(status_);
   }
-  if (health.must_stop() || blind_at_end) {
-    const std::string reason = blind_at_end ? "lost: reached the end of the edge without seeing the route for " +
-                                                  format_double(health.blind_m) + " m"
-                                            : health.reason;
-    return failed(reason + " on edge " + edge_id_ + " (" + edge_kind_ + ", " + std::to_string(status_.inliers) +
+  if (health.must_stop()) {
+    return failed(health.reason + " on edge " + edge_id_ + " (" + edge_kind_ + ", " + std::to_string(status_.inliers) +
                   " inliers, window confidence " + format_double(health.window_confidence) + ")");
   }
   if (finished) {

@@ -104,6 +104,7 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   double max_angular_radps_ = 0.5;
   double max_correction_radps_ = 0.3;
   int laps_ = 1;
+  int min_expected_features_ = 15;
   std::string edge_kind_;
 };
 

@@ -147,12 +147,6 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     const double travelled_m = odom->distance_m - start_distance_m_;
     if (travelled_m >= length_m_) {
       (void)host_.robot()->stop();
-      // An edge must not end SUCCESS on odometry alone while the robot no longer sees the route.
-      if (health_.verdict().state == NavHealthState::slowing) {
-        publish(travelled_m, Twist{}, "lost");
-        return failed("lost: reached the end of edge " + edge_id_ + " without seeing the path for " +
-                      std::to_string(health_.verdict().blind_m) + " m");
-      }
       publish(travelled_m, Twist{}, "edge done");
       return NodeStatus::success;
     }
@@ -195,7 +189,7 @@ class FollowPathEdge final : public bt::StatefulActionNode {
     }
     command.linear_mps *= health.speed_factor;
     command.angular_radps *= health.speed_factor;
-    if (health.state != NavHealthState::seeing) status += std::string(" | ") + to_string(health.state);
+    if (health.state == NavHealthState::slowing) status += std::string(" | ") + to_string(health.state);
     (void)host_.robot()->send_command(command);
     publish(travelled_m, command, status);
     return NodeStatus::running;

@@ -117,7 +117,12 @@ class FeatureNodes : public ::testing::Test {
     Frame f;
     f.timestamp_s = clock_.now_s();
     f.sequence = ++sequence_;
-    if (width > 0) f.image = cv::Mat(height, width, CV_8UC1, cv::Scalar(128));
+    if (width > 0) {
+      // A live camera never delivers the same pixels twice (the lost policy stops on a frozen one).
+      f.image = cv::Mat(height, width, CV_8UC1, cv::Scalar(128));
+      f.image.at<unsigned char>(0, 0) = static_cast<unsigned char>(sequence_ & 0xff);
+      f.image.at<unsigned char>(0, 1) = static_cast<unsigned char>((sequence_ >> 8) & 0xff);
+    }
     bus_.publish_frame(f);
   }
 

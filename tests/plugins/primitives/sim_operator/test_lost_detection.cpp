@@ -59,7 +59,9 @@ void expect_stopped(const ExperimentRun& r, const std::string& reason, double ma
   EXPECT_NE(r.stop_reason.find(reason), std::string::npos) << "stop reason: " << r.stop_reason;
   EXPECT_NE(r.loops[0].failure.find(reason), std::string::npos) << r.loops[0].failure;
   EXPECT_LE(r.replay_odometry_m, max_m) << r.stop_reason;
-  EXPECT_LT(r.coast_after_stop_m, 0.05) << "the robot must be at rest after the stop";
+  // braking from 0.3 m/s at 1 m/s² after a 50 ms actuation delay rolls about 6 cm; more means
+  // the robot was still being driven
+  EXPECT_LT(r.coast_after_stop_m, 0.12) << "the robot must come to rest after the stop";
 }
 
 }  // namespace
@@ -107,7 +109,7 @@ TEST(LostDetection, FrozenCameraStops) {
 
 TEST(LostDetection, CoveredLensStops) {
   ExperimentOptions o = rectangle("covered");
-  o.replay_overrides = {"camera.params.gain=0", "camera.params.noise_std=0"};  // black frames
+  o.replay_overrides = {"camera.params.gain=0"};  // black frames with sensor noise
   const ExperimentRun r = run_single(o);
   expect_stopped(r, "lost: no confident frame", 4.0);
 }
@@ -154,7 +156,8 @@ TEST(LostDetection, RouteReplayedInTheWrongWorldStops) {
   ExperimentOptions o = rectangle("wrong_world");
   o.replay_overrides = {"camera.params.world=straight6m"};
   const ExperimentRun r = run_single(o);
-  expect_stopped(r, "lost", 4.0);
+  // spurious matches in the wrong world may count as seeing for a moment: 3 m blind + a margin
+  expect_stopped(r, "lost", 6.0);
 }
 
 TEST(HonestExperiment, ACollisionFailsTheLoopAndSaysWhere) {

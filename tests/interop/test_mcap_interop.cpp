@@ -75,9 +75,9 @@ TEST_F(McapInterop, McapCoreReadsARecordedRunWrittenByVisnav) {
   std::string out;
   ASSERT_EQ(node("read", file, out), 0) << out;
   EXPECT_NE(out.find("\"profile\":\"ros2\""), std::string::npos) << out;
-  EXPECT_EQ(json_int(out, "messages"), 30 * 7);
-  EXPECT_EQ(json_int(out, "indexed_messages"), 30 * 7);
-  EXPECT_EQ(json_int(out, "statistics_message_count"), 30 * 7);
+  EXPECT_EQ(json_int(out, "messages"), 30 * 8);
+  EXPECT_EQ(json_int(out, "indexed_messages"), 30 * 8);
+  EXPECT_EQ(json_int(out, "statistics_message_count"), 30 * 8);
   EXPECT_GT(json_int(out, "chunks"), 1);
   EXPECT_NE(out.find("\"indexed_in_time_order\":true"), std::string::npos) << out;
   if (mcap::zstd_available()) {

@@ -4,8 +4,10 @@
 // schema, the count, the rate (Hz over the time it was subscribed) and the first message's keys.
 // Before that it connects and disconnects RECONNECTS times (the server must keep serving).
 //   node view_client.mjs PORT SECONDS RECONNECTS
-import { FoxgloveClient } from "@foxglove/ws-protocol";
+import wsProtocol from "@foxglove/ws-protocol";
 import WebSocket from "ws";
+
+const { FoxgloveClient } = wsProtocol;
 
 const [port, seconds, reconnects] = process.argv.slice(2).map(Number);
 const url = `ws://127.0.0.1:${port}`;

@@ -147,7 +147,7 @@ struct ReadReport {
 //   /odom                         nav_msgs/msg/Odometry            every odometry reading
 //   /cmd_vel                      geometry_msgs/msg/Twist          the command in force after each tick
 //   /visnav/ground_truth          nav_msgs/msg/Odometry            simulated robots only (world frame)
-//   /visnav/frame, /visnav/odometry, /visnav/tick   JSON: the folder format's rows with exact
+//   /visnav/frame, /visnav/odometry, /visnav/tick, /visnav/truth   JSON: the folder format's rows with exact
 //                                 (17-digit) times and the odometric distance, so a conversion
 //                                 back to a folder is exact
 //   attachments run.yaml and config.yaml (the last run.yaml attached wins).
@@ -169,7 +169,7 @@ class RunMcapWriter {
  private:
   RunMcapWriter() = default;
   std::unique_ptr<Writer> writer_;
-  std::uint16_t image_ = 0, odom_ = 0, cmd_ = 0, truth_ = 0, frame_json_ = 0, odom_json_ = 0, tick_json_ = 0;
+  std::uint16_t image_ = 0, odom_ = 0, cmd_ = 0, truth_ = 0, frame_json_ = 0, odom_json_ = 0, tick_json_ = 0, truth_json_ = 0;
   std::uint32_t seq_ = 0;
 };
 

@@ -137,8 +137,11 @@ Result<std::unique_ptr<RunMcapWriter>> RunMcapWriter::create(const std::string& 
   w->image_ = m.add_channel(compressed, "/camera/image_raw/compressed", "cdr");
   w->odom_ = m.add_channel(odometry, "/odom", "cdr");
   w->cmd_ = m.add_channel(twist, "/cmd_vel", "cdr");
-  if (with_truth) w->truth_ = m.add_channel(odometry, "/visnav/ground_truth", "cdr");
   const auto json_schema = m.add_schema("visnav.RunRow", "jsonschema", "{\"type\":\"object\"}");
+  if (with_truth) {
+    w->truth_ = m.add_channel(odometry, "/visnav/ground_truth", "cdr");
+    w->truth_json_ = m.add_channel(json_schema, "/visnav/truth", "json");
+  }
   w->frame_json_ = m.add_channel(json_schema, "/visnav/frame", "json");
   w->odom_json_ = m.add_channel(json_schema, "/visnav/odometry", "json");
   w->tick_json_ = m.add_channel(json_schema, "/visnav/tick", "json");
@@ -195,7 +198,10 @@ Status RunMcapWriter::truth(double t_s, const Pose2D& p) {
   m.pose.pose.position.y = p.y_m;
   m.pose.pose.orientation = dds::quaternion_from_yaw(p.heading_rad);
   const std::uint64_t ns = to_ns(t_s);
-  return writer_->write({truth_, seq_++, ns, ns, ros2::encode(m)});
+  VISNAV_TRY(writer_->write({truth_, seq_++, ns, ns, ros2::encode(m)}));
+  const std::string j = "{\"t_s\":" + num(t_s) + ",\"x_m\":" + num(p.x_m) + ",\"y_m\":" + num(p.y_m) +
+                        ",\"heading_rad\":" + num(p.heading_rad) + "}";
+  return writer_->write({truth_json_, seq_++, ns, ns, bytes(j)});
 }
 
 Status RunMcapWriter::attach(const std::string& name, const std::string& text, double t_s) {
@@ -219,7 +225,7 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
   std::vector<std::map<std::string, double>> frame_json;
   std::vector<OdomRow> odom, odom_json;
   std::vector<TickRow> ticks;
-  std::vector<std::array<double, 4>> truth;
+  std::vector<std::array<double, 4>> truth, truth_json;
   std::string run_yaml, config_yaml;
   std::set<std::string> seen_topics;
   long image_count = 0;
@@ -280,6 +286,9 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
       auto j = parse_flat_json(m.data);
       ticks.push_back({static_cast<std::uint64_t>(j["tick"]), j["t_s"], static_cast<long>(j["frame_index"]), j["linear_mps"],
                        j["angular_radps"], static_cast<std::uint64_t>(j["commands_sent"])});
+    } else if (ch.topic == "/visnav/truth") {
+      auto j = parse_flat_json(m.data);
+      truth_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"]});
     } else if (ch.topic == "/visnav/ground_truth") {
       auto o = ros2::decode_odometry(m.data);
       if (!o) return fail(where() + o.error().message);
@@ -307,6 +316,7 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
   report.exact = !frame_json.empty() && frame_json.size() == frames.size() && !odom_json.empty();
   if (report.exact) {
     odom = std::move(odom_json);
+    if (truth_json.size() == truth.size()) truth = std::move(truth_json);
     for (std::size_t i = 0; i < frames.size(); ++i) {
       frames[i].t_s = frame_json[i]["t_s"];
       frames[i].sequence = static_cast<std::uint64_t>(frame_json[i]["sequence"]);

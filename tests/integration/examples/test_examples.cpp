@@ -102,7 +102,8 @@ void collect(const fs::path& file, const std::string& comment, bool markdown, st
     std::string text = line;
     while (!text.empty() && text.back() == '\\' && i + 1 < lines.size()) {
       text.pop_back();
-      text += " " + strip(lines[++i]);
+      text += ' ';
+      text += strip(lines[++i]);
     }
     // A trailing shell comment is not part of the command.
     if (auto hash = text.find(" #"); hash != std::string::npos) text = text.substr(0, hash);
@@ -139,7 +140,10 @@ std::string shell_quote(const std::string& s) {
 /// Runs `visnav args...` in the source folder; returns the exit status and the output.
 int run_cli(const std::vector<std::string>& args, std::string& output) {
   std::string cmd = "cd " + shell_quote(kSource.string()) + " && " + shell_quote(VISNAV_TEST_CLI);
-  for (const auto& a : args) cmd += " " + shell_quote(a);
+  for (const auto& a : args) {
+    cmd += ' ';
+    cmd += shell_quote(a);
+  }
   cmd += " 2>&1";
   output.clear();
   FILE* p = ::popen(cmd.c_str(), "r");

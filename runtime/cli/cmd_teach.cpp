@@ -8,13 +8,15 @@
 #include "args.hpp"
 #include "command.hpp"
 #include "mcap_input.hpp"
+#include "visnav/config.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
 constexpr const char* kUsage =
-    "usage: visnav teach --run RUN --map M [--marks F | --primitive KIND] [--config C] [--tree T] [--close-loop]\n"
+    "usage: visnav teach --run RUN --map M [--marks F | --primitive KIND | --joy-topic T [--mapping F]] [--config C]\n"
+    "                    [--tree T] [--close-loop]\n"
     "                    [--end-margin-s S] [--set k=v]... [--bb k=v]... [--image-topic T] [--odom-topic T]\n"
     "                    [--log-level L]\n"
     "\n"
@@ -29,6 +31,9 @@ constexpr const char* kUsage =
     "  --marks F          CSV t_s,primitive (run-clock times; primitive '' = turning, not recorded);\n"
     "                     default RUN/marks.csv\n"
     "  --primitive KIND   no marks: teach the whole drive as one edge of this kind (e.g. feature_segment)\n"
+    "  --joy-topic T      MCAP RUN: the marks are the gamepad's primitive-button presses recorded on this\n"
+    "                     sensor_msgs/msg/Joy topic (e.g. /joy), bound by --mapping\n"
+    "  --mapping F        operator mapping with primitive_buttons (default config/teleop/gamepad.yaml)\n"
     "  --config C         configuration (detector, nodes); default the recording's config.yaml\n"
     "  --tree T           teaching tree (default trees/teach_recorded.xml of the source tree)\n"
     "  --close-loop       the drive ends where it started: the last edge ends at the start node\n"
@@ -53,12 +58,12 @@ int teach(const std::vector<std::string>& args) {
                                {"--primitive", Opt::value}, {"--config", Opt::value}, {"--tree", Opt::value},
                                {"--close-loop", Opt::flag}, {"--end-margin-s", Opt::value}, {"--set", Opt::repeated},
                                {"--bb", Opt::repeated}, {"--image-topic", Opt::value}, {"--odom-topic", Opt::value},
-                               {"--log-level", Opt::value}});
+                               {"--log-level", Opt::value}, {"--joy-topic", Opt::value}, {"--mapping", Opt::value}});
       !st)
     return visnav::cli::usage_error("teach", st.error().message);
   if (auto st = a.require({"--run", "--map"}); !st) return visnav::cli::usage_error("teach", st.error().message);
-  if (a.has("--marks") && a.has("--primitive"))
-    return visnav::cli::usage_error("teach", "give --marks or --primitive, not both");
+  if (static_cast<int>(a.has("--marks")) + static_cast<int>(a.has("--primitive")) + static_cast<int>(a.has("--joy-topic")) > 1)
+    return visnav::cli::usage_error("teach", "give one of --marks, --primitive and --joy-topic");
   double margin_s = 0.5;
   try {
     margin_s = std::stod(a.get("--end-margin-s", "0.5"));
@@ -102,7 +107,45 @@ int teach(const std::vector<std::string>& args) {
 
   std::string marks = a.get("--marks");
   fs::path generated;
-  if (a.has("--primitive")) {
+  if (a.has("--joy-topic")) {
+    // The gamepad's primitive buttons, as the Teleop node binds them.
+    const std::string mapping =
+        a.get("--mapping", (fs::path(VISNAV_SOURCE_DIR) / "config" / "teleop" / "gamepad.yaml").string());
+    auto root = visnav::parse_yaml_file(mapping);
+    if (!root) {
+      std::cerr << "visnav teach: " << root.error().message << "\n";
+      return 1;
+    }
+    std::vector<std::pair<int, std::string>> bindings;
+    if (const visnav::ConfigNode* list = root->is_map() ? root->find("primitive_buttons") : nullptr;
+        list != nullptr && list->is_sequence()) {
+      for (const auto& item : list->items()) {
+        const std::string e = item.is_scalar() ? item.scalar() : std::string();
+        const auto eq = e.find('=');
+        try {
+          if (eq == std::string::npos) throw 0;
+          bindings.emplace_back(std::stoi(e.substr(0, eq)), e.substr(eq + 1));
+        } catch (...) {
+          std::cerr << "visnav teach: " << mapping << ": primitive_buttons entry '" << e << "' is not button=kind\n";
+          return 1;
+        }
+      }
+    } else {
+      bindings = {{0, "feature_segment"}, {2, "path_following"}, {1, ""}};  // the Teleop defaults
+    }
+    auto joy = visnav::mcap::joy_marks(a.get("--run"), a.get("--joy-topic"), bindings);
+    if (!joy) {
+      std::cerr << "visnav teach: " << joy.error().message << "\n";
+      return 1;
+    }
+    generated = fs::temp_directory_path() / ("visnav_marks_" + std::to_string(::getpid()) + ".csv");
+    std::ofstream out(generated);
+    out.precision(17);
+    out << "t_s,primitive\n";
+    for (const auto& [t, kind] : *joy) out << t << "," << kind << "\n";
+    marks = generated.string();
+    std::cout << "visnav teach: " << joy->size() << " primitive switches from " << a.get("--joy-topic") << "\n";
+  } else if (a.has("--primitive")) {
     generated = fs::temp_directory_path() / ("visnav_marks_" + std::to_string(::getpid()) + ".csv");
     std::ofstream(generated) << "t_s,primitive\n-1e9," << a.get("--primitive") << "\n";
     marks = generated.string();

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "visnav/dds.hpp"
+#include "visnav/dds_joy.hpp"
 #include "visnav/result.hpp"
 #include "visnav/types.hpp"
 
@@ -196,6 +197,13 @@ struct ConversionReport {
 /// topic that is missing and list the bag's topics.
 [[nodiscard]] Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const std::string& dir,
                                                          const RunTopics& topics = {});
+/// Primitive switches pressed on a gamepad during a recorded drive: the sensor_msgs/msg/Joy
+/// messages on `joy_topic`, a button going from released to pressed that is bound in
+/// `primitive_buttons` (button number -> edge kind, "" = turning) gives a mark (log time, kind).
+/// `visnav teach --joy-topic` turns them into the marks file. Errors name the file and topic.
+[[nodiscard]] Result<std::vector<std::pair<double, std::string>>> joy_marks(
+    const std::string& mcap_path, const std::string& joy_topic, const std::vector<std::pair<int, std::string>>& primitive_buttons);
+
 /// Writes a bag from a recorded-run folder (frames.csv, odometry.csv, commands.csv,
 /// ground_truth.csv, run.yaml, config.yaml).
 [[nodiscard]] Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::string& mcap_path,
@@ -215,11 +223,13 @@ namespace visnav::ros2 {
 [[nodiscard]] std::vector<std::uint8_t> encode(const dds::msg::Odometry& m);
 [[nodiscard]] std::vector<std::uint8_t> encode(const dds::msg::Twist& m);
 [[nodiscard]] std::vector<std::uint8_t> encode(const dds::msg::Telemetry& m);
+[[nodiscard]] std::vector<std::uint8_t> encode(const dds::msg::Joy& m);
 /// Decoders: errors say which field ran past the end (truncated or not this type).
 [[nodiscard]] Result<dds::msg::Image> decode_image(const std::vector<std::uint8_t>& cdr);
 [[nodiscard]] Result<dds::msg::CompressedImage> decode_compressed_image(const std::vector<std::uint8_t>& cdr);
 [[nodiscard]] Result<dds::msg::Odometry> decode_odometry(const std::vector<std::uint8_t>& cdr);
 [[nodiscard]] Result<dds::msg::Twist> decode_twist(const std::vector<std::uint8_t>& cdr);
 [[nodiscard]] Result<dds::msg::Telemetry> decode_telemetry(const std::vector<std::uint8_t>& cdr);
+[[nodiscard]] Result<dds::msg::Joy> decode_joy(const std::vector<std::uint8_t>& cdr);
 
 }  // namespace visnav::ros2

@@ -117,6 +117,8 @@ std::string schema_text(std::string_view type) {
            "MSG: geometry_msgs/Quaternion\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w\n" + kSep +
            "MSG: geometry_msgs/TwistWithCovariance\ngeometry_msgs/Twist twist\nfloat64[36] covariance\n" + kSep +
            "MSG: geometry_msgs/Twist\n" + kTwistBody + kSep + kVector3;
+  if (type == "sensor_msgs/msg/Joy")
+    return std::string("std_msgs/Header header\nfloat32[] axes\nint32[] buttons\n") + kSep + kHeader;
   if (type == "visnav/msg/Telemetry")
     return std::string("std_msgs/Header header\nuint64 sequence_number\nstring node_path\nstring map_node\nstring edge\n"
                        "float64 distance_m\nint32 matches\nint32 inliers\nfloat64 offset_px\nfloat64 linear_mps\n"
@@ -183,6 +185,33 @@ std::vector<std::uint8_t> encode(const dds::msg::Telemetry& m) {
   o.put(m.angular_radps);
   o.str(m.status);
   return o.take();
+}
+
+std::vector<std::uint8_t> encode(const dds::msg::Joy& m) {
+  CdrOut o;
+  o.header(m.header);
+  o.put<std::uint32_t>(static_cast<std::uint32_t>(m.axes.size()));
+  for (float a : m.axes) o.put(a);
+  o.put<std::uint32_t>(static_cast<std::uint32_t>(m.buttons.size()));
+  for (std::int32_t b : m.buttons) o.put(b);
+  return o.take();
+}
+
+Result<dds::msg::Joy> decode_joy(const std::vector<std::uint8_t>& cdr) {
+  CdrIn in(cdr);
+  dds::msg::Joy m;
+  VISNAV_TRY(in.start());
+  VISNAV_TRY(in.header(m.header));
+  std::uint32_t n = 0;
+  VISNAV_TRY(in.get(n, "axes"));
+  if (n > cdr.size() / 4) return fail("CDR: sequence 'axes' runs past the end");
+  m.axes.resize(n);
+  for (float& a : m.axes) VISNAV_TRY(in.get(a, "axes"));
+  VISNAV_TRY(in.get(n, "buttons"));
+  if (n > cdr.size() / 4) return fail("CDR: sequence 'buttons' runs past the end");
+  m.buttons.resize(n);
+  for (std::int32_t& b : m.buttons) VISNAV_TRY(in.get(b, "buttons"));
+  return m;
 }
 
 Result<dds::msg::Image> decode_image(const std::vector<std::uint8_t>& cdr) {

@@ -363,6 +363,34 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
   return report;
 }
 
+// ---- gamepad marks ----------------------------------------------------------------------
+
+Result<std::vector<std::pair<double, std::string>>> joy_marks(
+    const std::string& mcap_path, const std::string& joy_topic, const std::vector<std::pair<int, std::string>>& primitive_buttons) {
+  std::vector<std::pair<double, std::string>> marks;
+  std::vector<std::int32_t> previous;
+  long messages = 0;
+  ReadHandlers h;
+  h.on_message = [&](const Channel& ch, const Schema*, const Message& m) -> Status {
+    if (ch.topic != joy_topic) return ok();
+    auto joy = ros2::decode_joy(m.data);
+    if (!joy) return fail(mcap_path + ": topic " + joy_topic + ": " + joy.error().message);
+    ++messages;
+    for (const auto& [button, kind] : primitive_buttons) {
+      const auto b = static_cast<std::size_t>(button);
+      const bool now = b < joy->buttons.size() && joy->buttons[b] != 0;
+      const bool before = b < previous.size() && previous[b] != 0;
+      if (now && !before) marks.emplace_back(from_ns(m.log_time_ns), kind);
+    }
+    previous = std::move(joy->buttons);
+    return ok();
+  };
+  VISNAV_TRY(read_file(mcap_path, h));
+  if (messages == 0) return fail(mcap_path + ": no sensor_msgs/msg/Joy messages on topic '" + joy_topic + "'");
+  std::stable_sort(marks.begin(), marks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return marks;
+}
+
 // ---- folder -> MCAP ----------------------------------------------------------------------
 
 Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::string& mcap_path, WriterOptions options) {

@@ -209,3 +209,47 @@ TEST(Ros2Cdr, ImagesAndTelemetryRoundTrip) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Mcap, GamepadPrimitivePressesInABagBecomeMarks) {
+  const fs::path p = temp_file("joy.mcap");
+  {
+    auto w = mcap::Writer::create(p.string());
+    ASSERT_TRUE(w.ok());
+    const auto s = (*w)->add_schema("sensor_msgs/msg/Joy", "ros2msg", ros2::schema_text("sensor_msgs/msg/Joy"));
+    const auto ch = (*w)->add_channel(s, "/joy", "cdr");
+    // (time s, buttons held): X (2) pressed at 1 s and held, A (0) at 3 s, B (1) at 4 s.
+    const std::vector<std::pair<double, std::vector<std::int32_t>>> states{
+        {0.5, {0, 0, 0}}, {1.0, {0, 0, 1}}, {1.5, {0, 0, 1}}, {3.0, {1, 0, 0}}, {4.0, {0, 1, 0}}};
+    for (const auto& [t, buttons] : states) {
+      dds::msg::Joy j;
+      j.axes = {0.0F, 0.5F};
+      j.buttons = buttons;
+      const auto ns = static_cast<std::uint64_t>(t * 1e9);
+      ASSERT_TRUE((*w)->write({ch, 0, ns, ns, ros2::encode(j)}).ok());
+    }
+    ASSERT_TRUE((*w)->close().ok());
+  }
+  auto marks = mcap::joy_marks(p.string(), "/joy", {{0, "feature_segment"}, {2, "path_following"}, {1, ""}});
+  ASSERT_TRUE(marks.ok()) << marks.error().message;
+  ASSERT_EQ(marks->size(), 3U);
+  EXPECT_DOUBLE_EQ((*marks)[0].first, 1.0);
+  EXPECT_EQ((*marks)[0].second, "path_following");
+  EXPECT_EQ((*marks)[1].second, "feature_segment");
+  EXPECT_DOUBLE_EQ((*marks)[2].first, 4.0);
+  EXPECT_EQ((*marks)[2].second, "");
+  auto none = mcap::joy_marks(p.string(), "/other", {{0, "feature_segment"}});
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().message.find("/other"), std::string::npos);
+  dds::msg::Joy j;
+  j.axes = {0.25F, -1.0F};
+  j.buttons = {1, 0, 1};
+  auto back = ros2::decode_joy(ros2::encode(j));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->axes, j.axes);
+  EXPECT_EQ(back->buttons, j.buttons);
+  fs::remove(p);
+}
+
+}  // namespace

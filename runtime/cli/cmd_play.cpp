@@ -10,6 +10,7 @@
 
 #include "args.hpp"
 #include "command.hpp"
+#include "mcap_input.hpp"
 #include "visnav/runner.hpp"
 
 namespace {
@@ -18,7 +19,7 @@ namespace fs = std::filesystem;
 
 constexpr const char* kUsage =
     "usage: visnav play RUN --tree T [--bb key=value]... [--config C] [--map M] [--set k=v]... [--commands-out F]\n"
-    "                   [--trace F] [--plugin-path DIR]... [--log-level L]\n"
+    "                   [--trace F] [--plugin-path DIR]... [--log-level L] [--image-topic T] [--odom-topic T]\n"
     "\n"
     "Runs the mission tree T on the recorded run RUN (written by `visnav record`) with no robot:\n"
     "the robot is type `recorded` (replays RUN/odometry.csv; commands are accepted and logged, it\n"
@@ -28,7 +29,11 @@ constexpr const char* kUsage =
     "The rest of the configuration (detector, nodes, run settings) comes from --config, default\n"
     "RUN/config.yaml (the copy `visnav record` made) with the recorded --set overrides.\n"
     "\n"
-    "  RUN               recorded-run folder (also --run RUN)\n"
+    "  RUN               recorded-run folder (also --run RUN), or an MCAP file: one written by\n"
+    "                    `visnav record --format mcap`, or a ROS 2 bag (give --config C)\n"
+    "  --image-topic T   MCAP: topic of the images (sensor_msgs Image or CompressedImage;\n"
+    "                    default /camera/image_raw/compressed)\n"
+    "  --odom-topic T    MCAP: topic of nav_msgs/Odometry (default /odom)\n"
     "  --tree T          mission tree\n"
     "  --bb key=value    blackboard entry before the first tick (after the recorded ones in run.yaml)\n"
     "  --config C        configuration to take detector/nodes/run settings from\n"
@@ -36,6 +41,8 @@ constexpr const char* kUsage =
     "  --set k=v         config override (repeatable), applied after the recorded ones\n"
     "  --commands-out F  write this run's decisions as F (same columns as RUN/commands.csv)\n"
     "  --trace F         BT status transitions as JSON lines\n"
+    "  --no-compare      do not compare the decisions with the recorded ones (e.g. teaching from a\n"
+    "                    recording, where the robot is not commanded)\n"
     "\n"
     "When RUN/commands.csv has recorded decisions, prints how many ticks agree with them:\n"
     "'decisions: N of M ticks identical (first difference at tick K)'.\n"
@@ -88,12 +95,23 @@ int play(const std::vector<std::string>& raw_args) {
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--run", Opt::value}, {"--tree", Opt::value}, {"--config", Opt::value}, {"--map", Opt::value},
                                {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--commands-out", Opt::value}, {"--trace", Opt::value},
-                               {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
+                               {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value},
+                               {"--image-topic", Opt::value}, {"--odom-topic", Opt::value}, {"--no-compare", Opt::flag}});
       !st)
     return visnav::cli::usage_error("play", st.error().message);
   if (run_dir.empty()) run_dir = a.get("--run");
   if (run_dir.empty()) return visnav::cli::usage_error("play", "missing the recorded-run folder RUN");
   if (auto st = a.require({"--tree"}); !st) return visnav::cli::usage_error("play", st.error().message);
+  visnav::mcap::RunTopics topics;
+  topics.image = a.get("--image-topic", topics.image);
+  topics.odometry = a.get("--odom-topic", topics.odometry);
+  visnav::cli::TempRun temp_run;
+  if (auto folder = visnav::cli::run_folder_of(run_dir, topics, temp_run); folder) {
+    run_dir = *folder;
+  } else {
+    std::cerr << "visnav play: " << folder.error().message << "\n";
+    return 1;
+  }
   std::error_code ec;
   if (!fs::is_directory(run_dir, ec) || !fs::exists(fs::path(run_dir) / "frames.csv", ec)) {
     std::cerr << "visnav play: " << run_dir << ": not a recorded-run folder (no frames.csv; see docs/recorded_runs.md)\n";
@@ -184,7 +202,7 @@ int play(const std::vector<std::string>& raw_args) {
   if (r.outcome == visnav::RunOutcome::safety_stop && r.reason.find("end of the recorded run") != std::string::npos)
     exit_code = 0;
   const std::vector<std::string> recorded = read_lines((fs::path(run_dir) / "commands.csv").string());
-  if (recorded.size() > 1) {
+  if (recorded.size() > 1 && !a.has("--no-compare")) {
     const std::size_t n = std::min(recorded.size(), decisions.size());
     std::size_t same = 0;
     std::size_t first_diff = 0;

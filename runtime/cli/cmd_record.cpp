@@ -17,6 +17,7 @@
 
 #include "args.hpp"
 #include "command.hpp"
+#include "visnav/mcap.hpp"
 #include "visnav/runner.hpp"
 
 namespace {
@@ -25,7 +26,7 @@ namespace fs = std::filesystem;
 
 constexpr const char* kUsage =
     "usage: visnav record --config C -o RUN [--tree T] [--bb key=value]... [--duration-s S] [--map M] [--set k=v]...\n"
-    "                     [--image-format png|jpg] [--jpeg-quality Q] [--force]\n"
+    "                     [--format folder|mcap] [--image-format png|jpg] [--jpeg-quality Q] [--force]\n"
     "                     [--plugin-path DIR]... [--log-level L]\n"
     "\n"
     "Builds the robot and camera named in the config C (any plugins: sim, v4l2, video, dds, ...)\n"
@@ -38,7 +39,10 @@ constexpr const char* kUsage =
     "without, frames and odometry are recorded until --duration-s or Ctrl-C.\n"
     "\n"
     "  --config C           run configuration (docs/config.md)\n"
-    "  -o RUN               output folder (created; must be empty unless --force)\n"
+    "  -o RUN               output folder (created; must be empty unless --force), or file RUN.mcap\n"
+    "  --format F           folder (default; lossless) or mcap: one ROS 2 bag file (CompressedImage,\n"
+    "                       Odometry, Twist in CDR; `ros2 bag info`, Foxglove) that `visnav play`,\n"
+    "                       `visnav evaluate` and `visnav convert` read back exactly\n"
     "  --tree T             mission tree to run while recording\n"
     "  --bb key=value       blackboard entry before the first tick (as `visnav run --bb`; kept in run.yaml)\n"
     "  --duration-s S       stop after S s of run time (0 = until the tree ends / Ctrl-C)\n"
@@ -79,8 +83,27 @@ struct FileCloser {
 };
 using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
 
+/// Where a recording goes: the folder format or an MCAP file.
+class RunSink {
+ public:
+  virtual ~RunSink() = default;
+  /// Writes the frame unless it is the one written last. Returns its index.
+  virtual visnav::Result<long> frame(const visnav::Frame& f) = 0;
+  virtual void odometry(const visnav::Odometry& o) = 0;
+  virtual void command(std::uint64_t tick, double t_s, long frame_index, const visnav::Twist& c, std::uint64_t sent) = 0;
+  virtual void truth(double t_s, const visnav::Pose2D& p) = 0;
+  /// Stores run.yaml (`complete` says whether this is the final one) and, at the end, finishes.
+  virtual visnav::Status run_info(const std::string& text, bool complete) = 0;
+  /// First write error of odometry/command/truth (they cannot fail the tick), or empty.
+  [[nodiscard]] virtual std::string error() const { return {}; }
+  [[nodiscard]] virtual long frames() const = 0;
+  [[nodiscard]] virtual long odometry_rows() const = 0;
+};
+
+visnav::Status write_run_info(const std::string& dir, const std::string& text);
+
 /// Writes the recorded-run files; every row is flushed at once (crash safety).
-class RunWriter {
+class RunWriter final : public RunSink {
  public:
   static visnav::Result<std::unique_ptr<RunWriter>> create(const std::string& dir, const std::string& image_format,
                                                            int jpeg_quality, bool with_truth) {
@@ -106,8 +129,7 @@ class RunWriter {
     return w;
   }
 
-  /// Writes the frame unless it is the one written last. Returns its index.
-  visnav::Result<long> frame(const visnav::Frame& f) {
+  visnav::Result<long> frame(const visnav::Frame& f) override {
     if (last_frame_ && last_frame_->first == f.sequence && last_frame_->second == f.timestamp_s) return frame_index_ - 1;
     char name[32];
     std::snprintf(name, sizeof name, "%06ld", frame_index_);
@@ -134,7 +156,7 @@ class RunWriter {
     return frame_index_++;
   }
 
-  void odometry(const visnav::Odometry& o) {
+  void odometry(const visnav::Odometry& o) override {
     if (last_odometry_s_ && *last_odometry_s_ == o.timestamp_s) return;
     std::fprintf(odometry_.get(), "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", o.timestamp_s, o.pose.x_m, o.pose.y_m,
                  o.pose.heading_rad, o.distance_m, o.twist.linear_mps, o.twist.angular_radps);
@@ -143,20 +165,21 @@ class RunWriter {
     ++odometry_rows_;
   }
 
-  void command(std::uint64_t tick, double t_s, long frame_index, const visnav::Twist& c, std::uint64_t sent) {
+  void command(std::uint64_t tick, double t_s, long frame_index, const visnav::Twist& c, std::uint64_t sent) override {
     std::fprintf(commands_.get(), "%llu,%.17g,%ld,%.17g,%.17g,%llu\n", static_cast<unsigned long long>(tick), t_s, frame_index,
                  c.linear_mps, c.angular_radps, static_cast<unsigned long long>(sent));
     std::fflush(commands_.get());
   }
 
-  void truth(double t_s, const visnav::Pose2D& p) {
+  void truth(double t_s, const visnav::Pose2D& p) override {
     if (!truth_) return;
     std::fprintf(truth_.get(), "%.17g,%.17g,%.17g,%.17g\n", t_s, p.x_m, p.y_m, p.heading_rad);
     std::fflush(truth_.get());
   }
 
-  [[nodiscard]] long frames() const { return frame_index_; }
-  [[nodiscard]] long odometry_rows() const { return odometry_rows_; }
+  visnav::Status run_info(const std::string& text, bool /*complete*/) override { return write_run_info(dir_, text); }
+  [[nodiscard]] long frames() const override { return frame_index_; }
+  [[nodiscard]] long odometry_rows() const override { return odometry_rows_; }
 
  private:
   RunWriter() = default;
@@ -168,6 +191,75 @@ class RunWriter {
   long odometry_rows_ = 0;
   std::optional<std::pair<std::uint64_t, double>> last_frame_;
   std::optional<double> last_odometry_s_;
+};
+
+/// Writes the recording as one MCAP file (visnav/mcap.hpp, "Recorded runs as MCAP"). Chunks are
+/// flushed as they fill, so a killed recording keeps every complete chunk.
+class McapSink final : public RunSink {
+ public:
+  static visnav::Result<std::unique_ptr<McapSink>> create(const std::string& path, const std::string& config_file,
+                                                          const std::string& image_format, int jpeg_quality, bool with_truth) {
+    std::unique_ptr<McapSink> s(new McapSink());
+    VISNAV_ASSIGN(s->writer_, visnav::mcap::RunMcapWriter::create(path, with_truth));
+    std::ifstream in(config_file);
+    std::stringstream text;
+    text << in.rdbuf();
+    s->config_text_ = text.str();
+    s->jpg_ = image_format == "jpg";
+    s->jpeg_quality_ = jpeg_quality;
+    return s;
+  }
+  visnav::Result<long> frame(const visnav::Frame& f) override {
+    if (last_frame_ && last_frame_->first == f.sequence && last_frame_->second == f.timestamp_s) return frame_index_ - 1;
+    std::vector<int> params = jpg_ ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, jpeg_quality_}
+                                   : std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, 1};
+    try {
+      if (!cv::imencode(jpg_ ? ".jpg" : ".png", f.image, buffer_, params)) return visnav::fail("cannot encode the frame");
+    } catch (const cv::Exception& e) {
+      return visnav::fail(std::string("cannot encode the frame: ") + e.what());
+    }
+    VISNAV_TRY(writer_->frame(frame_index_, f.timestamp_s, f.sequence, buffer_, jpg_ ? "jpeg" : "png"));
+    last_frame_ = std::make_pair(f.sequence, f.timestamp_s);
+    last_t_s_ = f.timestamp_s;
+    return frame_index_++;
+  }
+  void odometry(const visnav::Odometry& o) override {
+    if (last_odometry_s_ && *last_odometry_s_ == o.timestamp_s) return;
+    keep(writer_->odometry(o));
+    last_odometry_s_ = o.timestamp_s;
+    ++odometry_rows_;
+  }
+  void command(std::uint64_t tick, double t_s, long frame_index, const visnav::Twist& c, std::uint64_t sent) override {
+    keep(writer_->tick(tick, t_s, frame_index, c, sent));
+    last_t_s_ = t_s;
+  }
+  void truth(double t_s, const visnav::Pose2D& p) override { keep(writer_->truth(t_s, p)); }
+  visnav::Status run_info(const std::string& text, bool complete) override {
+    if (!complete) return visnav::ok();  // the final run.yaml is attached at the end
+    VISNAV_TRY(writer_->attach("config.yaml", config_text_, last_t_s_));
+    VISNAV_TRY(writer_->attach("run.yaml", text, last_t_s_));
+    return writer_->close();
+  }
+  [[nodiscard]] std::string error() const override { return error_; }
+  [[nodiscard]] long frames() const override { return frame_index_; }
+  [[nodiscard]] long odometry_rows() const override { return odometry_rows_; }
+
+ private:
+  McapSink() = default;
+  void keep(const visnav::Status& st) {
+    if (!st && error_.empty()) error_ = st.error().message;
+  }
+  std::unique_ptr<visnav::mcap::RunMcapWriter> writer_;
+  std::string config_text_;
+  bool jpg_ = false;
+  int jpeg_quality_ = 95;
+  std::vector<std::uint8_t> buffer_;
+  long frame_index_ = 0;
+  long odometry_rows_ = 0;
+  double last_t_s_ = 0.0;
+  std::optional<std::pair<std::uint64_t, double>> last_frame_;
+  std::optional<double> last_odometry_s_;
+  std::string error_;
 };
 
 /// Writes run.yaml crash-safely (temporary file + rename).
@@ -192,6 +284,7 @@ int record(const std::vector<std::string>& args) {
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"-o", Opt::value}, {"--out", Opt::value}, {"--tree", Opt::value},
                                {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--set", Opt::repeated}, {"--bb", Opt::repeated},
                                {"--image-format", Opt::value}, {"--jpeg-quality", Opt::value}, {"--force", Opt::flag},
+                               {"--format", Opt::value},
                                {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
       !st)
     return visnav::cli::usage_error("record", st.error().message);
@@ -212,8 +305,15 @@ int record(const std::vector<std::string>& args) {
   if (image_format != "png" && image_format != "jpg")
     return visnav::cli::usage_error("record", "--image-format must be png or jpg, got '" + image_format + "'");
 
+  const std::string format = a.get("--format", "folder");
+  if (format != "folder" && format != "mcap")
+    return visnav::cli::usage_error("record", "--format must be folder or mcap, got '" + format + "'");
   std::error_code ec;
-  if (fs::exists(out_dir, ec) && !fs::is_empty(out_dir, ec) && !a.has("--force")) {
+  if (format == "mcap" && fs::exists(out_dir, ec) && !a.has("--force")) {
+    std::cerr << "visnav record: " << out_dir << " exists (use --force to overwrite it)\n";
+    return 1;
+  }
+  if (format == "folder" && fs::exists(out_dir, ec) && !fs::is_empty(out_dir, ec) && !a.has("--force")) {
     std::cerr << "visnav record: " << out_dir << " exists and is not empty (use --force to record into it)\n";
     return 1;
   }
@@ -257,18 +357,29 @@ int record(const std::vector<std::string>& args) {
   }
 
   visnav::SimulationControl* sim = session.robot().simulation();
-  auto writer_made = RunWriter::create(out_dir, image_format, jpeg_quality, sim != nullptr);
-  if (!writer_made) {
-    std::cerr << "visnav record: " << writer_made.error().message << "\n";
-    return 1;
+  std::unique_ptr<RunSink> sink;
+  if (format == "mcap") {
+    auto made = McapSink::create(out_dir, config_file, image_format, jpeg_quality, sim != nullptr);
+    if (!made) {
+      std::cerr << "visnav record: " << made.error().message << "\n";
+      return 1;
+    }
+    sink = std::move(*made);
+  } else {
+    auto made = RunWriter::create(out_dir, image_format, jpeg_quality, sim != nullptr);
+    if (!made) {
+      std::cerr << "visnav record: " << made.error().message << "\n";
+      return 1;
+    }
+    sink = std::move(*made);
+    // The configuration used, so `visnav play RUN` can rebuild the same detector and nodes.
+    fs::copy_file(config_file, fs::path(out_dir) / "config.yaml", fs::copy_options::overwrite_existing, ec);
+    if (ec) {
+      std::cerr << "visnav record: cannot copy " << config_file << " into " << out_dir << ": " << ec.message() << "\n";
+      return 1;
+    }
   }
-  RunWriter& writer = **writer_made;
-  // The configuration used, so `visnav play RUN` can rebuild the same detector and nodes.
-  fs::copy_file(config_file, fs::path(out_dir) / "config.yaml", fs::copy_options::overwrite_existing, ec);
-  if (ec) {
-    std::cerr << "visnav record: cannot copy " << config_file << " into " << out_dir << ": " << ec.message() << "\n";
-    return 1;
-  }
+  RunSink& writer = *sink;
   std::ostringstream info;
   info << "format: visnav-recorded-run\nversion: 1\ncreated: " << iso_now() << "\n"
        << "config: " << yaml_quote(fs::absolute(config_file).lexically_normal().string()) << "\n"
@@ -283,7 +394,7 @@ int record(const std::vector<std::string>& args) {
        << "lockstep: " << (session.lockstep() ? "true" : "false") << "\n"
        << "image_format: " << image_format << "\n";
   const std::string header = info.str();
-  if (auto st = write_run_info(out_dir, header + "complete: false\n"); !st) {
+  if (auto st = writer.run_info(header + "complete: false\n", false); !st) {
     std::cerr << "visnav record: " << st.error().message << "\n";
     return 1;
   }
@@ -354,6 +465,7 @@ int record(const std::vector<std::string>& args) {
     report.run_time_s = session.clock().now_s() - start_s;
     (void)session.robot().stop();
   }
+  if (write_error.empty()) write_error = writer.error();
   if (!write_error.empty()) {
     std::cerr << "visnav record: " << write_error << "\n";
     report.exit_code = 1;
@@ -362,7 +474,7 @@ int record(const std::vector<std::string>& args) {
   summary << header << "complete: true\noutcome: " << yaml_quote(visnav::to_string(report.outcome)) << "\n"
           << "reason: " << yaml_quote(report.reason) << "\nticks: " << report.ticks << "\nframes: " << writer.frames()
           << "\nodometry_samples: " << writer.odometry_rows() << "\nrun_time_s: " << report.run_time_s << "\n";
-  if (auto st = write_run_info(out_dir, summary.str()); !st) std::cerr << "visnav record: " << st.error().message << "\n";
+  if (auto st = writer.run_info(summary.str(), true); !st) std::cerr << "visnav record: " << st.error().message << "\n";
   std::cout << "visnav record: " << visnav::to_string(report.outcome) << ", " << writer.frames() << " frames, "
             << writer.odometry_rows() << " odometry samples, " << report.ticks << " ticks, " << report.run_time_s
             << " s run time -> " << out_dir << "\n";

@@ -1,15 +1,19 @@
 // `visnav run`: build the plugins named in a config and run a mission tree.
+#include <chrono>
+#include <cstdlib>
 #include <iostream>
+#include <thread>
 
 #include "args.hpp"
 #include "command.hpp"
+#include "view/live_view.hpp"
 #include "visnav/runner.hpp"
 
 namespace {
 
 constexpr const char* kUsage =
     "usage: visnav run --config C --tree T [--map M] [--set key.path=value]... [--bb key=value]...\n"
-    "                  [--trace F]\n"
+    "                  [--trace F] [--view PORT]\n"
     "                  [--plugin-path DIR]... [--log-level debug|info|warn|error]\n"
     "\n"
     "Builds the robot, camera and detector named in the YAML config C, registers the built-in\n"
@@ -22,6 +26,11 @@ constexpr const char* kUsage =
     "  --set k=v          override a config value, e.g. --set detector.params.target_keypoints=300\n"
     "  --bb key=value     set a blackboard entry before the first tick, e.g. --bb start=dock\n"
     "  --trace F          write every node status transition to F as JSON lines\n"
+    "  --view PORT        live view: serve the Foxglove WebSocket protocol on 127.0.0.1:PORT (camera,\n"
+    "                     pose, map, telemetry, tree statuses; open ws://localhost:PORT in Foxglove;\n"
+    "                     docs/live_view.md). VISNAV_VIEW_ALL_INTERFACES=1 listens on every interface\n"
+    "  --view-speed X     with --view in lock-step simulation: run X times real time so it can be\n"
+    "                     watched (default 1; 0 = as fast as possible)\n"
     "  --plugin-path DIR  extra plugin directory (after VISNAV_PLUGIN_PATH and plugin_path)\n"
     "  --log-level L      overrides run.log_level\n"
     "\n"
@@ -32,12 +41,85 @@ constexpr const char* kUsage =
     "3 safety stop (stale data, sensor failure), 130 interrupted (SIGINT or an abort request:\n"
     "tree halted, robot stopped).\n";
 
+/// run_mission with the live view attached (same steps: config, session, tree, run).
+visnav::RunReport run_with_view(const visnav::MissionOptions& m, const std::string& port_text,
+                                const std::string& speed_text) {
+  visnav::RunReport r;
+  r.outcome = visnav::RunOutcome::error;
+  r.exit_code = 1;
+  int port = -1;
+  try {
+    port = std::stoi(port_text);
+  } catch (...) {
+  }
+  if (port < 0 || port > 65535) {
+    r.reason = "--view: '" + port_text + "' is not a port number 0..65535";
+    return r;
+  }
+  double speed = -1.0;
+  try {
+    speed = std::stod(speed_text);
+  } catch (...) {
+  }
+  if (!(speed >= 0.0 && speed <= 1000.0)) {
+    r.reason = "--view-speed: '" + speed_text + "' is not a number in [0, 1000]";
+    return r;
+  }
+  auto config = visnav::load_run_config(m.config_file, m.overrides);
+  if (!config) {
+    r.reason = config.error().message;
+    return r;
+  }
+  if (m.log_level) config->run.log_level = visnav::to_string(*m.log_level);
+  visnav::SessionOptions so;
+  so.extra_plugin_dirs = m.extra_plugin_dirs;
+  so.map_path = m.map_path;
+  so.overrides = m.overrides;
+  auto session = visnav::Session::create(std::move(*config), so);
+  if (!session) {
+    r.reason = session.error().message;
+    return r;
+  }
+  const char* all = std::getenv("VISNAV_VIEW_ALL_INTERFACES");
+  auto view = visnav::view::LiveView::create(port, **session, all != nullptr && std::string(all) == "1");
+  if (!view) {
+    r.reason = view.error().message;
+    return r;
+  }
+  std::cerr << "visnav run: live view on ws://localhost:" << (*view)->port() << " (Foxglove: Open connection)\n";
+  auto tree = (*session)->load_tree(m.tree_file);
+  if (!tree) {
+    r.reason = m.tree_file + ": tree is not valid, nothing was run:\n" + tree.error().message;
+    return r;
+  }
+  if (auto st = visnav::set_blackboard_values(*tree, m.blackboard_values); !st) {
+    r.reason = st.error().message;
+    return r;
+  }
+  visnav::RunOptions ro;
+  ro.trace_file = m.trace_file;
+  // Lock-step runs as fast as it can; to be watched it is paced to `speed` x real time.
+  const bool pace = (*session)->lockstep() && speed > 0.0;
+  const auto wall0 = std::chrono::steady_clock::now();
+  double sim0 = -1.0;
+  ro.after_tick = [&](const visnav::TickInfo& t) {
+    (*view)->after_tick(t, *tree);
+    if (pace) {
+      if (sim0 < 0.0) sim0 = t.t_s;
+      std::this_thread::sleep_until(wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                std::chrono::duration<double>((t.t_s - sim0) / speed)));
+    }
+    return true;
+  };
+  return visnav::run_tree(**session, *tree, ro);  // tree, then view, then session are destroyed
+}
+
 int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"--tree", Opt::value}, {"--map", Opt::value},
                                {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
-                               {"--log-level", Opt::value}});
+                               {"--log-level", Opt::value}, {"--view", Opt::value}, {"--view-speed", Opt::value}});
       !st)
     return visnav::cli::usage_error("run", st.error().message);
   if (auto st = a.require({"--config", "--tree"}); !st) return visnav::cli::usage_error("run", st.error().message);
@@ -56,7 +138,7 @@ int run(const std::vector<std::string>& args) {
     m.log_level = *level;
   }
   visnav::install_signal_handlers();
-  const visnav::RunReport r = visnav::run_mission(m);
+  const visnav::RunReport r = a.has("--view") ? run_with_view(m, a.get("--view"), a.get("--view-speed", "1")) : visnav::run_mission(m);
   if (r.outcome == visnav::RunOutcome::error) {
     std::cerr << "visnav run: " << r.reason << "\n";
     return r.exit_code;

@@ -2,6 +2,7 @@
 // readers and subscriptions (waitset thread), and the conversions between the C++ message
 // structs and the idlc-generated C types (ros2_msgs.h, built in runtime/dds/).
 #include "visnav/dds.hpp"
+#include "visnav/dds_joy.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -176,6 +177,22 @@ void from_c(const sensor_msgs_msg_dds__CompressedImage_& c, msg::CompressedImage
   copy_bytes(c.data, m.data);
 }
 
+// Joy: the sequences borrow/copy like the byte buffers above.
+void to_c(const msg::Joy& m, sensor_msgs_msg_dds__Joy_& c) {
+  to_c(m.header, c.header);
+  c.axes._maximum = c.axes._length = static_cast<uint32_t>(m.axes.size());
+  c.axes._buffer = const_cast<float*>(m.axes.data());
+  c.axes._release = false;
+  c.buttons._maximum = c.buttons._length = static_cast<uint32_t>(m.buttons.size());
+  c.buttons._buffer = const_cast<std::int32_t*>(m.buttons.data());
+  c.buttons._release = false;
+}
+void from_c(const sensor_msgs_msg_dds__Joy_& c, msg::Joy& m) {
+  from_c(c.header, m.header);
+  m.axes.assign(c.axes._buffer, c.axes._buffer + (c.axes._buffer != nullptr ? c.axes._length : 0));
+  m.buttons.assign(c.buttons._buffer, c.buttons._buffer + (c.buttons._buffer != nullptr ? c.buttons._length : 0));
+}
+
 void to_c(const msg::Telemetry& m, visnav_msg_dds__Telemetry_& c) {
   to_c(m.header, c.header);
   c.sequence_number = m.sequence_number;
@@ -228,6 +245,7 @@ VISNAV_DDS_BIND_(Twist, geometry_msgs_msg_dds__Twist_)
 VISNAV_DDS_BIND_(Odometry, nav_msgs_msg_dds__Odometry_)
 VISNAV_DDS_BIND_(Image, sensor_msgs_msg_dds__Image_)
 VISNAV_DDS_BIND_(CompressedImage, sensor_msgs_msg_dds__CompressedImage_)
+VISNAV_DDS_BIND_(Joy, sensor_msgs_msg_dds__Joy_)
 VISNAV_DDS_BIND_(Telemetry, visnav_msg_dds__Telemetry_)
 VISNAV_DDS_BIND_(Control, visnav_msg_dds__Control_)
 #undef VISNAV_DDS_BIND_
@@ -612,6 +630,7 @@ VISNAV_DDS_INSTANTIATE_(Twist)
 VISNAV_DDS_INSTANTIATE_(Odometry)
 VISNAV_DDS_INSTANTIATE_(Image)
 VISNAV_DDS_INSTANTIATE_(CompressedImage)
+VISNAV_DDS_INSTANTIATE_(Joy)
 VISNAV_DDS_INSTANTIATE_(Telemetry)
 VISNAV_DDS_INSTANTIATE_(Control)
 #undef VISNAV_DDS_INSTANTIATE_

@@ -1,12 +1,16 @@
 // The `evaluation` plugin: the `visnav evaluate` command (evaluate.hpp, docs/recorded_runs.md).
+#include <unistd.h>
+
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "visnav/bt/registry.hpp"
 #include "visnav/config.hpp"
 #include "visnav/evaluation/evaluate.hpp"
+#include "visnav/mcap.hpp"
 #include "visnav/plugin.hpp"
 
 namespace {
@@ -23,7 +27,9 @@ const char* const kUsage =
     "distance) or expected landmarks (style A), the estimated horizontal offset and the inliers.\n"
     "\n"
     "  --map M             taught map folder\n"
-    "  --run RUN           recorded-run folder\n"
+    "  --run RUN           recorded-run folder, or an MCAP file (visnav record --format mcap, or a ROS 2 bag)\n"
+    "  --image-topic T     MCAP: topic of the images (default /camera/image_raw/compressed)\n"
+    "  --odom-topic T      MCAP: topic of nav_msgs/Odometry (default /odom)\n"
     "  -o out.csv          per-frame CSV (docs/recorded_runs.md lists the columns)\n"
     "  --plot out.png      offset_px over the route distance\n"
     "  --detector D        detector type (default star_brief; falls back to orb); use the one the map was taught with\n"
@@ -56,6 +62,7 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
   bool detector_given = false;
   std::vector<std::string> params, sets;
   evaluation::EvaluationOptions options;
+  mcap::RunTopics topics;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](std::string& out) -> bool {
@@ -69,6 +76,8 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
       return 0;
     } else if (a == "--map") { if (!value(map_dir)) return usage("--map needs a value"); }
     else if (a == "--run") { if (!value(run_dir)) return usage("--run needs a value"); }
+    else if (a == "--image-topic") { if (!value(topics.image)) return usage("--image-topic needs a value"); }
+    else if (a == "--odom-topic") { if (!value(topics.odometry)) return usage("--odom-topic needs a value"); }
     else if (a == "-o" || a == "--out") { if (!value(out_csv)) return usage("-o needs a value"); }
     else if (a == "--plot") { if (!value(plot)) return usage("--plot needs a value"); }
     else if (a == "--detector") { if (!value(detector)) return usage("--detector needs a value"); detector_given = true; }
@@ -104,7 +113,28 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
     std::fprintf(stderr, "visnav evaluate: %s\n", map.error().message.c_str());
     return 1;
   }
-  auto rows = evaluation::evaluate_run(*map, run_dir, **det, options);
+  // An MCAP run is converted into a temporary run folder first (removed on return).
+  namespace fs = std::filesystem;
+  std::string folder = run_dir;
+  struct Remove {
+    std::string dir;
+    ~Remove() {
+      std::error_code ec;
+      if (!dir.empty()) fs::remove_all(dir, ec);
+    }
+  } temp;
+  std::error_code ec;
+  if (fs::is_regular_file(run_dir, ec)) {
+    temp.dir = (fs::temp_directory_path() / ("visnav_evaluate_" + std::to_string(::getpid()))).string();
+    fs::remove_all(temp.dir, ec);
+    auto converted = mcap::mcap_to_run_folder(run_dir, temp.dir, topics);
+    if (!converted) {
+      std::fprintf(stderr, "visnav evaluate: %s\n", converted.error().message.c_str());
+      return 1;
+    }
+    folder = temp.dir;
+  }
+  auto rows = evaluation::evaluate_run(*map, folder, **det, options);
   if (!rows) {
     std::fprintf(stderr, "visnav evaluate: %s\n", rows.error().message.c_str());
     return 1;

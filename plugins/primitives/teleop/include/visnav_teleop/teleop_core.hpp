@@ -1,0 +1,187 @@
+// visnav teleop plugin — the pure cores behind the operator nodes (Teleop, TeleopOverride):
+// decoding a Linux joystick byte stream and terminal key sequences, and turning joystick,
+// keyboard or teleop-Twist input into a velocity command, the primitive being taught and
+// "teaching done", with a deadman and an input timeout. No I/O, no clock: every function takes
+// the time it should assume (run clock, s). The node adapters (src/) own the devices.
+//
+// Conventions: axes are normalised like ROS 2 `sensor_msgs/Joy` from joy_linux — stick up and
+// stick left are +1 — so one mapping file serves /dev/input/js* and the `rt/joy` topic alike.
+// Commands: linear_mps forward, angular_radps counter-clockwise (stick left turns left).
+// Thread-safety: none; one instance per node, used from the tick thread.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "visnav/params.hpp"
+#include "visnav/result.hpp"
+#include "visnav/types.hpp"
+
+namespace visnav::teleop {
+
+/// The operator mapping (a YAML file such as config/teleop/gamepad.yaml, keys below; every key
+/// has a default, unknown keys are errors). Button and axis numbers are those of the device
+/// (`jstest /dev/input/js0` or `ros2 topic echo /joy` shows them).
+struct TeleopParams {
+  // --- joystick / sensor_msgs/Joy ---
+  int axis_linear = 1;                  ///< forward axis (left stick vertical on most pads)
+  int axis_angular = 0;                 ///< turn axis (left stick horizontal)
+  double scale_linear_mps = 0.5;        ///< speed at full deflection
+  double scale_angular_radps = 0.8;     ///< yaw rate at full deflection
+  double deadzone = 0.08;               ///< |axis| below this reads as 0
+  int deadman_button = 4;               ///< must be held for the robot to move (LB on Xbox-style pads)
+  int done_button = 7;                  ///< ends teaching (Start)
+  /// "button=kind": pressing the button switches the primitive being taught; kind "" (e.g. "1=")
+  /// means "turning / not recording".
+  std::vector<std::string> primitive_buttons{"0=feature_segment", "2=path_following", "1="};
+  // --- keyboard ---
+  double key_linear_step_mps = 0.1;     ///< up/w, down/s change the speed by this much
+  double key_angular_step_radps = 0.15; ///< left/a, right/d change the turn rate by this much
+  double max_linear_mps = 0.8;          ///< keyboard and Twist commands are clamped to these
+  double max_angular_radps = 1.2;
+  /// "key=kind" for the keyboard (single characters); kind "" = turning / not recording.
+  std::vector<std::string> primitive_keys{"f=feature_segment", "p=path_following", "t="};
+  std::string done_key = "e";           ///< ends teaching
+  std::string manual_key = "m";         ///< TeleopOverride: toggles manual driving
+  // --- topics (sensor_msgs/Joy, geometry_msgs/Twist) ---
+  double input_timeout_s = 0.5;         ///< no message for this long: the operator is gone, stop
+
+  [[nodiscard]] Status validate() const;
+  static const ParamSchema<TeleopParams>& schema();
+};
+
+/// Parses a mapping file (empty path: the defaults). Errors name file:line and key.
+[[nodiscard]] Result<TeleopParams> load_teleop_params(const std::string& path);
+
+/// One "button=kind" / "key=kind" table, parsed.
+struct PrimitiveBinding {
+  std::string trigger;  ///< button number as text, or the key character
+  std::string kind;
+};
+[[nodiscard]] Result<std::vector<PrimitiveBinding>> parse_bindings(const std::vector<std::string>& entries,
+                                                                   std::string_view what);
+
+/// The state of a joystick: axes normalised to [-1, 1] (up/left positive), buttons pressed.
+struct JoyState {
+  std::vector<double> axes;
+  std::vector<bool> buttons;
+  [[nodiscard]] double axis(int i) const {
+    return i >= 0 && static_cast<std::size_t>(i) < axes.size() ? axes[static_cast<std::size_t>(i)] : 0.0;
+  }
+  [[nodiscard]] bool button(int i) const {
+    return i >= 0 && static_cast<std::size_t>(i) < buttons.size() && buttons[static_cast<std::size_t>(i)];
+  }
+};
+
+/// Linux joystick API (linux/joystick.h) event stream -> JoyState. Events are 8 bytes
+/// (u32 time_ms, s16 value, u8 type, u8 number); partial events are kept until completed.
+/// Axis values are negated and scaled by 1/32767 (up/left = +1, as joy_linux does).
+class JsEventDecoder {
+ public:
+  /// Feeds raw bytes; returns the number of complete events applied.
+  std::size_t feed(const std::uint8_t* data, std::size_t size);
+  [[nodiscard]] const JoyState& state() const { return state_; }
+  /// Button presses / releases (numbers) seen by feed() since the last take, in order. They
+  /// keep a short press, or a deadman release, that starts and ends between two ticks.
+  std::vector<int> take_presses() { return std::exchange(presses_, {}); }
+  std::vector<int> take_releases() { return std::exchange(releases_, {}); }
+
+  static constexpr std::size_t kEventBytes = 8;
+
+ private:
+  void apply(std::uint8_t type, std::uint8_t number, std::int16_t value);
+  JoyState state_;
+  std::uint8_t partial_[kEventBytes]{};
+  std::size_t partial_size_ = 0;
+  std::vector<int> presses_;
+  std::vector<int> releases_;
+};
+
+/// Splits terminal input into keys: a printable character, "\x1b[A".."\x1b[D" for the arrows,
+/// " " for space, "\n" for Enter (CR too). Unknown escape sequences are dropped whole.
+class KeyDecoder {
+ public:
+  /// Appends the keys found in `bytes` to `out`. An incomplete escape sequence is kept.
+  void feed(std::string_view bytes, std::vector<std::string>& out);
+
+ private:
+  std::string pending_;
+};
+
+/// What the operator asks for this tick.
+struct TeleopAction {
+  Twist command;                         ///< zero unless `engaged`
+  bool engaged = false;                  ///< the operator is driving (deadman held / manual mode / fresh Twist)
+  std::optional<std::string> primitive;  ///< set when the operator switched primitive this tick
+  bool done = false;                     ///< the operator ended teaching (sticky)
+  std::string reason;                    ///< why not engaged (for the status line / log), empty if engaged
+};
+
+/// Joystick or sensor_msgs/Joy teleop: deadman, deadzone, scaling, primitive and done buttons.
+class JoyTeleop {
+ public:
+  /// `params` must have passed validate().
+  static Result<JoyTeleop> create(const TeleopParams& params);
+  /// The action for the newest state, `presses` since the last call (button numbers, in
+  /// order), and whether the input is fresh (false: timed out or no data yet -> not engaged).
+  /// `released_deadman` is true if the deadman went up since the last call, even if it is
+  /// held again now (a release always stops for one tick).
+  TeleopAction update(const JoyState& state, const std::vector<int>& presses, bool fresh, bool released_deadman);
+
+ private:
+  explicit JoyTeleop(const TeleopParams& params, std::vector<std::pair<int, std::string>> buttons)
+      : params_(params), buttons_(std::move(buttons)) {}
+  TeleopParams params_;
+  std::vector<std::pair<int, std::string>> buttons_;
+  bool done_ = false;
+};
+
+/// Keyboard teleop (sticky speeds like a hand throttle): arrows/WASD step the commanded speed
+/// and turn rate, space zeroes both, the primitive keys switch primitive, `done_key` ends
+/// teaching, `manual_key` toggles manual mode (used by TeleopOverride; Teleop is always manual).
+class KeyTeleop {
+ public:
+  static Result<KeyTeleop> create(const TeleopParams& params, bool start_manual);
+  /// Applies one key (as KeyDecoder yields them). Returns false for a key that means nothing.
+  bool apply_key(const std::string& key);
+  /// The action after the keys applied since the last call.
+  TeleopAction update();
+  [[nodiscard]] const Twist& target() const { return target_; }
+  [[nodiscard]] bool manual() const { return manual_; }
+
+ private:
+  KeyTeleop(const TeleopParams& params, std::vector<std::pair<std::string, std::string>> keys, bool manual)
+      : params_(params), keys_(std::move(keys)), manual_(manual) {}
+  TeleopParams params_;
+  std::vector<std::pair<std::string, std::string>> keys_;
+  Twist target_;
+  bool manual_ = true;
+  bool done_ = false;
+  std::optional<std::string> switched_;
+};
+
+/// A geometry_msgs/Twist teleop topic (teleop_twist_joy, teleop_twist_keyboard): engaged while
+/// the newest message is fresh and non-zero; clamped to the max speeds.
+[[nodiscard]] TeleopAction twist_action(const Twist& newest, bool fresh, const TeleopParams& params);
+
+/// A marks file for teaching from a recording: CSV `t_s,primitive` (header first, '#' comments),
+/// times in the recording's run clock, non-decreasing; primitive "" = turning, nothing recorded.
+struct Mark {
+  double t_s = 0.0;
+  std::string primitive;
+};
+/// Parses the marks file's text; errors name `file`:line.
+[[nodiscard]] Result<std::vector<Mark>> parse_marks(const std::string& text, const std::string& file);
+/// The primitive in force at `t_s` (the last mark at or before it; "" before the first).
+[[nodiscard]] std::string primitive_at(const std::vector<Mark>& marks, double t_s);
+
+/// One-line status for the terminal: command, primitive, engaged or why not, and the keys.
+[[nodiscard]] std::string status_line(const TeleopAction& action, const std::string& primitive,
+                                      const TeleopParams& params, bool keyboard);
+
+}  // namespace visnav::teleop

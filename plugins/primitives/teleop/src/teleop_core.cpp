@@ -1,0 +1,307 @@
+#include "visnav_teleop/teleop_core.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <sstream>
+
+#include "visnav/config.hpp"
+
+namespace visnav::teleop {
+
+// ---- params ------------------------------------------------------------------------------
+
+Status TeleopParams::validate() const {
+  if (axis_linear == axis_angular) return fail("key 'axis_angular': must differ from axis_linear");
+  if (deadman_button == done_button) return fail("key 'done_button': must differ from deadman_button");
+  VISNAV_ASSIGN(auto buttons, parse_bindings(primitive_buttons, "primitive_buttons"));
+  for (const auto& b : buttons) {
+    auto n = detail::parse_int(b.trigger);
+    if (!n || *n < 0 || *n > 255)
+      return fail("key 'primitive_buttons': '" + b.trigger + "' is not a button number 0..255");
+    if (*n == deadman_button || *n == done_button)
+      return fail("key 'primitive_buttons': button " + b.trigger + " is also the deadman or done button");
+  }
+  VISNAV_ASSIGN(auto keys, parse_bindings(primitive_keys, "primitive_keys"));
+  const std::string reserved = "wasd q";
+  for (const auto& k : keys) {
+    if (k.trigger.size() != 1) return fail("key 'primitive_keys': '" + k.trigger + "' is not a single character");
+    if (reserved.find(k.trigger) != std::string::npos || k.trigger == done_key || k.trigger == manual_key)
+      return fail("key 'primitive_keys': '" + k.trigger + "' is a driving, done or manual key");
+  }
+  if (done_key.size() != 1) return fail("key 'done_key': '" + done_key + "' is not a single character");
+  if (manual_key.size() != 1 || manual_key == done_key)
+    return fail("key 'manual_key': '" + manual_key + "' must be one character other than done_key");
+  if (reserved.find(done_key) != std::string::npos || reserved.find(manual_key) != std::string::npos)
+    return fail("key 'done_key'/'manual_key': w, a, s, d, space and q are driving keys");
+  return ok();
+}
+
+const ParamSchema<TeleopParams>& TeleopParams::schema() {
+  static const auto s =
+      ParamSchema<TeleopParams>{}
+          .field("axis_linear", &TeleopParams::axis_linear, "joystick axis for forward speed (up = +)").range(0, 63)
+          .field("axis_angular", &TeleopParams::axis_angular, "joystick axis for the turn rate (left = +)").range(0, 63)
+          .field("scale_linear_mps", &TeleopParams::scale_linear_mps, "speed at full deflection, m/s (negative inverts)").range(-3, 3)
+          .field("scale_angular_radps", &TeleopParams::scale_angular_radps, "yaw rate at full deflection, rad/s (negative inverts)").range(-6, 6)
+          .field("deadzone", &TeleopParams::deadzone, "|axis| below this reads as 0").range(0, 0.9)
+          .field("deadman_button", &TeleopParams::deadman_button, "button that must be held for the robot to move").range(0, 255)
+          .field("done_button", &TeleopParams::done_button, "button that ends teaching").range(0, 255)
+          .field("primitive_buttons", &TeleopParams::primitive_buttons, "button=kind: switches the primitive being taught (kind '' = turning)")
+          .field("key_linear_step_mps", &TeleopParams::key_linear_step_mps, "keyboard: speed step per up/down key, m/s").range(0.01, 1)
+          .field("key_angular_step_radps", &TeleopParams::key_angular_step_radps, "keyboard: turn-rate step per left/right key, rad/s").range(0.01, 2)
+          .field("max_linear_mps", &TeleopParams::max_linear_mps, "keyboard/Twist speed limit, m/s").range(0.01, 3)
+          .field("max_angular_radps", &TeleopParams::max_angular_radps, "keyboard/Twist turn-rate limit, rad/s").range(0.01, 6)
+          .field("primitive_keys", &TeleopParams::primitive_keys, "key=kind: switches the primitive being taught (kind '' = turning)")
+          .field("done_key", &TeleopParams::done_key, "keyboard key that ends teaching")
+          .field("manual_key", &TeleopParams::manual_key, "keyboard key that toggles manual driving (TeleopOverride)")
+          .field("input_timeout_s", &TeleopParams::input_timeout_s, "Joy/Twist topic silent this long: stop").range(0.02, 10);
+  return s;
+}
+
+Result<TeleopParams> load_teleop_params(const std::string& path) {
+  TeleopParams params;
+  if (path.empty()) return params;
+  VISNAV_ASSIGN(ConfigNode root, parse_yaml_file(path));
+  return TeleopParams::schema().parse(root);
+}
+
+Result<std::vector<PrimitiveBinding>> parse_bindings(const std::vector<std::string>& entries, std::string_view what) {
+  std::vector<PrimitiveBinding> out;
+  for (const auto& e : entries) {
+    const auto eq = e.find('=');
+    if (eq == std::string::npos || eq == 0)
+      return fail("key '" + std::string(what) + "': entry '" + e + "' is not trigger=kind");
+    PrimitiveBinding b{e.substr(0, eq), e.substr(eq + 1)};
+    for (const auto& other : out)
+      if (other.trigger == b.trigger)
+        return fail("key '" + std::string(what) + "': '" + b.trigger + "' is bound twice");
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+// ---- decoders ----------------------------------------------------------------------------
+
+std::size_t JsEventDecoder::feed(const std::uint8_t* data, std::size_t size) {
+  std::size_t events = 0;
+  for (std::size_t i = 0; i < size; ++i) {
+    partial_[partial_size_++] = data[i];
+    if (partial_size_ < kEventBytes) continue;
+    partial_size_ = 0;
+    // struct js_event { __u32 time; __s16 value; __u8 type; __u8 number; } in host byte order.
+    std::int16_t value = 0;
+    std::memcpy(&value, partial_ + 4, sizeof value);
+    apply(partial_[6], partial_[7], value);
+    ++events;
+  }
+  return events;
+}
+
+void JsEventDecoder::apply(std::uint8_t type, std::uint8_t number, std::int16_t value) {
+  constexpr std::uint8_t kButton = 0x01, kAxis = 0x02, kInit = 0x80;
+  const bool init = (type & kInit) != 0;  // the driver's synthetic "current state" events at open
+  const std::uint8_t kind = type & static_cast<std::uint8_t>(~kInit);
+  const std::size_t n = number;
+  if (kind == kAxis) {
+    if (state_.axes.size() <= n) state_.axes.resize(n + 1, 0.0);
+    state_.axes[n] = std::clamp(-static_cast<double>(value) / 32767.0, -1.0, 1.0);
+  } else if (kind == kButton) {
+    if (state_.buttons.size() <= n) state_.buttons.resize(n + 1, false);
+    const bool pressed = value != 0;
+    if (!init && pressed && !state_.buttons[n]) presses_.push_back(number);
+    if (!init && !pressed && state_.buttons[n]) releases_.push_back(number);
+    state_.buttons[n] = pressed;
+  }
+}
+
+void KeyDecoder::feed(std::string_view bytes, std::vector<std::string>& out) {
+  pending_.append(bytes);
+  std::size_t i = 0;
+  while (i < pending_.size()) {
+    const char c = pending_[i];
+    if (c == '\x1b') {
+      if (i + 1 >= pending_.size()) break;  // wait for the rest
+      if (pending_[i + 1] != '[' && pending_[i + 1] != 'O') { out.emplace_back("\x1b"); ++i; continue; }
+      if (i + 2 >= pending_.size()) break;
+      // CSI: parameters (digits, ';') then one final byte in '@'..'~'.
+      std::size_t j = i + 2;
+      while (j < pending_.size() && ((pending_[j] >= '0' && pending_[j] <= '9') || pending_[j] == ';')) ++j;
+      if (j >= pending_.size()) break;
+      const char final_byte = pending_[j];
+      if (j == i + 2 && final_byte >= 'A' && final_byte <= 'D') out.push_back(std::string("\x1b[") + final_byte);
+      i = j + 1;
+      continue;
+    }
+    out.emplace_back(1, c == '\r' ? '\n' : c);
+    ++i;
+  }
+  pending_.erase(0, i);
+}
+
+// ---- teleops -----------------------------------------------------------------------------
+
+namespace {
+
+double shaped_axis(double value, double deadzone) {
+  if (std::abs(value) < deadzone) return 0.0;
+  // Rescale so the output starts at 0 at the deadzone edge (no jump).
+  const double sign = value < 0.0 ? -1.0 : 1.0;
+  return sign * (std::abs(value) - deadzone) / (1.0 - deadzone);
+}
+
+Twist clamp_twist(const Twist& t, const TeleopParams& p) {
+  return {std::clamp(t.linear_mps, -p.max_linear_mps, p.max_linear_mps),
+          std::clamp(t.angular_radps, -p.max_angular_radps, p.max_angular_radps)};
+}
+
+double snap(double v) { return std::abs(v) < 1e-9 ? 0.0 : v; }
+
+}  // namespace
+
+Result<JoyTeleop> JoyTeleop::create(const TeleopParams& params) {
+  VISNAV_TRY(params.validate());
+  VISNAV_ASSIGN(auto bindings, parse_bindings(params.primitive_buttons, "primitive_buttons"));
+  std::vector<std::pair<int, std::string>> buttons;
+  for (auto& b : bindings) buttons.emplace_back(*detail::parse_int(b.trigger), std::move(b.kind));
+  return JoyTeleop(params, std::move(buttons));
+}
+
+TeleopAction JoyTeleop::update(const JoyState& state, const std::vector<int>& presses, bool fresh,
+                               bool released_deadman) {
+  TeleopAction a;
+  for (int b : presses) {
+    if (b == params_.done_button) done_ = true;
+    for (const auto& [button, kind] : buttons_)
+      if (button == b) a.primitive = kind;
+  }
+  a.done = done_;
+  if (!fresh) {
+    a.reason = "no joystick input";
+  } else if (released_deadman || !state.button(params_.deadman_button)) {
+    a.reason = "deadman (button " + std::to_string(params_.deadman_button) + ") released";
+  } else {
+    a.engaged = true;
+    a.command.linear_mps = snap(shaped_axis(state.axis(params_.axis_linear), params_.deadzone) * params_.scale_linear_mps);
+    a.command.angular_radps =
+        snap(shaped_axis(state.axis(params_.axis_angular), params_.deadzone) * params_.scale_angular_radps);
+  }
+  return a;
+}
+
+Result<KeyTeleop> KeyTeleop::create(const TeleopParams& params, bool start_manual) {
+  VISNAV_TRY(params.validate());
+  VISNAV_ASSIGN(auto bindings, parse_bindings(params.primitive_keys, "primitive_keys"));
+  std::vector<std::pair<std::string, std::string>> keys;
+  for (auto& b : bindings) keys.emplace_back(std::move(b.trigger), std::move(b.kind));
+  return KeyTeleop(params, std::move(keys), start_manual);
+}
+
+bool KeyTeleop::apply_key(const std::string& key) {
+  const auto& p = params_;
+  if (key == "\x1b[A" || key == "w" || key == "W") target_.linear_mps += p.key_linear_step_mps;
+  else if (key == "\x1b[B" || key == "s" || key == "S") target_.linear_mps -= p.key_linear_step_mps;
+  else if (key == "\x1b[D" || key == "a" || key == "A") target_.angular_radps += p.key_angular_step_radps;
+  else if (key == "\x1b[C" || key == "d" || key == "D") target_.angular_radps -= p.key_angular_step_radps;
+  else if (key == " ") target_ = Twist{};
+  else if (key == p.done_key) { done_ = true; target_ = Twist{}; }
+  else if (key == p.manual_key) { manual_ = !manual_; target_ = Twist{}; }
+  else {
+    for (const auto& [k, kind] : keys_)
+      if (k == key) { switched_ = kind; return true; }
+    return false;
+  }
+  target_ = clamp_twist(target_, p);
+  target_.linear_mps = snap(target_.linear_mps);
+  target_.angular_radps = snap(target_.angular_radps);
+  return true;
+}
+
+TeleopAction KeyTeleop::update() {
+  TeleopAction a;
+  a.primitive = std::exchange(switched_, std::nullopt);
+  a.done = done_;
+  if (!manual_) {
+    a.reason = "automatic (press " + params_.manual_key + " to drive)";
+  } else if (done_) {
+    a.reason = "teaching ended";
+  } else {
+    a.engaged = true;
+    a.command = target_;
+  }
+  return a;
+}
+
+TeleopAction twist_action(const Twist& newest, bool fresh, const TeleopParams& params) {
+  TeleopAction a;
+  if (!fresh) {
+    a.reason = "no teleop Twist within " + std::to_string(params.input_timeout_s) + " s";
+  } else if (newest.linear_mps == 0.0 && newest.angular_radps == 0.0) {
+    a.reason = "teleop Twist is zero";
+  } else {
+    a.engaged = true;
+    a.command = clamp_twist(newest, params);
+  }
+  return a;
+}
+
+Result<std::vector<Mark>> parse_marks(const std::string& text, const std::string& file) {
+  std::vector<Mark> marks;
+  std::size_t start = 0;
+  int line_no = 0;
+  bool header = false;
+  while (start <= text.size()) {
+    std::size_t nl = text.find('\n', start);
+    if (nl == std::string::npos) nl = text.size();
+    std::string line = text.substr(start, nl - start);
+    start = nl + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') {
+      if (nl == text.size()) break;
+      continue;
+    }
+    if (!header) {
+      if (line != "t_s,primitive") return fail(file + ":" + std::to_string(line_no) + ": expected the header 't_s,primitive'");
+      header = true;
+      continue;
+    }
+    const auto comma = line.find(',');
+    if (comma == std::string::npos) return fail(file + ":" + std::to_string(line_no) + ": expected t_s,primitive");
+    auto t = detail::parse_double(line.substr(0, comma));
+    if (!t) return fail(file + ":" + std::to_string(line_no) + ": t_s: " + t.error().message);
+    if (!marks.empty() && *t < marks.back().t_s)
+      return fail(file + ":" + std::to_string(line_no) + ": time " + line.substr(0, comma) + " is earlier than the previous mark");
+    marks.push_back({*t, line.substr(comma + 1)});
+    if (nl == text.size()) break;
+  }
+  if (!header) return fail(file + ": empty marks file (expected the header 't_s,primitive')");
+  return marks;
+}
+
+std::string primitive_at(const std::vector<Mark>& marks, double t_s) {
+  std::string p;
+  for (const auto& m : marks) {
+    if (m.t_s > t_s) break;
+    p = m.primitive;
+  }
+  return p;
+}
+
+std::string status_line(const TeleopAction& action, const std::string& primitive, const TeleopParams& params,
+                        bool keyboard) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << "v " << std::setw(5) << action.command.linear_mps << " m/s  w "
+    << std::setw(5) << action.command.angular_radps << " rad/s  teaching: "
+    << (primitive.empty() ? std::string("(turning, not recorded)") : primitive);
+  if (!action.engaged) s << "  [stopped: " << action.reason << "]";
+  if (keyboard) {
+    s << "  | arrows/WASD drive, space stop";
+    for (const auto& e : params.primitive_keys) s << ", " << e;
+    s << ", " << params.done_key << " end";
+  }
+  return s.str();
+}
+
+}  // namespace visnav::teleop

@@ -1,0 +1,406 @@
+// Operator nodes: the pure cores (joystick event decoding, key sequences, deadman, mapping
+// file errors) and the nodes loaded from the real libvisnav_teleop.so, driven by a fake joystick
+// (a FIFO carrying Linux js_event records), a keyboard FIFO and, with DDS, sensor_msgs/Joy and
+// geometry_msgs/Twist samples on a loopback domain.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "visnav/bt/registry.hpp"
+#include "visnav/bt/tree.hpp"
+#include "visnav/dds_joy.hpp"
+#include "visnav/loader.hpp"
+#include "visnav/runtime_host.hpp"
+#include "visnav_teleop/teleop_core.hpp"
+
+#include "dds_test_util.hpp"
+#include "fake_devices.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+using namespace visnav::teleop;
+using bt::NodeStatus;
+
+namespace {
+
+/// One Linux js_event record (linux/joystick.h layout, host byte order).
+std::vector<std::uint8_t> js_event(std::uint8_t type, std::uint8_t number, std::int16_t value, std::uint32_t time_ms = 0) {
+  std::vector<std::uint8_t> e(8);
+  std::memcpy(e.data(), &time_ms, 4);
+  std::memcpy(e.data() + 4, &value, 2);
+  e[6] = type;
+  e[7] = number;
+  return e;
+}
+constexpr std::uint8_t kButton = 0x01, kAxis = 0x02, kInit = 0x80;
+
+// ---- cores -------------------------------------------------------------------------------
+
+TEST(JsEventDecoder, DecodesAxesUpLeftPositiveAndButtonEdgesAcrossPartialReads) {
+  JsEventDecoder d;
+  auto bytes = js_event(kAxis | kInit, 1, 0);
+  auto more = js_event(kButton | kInit, 4, 1);  // held at open: not a press
+  bytes.insert(bytes.end(), more.begin(), more.end());
+  auto up = js_event(kAxis, 1, -32767);  // stick up: the driver reports negative
+  bytes.insert(bytes.end(), up.begin(), up.end());
+  auto press = js_event(kButton, 2, 1);
+  bytes.insert(bytes.end(), press.begin(), press.end());
+  // Split mid-event: nothing is applied until the record is complete.
+  EXPECT_EQ(d.feed(bytes.data(), 20), 2U);
+  EXPECT_EQ(d.feed(bytes.data() + 20, bytes.size() - 20), 2U);
+  EXPECT_DOUBLE_EQ(d.state().axis(1), 1.0);
+  EXPECT_TRUE(d.state().button(4));
+  EXPECT_EQ(d.take_presses(), std::vector<int>{2});
+  EXPECT_TRUE(d.take_presses().empty());
+  auto release = js_event(kButton, 4, 0);
+  d.feed(release.data(), release.size());
+  EXPECT_EQ(d.take_releases(), std::vector<int>{4});
+}
+
+TEST(KeyDecoder, SplitsArrowsPrintablesAndIncompleteEscapes) {
+  KeyDecoder d;
+  std::vector<std::string> keys;
+  d.feed("w\x1b[", keys);
+  ASSERT_EQ(keys.size(), 1U);
+  d.feed("Ds\r\x1b[1;5C", keys);  // left arrow completed; ctrl-right is dropped
+  ASSERT_EQ(keys.size(), 4U);
+  EXPECT_EQ(keys[1], "\x1b[D");
+  EXPECT_EQ(keys[2], "s");
+  EXPECT_EQ(keys[3], "\n");
+}
+
+TEST(JoyTeleop, DrivesOnlyWithTheDeadmanAndStopsForOneTickOnARelease) {
+  TeleopParams p;
+  auto t = JoyTeleop::create(p);
+  ASSERT_TRUE(t.ok()) << t.error().message;
+  JoyState s;
+  s.axes = {0.5, 1.0};  // angular axis 0 half left, linear axis 1 full up
+  s.buttons.assign(8, false);
+  TeleopAction a = t->update(s, {}, true, false);
+  EXPECT_FALSE(a.engaged);
+  EXPECT_EQ(a.command.linear_mps, 0.0);
+  s.buttons[4] = true;
+  a = t->update(s, {}, true, false);
+  ASSERT_TRUE(a.engaged);
+  EXPECT_NEAR(a.command.linear_mps, 0.5, 1e-9);
+  EXPECT_NEAR(a.command.angular_radps, 0.8 * (0.5 - 0.08) / (1 - 0.08), 1e-9);  // past the deadzone
+  // Released and pressed again between two ticks: still one stopped tick.
+  a = t->update(s, {}, true, true);
+  EXPECT_FALSE(a.engaged);
+  EXPECT_EQ(a.command.linear_mps, 0.0);
+  // Stale input (topic silent) never drives.
+  a = t->update(s, {}, false, false);
+  EXPECT_FALSE(a.engaged);
+  // Primitive buttons and done (sticky).
+  a = t->update(s, {2}, true, false);
+  ASSERT_TRUE(a.primitive.has_value());
+  EXPECT_EQ(*a.primitive, "path_following");
+  a = t->update(s, {1, 7}, true, false);
+  EXPECT_EQ(*a.primitive, "");
+  EXPECT_TRUE(a.done);
+  EXPECT_TRUE(t->update(s, {}, true, false).done);
+}
+
+TEST(KeyTeleop, StepsClampsStopsAndSwitchesPrimitive) {
+  TeleopParams p;
+  auto k = KeyTeleop::create(p, true);
+  ASSERT_TRUE(k.ok());
+  for (int i = 0; i < 20; ++i) k->apply_key("\x1b[A");
+  EXPECT_DOUBLE_EQ(k->target().linear_mps, p.max_linear_mps);
+  k->apply_key("a");
+  EXPECT_NEAR(k->target().angular_radps, p.key_angular_step_radps, 1e-12);
+  EXPECT_TRUE(k->apply_key("p"));
+  TeleopAction a = k->update();
+  EXPECT_TRUE(a.engaged);
+  EXPECT_EQ(a.primitive.value_or("?"), "path_following");
+  EXPECT_FALSE(k->update().primitive.has_value());
+  k->apply_key(" ");
+  EXPECT_EQ(k->update().command.linear_mps, 0.0);
+  EXPECT_FALSE(k->apply_key("z"));
+  k->apply_key("e");
+  a = k->update();
+  EXPECT_TRUE(a.done);
+  EXPECT_FALSE(a.engaged);
+}
+
+TEST(KeyTeleop, OverrideStartsAutomaticUntilTheManualKey) {
+  auto k = KeyTeleop::create(TeleopParams{}, false);
+  ASSERT_TRUE(k.ok());
+  k->apply_key("w");
+  EXPECT_FALSE(k->update().engaged);  // ignored: automatic
+  k->apply_key("m");
+  k->apply_key("w");
+  TeleopAction a = k->update();
+  EXPECT_TRUE(a.engaged);
+  EXPECT_NEAR(a.command.linear_mps, 0.1, 1e-12);
+  k->apply_key("m");
+  EXPECT_FALSE(k->update().engaged);
+}
+
+TEST(TwistAction, EngagedOnlyWhileFreshAndNonZeroAndClamped) {
+  TeleopParams p;
+  EXPECT_FALSE(twist_action({0.3, 0.0}, false, p).engaged);
+  EXPECT_FALSE(twist_action({0.0, 0.0}, true, p).engaged);
+  TeleopAction a = twist_action({5.0, -0.2}, true, p);
+  EXPECT_TRUE(a.engaged);
+  EXPECT_DOUBLE_EQ(a.command.linear_mps, p.max_linear_mps);
+  EXPECT_DOUBLE_EQ(a.command.angular_radps, -0.2);
+}
+
+TEST(TeleopParams, MappingFileErrorsNameTheFileLineAndKey) {
+  const fs::path dir = test::fresh_test_dir("teleop");
+  fs::create_directories(dir);
+  const fs::path file = dir / "pad.yaml";
+  std::ofstream(file) << "axis_linear: 1\ndeadman_buton: 5\n";
+  auto r = load_teleop_params(file.string());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("pad.yaml:2"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("deadman_buton"), std::string::npos) << r.error().message;
+  std::ofstream(file) << "deadman_button: 2\n";  // also bound to path_following by default
+  r = load_teleop_params(file.string());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("primitive_buttons"), std::string::npos) << r.error().message;
+  std::ofstream(file) << "deadman_button: 5\nprimitive_buttons: [\"0=feature_segment\", \"3=\"]\n";
+  r = load_teleop_params(file.string());
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->deadman_button, 5);
+  // The shipped mappings load.
+  for (const char* shipped : {"config/teleop/gamepad.yaml", "config/teleop/keyboard.yaml"}) {
+    auto s = load_teleop_params(std::string(VISNAV_TEST_SOURCE_DIR) + "/" + shipped);
+    EXPECT_TRUE(s.ok()) << shipped << ": " << (s.ok() ? "" : s.error().message);
+  }
+  fs::remove_all(dir);
+}
+
+// ---- nodes -------------------------------------------------------------------------------
+
+/// Counts ticks and drives at 1 m/s: the mission under TeleopOverride.
+class Mission final : public bt::StatefulActionNode {
+ public:
+  Mission(const std::string& name, const bt::NodeConfig& config, HostServices& host, int& ticks)
+      : StatefulActionNode(name, config), host_(host), ticks_(ticks) {}
+  static bt::PortsList provided_ports() { return {}; }
+  NodeStatus on_start() override { return on_running(); }
+  NodeStatus on_running() override {
+    ++ticks_;
+    (void)host_.robot()->send_command({1.0, 0.0});
+    return ticks_ >= 1000 ? NodeStatus::success : NodeStatus::running;
+  }
+  void on_halted() override {}
+
+ private:
+  HostServices& host_;
+  int& ticks_;
+};
+
+class TeleopNodes : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = test::fresh_test_dir("teleop_nodes");
+    fs::create_directories(dir_);
+    fifo_ = (dir_ / "dev").string();
+    ASSERT_EQ(::mkfifo(fifo_.c_str(), 0600), 0);
+    // O_RDWR never blocks on a FIFO and keeps a writer, so the node's reads see data, not EOF.
+    writer_ = ::open(fifo_.c_str(), O_RDWR | O_NONBLOCK);
+    ASSERT_GE(writer_, 0);
+    host_.set_frame_bus(&bus_);
+    host_.set_robot(&robot_);
+    ASSERT_TRUE(test::register_plugin_nodes(loader_, "teleop", registry_, host_));
+    ASSERT_TRUE(registry_
+                    .register_node<Mission>("Mission", "test mission",
+                                            [this](const std::string& n, const bt::NodeConfig& c) {
+                                              return std::make_unique<Mission>(n, c, host_, mission_ticks_);
+                                            })
+                    .ok());
+  }
+  void TearDown() override {
+    if (writer_ >= 0) ::close(writer_);
+    fs::remove_all(dir_);
+  }
+  void write_bytes(const std::vector<std::uint8_t>& b) { ASSERT_EQ(::write(writer_, b.data(), b.size()), static_cast<ssize_t>(b.size())); }
+  void write_text(const std::string& s) { ASSERT_EQ(::write(writer_, s.data(), s.size()), static_cast<ssize_t>(s.size())); }
+
+  fs::path dir_;
+  std::string fifo_;
+  int writer_ = -1;
+  PluginLoader loader_{std::vector<std::string>{VISNAV_TEST_PLUGIN_DIR}};
+  StderrLogger logger_{LogLevel::error};
+  ManualClock clock_;
+  RuntimeHost host_{loader_, logger_, clock_};
+  FrameBus bus_;
+  test::KinematicRobot robot_{bus_};
+  bt::NodeRegistry registry_;
+  int mission_ticks_ = 0;
+};
+
+TEST_F(TeleopNodes, JoystickTeachesWithTheDeadmanAndEndsWithTheDoneButton) {
+  bt::Tree tree = test::load_main_tree(
+      "<Teleop input=\"joystick\" device=\"" + fifo_ + "\" primitive=\"{primitive}\" done=\"{teach_done}\"/>", registry_,
+      &clock_);
+  write_bytes(js_event(kAxis | kInit, 1, 0));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  // Stick up without the deadman: nothing.
+  write_bytes(js_event(kAxis, 1, -32767));
+  tree.tick_once();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  // Deadman held: drives; the feature button switches primitive.
+  write_bytes(js_event(kButton, 4, 1));
+  write_bytes(js_event(kButton, 0, 1));
+  tree.tick_once();
+  EXPECT_NEAR(robot_.command_.linear_mps, 0.5, 1e-9);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("primitive"), "feature_segment");
+  EXPECT_FALSE(*tree.blackboard().get<bool>("teach_done"));
+  write_bytes(js_event(kButton, 7, 1));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_TRUE(*tree.blackboard().get<bool>("teach_done"));
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(TeleopNodes, DeadmanReleaseStopsTheRobotWithin100msAtA20HzTick) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"joystick\" device=\"" + fifo_ + "\"/>", registry_, &clock_);
+  write_bytes(js_event(kButton, 4, 1));
+  write_bytes(js_event(kAxis, 1, -32767));
+  tree.tick_once();
+  ASSERT_GT(robot_.command_.linear_mps, 0.4);
+  // The release arrives at an arbitrary moment between ticks; the tick loop runs at 20 Hz.
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point released_at{};
+  std::thread pad([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(137));
+    released_at = Clock::now();
+    auto e = js_event(kButton, 4, 0);
+    (void)::write(writer_, e.data(), e.size());
+  });
+  Clock::time_point stopped_at{};
+  const auto start = Clock::now();
+  while (Clock::now() - start < std::chrono::milliseconds(600)) {
+    tree.tick_once();
+    if (robot_.command_.linear_mps == 0.0 && stopped_at == Clock::time_point{}) stopped_at = Clock::now();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  pad.join();
+  ASSERT_NE(stopped_at, Clock::time_point{});
+  const double latency_ms = std::chrono::duration<double, std::milli>(stopped_at - released_at).count();
+  std::printf("deadman release -> zero command: %.1f ms\n", latency_ms);
+  EXPECT_GE(latency_ms, 0.0);
+  EXPECT_LE(latency_ms, 100.0);
+}
+
+TEST_F(TeleopNodes, UnpluggedJoystickStopsAndFails) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"joystick\" device=\"" + fifo_ + "\"/>", registry_, &clock_);
+  write_bytes(js_event(kButton, 4, 1));
+  write_bytes(js_event(kAxis, 1, -32767));
+  tree.tick_once();
+  ASSERT_GT(robot_.command_.linear_mps, 0.4);
+  ::close(writer_);  // the only writer: the node reads end of file
+  writer_ = -1;
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(TeleopNodes, MissingJoystickDeviceFailsNamingIt) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"joystick\" device=\"/dev/input/js_missing\"/>", registry_, &clock_);
+  EXPECT_EQ(tree.tick_once(), NodeStatus::failure);
+}
+
+TEST_F(TeleopNodes, KeyboardDrivesSwitchesPrimitiveAndEndsTeaching) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ +
+                                           "\" initial_primitive=\"feature_segment\"/>",
+                                       registry_, &clock_);
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("primitive"), "feature_segment");
+  write_text("ww\x1b[Dp");
+  tree.tick_once();
+  EXPECT_NEAR(robot_.command_.linear_mps, 0.2, 1e-9);
+  EXPECT_NEAR(robot_.command_.angular_radps, 0.15, 1e-9);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("primitive"), "path_following");
+  write_text("e");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(TeleopNodes, OverridePausesTheMissionWhileTheOperatorDrives) {
+  bt::Tree tree = test::load_main_tree(
+      "<TeleopOverride input=\"keyboard\" device=\"" + fifo_ + "\"><Mission/></TeleopOverride>", registry_, &clock_);
+  tree.tick_once();
+  EXPECT_EQ(mission_ticks_, 1);
+  EXPECT_EQ(robot_.command_.linear_mps, 1.0);
+  write_text("mss");  // take over and back up
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_EQ(mission_ticks_, 1);
+  EXPECT_NEAR(robot_.command_.linear_mps, -0.2, 1e-9);
+  write_text("m");  // hand back: stop, then the mission continues where it was
+  const int stops_before = robot_.commands_;
+  tree.tick_once();
+  EXPECT_EQ(mission_ticks_, 2);
+  EXPECT_GE(robot_.commands_, stops_before + 2);  // a stop, then the mission's command
+  EXPECT_EQ(robot_.command_.linear_mps, 1.0);
+}
+
+TEST_F(TeleopNodes, JoyTopicDrivesAndStopsWhenTheTopicFallsSilent) {
+  if (!dds::available()) GTEST_SKIP() << "built without DDS";
+  dds::testing::use_loopback();
+  const int domain = dds::testing::random_domain_id();
+  auto participant = dds::Participant::create(domain);
+  ASSERT_TRUE(participant.ok());
+  auto writer = dds::Writer<dds::msg::Joy>::create(*participant, {"rt/joy", dds::Qos::ros_default(), ""});
+  ASSERT_TRUE(writer.ok());
+  bt::Tree tree = test::load_main_tree(
+      "<Teleop input=\"joy\" domain_id=\"" + std::to_string(domain) + "\" primitive=\"{primitive}\"/>", registry_, &clock_);
+  tree.tick_once();
+  ASSERT_TRUE(writer->wait_for_readers(1, 5.0));
+  dds::msg::Joy joy;
+  joy.axes = {0.0F, 1.0F};
+  joy.buttons = {0, 0, 1, 0, 1, 0, 0, 0};  // path_following button and deadman held
+  ASSERT_TRUE(writer->write(joy).ok());
+  ASSERT_TRUE(dds::testing::eventually([&] {
+    tree.tick_once();
+    return robot_.command_.linear_mps > 0.4;
+  }));
+  EXPECT_EQ(*tree.blackboard().get<std::string>("primitive"), "path_following");
+  // No more messages: after input_timeout_s (0.5 s) the robot is stopped.
+  ASSERT_TRUE(dds::testing::eventually([&] {
+    tree.tick_once();
+    return robot_.command_.linear_mps == 0.0;
+  }, 2.0));
+}
+
+TEST_F(TeleopNodes, TwistTopicOverridesOnlyWhileFresh) {
+  if (!dds::available()) GTEST_SKIP() << "built without DDS";
+  dds::testing::use_loopback();
+  const int domain = dds::testing::random_domain_id();
+  auto participant = dds::Participant::create(domain);
+  ASSERT_TRUE(participant.ok());
+  auto writer = dds::Writer<dds::msg::Twist>::create(*participant, {"rt/cmd_vel_teleop", dds::Qos::ros_default(), ""});
+  ASSERT_TRUE(writer.ok());
+  bt::Tree tree = test::load_main_tree("<TeleopOverride input=\"twist\" domain_id=\"" + std::to_string(domain) +
+                                           "\"><Mission/></TeleopOverride>",
+                                       registry_, &clock_);
+  tree.tick_once();
+  EXPECT_EQ(mission_ticks_, 1);
+  ASSERT_TRUE(writer->wait_for_readers(1, 5.0));
+  dds::msg::Twist t;
+  t.angular.z = 0.4;
+  ASSERT_TRUE(writer->write(t).ok());
+  ASSERT_TRUE(dds::testing::eventually([&] {
+    tree.tick_once();
+    return robot_.command_.angular_radps == 0.4;
+  }));
+  const int ticks = mission_ticks_;
+  ASSERT_TRUE(dds::testing::eventually([&] {
+    tree.tick_once();
+    return mission_ticks_ > ticks;
+  }, 2.0));
+  EXPECT_EQ(robot_.command_.linear_mps, 1.0);
+}
+
+}  // namespace

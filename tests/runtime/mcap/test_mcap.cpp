@@ -1,0 +1,255 @@
+// MCAP writer/reader and ROS 2 CDR (visnav/mcap.hpp): round trips through chunks (zstd and
+// uncompressed), a file cut short, a damaged chunk, and CDR layouts checked byte for byte where
+// the alignment rules matter.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "visnav/mcap.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+
+namespace {
+
+fs::path temp_file(const std::string& name) {
+  return fs::temp_directory_path() / ("visnav_mcap_" + std::to_string(::getpid()) + "_" + name);
+}
+
+struct Seen {
+  std::vector<std::string> topics;
+  std::vector<mcap::Message> messages;
+  std::vector<std::string> schemas;
+  std::vector<mcap::Attachment> attachments;
+};
+
+Result<mcap::ReadReport> read_all(const fs::path& p, Seen& seen) {
+  mcap::ReadHandlers h;
+  h.on_message = [&](const mcap::Channel& ch, const mcap::Schema* s, const mcap::Message& m) -> Status {
+    seen.topics.push_back(ch.topic);
+    seen.schemas.push_back(s != nullptr ? s->name : "");
+    seen.messages.push_back(m);
+    return ok();
+  };
+  h.on_attachment = [&](const mcap::Attachment& a) -> Status {
+    seen.attachments.push_back(a);
+    return ok();
+  };
+  return mcap::read_file(p.string(), h);
+}
+
+void write_sample(const fs::path& p, bool compress, std::size_t chunk_bytes, int count) {
+  mcap::WriterOptions o;
+  o.compress = compress;
+  o.chunk_size_bytes = chunk_bytes;
+  auto w = mcap::Writer::create(p.string(), o);
+  ASSERT_TRUE(w.ok()) << w.error().message;
+  const auto twist = (*w)->add_schema("geometry_msgs/msg/Twist", "ros2msg", ros2::schema_text("geometry_msgs/msg/Twist"));
+  const auto cmd = (*w)->add_channel(twist, "/cmd_vel", "cdr");
+  const auto json = (*w)->add_channel(0, "/visnav/tick", "json");
+  for (int i = 0; i < count; ++i) {
+    dds::msg::Twist t;
+    t.linear.x = 0.1 * i;
+    t.angular.z = -0.01 * i;
+    mcap::Message m{cmd, static_cast<std::uint32_t>(i), 1000000ULL * static_cast<std::uint64_t>(i), 0, ros2::encode(t)};
+    ASSERT_TRUE((*w)->write(m).ok());
+    const std::string j = "{\"tick\":" + std::to_string(i) + "}";
+    ASSERT_TRUE((*w)->write({json, 0, m.log_time_ns, 0, std::vector<std::uint8_t>(j.begin(), j.end())}).ok());
+  }
+  ASSERT_TRUE((*w)->write_attachment({5, 6, "run.yaml", "application/yaml", "format: x\n"}).ok());
+  ASSERT_TRUE((*w)->close().ok());
+}
+
+TEST(Mcap, RoundTripThroughManyChunksCompressedAndNot) {
+  for (bool compress : {false, true}) {
+    SCOPED_TRACE(compress ? "zstd" : "uncompressed");
+    const fs::path p = temp_file(compress ? "z.mcap" : "u.mcap");
+    write_sample(p, compress, 200, 100);  // ~8 messages per chunk
+    Seen seen;
+    auto r = read_all(p, seen);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_FALSE(r->truncated);
+    EXPECT_EQ(r->profile, "ros2");
+    ASSERT_EQ(seen.messages.size(), 200U);
+    for (int i = 0; i < 100; ++i) {
+      EXPECT_EQ(seen.topics[2 * i], "/cmd_vel");
+      EXPECT_EQ(seen.schemas[2 * i], "geometry_msgs/msg/Twist");
+      EXPECT_EQ(seen.topics[2 * i + 1], "/visnav/tick");
+      auto t = ros2::decode_twist(seen.messages[2 * i].data);
+      ASSERT_TRUE(t.ok());
+      EXPECT_DOUBLE_EQ(t->linear.x, 0.1 * i);
+      EXPECT_DOUBLE_EQ(t->angular.z, -0.01 * i);
+      EXPECT_EQ(seen.messages[2 * i].log_time_ns, 1000000ULL * static_cast<std::uint64_t>(i));
+    }
+    ASSERT_EQ(seen.attachments.size(), 1U);
+    EXPECT_EQ(seen.attachments[0].data, "format: x\n");
+    fs::remove(p);
+  }
+}
+
+TEST(Mcap, FileCutShortReadsUpToItsLastCompleteChunk) {
+  const fs::path p = temp_file("cut.mcap");
+  write_sample(p, true, 200, 100);
+  const auto size = fs::file_size(p);
+  fs::resize_file(p, size / 2);
+  Seen seen;
+  auto r = read_all(p, seen);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->truncated);
+  EXPECT_GT(seen.messages.size(), 20U);
+  EXPECT_LT(seen.messages.size(), 200U);
+  fs::remove(p);
+}
+
+TEST(Mcap, DamagedChunkAndForeignFileAreErrorsNamingTheFile) {
+  const fs::path p = temp_file("bad.mcap");
+  write_sample(p, false, 1 << 20, 10);  // one uncompressed chunk: flip a byte of a message
+  {
+    std::fstream f(p, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(400);
+    char c = 0;
+    f.read(&c, 1);
+    f.seekp(400);
+    c = static_cast<char>(c ^ 0x5A);
+    f.write(&c, 1);
+  }
+  Seen seen;
+  auto r = read_all(p, seen);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find(p.string()), std::string::npos) << r.error().message;
+  std::ofstream(p) << "not an mcap file";
+  r = read_all(p, seen);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("not an MCAP file"), std::string::npos);
+  fs::remove(p);
+}
+
+TEST(Mcap, Crc32IsTheIeeeCrc) {
+  const std::string s = "123456789";
+  EXPECT_EQ(mcap::crc32(s.data(), s.size()), 0xCBF43926U);
+}
+
+TEST(Ros2Cdr, TwistIsFortyEightBytesAfterTheHeader) {
+  dds::msg::Twist t;
+  t.linear.x = 1.5;
+  auto b = ros2::encode(t);
+  ASSERT_EQ(b.size(), 52U);
+  EXPECT_EQ(b[0], 0x00);
+  EXPECT_EQ(b[1], 0x01);
+  double x = 0;
+  std::memcpy(&x, b.data() + 4, 8);
+  EXPECT_EQ(x, 1.5);
+}
+
+TEST(Ros2Cdr, OdometryAlignsDoublesAfterTheStrings) {
+  dds::msg::Odometry o;
+  o.header.stamp = {12, 345};
+  o.header.frame_id = "odom";        // 4 + 4 + (4 + 5) = 17 bytes
+  o.child_frame_id = "base_link";    // pad to 20, 4 + 10 = 34 bytes
+  o.pose.pose.position.x = 2.0;      // pad to 40
+  o.pose.pose.orientation = dds::quaternion_from_yaw(0.5);
+  o.twist.twist.angular.z = -0.25;
+  o.pose.covariance[35] = 9.0;
+  auto b = ros2::encode(o);
+  double x = 0;
+  std::memcpy(&x, b.data() + 4 + 40, 8);
+  EXPECT_EQ(x, 2.0);
+  EXPECT_EQ(b.size(), 4U + 40 + 7 * 8 + 36 * 8 + 6 * 8 + 36 * 8);
+  auto back = ros2::decode_odometry(b);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->header.frame_id, "odom");
+  EXPECT_EQ(back->child_frame_id, "base_link");
+  EXPECT_EQ(back->header.stamp.nanosec, 345U);
+  EXPECT_NEAR(dds::yaw_from_quaternion(back->pose.pose.orientation), 0.5, 1e-12);
+  EXPECT_EQ(back->twist.twist.angular.z, -0.25);
+  EXPECT_EQ(back->pose.covariance[35], 9.0);
+  b.resize(b.size() - 3);
+  auto cut = ros2::decode_odometry(b);
+  ASSERT_FALSE(cut.ok());
+  EXPECT_NE(cut.error().message.find("twist.covariance"), std::string::npos);
+}
+
+TEST(Ros2Cdr, ImagesAndTelemetryRoundTrip) {
+  dds::msg::Image im;
+  im.header.frame_id = "camera";
+  im.width = 3;
+  im.height = 2;
+  im.encoding = "mono8";
+  im.step = 3;
+  im.data = {1, 2, 3, 4, 5, 6};
+  auto i2 = ros2::decode_image(ros2::encode(im));
+  ASSERT_TRUE(i2.ok());
+  EXPECT_EQ(i2->data, im.data);
+  EXPECT_EQ(i2->encoding, "mono8");
+  EXPECT_EQ(i2->step, 3U);
+  dds::msg::CompressedImage c;
+  c.format = "png";
+  c.data = {9, 8, 7};
+  auto c2 = ros2::decode_compressed_image(ros2::encode(c));
+  ASSERT_TRUE(c2.ok());
+  EXPECT_EQ(c2->format, "png");
+  EXPECT_EQ(c2->data, c.data);
+  dds::msg::Telemetry t;
+  t.edge = "e3";
+  t.matches = 41;
+  t.offset_px = -3.5;
+  t.status = "running";
+  auto t2 = ros2::decode_telemetry(ros2::encode(t));
+  ASSERT_TRUE(t2.ok());
+  EXPECT_EQ(t2->edge, "e3");
+  EXPECT_EQ(t2->matches, 41);
+  EXPECT_EQ(t2->offset_px, -3.5);
+  EXPECT_EQ(t2->status, "running");
+  for (const char* type : {"sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage", "nav_msgs/msg/Odometry",
+                           "geometry_msgs/msg/Twist", "visnav/msg/Telemetry"})
+    EXPECT_FALSE(ros2::schema_text(type).empty()) << type;
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Mcap, GamepadPrimitivePressesInABagBecomeMarks) {
+  const fs::path p = temp_file("joy.mcap");
+  {
+    auto w = mcap::Writer::create(p.string());
+    ASSERT_TRUE(w.ok());
+    const auto s = (*w)->add_schema("sensor_msgs/msg/Joy", "ros2msg", ros2::schema_text("sensor_msgs/msg/Joy"));
+    const auto ch = (*w)->add_channel(s, "/joy", "cdr");
+    // (time s, buttons held): X (2) pressed at 1 s and held, A (0) at 3 s, B (1) at 4 s.
+    const std::vector<std::pair<double, std::vector<std::int32_t>>> states{
+        {0.5, {0, 0, 0}}, {1.0, {0, 0, 1}}, {1.5, {0, 0, 1}}, {3.0, {1, 0, 0}}, {4.0, {0, 1, 0}}};
+    for (const auto& [t, buttons] : states) {
+      dds::msg::Joy j;
+      j.axes = {0.0F, 0.5F};
+      j.buttons = buttons;
+      const auto ns = static_cast<std::uint64_t>(t * 1e9);
+      ASSERT_TRUE((*w)->write({ch, 0, ns, ns, ros2::encode(j)}).ok());
+    }
+    ASSERT_TRUE((*w)->close().ok());
+  }
+  auto marks = mcap::joy_marks(p.string(), "/joy", {{0, "feature_segment"}, {2, "path_following"}, {1, ""}});
+  ASSERT_TRUE(marks.ok()) << marks.error().message;
+  ASSERT_EQ(marks->size(), 3U);
+  EXPECT_DOUBLE_EQ((*marks)[0].first, 1.0);
+  EXPECT_EQ((*marks)[0].second, "path_following");
+  EXPECT_EQ((*marks)[1].second, "feature_segment");
+  EXPECT_DOUBLE_EQ((*marks)[2].first, 4.0);
+  EXPECT_EQ((*marks)[2].second, "");
+  auto none = mcap::joy_marks(p.string(), "/other", {{0, "feature_segment"}});
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().message.find("/other"), std::string::npos);
+  dds::msg::Joy j;
+  j.axes = {0.25F, -1.0F};
+  j.buttons = {1, 0, 1};
+  auto back = ros2::decode_joy(ros2::encode(j));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->axes, j.axes);
+  EXPECT_EQ(back->buttons, j.buttons);
+  fs::remove(p);
+}
+
+}  // namespace

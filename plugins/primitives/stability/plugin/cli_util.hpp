@@ -51,6 +51,17 @@ class Progress {
   bool drawn_ = false;
 };
 
+/// Words of `s` split at whitespace.
+[[nodiscard]] std::vector<std::string> split_spaces(const std::string& s);
+
+/// Path of the running executable (/proc/self/exe), "visnav" if unknown.
+[[nodiscard]] std::string self_exe();
+
+/// Runs `args` (args[0] looked up on PATH) with stdout and stderr to the file `log` and stdin
+/// from /dev/null; returns its exit status (128 + signal when killed). A child still running
+/// after `timeout_s` is killed with SIGKILL and reported as 124. Error when it cannot start.
+[[nodiscard]] Result<int> run_child(const std::vector<std::string>& args, const std::string& log, double timeout_s);
+
 /// `v` with `precision` digits after the point.
 [[nodiscard]] std::string fixed(double v, int precision = 3);
 

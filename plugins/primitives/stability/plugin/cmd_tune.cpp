@@ -1,10 +1,5 @@
 // `visnav tune`: NLopt over primitive parameters; each evaluation runs `visnav experiment` as a
 // child process and scores its summary.json (docs/convergence.md, "Tuning").
-#include <fcntl.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
@@ -23,8 +18,6 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "visnav_stability/tune.hpp"
-
-extern char** environ;
 
 namespace visnav::stability {
 namespace {
@@ -67,49 +60,6 @@ struct TuneCommandOptions {
   TuneOptions tune;
   ObjectiveWeights weights;
 };
-
-std::vector<std::string> split_spaces(const std::string& s) {
-  std::vector<std::string> out;
-  std::istringstream in(s);
-  for (std::string t; in >> t;) out.push_back(t);
-  return out;
-}
-
-std::string self_exe() {
-  std::error_code ec;
-  auto p = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string("visnav") : p.string();
-}
-
-// Runs argv with stdout and stderr to `log`; the exit status, or an error when it cannot start.
-// A child still running after timeout_s is killed (SIGKILL) and reported as status 124.
-Result<int> run_child(const std::vector<std::string>& args, const std::string& log, double timeout_s) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-  posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc != 0) return fail("cannot start '" + args[0] + "': " + std::strerror(rc));
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  for (;;) {
-    int st = 0;
-    const pid_t w = ::waitpid(pid, &st, WNOHANG);
-    if (w == pid) return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
-    if (w < 0) return fail("waitpid failed for '" + args[0] + "'");
-    if (std::chrono::steady_clock::now() > end) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &st, 0);
-      return 124;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-}
 
 std::string g17(double v) {
   char buf[40];
@@ -245,8 +195,8 @@ Status parse(int argc, char** argv, TuneCommandOptions& o) {
   if (o.world.empty()) return fail("--world is required");
   if (o.route.empty()) return fail("--route is required");
   if (!have_params) return fail("--params is required");
-  if (o.child.empty()) o.child = self_exe() + " experiment";
-  if (split_spaces(o.child).empty()) return fail("--child is empty");
+  if (o.child.empty()) o.child = cli::self_exe() + " experiment";
+  if (cli::split_spaces(o.child).empty()) return fail("--child is empty");
   VISNAV_TRY(o.weights.validate());
   return o.tune.validate();
 }
@@ -283,7 +233,7 @@ int run(int argc, char** argv) {
     std::snprintf(name, sizeof name, "run-%04d", ++run_counter);
     const fs::path dir = fs::path(o.out) / "runs" / name;
     fs::create_directories(dir);
-    std::vector<std::string> args = split_spaces(o.child);
+    std::vector<std::string> args = cli::split_spaces(o.child);
     for (const std::string& a : {std::string("--world"), o.world, std::string("--route"), o.route, std::string("--maps"),
                                  o.maps, std::string("--seeds"), std::to_string(o.seeds), std::string("--loops"),
                                  std::to_string(o.loops), std::string("--out"), dir.string()})
@@ -296,7 +246,7 @@ int run(int argc, char** argv) {
       args.push_back("--set");
       args.push_back(o.params[i].key + "=" + g17(x[i]));
     }
-    VISNAV_ASSIGN(int status, run_child(args, (dir / "child.log").string(), o.timeout_s));
+    VISNAV_ASSIGN(int status, cli::run_child(args, (dir / "child.log").string(), o.timeout_s));
     ObjectiveBreakdown b;
     std::string note;
     std::ifstream in(dir / "summary.json");

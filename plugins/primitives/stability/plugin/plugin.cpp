@@ -1,5 +1,6 @@
 // libvisnav_stability.so — convergence analysis and tuning commands (issue 19): no node types,
-// only `visnav stability`, `visnav stability-sim` and `visnav tune`.
+// only `visnav stability`, `visnav stability-sim`, `visnav tune`
+// and `visnav platforms`.
 #include "commands.hpp"
 #include "visnav/plugin.hpp"
 
@@ -14,6 +15,8 @@ const visnav::CommandEntry kCommands[] = {
      &visnav::stability::stability_sim_command},
     {"tune", "NLopt (Sbplx) over primitive parameters, objective eps_acc + lambda*eps_rep from `visnav experiment`",
      &visnav::stability::tune_command},
+    {"platforms", "seed 002 Table 1 in the simulator: one experiment per platform row (kinematics, rates, latency)",
+     &visnav::stability::platforms_command},
 };
 
 }  // namespace

@@ -1,6 +1,7 @@
 // NLopt driver with a replay cache, and the summary.json scoring of `visnav tune`.
 #include "visnav_stability/tune.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -230,51 +231,67 @@ Status ObjectiveWeights::validate() const {
   return ok();
 }
 
-Result<ObjectiveBreakdown> objective_from_summary(const std::string& json_text, const ObjectiveWeights& w) {
-  VISNAV_TRY(w.validate());
+Result<std::vector<StyleSummary>> parse_summary(const std::string& json_text) {
   YAML::Node root;
   try {
     root = YAML::Load(json_text);
   } catch (const YAML::Exception& e) {
     return fail("summary.json: not valid JSON: " + std::string(e.what()));
   }
-  if (!root.IsMap() || !root["styles"] || !root["styles"].IsSequence())
-    return fail("summary.json: no \"styles\" list");
-  ObjectiveBreakdown total;
-  int scored = 0;
+  if (!root.IsMap() || !root["styles"] || !root["styles"].IsSequence()) return fail("summary.json: no \"styles\" list");
+  std::vector<StyleSummary> out;
   try {
     for (const auto& s : root["styles"]) {
-      const std::string style = s["style"] ? s["style"].as<std::string>() : std::string();
-      if (!w.style.empty() && style != w.style) continue;
+      StyleSummary st;
+      st.style = s["style"] ? s["style"].as<std::string>() : std::string();
       for (const char* key : {"attempted", "completed"})
-        if (!s[key]) return fail("summary.json: style '" + style + "' has no \"" + key + "\"");
-      const double attempted = s["attempted"].as<double>();
-      const double completed = s["completed"].as<double>();
-      const double collisions = s["collisions"] ? s["collisions"].as<double>() : 0.0;
-      ObjectiveBreakdown b;
-      if (attempted <= 0.0) {
-        b.failed_share = 1.0;
-      } else {
-        b.failed_share = std::min(1.0, std::max(0.0, (attempted - completed + collisions) / attempted));
-      }
-      auto mean_of = [&](const char* key) -> Result<double> {
-        if (!s[key] || !s[key]["mean"] || s[key]["mean"].IsNull()) {
-          if (completed <= 0.0) return 0.0;  // nothing completed: only the penalty counts
-          return fail("summary.json: style '" + style + "' has no \"" + key + "\".mean");
-        }
-        const double v = s[key]["mean"].as<double>();
-        if (!std::isfinite(v)) return fail("summary.json: style '" + style + "': " + key + ".mean is not finite");
-        return v;
+        if (!s[key]) return fail("summary.json: style '" + st.style + "' has no \"" + key + "\"");
+      st.attempted = s["attempted"].as<double>();
+      st.completed = s["completed"].as<double>();
+      st.collisions = s["collisions"] ? s["collisions"].as<double>() : 0.0;
+      st.lost = s["lost"] ? s["lost"].as<double>() : 0.0;
+      auto stat = [&](const char* key, const char* field) {
+        const YAML::Node n = s[key];
+        if (!n || !n.IsMap() || !n[field] || n[field].IsNull()) return std::nan("");
+        return n[field].as<double>();
       };
-      VISNAV_ASSIGN(b.eps_acc_m, mean_of("eps_acc_m"));
-      VISNAV_ASSIGN(b.eps_rep_m, mean_of("eps_rep_m"));
-      total.eps_acc_m += b.eps_acc_m;
-      total.eps_rep_m += b.eps_rep_m;
-      total.failed_share += b.failed_share;
-      ++scored;
+      st.eps_acc_mean_m = stat("eps_acc_m", "mean");
+      st.eps_acc_sd_m = stat("eps_acc_m", "sd");
+      st.eps_acc_worst_m = stat("eps_acc_m", "worst");
+      st.eps_rep_mean_m = stat("eps_rep_m", "mean");
+      st.eps_rep_sd_m = stat("eps_rep_m", "sd");
+      st.eps_rep_worst_m = stat("eps_rep_m", "worst");
+      out.push_back(std::move(st));
     }
   } catch (const YAML::Exception& e) {
     return fail("summary.json: bad value: " + std::string(e.what()));
+  }
+  return out;
+}
+
+Result<ObjectiveBreakdown> objective_from_summary(const std::string& json_text, const ObjectiveWeights& w) {
+  VISNAV_TRY(w.validate());
+  VISNAV_ASSIGN(std::vector<StyleSummary> styles, parse_summary(json_text));
+  ObjectiveBreakdown total;
+  int scored = 0;
+  for (const StyleSummary& s : styles) {
+    if (!w.style.empty() && s.style != w.style) continue;
+    ObjectiveBreakdown b;
+    b.failed_share = s.attempted <= 0.0 ? 1.0 : std::clamp((s.attempted - s.completed + s.collisions) / s.attempted, 0.0, 1.0);
+    auto mean_of = [&](double v, const char* key) -> Result<double> {
+      if (std::isnan(v)) {
+        if (s.completed <= 0.0) return 0.0;  // nothing completed: only the penalty counts
+        return fail("summary.json: style '" + s.style + "' has no \"" + key + "\".mean");
+      }
+      if (!std::isfinite(v)) return fail("summary.json: style '" + s.style + "': " + key + ".mean is not finite");
+      return v;
+    };
+    VISNAV_ASSIGN(b.eps_acc_m, mean_of(s.eps_acc_mean_m, "eps_acc_m"));
+    VISNAV_ASSIGN(b.eps_rep_m, mean_of(s.eps_rep_mean_m, "eps_rep_m"));
+    total.eps_acc_m += b.eps_acc_m;
+    total.eps_rep_m += b.eps_rep_m;
+    total.failed_share += b.failed_share;
+    ++scored;
   }
   if (scored == 0)
     return fail(w.style.empty() ? std::string("summary.json: \"styles\" is empty")

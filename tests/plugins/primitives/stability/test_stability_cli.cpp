@@ -190,3 +190,33 @@ TEST(TuneCli, TunesAgainstAFakeExperimentAndResumes) {
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("needs bounds"), std::string::npos) << r.out;
 }
+
+TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
+  const fs::path dir = out_dir("platforms");
+  fs::create_directories(dir);
+  // Stand-in experiment: the 5 Hz camera row fails two loops, every other row completes all.
+  const fs::path script = dir / "fake_experiment.sh";
+  {
+    std::ofstream s(script);
+    s << "#!/bin/sh\nout=''; c=25\n"
+         "while [ $# -gt 0 ]; do case \"$1\" in --out) out=\"$2\"; shift;; --set) case \"$2\" in "
+         "camera.params.frame_rate_hz=5) c=23;; esac; shift;; esac; shift; done\n"
+         "printf '{\"styles\":[{\"style\":\"feature\",\"attempted\":25,\"completed\":%d,"
+         "\"eps_acc_m\":{\"mean\":0.1,\"sd\":0.02,\"worst\":0.2},\"eps_rep_m\":{\"mean\":0.05,\"sd\":0.01,"
+         "\"worst\":0.08},\"collisions\":0,\"lost\":0}]}\\n' $c > \"$out/summary.json\"\n";
+  }
+  CliRun r = run_cli("platforms --rows diff_drive,camera_5hz,freeze_1_3s --out " + dir.string() + " --child 'sh " +
+                     script.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("| differential drive (reference) | `robot.params.kinematics=diff_drive` | 25/25 | 0.100 ± 0.020 | "
+                       "0.050 ± 0.010 | 0.200 | yes |"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("| 5 Hz camera | `camera.params.frame_rate_hz=5` | 23/25 |"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("| no |"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not run: the simulator has no compute-freeze model"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "platforms.md"));
+  r = run_cli("platforms --rows nope");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("no row 'nope'"), std::string::npos) << r.out;
+}

@@ -93,6 +93,19 @@ struct ObjectiveBreakdown {
   double failed_share = 0.0;  ///< failed loops / attempted (collisions count as failed)
 };
 
+/// One map style of an experiment's summary.json. Means/sds/worsts are NaN when absent or null
+/// (e.g. nothing completed).
+struct StyleSummary {
+  std::string style;
+  double attempted = 0.0, completed = 0.0, collisions = 0.0, lost = 0.0;
+  double eps_acc_mean_m = 0.0, eps_acc_sd_m = 0.0, eps_acc_worst_m = 0.0;
+  double eps_rep_mean_m = 0.0, eps_rep_sd_m = 0.0, eps_rep_worst_m = 0.0;
+};
+
+/// Parses summary.json (format below). Errors: not JSON, no "styles" list, a style without
+/// "attempted"/"completed", a value of the wrong type.
+[[nodiscard]] Result<std::vector<StyleSummary>> parse_summary(const std::string& json_text);
+
 /// Scores the text of an experiment's summary.json:
 ///   {"styles":[{"style":"hybrid","attempted":25,"completed":24,"eps_acc_m":{"mean":..},
 ///               "eps_rep_m":{"mean":..},"collisions":0,"lost":0}, ...]}

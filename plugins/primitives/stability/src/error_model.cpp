@@ -141,7 +141,7 @@ Result<StabilityReport> analyse_loop(const std::vector<ModelEdge>& edges, const 
   });
   for (std::size_t i : order) {
     if (rep.limiting.size() == 3) break;
-    if (rep.edges[i].radius_gain_if_doubled > 1e-12) rep.limiting.push_back(i);
+    if (rep.edges[i].radius_gain_if_doubled > 1e-6) rep.limiting.push_back(i);  // ignore round-off
   }
 
   bool all_collinear = true;

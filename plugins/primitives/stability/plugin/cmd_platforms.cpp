@@ -47,7 +47,7 @@ std::vector<Row> default_rows() {
       {"car_like", "car-like (Ackermann)", {"robot.params.kinematics=car_like"}, ""},
       {"tracked", "tracked (skid)", {"robot.params.kinematics=tracked"}, ""},
       {"odom_5hz", "5 Hz odometry", {"robot.params.odom_rate_hz=5"}, ""},
-      {"camera_15hz", "15 Hz camera", {"camera.params.frame_rate_hz=15"}, ""},
+      {"camera_15hz", "15 Hz camera (and 15 Hz ticks)", {"camera.params.frame_rate_hz=15", "run.rate_hz=15"}, ""},
       {"camera_5hz", "5 Hz camera", {"camera.params.frame_rate_hz=5"}, ""},
       {"ip_camera_300ms", "IP camera, 300 ms latency", {"camera.params.latency_s=0.3"}, ""},
       {"freeze_1_3s", "1-3 s compute freezes", {},

@@ -207,6 +207,34 @@ class StarBriefDetector final : public DetectorType<StarBriefDetector, StarBrief
 };
 
 // ---------------------------------------------------------------------------------------------
+// grief: star_brief whose 256 comparison pairs come from a file (visnav/detectors/grief.hpp)
+
+struct GriefParams : StarBriefParams {
+  std::string pairs;  ///< pairs file; empty = the BRIEF pattern (then identical to star_brief)
+  [[nodiscard]] Status validate() const;
+  static const ParamSchema<GriefParams>& schema();
+};
+
+/// STAR keypoints + BRIEF-like 256-bit descriptor with trained comparison pairs (GRIEF,
+/// Krajník et al. 2017). The pairs file is read in setup(): on creation and on every
+/// reconfigure() (a changed file is picked up by a live reload); a bad file is an error naming
+/// file:line, and a rejected reload leaves the detector unchanged.
+class GriefDetector final : public DetectorType<GriefDetector, GriefParams> {
+ public:
+  static constexpr const char* kTypeName = "grief";
+  [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
+
+ protected:
+  friend DetectorType;
+  Status setup(const GriefParams& params);
+  Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
+
+ private:
+  StarDetector star_;
+  BriefExtractor brief_;
+};
+
+// ---------------------------------------------------------------------------------------------
 // OpenCV detectors + our BRIEF
 
 struct AgastBriefParams : CommonParams, BriefFields {

@@ -176,7 +176,7 @@ const ParamSchema<GriefParams>& GriefParams::schema() {
     ParamSchema<GriefParams> sc;
     add_star_fields(sc);
     sc.field("pairs", &GriefParams::pairs,
-             "comparison pairs file (YAML, e.g. from `visnav train-descriptor`); empty: the BRIEF pattern");
+             "comparison pairs file (YAML, e.g. from `visnav train-descriptor`); brief: the BRIEF pattern");
     return sc;
   }();
   return s;
@@ -184,7 +184,7 @@ const ParamSchema<GriefParams>& GriefParams::schema() {
 
 Status GriefDetector::setup(const GriefParams& p) {
   std::vector<BriefTest> pattern;  // empty: BRIEF's
-  if (!p.pairs.empty()) {
+  if (!p.pairs.empty() && p.pairs != "brief") {
     VISNAV_ASSIGN(PairsFile file, read_pairs_file(p.pairs));
     if (file.patch_size_px != p.patch_size_px)
       return fail(p.pairs + ": the pairs were made for patch_size_px " + std::to_string(file.patch_size_px) +

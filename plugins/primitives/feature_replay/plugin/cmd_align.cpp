@@ -29,7 +29,8 @@ const char* const kAlignUsage =
     "is settled on that image alone, so a result never depends on other pairs or their order.\n"
     "\n"
     "  --detector D       detector type (default star_brief; falls back to orb if not installed)\n"
-    "  --param K=V        detector parameter (repeatable), e.g. --param target_keypoints=800\n"
+    "  --param K=V        detector parameter (repeatable), e.g. --param target_keypoints=800;\n"
+    "                     without target_keypoints/keypoints_per_mpx, keypoints_per_mpx=7500\n"
     "  --set K=V          matching/histogram parameter (repeatable): ratio, cross_check,\n"
     "                     max_descriptor_distance, max_vertical_px, bin_width_px, bin_count,\n"
     "                     refine_window_px, min_inliers, full_confidence_inliers, min_confidence,\n"
@@ -119,6 +120,10 @@ Result<Options> parse(int argc, char** argv) {
 // docs/detectors.md); detection stops early once the keypoint count repeats.
 constexpr int kSettleFrames = 8;
 
+// Keypoints per megapixel when the user sets no count: 3000 on a 1024×384 crop. Chosen on the
+// appearance-change pair sets (docs/feature_replay.md, "Defaults chosen on appearance change").
+constexpr int kAlignKeypointsPerMpx = 7500;
+
 struct Aligner {
   HostServices* host = nullptr;
   std::string detector_type;
@@ -200,6 +205,17 @@ int run_align(int argc, char** argv, HostServices& host) {
     return 2;
   }
   Aligner al{&host, opts->detector, opts->detector_params, HeadingEstimator(*heading), {}, {}, {}, {}};
+  // Default keypoint density (issue 13): the target follows the image area, unless the user set
+  // it. A detector type without the key (a third-party plugin) gets the params as given.
+  if (opts->detector_params.find("target_keypoints") == nullptr &&
+      opts->detector_params.find("keypoints_per_mpx") == nullptr) {
+    ConfigNode with = opts->detector_params.is_null() ? ConfigNode::make_map() : opts->detector_params;
+    with.set("keypoints_per_mpx", ConfigNode::make_scalar(std::to_string(kAlignKeypointsPerMpx), {"align default", 0}));
+    if (host.create_detector(opts->detector, with)) {
+      opts->detector_params = with;
+      al.detector_params = with;
+    }
+  }
   auto det = host.create_detector(opts->detector, opts->detector_params);
   if (!det && !opts->detector_given) {
     std::fprintf(stderr, "visnav align: detector '%s' is not available (%s); falling back to orb\n",

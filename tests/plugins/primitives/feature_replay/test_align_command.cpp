@@ -118,9 +118,11 @@ TEST_F(AlignFixture, SinglePairPrintsTheOffsetAndDraws) {
   EXPECT_EQ(key, "offset_px");
   EXPECT_NEAR(offset, -21.0, 3.0) << out;
   // default star_brief was asked first, then the orb fallback (then a fresh orb per image)
-  ASSERT_GE(host.requested.size(), 2u);
+  // (star_brief is asked twice: with the default keypoints_per_mpx, then with the params as given)
+  ASSERT_GE(host.requested.size(), 3u);
   EXPECT_EQ(host.requested[0], "star_brief");
-  EXPECT_EQ(host.requested[1], "orb");
+  EXPECT_EQ(host.requested[1], "star_brief");
+  EXPECT_EQ(host.requested[2], "orb");
   const cv::Mat picture = cv::imread(draw);
   ASSERT_FALSE(picture.empty());
   EXPECT_EQ(picture.cols, 720);

@@ -50,7 +50,8 @@ namespace visnav::feature_replay {
 
 /// Matching and histogram-voting parameters (config keys as named here).
 struct HeadingParams {
-  double ratio = 0.7;                    ///< Lowe ratio test on descriptor distances (1 = off)
+  double ratio = 0.8;                    ///< Lowe ratio test on descriptor distances (1 = off); 0.8 chosen on
+                                         ///< appearance-change pairs (docs/feature_replay.md, issue 13)
   bool cross_check = false;              ///< keep only mutual best matches
   double max_descriptor_distance = 0.0;  ///< absolute gate (Hamming bits or L2); 0 = off
   double max_vertical_px = 50.0;         ///< |dv| gate; 0 = off

@@ -15,6 +15,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "test_support.hpp"
+#include "visnav/detectors/detector_types.hpp"
+#include "visnav/detectors/grief.hpp"
 #include "visnav/host.hpp"
 #include "visnav/loader.hpp"
 
@@ -53,13 +55,19 @@ class TestHost final : public visnav::HostServices {
   visnav::Logger& logger() override { return logger_; }
   const visnav::Clock& clock() override { return clock_; }
   visnav::Result<std::unique_ptr<visnav::Detector>> create_detector(std::string_view type,
-                                                                     const visnav::ConfigNode&) override {
+                                                                     const visnav::ConfigNode& params) override {
     requested.emplace_back(type);
+    if (type == "star_brief" && with_star) {
+      auto made = visnav::detectors::create_detector(type, params);
+      if (!made) return std::move(made).error();
+      return std::unique_ptr<visnav::Detector>(std::move(made).value());
+    }
     if (type == "orb") return std::unique_ptr<visnav::Detector>(std::make_unique<OrbDetector>(stateful));
     return visnav::fail("no detector type '" + std::string(type) + "'");
   }
   std::vector<std::string> requested;
   bool stateful = false;
+  bool with_star = false;  // provide the real star_brief (train-descriptor needs it)
 
  private:
   NullLogger logger_;
@@ -71,8 +79,11 @@ struct AlignFixture : ::testing::Test {
     loader = std::make_unique<visnav::PluginLoader>(std::vector<std::string>{VISNAV_TEST_PLUGIN_DIR});
     auto lib = loader->load_library("feature_replay");
     ASSERT_TRUE(lib.ok()) << lib.error().message;
-    for (const auto& c : loader->commands())
+    for (const auto& c : loader->commands()) {
       if (c.name == "align") run = c.run;
+      if (c.name == "train-descriptor") train = c.run;
+    }
+    ASSERT_NE(train, nullptr);
     ASSERT_NE(run, nullptr);
     std::string leaf = "visnav_align_";
     leaf.append(std::to_string(::getpid()));
@@ -83,19 +94,22 @@ struct AlignFixture : ::testing::Test {
     std::error_code ec;
     std::filesystem::remove_all(dir, ec);
   }
-  int call(std::vector<std::string> args, std::string* out = nullptr) {
-    args.insert(args.begin(), "align");
+  int call(std::vector<std::string> args, std::string* out = nullptr) { return call_command(run, "align", args, out); }
+  int call_command(int (*fn)(int, char**, visnav::HostServices&), const char* name, std::vector<std::string> args,
+                   std::string* out = nullptr) {
+    args.insert(args.begin(), name);
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     testing::internal::CaptureStdout();
-    const int rc = run(static_cast<int>(args.size()), argv.data(), host);
+    const int rc = fn(static_cast<int>(args.size()), argv.data(), host);
     const std::string text = testing::internal::GetCapturedStdout();
     if (out != nullptr) *out = text;
     return rc;
   }
   std::unique_ptr<visnav::PluginLoader> loader;
   int (*run)(int, char**, visnav::HostServices&) = nullptr;
+  int (*train)(int, char**, visnav::HostServices&) = nullptr;
   TestHost host;
   std::filesystem::path dir;
 };
@@ -229,4 +243,62 @@ TEST_F(AlignFixture, UsageErrors) {
   std::string out;
   EXPECT_EQ(call({"--help"}, &out), 0);
   EXPECT_NE(out.find("--pairs"), std::string::npos);
+}
+
+// train-descriptor through the plugin: writes a loadable pairs file, resumes to the same result
+// as an uninterrupted run, and names FILE:LINE for a bad pairs list.
+TEST_F(AlignFixture, TrainDescriptorWritesResumesAndReportsBadLines) {
+  const cv::Mat img = fr_test::load_grey("astronaut.png");
+  const cv::Mat cam = fr_test::load_grey("camera.png");
+  if (img.empty() || cam.empty()) GTEST_SKIP() << "python3-skimage photos not installed";
+  host.with_star = true;
+  std::ofstream list((dir / "train.txt").string());
+  int k = 0;
+  for (const cv::Mat* src : {&img, &cam}) {
+    for (int shift : {-20, 25}) {
+      const std::string a = "a" + std::to_string(k) + ".png", b = "b" + std::to_string(k) + ".png";
+      cv::imwrite((dir / a).string(), (*src)(cv::Rect(60, 60, 360, 300)));
+      cv::Mat moved = (*src)(cv::Rect(60 - shift, 60, 360, 300)) * 0.7 + 30;  // darker, lower contrast
+      cv::imwrite((dir / b).string(), moved);
+      list << a << ' ' << b << ' ' << shift << '\n';
+      ++k;
+    }
+  }
+  list.close();
+  const auto full = (dir / "full.yaml").string(), part = (dir / "part.yaml").string();
+  const std::string pairs = (dir / "train.txt").string();
+  std::string out;
+  ASSERT_EQ(call_command(train, "train-descriptor", {"--pairs", pairs, "-o", full, "--generations", "4", "--seed", "3",
+                                                    "--param", "target_keypoints=200"},
+                         &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("trained generations 4 correct "), std::string::npos) << out;
+  ASSERT_EQ(call_command(train, "train-descriptor", {"--pairs", pairs, "-o", part, "--generations", "2", "--seed", "3",
+                                                    "--param", "target_keypoints=200"}),
+            0);
+  ASSERT_EQ(call_command(train, "train-descriptor", {"--pairs", pairs, "-o", part, "--generations", "4", "--seed", "3",
+                                                    "--param", "target_keypoints=200", "--resume"}),
+            0);
+  auto a = visnav::detectors::read_pairs_file(full);
+  auto b = visnav::detectors::read_pairs_file(part);
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  ASSERT_TRUE(b.ok()) << b.error().message;
+  ASSERT_NE(a->training.find("generation"), nullptr);
+  EXPECT_EQ(a->training.find("generation")->scalar(), "4");
+  EXPECT_EQ(b->training.find("generation")->scalar(), "4");
+  for (std::size_t i = 0; i < a->pairs.size(); ++i) {
+    EXPECT_EQ(a->pairs[i].x1, b->pairs[i].x1) << i;
+    EXPECT_EQ(a->pairs[i].y2, b->pairs[i].y2) << i;
+  }
+  // Resuming with another seed is refused; a bad line is reported with FILE:LINE.
+  EXPECT_EQ(call_command(train, "train-descriptor", {"--pairs", pairs, "-o", part, "--generations", "5", "--seed", "4",
+                                                    "--resume"}),
+            1);
+  std::ofstream((dir / "bad.txt").string()) << "a0.png b0.png 3\n# comment\na1.png b1.png twelve\n";
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(call_command(train, "train-descriptor", {"--pairs", (dir / "bad.txt").string(), "-o", full}), 1);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("bad.txt:3: SHIFT_PX 'twelve' is not a number"), std::string::npos) << err;
+  EXPECT_EQ(call_command(train, "train-descriptor", {"--pairs", pairs}), 2);  // no -o
 }

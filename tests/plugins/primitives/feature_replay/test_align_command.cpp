@@ -256,7 +256,9 @@ TEST_F(AlignFixture, TrainDescriptorWritesResumesAndReportsBadLines) {
   int k = 0;
   for (const cv::Mat* src : {&img, &cam}) {
     for (int shift : {-20, 25}) {
-      const std::string a = "a" + std::to_string(k) + ".png", b = "b" + std::to_string(k) + ".png";
+      std::string a = "a", b = "b";  // (append: GCC 12 warns falsely on "x" + std::string + "y")
+      a.append(std::to_string(k)).append(".png");
+      b.append(std::to_string(k)).append(".png");
       cv::imwrite((dir / a).string(), (*src)(cv::Rect(60, 60, 360, 300)));
       cv::Mat moved = (*src)(cv::Rect(60 - shift, 60, 360, 300)) * 0.7 + 30;  // darker, lower contrast
       cv::imwrite((dir / b).string(), moved);

@@ -1,5 +1,6 @@
 // Detector plugin: star_brief — the CenSurE/STAR detector and BRIEF-256 descriptor of this
-// project (plugins/detectors/common), with adaptive threshold and upright option.
+// project (plugins/detectors/common), with adaptive threshold and upright option — and grief,
+// the same with comparison pairs loaded from a file (trained by `visnav train-descriptor`).
 #include "visnav/detectors/detector_types.hpp"
 #include "visnav/plugin.hpp"
 
@@ -8,6 +9,8 @@ namespace {
 const visnav::TypeEntry kTypes[] = {
     visnav::make_type<visnav::detectors::StarBriefDetector>(
         "star_brief", "CenSurE/STAR keypoints + 256-bit BRIEF (upright by default), adaptive threshold"),
+    visnav::make_type<visnav::detectors::GriefDetector>(
+        "grief", "CenSurE/STAR keypoints + 256-bit GRIEF (BRIEF with comparison pairs from a file, `pairs:`)"),
 };
 
 }  // namespace

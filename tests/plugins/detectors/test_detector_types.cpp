@@ -171,9 +171,9 @@ TEST_P(EveryType, RecoversAKnownHorizontalShiftByMatching) {
 INSTANTIATE_TEST_SUITE_P(Detectors, EveryType, ::testing::ValuesIn(detector_type_names()),
                          [](const auto& test_info) { return test_info.param; });
 
-TEST(DetectorTypes, AllEightTypesExist) {
-  const std::vector<std::string> expected = {"star_brief", "orb",  "agast_brief", "fast_brief",
-                                             "gftt_brief", "sift", "akaze",       "brisk"};
+TEST(DetectorTypes, AllNineTypesExist) {
+  const std::vector<std::string> expected = {"star_brief", "grief", "orb",   "agast_brief", "fast_brief",
+                                             "gftt_brief", "sift",  "akaze", "brisk"};
   EXPECT_EQ(detector_type_names(), expected);
   auto unknown = create_detector("surf");
   ASSERT_FALSE(unknown.ok());

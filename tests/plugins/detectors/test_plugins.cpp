@@ -36,7 +36,8 @@ visnav::ConfigNode params(std::initializer_list<std::pair<std::string, std::stri
 }
 
 const std::vector<std::pair<std::string, std::string>> kTypes = {
-    {"star_brief", "detector_star_brief"}, {"orb", "detectors_opencv"},  {"agast_brief", "detectors_opencv"},
+    {"star_brief", "detector_star_brief"}, {"grief", "detector_star_brief"}, {"orb", "detectors_opencv"},
+    {"agast_brief", "detectors_opencv"},
     {"fast_brief", "detectors_opencv"},    {"gftt_brief", "detectors_opencv"}, {"sift", "detectors_opencv"},
     {"akaze", "detectors_opencv"},         {"brisk", "detectors_opencv"}};
 

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -82,6 +83,33 @@ Status BriefExtractor::set_params(const BriefParams& params) {
     offsets_stride_ = -1;
     disc_half_width_.clear();
   }
+  return ok();
+}
+
+Status BriefExtractor::validate_pattern(const std::vector<BriefTest>& pattern, int patch_size_px) {
+  if (pattern.size() != static_cast<std::size_t>(kBits))
+    return fail("a comparison pattern needs exactly " + std::to_string(kBits) + " pairs, got " +
+                std::to_string(pattern.size()));
+  const int radius = patch_size_px / 2 - 1;
+  for (std::size_t i = 0; i < pattern.size(); ++i) {
+    const BriefTest& t = pattern[i];
+    for (const auto& [x, y] : {std::pair{t.x1, t.y1}, std::pair{t.x2, t.y2}})
+      if (x * x + y * y > radius * radius)
+        return fail("pair " + std::to_string(i) + ": point (" + std::to_string(x) + ", " + std::to_string(y) +
+                    ") is outside the patch disc of radius " + std::to_string(radius) + " px (patch_size_px " +
+                    std::to_string(patch_size_px) + ")");
+    if (t.x1 == t.x2 && t.y1 == t.y2)
+      return fail("pair " + std::to_string(i) + " compares point (" + std::to_string(t.x1) + ", " +
+                  std::to_string(t.y1) + ") with itself");
+  }
+  return ok();
+}
+
+Status BriefExtractor::set_pattern(std::vector<BriefTest> pattern) {
+  if (pattern.empty()) pattern = make_pattern(params_.patch_size_px);
+  VISNAV_TRY(validate_pattern(pattern, params_.patch_size_px));
+  pattern_ = std::move(pattern);
+  offsets_stride_ = -1;  // the offset tables are built from the pattern
   return ok();
 }
 

@@ -1,5 +1,6 @@
 // DetectorBase: input checks, grey conversion, adaptive threshold and top-N selection.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -59,6 +60,15 @@ Status DetectorBase::detect(const cv::Mat& image, Features& out) {
     prepare_output(out.descriptors, 0, 0, CV_8U);
     last_raw_count_ = 0;
     return ok();
+  }
+  if (keypoints_per_mpx_ > 0.0) {  // the target follows the image area
+    const double n = std::round(keypoints_per_mpx_ * grey->cols * static_cast<double>(grey->rows) / 1e6);
+    const int target = static_cast<int>(std::clamp(n, 1.0, 20000.0));
+    if (target != adaptive_.params().target_keypoints) {
+      AdaptiveThresholdParams a = adaptive_.params();
+      a.target_keypoints = target;
+      adaptive_.reconfigure(a);  // keeps the adapted threshold (initial_threshold unchanged)
+    }
   }
   try {
     int raw = 0;

@@ -4,6 +4,8 @@
 // below; each type keeps only what is its own.
 #include "visnav/detectors/detector_types.hpp"
 
+#include "visnav/detectors/grief.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -123,22 +125,31 @@ Status StarBriefParams::validate() const {
   return brief_params(*this).validate();
 }
 
+namespace {
+
+template <typename P>
+void add_star_fields(ParamSchema<P>& sc) {
+  add_common_fields(sc, "STAR response, absolute mean(inner) − mean(ring), grey levels", 0.5, 255);
+  sc.field("max_size_px", static_cast<int P::*>(&P::max_size_px), "largest outer filter diameter (45 → 7 scales)")
+      .range(5, 129)
+      .field("line_threshold_projected", static_cast<double P::*>(&P::line_threshold_projected),
+             "reject line-like points: trace²/det of response gradients ≥ this")
+      .range(1, 1000)
+      .field("line_threshold_binarized", static_cast<double P::*>(&P::line_threshold_binarized),
+             "reject line-like points: trace²/det on the binarised scale image ≥ this")
+      .range(1, 1000)
+      .field("suppress_nonmax_size_px", static_cast<int P::*>(&P::suppress_nonmax_size_px),
+             "non-maximum suppression window side (odd)")
+      .range(3, 31);
+  add_brief_fields(sc);
+}
+
+}  // namespace
+
 const ParamSchema<StarBriefParams>& StarBriefParams::schema() {
   static const ParamSchema<StarBriefParams> s = [] {
     ParamSchema<StarBriefParams> sc;
-    add_common_fields(sc, "STAR response, absolute mean(inner) − mean(ring), grey levels", 0.5, 255);
-    sc.field("max_size_px", &StarBriefParams::max_size_px, "largest outer filter diameter (45 → 7 scales)")
-        .range(5, 129)
-        .field("line_threshold_projected", &StarBriefParams::line_threshold_projected,
-               "reject line-like points: trace²/det of response gradients ≥ this")
-        .range(1, 1000)
-        .field("line_threshold_binarized", &StarBriefParams::line_threshold_binarized,
-               "reject line-like points: trace²/det on the binarised scale image ≥ this")
-        .range(1, 1000)
-        .field("suppress_nonmax_size_px", &StarBriefParams::suppress_nonmax_size_px,
-               "non-maximum suppression window side (odd)")
-        .range(3, 31);
-    add_brief_fields(sc);
+    add_star_fields(sc);
     return sc;
   }();
   return s;
@@ -152,6 +163,42 @@ Status StarBriefDetector::setup(const StarBriefParams& p) {
 Status StarBriefDetector::run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) {
   star_.set_response_threshold(threshold);
   star_.detect(grey, raw_keypoints_);  // border_px = BRIEF's border: every keypoint can be described
+  describe_strongest(brief_, grey, out, raw_count, star_.integral());
+  return ok();
+}
+
+// ----------------------------------------------------------------------------------- grief
+
+Status GriefParams::validate() const { return StarBriefParams::validate(); }
+
+const ParamSchema<GriefParams>& GriefParams::schema() {
+  static const ParamSchema<GriefParams> s = [] {
+    ParamSchema<GriefParams> sc;
+    add_star_fields(sc);
+    sc.field("pairs", &GriefParams::pairs,
+             "comparison pairs file (YAML, e.g. from `visnav train-descriptor`); brief: the BRIEF pattern");
+    return sc;
+  }();
+  return s;
+}
+
+Status GriefDetector::setup(const GriefParams& p) {
+  std::vector<BriefTest> pattern;  // empty: BRIEF's
+  if (!p.pairs.empty() && p.pairs != "brief") {
+    VISNAV_ASSIGN(PairsFile file, read_pairs_file(p.pairs));
+    if (file.patch_size_px != p.patch_size_px)
+      return fail(p.pairs + ": the pairs were made for patch_size_px " + std::to_string(file.patch_size_px) +
+                  " but the detector has patch_size_px " + std::to_string(p.patch_size_px) + " (set it to match)");
+    pattern = std::move(file.pairs);
+  }
+  VISNAV_TRY(brief_.set_params(brief_params(p)));
+  VISNAV_TRY(brief_.set_pattern(std::move(pattern)));
+  return star_.set_params(star_params(p, brief_.border_px()));
+}
+
+Status GriefDetector::run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) {
+  star_.set_response_threshold(threshold);
+  star_.detect(grey, raw_keypoints_);
   describe_strongest(brief_, grey, out, raw_count, star_.integral());
   return ok();
 }

@@ -27,6 +27,7 @@ std::vector<ParamDoc> docs_of() {
 
 const Entry kEntries[] = {
     {StarBriefDetector::kTypeName, &make<StarBriefDetector>, &docs_of<StarBriefDetector>},
+    {GriefDetector::kTypeName, &make<GriefDetector>, &docs_of<GriefDetector>},
     {OrbDetector::kTypeName, &make<OrbDetector>, &docs_of<OrbDetector>},
     {AgastBriefDetector::kTypeName, &make<AgastBriefDetector>, &docs_of<AgastBriefDetector>},
     {FastBriefDetector::kTypeName, &make<FastBriefDetector>, &docs_of<FastBriefDetector>},

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -19,26 +20,37 @@ namespace visnav::feature_replay {
 
 const char* const kAlignUsage =
     "usage: visnav align A.png B.png [--detector D] [--draw out.png] [options]\n"
-    "       visnav align --pairs FILE [--detector D] [options]\n"
+    "       visnav align --pairs FILE [--detector D] [--tolerance-px T] [options]\n"
     "\n"
     "Estimates the horizontal offset of the scene between two images by matching features and\n"
     "voting their horizontal displacements into a histogram (seed 002 Sec. 2.4).\n"
     "OFFSET_PX = horizontal position of the scene in B minus its position in A (positive: the\n"
-    "content moved right).\n"
+    "content moved right). Every image is detected by a fresh detector whose adaptive threshold\n"
+    "is settled on that image alone, so a result never depends on other pairs or their order.\n"
     "\n"
     "  --detector D       detector type (default star_brief; falls back to orb if not installed)\n"
-    "  --param K=V        detector parameter (repeatable), e.g. --param target_keypoints=800\n"
+    "  --param K=V        detector parameter (repeatable), e.g. --param target_keypoints=800;\n"
+    "                     without target_keypoints/keypoints_per_mpx, keypoints_per_mpx=7500\n"
     "  --set K=V          matching/histogram parameter (repeatable): ratio, cross_check,\n"
     "                     max_descriptor_distance, max_vertical_px, bin_width_px, bin_count,\n"
     "                     refine_window_px, min_inliers, full_confidence_inliers, min_confidence,\n"
     "                     horizontal_fov_deg\n"
     "  --draw out.png     write the matches and the histogram (single-pair mode)\n"
-    "  --pairs FILE       lines 'IMG_A IMG_B' ('#' comments and blank lines skipped; relative paths\n"
-    "                     are tried as given, then relative to FILE's folder); prints one line per\n"
-    "                     pair: IMG_A IMG_B OFFSET_PX INLIERS\n"
+    "  --pairs FILE       lines 'IMG_A IMG_B [SHIFT_PX]' ('#' comments and blank lines skipped;\n"
+    "                     relative paths are tried as given, then relative to FILE's folder);\n"
+    "                     prints one line per pair:\n"
+    "                       IMG_A IMG_B OFFSET_PX INLIERS CONFIDENCE AMBIGUITY [ERROR_PX]\n"
+    "                     or, when there is no valid estimate,\n"
+    "                       IMG_A IMG_B none reason: TEXT\n"
+    "                     With a labelled SHIFT_PX, ERROR_PX = OFFSET_PX - SHIFT_PX and a last line\n"
+    "                     '# pairs N valid V wrong W error_rate_pct E tolerance_px T' counts a pair\n"
+    "                     as wrong when it is 'none' or |ERROR_PX| > T.\n"
+    "  --tolerance-px T   error tolerance of labelled pairs (default 35)\n"
     "\n"
-    "Single pair output: 'offset_px O inliers N matches M confidence C'.\n"
-    "Exit status: 0 ok, 1 a pair failed, 2 usage error.\n";
+    "Single pair output: 'offset_px O inliers N matches M confidence C ambiguity A', or\n"
+    "'offset_px none inliers N matches M confidence C ambiguity A reason: TEXT'.\n"
+    "AMBIGUITY = second histogram peak / first (0 clear, 1 two equally supported offsets).\n"
+    "Exit status: 0 every estimate valid, 1 a pair failed or had no valid estimate, 2 usage error.\n";
 
 namespace {
 
@@ -46,6 +58,7 @@ struct Options {
   std::string a, b, pairs, draw;
   std::string detector = "star_brief";
   bool detector_given = false;
+  double tolerance_px = 35.0;
   ConfigNode detector_params;
   ConfigNode heading_params;
 };
@@ -74,6 +87,12 @@ Result<Options> parse(int argc, char** argv) {
       VISNAV_ASSIGN(o.draw, value("--draw"));
     } else if (arg == "--pairs") {
       VISNAV_ASSIGN(o.pairs, value("--pairs"));
+    } else if (arg == "--tolerance-px") {
+      VISNAV_ASSIGN(const std::string t, value("--tolerance-px"));
+      char* end = nullptr;
+      o.tolerance_px = std::strtod(t.c_str(), &end);
+      if (end == t.c_str() || *end != '\0' || !(o.tolerance_px >= 0.0))
+        return fail("--tolerance-px expects a number >= 0, got '" + t + "'");
     } else if (arg == "--param" || arg == "--set") {
       VISNAV_ASSIGN(std::string kv, value(arg.c_str()));
       std::string k, v;
@@ -96,34 +115,76 @@ Result<Options> parse(int argc, char** argv) {
   return o;
 }
 
+// Frames of the same image given to a fresh detector so that its adaptive threshold settles on
+// that image (the detectors reach their target within 6 frames from the default threshold,
+// docs/detectors.md); detection stops early once the keypoint count repeats.
+constexpr int kSettleFrames = 8;
+
+// Keypoints per megapixel when the user sets no count: 3000 on a 1024×384 crop. Chosen on the
+// appearance-change pair sets (docs/feature_replay.md, "Defaults chosen on appearance change").
+constexpr int kAlignKeypointsPerMpx = 7500;
+
 struct Aligner {
-  std::unique_ptr<Detector> detector;
+  HostServices* host = nullptr;
+  std::string detector_type;
+  ConfigNode detector_params;
   HeadingEstimator estimator;
   Features fa, fb;
   cv::Mat ia, ib;
+
+  // A new detector per image: no state (adaptive threshold) carries over between images, so each
+  // pair is estimated independently of the others and of their order.
+  Status detect(const cv::Mat& image, Features& out, const std::string& name) {
+    return detect_settled(*host, detector_type, detector_params, image, out, name);
+  }
 
   Result<HeadingEstimate> align(const std::string& a, const std::string& b) {
     ia = cv::imread(a, cv::IMREAD_GRAYSCALE);
     if (ia.empty()) return fail("cannot read image '" + a + "'");
     ib = cv::imread(b, cv::IMREAD_GRAYSCALE);
     if (ib.empty()) return fail("cannot read image '" + b + "'");
-    auto st = detector->detect(ia, fa);
-    if (!st) return st.error().with_context(a);
-    st = detector->detect(ib, fb);
-    if (!st) return st.error().with_context(b);
+    VISNAV_TRY(detect(ia, fa, a));
+    VISNAV_TRY(detect(ib, fb, b));
     return estimator.estimate(fa, fb, static_cast<double>(ib.cols));
   }
 };
 
-std::string resolve(const std::string& path, const std::filesystem::path& base) {
+// Why an estimate is not valid, in one line.
+std::string invalid_reason(const HeadingEstimate& e, const HeadingParams& p) {
+  char buf[200];
+  if (e.matches == 0) return "no matches passed the gates";
+  if (e.inliers < p.min_inliers) {
+    std::snprintf(buf, sizeof buf, "%d inliers < min_inliers %d (%d matches)", e.inliers, p.min_inliers, e.matches);
+    return buf;
+  }
+  std::snprintf(buf, sizeof buf, "confidence %.3f < min_confidence %.3f (%d inliers, ambiguity %.2f)", e.confidence,
+                p.min_confidence, e.inliers, e.ambiguity);
+  return buf;
+}
+
+}  // namespace
+
+Status detect_settled(HostServices& host, const std::string& type, const ConfigNode& params, const cv::Mat& image,
+                      Features& out, const std::string& name) {
+  auto det = host.create_detector(type, params);
+  if (!det) return std::move(det).error().with_context(name);
+  std::size_t last = static_cast<std::size_t>(-1);
+  for (int i = 0; i < kSettleFrames; ++i) {
+    auto st = (*det)->detect(image, out);
+    if (!st) return st.error().with_context(name);
+    if (out.keypoints.size() == last) break;
+    last = out.keypoints.size();
+  }
+  return ok();
+}
+
+std::string resolve_pair_path(const std::string& path, const std::filesystem::path& base) {
   std::error_code ec;
   if (std::filesystem::exists(path, ec) || std::filesystem::path(path).is_absolute()) return path;
   const auto alt = base / path;
   if (std::filesystem::exists(alt, ec)) return alt.string();
   return path;
 }
-
-}  // namespace
 
 int run_align(int argc, char** argv, HostServices& host) {
   for (int i = 1; i < argc; ++i) {
@@ -143,18 +204,29 @@ int run_align(int argc, char** argv, HostServices& host) {
     std::fprintf(stderr, "visnav align: --set: %s\n", heading.error().message.c_str());
     return 2;
   }
-  Aligner al{nullptr, HeadingEstimator(*heading), {}, {}, {}, {}};
+  Aligner al{&host, opts->detector, opts->detector_params, HeadingEstimator(*heading), {}, {}, {}, {}};
+  // Default keypoint density (issue 13): the target follows the image area, unless the user set
+  // it. A detector type without the key (a third-party plugin) gets the params as given.
+  if (opts->detector_params.find("target_keypoints") == nullptr &&
+      opts->detector_params.find("keypoints_per_mpx") == nullptr) {
+    ConfigNode with = opts->detector_params.is_null() ? ConfigNode::make_map() : opts->detector_params;
+    with.set("keypoints_per_mpx", ConfigNode::make_scalar(std::to_string(kAlignKeypointsPerMpx), {"align default", 0}));
+    if (host.create_detector(opts->detector, with)) {
+      opts->detector_params = with;
+      al.detector_params = with;
+    }
+  }
   auto det = host.create_detector(opts->detector, opts->detector_params);
   if (!det && !opts->detector_given) {
     std::fprintf(stderr, "visnav align: detector '%s' is not available (%s); falling back to orb\n",
                  opts->detector.c_str(), det.error().message.c_str());
+    al.detector_type = "orb";
     det = host.create_detector("orb", opts->detector_params);
   }
   if (!det) {
     std::fprintf(stderr, "visnav align: cannot create detector: %s\n", det.error().message.c_str());
     return 2;
   }
-  al.detector = std::move(det).value();
 
   if (opts->pairs.empty()) {
     auto est = al.align(opts->a, opts->b);
@@ -162,8 +234,12 @@ int run_align(int argc, char** argv, HostServices& host) {
       std::fprintf(stderr, "visnav align: %s\n", est.error().message.c_str());
       return 1;
     }
-    std::printf("offset_px %.2f inliers %d matches %d confidence %.3f\n", est->offset_px, est->inliers, est->matches,
-                est->confidence);
+    if (est->valid)
+      std::printf("offset_px %.2f inliers %d matches %d confidence %.3f ambiguity %.3f\n", est->offset_px, est->inliers,
+                  est->matches, est->confidence, est->ambiguity);
+    else
+      std::printf("offset_px none inliers %d matches %d confidence %.3f ambiguity %.3f reason: %s\n", est->inliers,
+                  est->matches, est->confidence, est->ambiguity, invalid_reason(*est, al.estimator.params()).c_str());
     std::fflush(stdout);
     if (!opts->draw.empty()) {
       const cv::Mat picture = render_alignment(al.ia, al.ib, al.fa, al.fb, al.estimator.last_matches(),
@@ -179,7 +255,7 @@ int run_align(int argc, char** argv, HostServices& host) {
         return 1;
       }
     }
-    return 0;
+    return est->valid ? 0 : 1;
   }
 
   std::ifstream in(opts->pairs);
@@ -189,6 +265,7 @@ int run_align(int argc, char** argv, HostServices& host) {
   }
   const auto base = std::filesystem::path(opts->pairs).parent_path();
   int status = 0;
+  int labelled = 0, valid = 0, wrong = 0;
   std::string line;
   int line_no = 0;
   while (std::getline(in, line)) {
@@ -196,22 +273,54 @@ int run_align(int argc, char** argv, HostServices& host) {
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
     std::istringstream ls(line);
-    std::string a, b, extra;
+    std::string a, b, shift_text, extra;
     if (!(ls >> a)) continue;
-    if (!(ls >> b) || (ls >> extra)) {
-      std::fprintf(stderr, "visnav align: %s:%d: expected 'IMG_A IMG_B'\n", opts->pairs.c_str(), line_no);
+    if (!(ls >> b) || ((ls >> shift_text) && (ls >> extra))) {
+      std::fprintf(stderr, "visnav align: %s:%d: expected 'IMG_A IMG_B [SHIFT_PX]'\n", opts->pairs.c_str(), line_no);
       status = 1;
       continue;
     }
-    auto est = al.align(resolve(a, base), resolve(b, base));
+    bool has_shift = false;
+    double shift_px = 0.0;
+    if (!shift_text.empty()) {
+      char* end = nullptr;
+      shift_px = std::strtod(shift_text.c_str(), &end);
+      if (end == shift_text.c_str() || *end != '\0' || !std::isfinite(shift_px)) {
+        std::fprintf(stderr, "visnav align: %s:%d: SHIFT_PX '%s' is not a number\n", opts->pairs.c_str(), line_no,
+                     shift_text.c_str());
+        status = 1;
+        continue;
+      }
+      has_shift = true;
+      ++labelled;
+    }
+    auto est = al.align(resolve_pair_path(a, base), resolve_pair_path(b, base));
     if (!est) {
       std::fprintf(stderr, "visnav align: %s:%d: %s\n", opts->pairs.c_str(), line_no, est.error().message.c_str());
-      std::printf("%s %s nan 0\n", a.c_str(), b.c_str());
+      std::printf("%s %s none reason: %s\n", a.c_str(), b.c_str(), est.error().message.c_str());
       status = 1;
+      wrong += has_shift ? 1 : 0;
       continue;
     }
-    std::printf("%s %s %.2f %d\n", a.c_str(), b.c_str(), est->offset_px, est->inliers);
+    if (!est->valid) {
+      std::printf("%s %s none reason: %s\n", a.c_str(), b.c_str(), invalid_reason(*est, al.estimator.params()).c_str());
+      status = 1;
+      wrong += has_shift ? 1 : 0;
+      continue;
+    }
+    std::printf("%s %s %.2f %d %.3f %.3f", a.c_str(), b.c_str(), est->offset_px, est->inliers, est->confidence,
+                est->ambiguity);
+    if (has_shift) {
+      const double error_px = est->offset_px - shift_px;
+      std::printf(" %.2f", error_px);
+      ++valid;
+      wrong += std::abs(error_px) > opts->tolerance_px ? 1 : 0;
+    }
+    std::printf("\n");
   }
+  if (labelled > 0)
+    std::printf("# pairs %d valid %d wrong %d error_rate_pct %.1f tolerance_px %.1f\n", labelled, valid, wrong,
+                100.0 * wrong / labelled, opts->tolerance_px);
   std::fflush(stdout);
   return status;
 }

@@ -263,7 +263,7 @@ bt::PortsList ReplayFeatureEdge::provided_ports() {
       bt::input_port<double>("max_correction_radps", "0.3", "style B: |correction| clamp"),
       bt::input_port<int>("laps", "1", "style B: traversals of a closed path (distance overshoot carried over)"),
       bt::input_port<double>("distance_margin_m", "0", "style A: widen each landmark's visibility window"),
-      bt::input_port<double>("ratio", "0.7", "matching: Lowe ratio test"),
+      bt::input_port<double>("ratio", "0.8", "matching: Lowe ratio test (issue 13: 0.8 chosen on appearance-change pairs)"),
       bt::input_port<double>("min_confidence", "0.25", "histogram confidence below which no correction is applied"),
       bt::input_port<int>("min_expected_features", "15",
                           "lost policy: where the map holds fewer landmarks/features than this at the current "

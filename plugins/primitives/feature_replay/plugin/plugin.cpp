@@ -2,12 +2,13 @@
 //
 // Provides the behaviour-tree nodes TeachFeatureEdge and ReplayFeatureEdge (issue 4, item 5;
 // thin adapters over the core visnav/feature_replay/*.hpp, see nodes.hpp) and the
-// `visnav align` command.
+// `visnav align` and `visnav train-descriptor` commands.
 #include <exception>
 #include <memory>
 #include <string>
 
 #include "cmd_align.hpp"
+#include "cmd_train_descriptor.hpp"
 #include "nodes.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/plugin.hpp"
@@ -33,20 +34,29 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
   return visnav::ok();
 }
 
-int align_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
+template <int (*Run)(int, char**, visnav::HostServices&)>
+int command_entry(const char* name, int argc, char** argv, visnav::HostServices& host) noexcept {
   try {
-    return visnav::feature_replay::run_align(argc, argv, host);
+    return Run(argc, argv, host);
   } catch (const std::exception& e) {
-    host.logger().error("align", std::string("unexpected exception: ") + e.what());
+    host.logger().error(name, std::string("unexpected exception: ") + e.what());
     return 1;
   } catch (...) {
-    host.logger().error("align", "unexpected non-standard exception");
+    host.logger().error(name, "unexpected non-standard exception");
     return 1;
   }
 }
 
+int align_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
+  return command_entry<&visnav::feature_replay::run_align>("align", argc, argv, host);
+}
+int train_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
+  return command_entry<&visnav::feature_replay::run_train_descriptor>("train-descriptor", argc, argv, host);
+}
+
 const visnav::CommandEntry kCommands[] = {
     {"align", "horizontal image offset of two images (or a list of pairs) by histogram voting", &align_entry},
+    {"train-descriptor", "evolve GRIEF comparison pairs on aligned image pairs (detector type grief)", &train_entry},
 };
 
 }  // namespace
@@ -54,4 +64,4 @@ const visnav::CommandEntry kCommands[] = {
 VISNAV_PLUGIN(visnav::PluginKind::nodes, "feature_replay", "0.1.0",
               "Feature-based teach and replay: histogram-voting heading, segment landmarks (seed 000) and "
               "local maps + recorded commands (seed 002)",
-              nullptr, 0, &register_nodes, kCommands, 1)
+              nullptr, 0, &register_nodes, kCommands, sizeof(kCommands) / sizeof(kCommands[0]))

@@ -334,7 +334,8 @@ HeadingEstimate HeadingEstimator::vote(double image_width_px) {
     if (std::abs(i - peak) >= 2) runner_up = std::max(runner_up, histogram_[static_cast<std::size_t>(i)]);
   }
   const double peak_count = histogram_[static_cast<std::size_t>(peak)];
-  const double distinct = std::clamp(1.0 - runner_up / peak_count, 0.0, 1.0);
+  e.ambiguity = std::clamp(runner_up / peak_count, 0.0, 1.0);
+  const double distinct = 1.0 - e.ambiguity;
   const double count_term = std::min(1.0, static_cast<double>(inliers) / params_.full_confidence_inliers);
   e.offset_px = centre;
   e.inliers = inliers;

@@ -273,3 +273,29 @@ TEST(HeadingEstimator, NonFiniteReferencePositionsAreSkipped) {
   EXPECT_NEAR(e->offset_px, 8.0, 0.5);
   for (const auto& m : est.last_matches()) EXPECT_NE(m.reference_index % 3, 0);
 }
+
+// Ambiguity = second histogram peak / first: one offset gives ~0, two equally supported
+// offsets (half the features moved by another amount) give ~1 and an invalid estimate.
+TEST(HeadingEstimator, AmbiguityIsTheSecondPeakOverTheFirst) {
+  fr::HeadingParams p;
+  p.ratio = 1.0;  // identical descriptors: the ratio test would see ties only with duplicates
+  fr::HeadingEstimator est(p);
+  Features ref, cur;
+  make_shifted(300, 40.0, 0, ref, cur);
+  auto one = est.estimate(ref, cur, 640.0);
+  ASSERT_TRUE(one.ok());
+  EXPECT_LT(one->ambiguity, 0.05);
+  EXPECT_TRUE(one->valid);
+  // Half of the current features moved by -120 px instead of +40 px.
+  for (std::size_t i = 0; i < cur.keypoints.size(); i += 2) cur.keypoints[i].pt.x -= 160.0f;
+  auto two = est.estimate(ref, cur, 640.0);
+  ASSERT_TRUE(two.ok());
+  EXPECT_GT(two->ambiguity, 0.8);
+  EXPECT_NEAR(two->confidence, std::min(1.0, two->inliers / 30.0) * (1.0 - two->ambiguity), 1e-9);
+  EXPECT_FALSE(two->valid);
+  // No votes at all: fully ambiguous.
+  Features none;
+  auto empty = est.estimate(ref, none, 640.0);
+  ASSERT_TRUE(empty.ok());
+  EXPECT_DOUBLE_EQ(empty->ambiguity, 1.0);
+}

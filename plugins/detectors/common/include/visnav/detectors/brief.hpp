@@ -67,6 +67,15 @@ class BriefExtractor {
   /// The sampling pattern (upright) for patch size S; the same for every call and process.
   [[nodiscard]] static std::vector<BriefTest> make_pattern(int patch_size_px);
 
+  /// Replaces the comparison pairs (GRIEF: pairs trained for appearance change). `pattern` must
+  /// pass validate_pattern() for the current patch_size_px; a later set_params() that changes
+  /// the patch size restores the BRIEF pattern. An empty `pattern` restores it too.
+  Status set_pattern(std::vector<BriefTest> pattern);
+  [[nodiscard]] const std::vector<BriefTest>& pattern() const { return pattern_; }
+  /// Checks a pattern: exactly kBits tests, every point inside the disc of radius S/2 − 1 (so
+  /// border_px() holds), no test comparing a point with itself. The message names the test index.
+  [[nodiscard]] static Status validate_pattern(const std::vector<BriefTest>& pattern, int patch_size_px);
+
  private:
   void rebuild_offsets(int integral_stride);
   [[nodiscard]] float centroid_angle_deg(const cv::Mat& grey, int x, int y) const;

@@ -44,6 +44,9 @@ inline constexpr int kMinImageSidePx = 32;
 /// Parameters shared by all types; each type's struct sets its own threshold defaults.
 struct CommonParams {
   int target_keypoints = 500;       ///< keypoints per frame (the N strongest are kept)
+  /// > 0: the target scales with the image, target = round(this × width × height / 1e6), within
+  /// [1, 20000], replacing target_keypoints (0 = off).
+  double keypoints_per_mpx = 0.0;
   double threshold = 1.0;           ///< initial detector threshold (meaning per type)
   double min_threshold = 0.1;       ///< adaptive threshold lower clamp
   double max_threshold = 100.0;     ///< adaptive threshold upper clamp
@@ -63,6 +66,9 @@ template <typename P>
 void add_common_fields(ParamSchema<P>& s, const std::string& threshold_doc, double lo, double hi) {
   s.field("target_keypoints", static_cast<int P::*>(&P::target_keypoints), "keypoints wanted per frame; the strongest are kept")
       .range(1, 20000)
+      .field("keypoints_per_mpx", static_cast<double P::*>(&P::keypoints_per_mpx),
+             "> 0: keypoints per megapixel of the image, replacing target_keypoints (0 = off)")
+      .range(0, 200000)
       .field("threshold", static_cast<double P::*>(&P::threshold), "initial threshold: " + threshold_doc)
       .range(lo, hi)
       .field("min_threshold", static_cast<double P::*>(&P::min_threshold), "lower clamp of the adaptive threshold")
@@ -117,6 +123,7 @@ class DetectorBase : public Detector {
   void output_strongest(Features& out, int& raw_count);
 
   AdaptiveThreshold adaptive_;
+  double keypoints_per_mpx_ = 0.0;  ///< CommonParams::keypoints_per_mpx, set by apply()
   std::vector<cv::KeyPoint> raw_keypoints_;
   cv::Mat raw_descriptors_;
 
@@ -163,6 +170,7 @@ class DetectorType : public DetectorBase {
     VISNAV_TRY(params.validate());
     VISNAV_TRY(static_cast<Derived*>(this)->setup(params));
     params_ = params;
+    keypoints_per_mpx_ = params.keypoints_per_mpx;
     if (first) adaptive_ = AdaptiveThreshold(params.adaptive());
     else adaptive_.reconfigure(params.adaptive());
     return ok();
@@ -199,6 +207,34 @@ class StarBriefDetector final : public DetectorType<StarBriefDetector, StarBrief
  protected:
   friend DetectorType;
   Status setup(const StarBriefParams& params);
+  Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
+
+ private:
+  StarDetector star_;
+  BriefExtractor brief_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// grief: star_brief whose 256 comparison pairs come from a file (visnav/detectors/grief.hpp)
+
+struct GriefParams : StarBriefParams {
+  std::string pairs = "brief";  ///< pairs file; "brief" (or empty) = the BRIEF pattern (then identical to star_brief)
+  [[nodiscard]] Status validate() const;
+  static const ParamSchema<GriefParams>& schema();
+};
+
+/// STAR keypoints + BRIEF-like 256-bit descriptor with trained comparison pairs (GRIEF,
+/// Krajník et al. 2017). The pairs file is read in setup(): on creation and on every
+/// reconfigure() (a changed file is picked up by a live reload); a bad file is an error naming
+/// file:line, and a rejected reload leaves the detector unchanged.
+class GriefDetector final : public DetectorType<GriefDetector, GriefParams> {
+ public:
+  static constexpr const char* kTypeName = "grief";
+  [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
+
+ protected:
+  friend DetectorType;
+  Status setup(const GriefParams& params);
   Status run(const cv::Mat& grey, double threshold, Features& out, int& raw_count) override;
 
  private:

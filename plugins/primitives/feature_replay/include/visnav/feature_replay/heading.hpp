@@ -28,7 +28,8 @@
 // iterated mean over the displacements within +-refine_window_px; those are the inliers.
 // Confidence: 0 below min_inliers, else min(1, inliers / full_confidence_inliers) times the peak's
 // distinctiveness 1 - runner_up / peak (runner_up: the largest bin at least two bins away from the
-// peak). The estimate is `valid` when confidence >= min_confidence.
+// peak; runner_up / peak is reported as `ambiguity`). The estimate is `valid` when
+// confidence >= min_confidence.
 //
 // Thread-safety: a HeadingEstimator is not thread-safe (it owns per-frame buffers); use one per
 // thread. Allocation: after the first few frames (buffers grown to the largest feature counts
@@ -49,7 +50,8 @@ namespace visnav::feature_replay {
 
 /// Matching and histogram-voting parameters (config keys as named here).
 struct HeadingParams {
-  double ratio = 0.7;                    ///< Lowe ratio test on descriptor distances (1 = off)
+  double ratio = 0.8;                    ///< Lowe ratio test on descriptor distances (1 = off); 0.8 chosen on
+                                         ///< appearance-change pairs (docs/feature_replay.md, issue 13)
   bool cross_check = false;              ///< keep only mutual best matches
   double max_descriptor_distance = 0.0;  ///< absolute gate (Hamming bits or L2); 0 = off
   double max_vertical_px = 50.0;         ///< |dv| gate; 0 = off
@@ -82,6 +84,11 @@ struct HeadingEstimate {
   int matches = 0;                      ///< matches that passed every gate (the histogram votes)
   int inliers = 0;                      ///< votes inside the refined peak
   double confidence = 0.0;              ///< [0, 1]
+  /// Second histogram peak over the first, [0, 1]: the largest bin at least two bins away from the
+  /// winning bin divided by the winning bin's count. 0: one clear offset; near 1: two offsets are
+  /// equally supported (repeated structure, wrong place, or the scene changed). 1 when there are no
+  /// votes at all (nothing supports any offset).
+  double ambiguity = 1.0;
   bool valid = false;                   ///< confidence >= min_confidence
 };
 

@@ -1,0 +1,101 @@
+// GRIEF pairs files — see grief.hpp for the format and the error contract.
+#include "visnav/detectors/grief.hpp"
+
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
+
+#include "visnav/config.hpp"
+
+namespace visnav::detectors {
+
+namespace {
+
+Error at(const ConfigNode& node, const std::string& message) {
+  return Error{node.where().str() + ": " + message};
+}
+
+Result<int> integer(const ConfigNode& node, const std::string& what) {
+  if (!node.is_scalar()) return at(node, what + ": expected an integer");
+  const std::string& s = node.scalar();
+  int v = 0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc() || end != s.data() + s.size()) return at(node, what + ": '" + s + "' is not an integer");
+  return v;
+}
+
+}  // namespace
+
+Result<PairsFile> read_pairs_file(const std::string& path) {
+  VISNAV_ASSIGN(const ConfigNode root, parse_yaml_file(path));
+  if (!root.is_map()) return fail(root.where().str() + ": a pairs file is a map with keys patch_size_px, pairs");
+  PairsFile out;
+  const ConfigNode* pairs = nullptr;
+  const ConfigNode* patch = nullptr;
+  for (const auto& [key, value] : root.entries()) {
+    if (key == "patch_size_px") patch = &value;
+    else if (key == "pairs") pairs = &value;
+    else if (key == "training") out.training = value;
+    else return at(value, "unknown key '" + key + "' (expected patch_size_px, pairs, training)");
+  }
+  if (patch == nullptr) return fail(path + ": missing key 'patch_size_px'");
+  if (pairs == nullptr) return fail(path + ": missing key 'pairs'");
+  VISNAV_ASSIGN(out.patch_size_px, integer(*patch, "key 'patch_size_px'"));
+  BriefParams bp;
+  bp.patch_size_px = out.patch_size_px;
+  if (auto st = bp.validate(); !st) return at(*patch, "key 'patch_size_px': " + st.error().message);
+  if (!pairs->is_sequence()) return at(*pairs, "key 'pairs': expected a list of [x1, y1, x2, y2]");
+  const auto& items = pairs->items();
+  if (items.size() != static_cast<std::size_t>(BriefExtractor::kBits))
+    return at(*pairs, "key 'pairs': expected exactly " + std::to_string(BriefExtractor::kBits) + " pairs, got " +
+                          std::to_string(items.size()));
+  out.pairs.reserve(items.size());
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const ConfigNode& item = items[i];
+    const std::string what = "pair " + std::to_string(i);
+    if (!item.is_sequence() || item.items().size() != 4) return at(item, what + ": expected [x1, y1, x2, y2]");
+    int v[4];
+    for (int k = 0; k < 4; ++k) {
+      VISNAV_ASSIGN(v[k], integer(item.items()[static_cast<std::size_t>(k)], what));
+    }
+    out.pairs.push_back(BriefTest{v[0], v[1], v[2], v[3]});
+    // Validate each pair where it is written, so the message carries its line.
+    std::vector<BriefTest> one(static_cast<std::size_t>(BriefExtractor::kBits), BriefTest{0, 0, 1, 0});
+    one[0] = out.pairs.back();
+    if (auto st = BriefExtractor::validate_pattern(one, out.patch_size_px); !st) {
+      std::string msg = st.error().message;
+      if (msg.rfind("pair 0", 0) == 0) msg = what + msg.substr(6);
+      return at(item, msg);
+    }
+  }
+  return out;
+}
+
+Status write_pairs_file(const std::string& path, const PairsFile& file,
+                        const std::vector<std::pair<std::string, std::string>>& training, const std::string& comment) {
+  VISNAV_TRY(BriefExtractor::validate_pattern(file.pairs, file.patch_size_px));
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) return fail("cannot write '" + tmp + "'");
+    out << "# visnav GRIEF comparison pairs: 256 tests [I(x1, y1) < I(x2, y2)], px relative to the keypoint\n";
+    if (!comment.empty()) out << "# " << comment << "\n";
+    out << "patch_size_px: " << file.patch_size_px << "\npairs:\n";
+    for (const BriefTest& t : file.pairs)
+      out << "  - [" << t.x1 << ", " << t.y1 << ", " << t.x2 << ", " << t.y2 << "]\n";
+    if (!training.empty()) {
+      out << "training:\n";
+      for (const auto& [k, v] : training) out << "  " << k << ": " << v << "\n";
+    }
+    out.flush();
+    if (!out) return fail("cannot write '" + tmp + "'");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return fail("cannot rename '" + tmp + "' to '" + path + "': " + ec.message());
+  return ok();
+}
+
+}  // namespace visnav::detectors

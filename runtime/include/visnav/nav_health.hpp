@@ -51,9 +51,9 @@ namespace visnav {
 struct LostPolicy {
   double min_confidence = 0.2;      ///< window mean at or above: the robot sees the route
   int window_frames = 5;            ///< frames in the confidence window
-  double slow_after_m = 1.0;        ///< blind distance after which the speed is reduced
+  double slow_after_m = 2.0;        ///< blind distance after which the speed is reduced
   double slow_speed_factor = 0.5;   ///< forward speed factor while slowing, (0, 1]
-  double max_blind_m = 3.0;         ///< blind distance after which the robot is lost
+  double max_blind_m = 5.0;         ///< blind distance after which the robot is lost
   double max_frozen_m = 0.5;        ///< travel with unchanged pixels after which the camera is frozen
   double max_saturated_m = 4.0;     ///< travel with a saturated correction after which the robot is lost
   double max_heading_deviation_rad = 1.3;  ///< odometry vs taught heading; 0 = off

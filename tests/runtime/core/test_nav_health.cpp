@@ -74,8 +74,8 @@ TEST(NavHealth, BlindThenSlowingThenLostWithDistanceInTheReason) {
   }
   EXPECT_EQ(state, NavHealthState::lost);
   // The window mean keeps the route "seen" for a few frames after the last good one.
-  EXPECT_NEAR(slowed_at - seen_at, 1.0 + 0.15, 0.16);
-  EXPECT_NEAR(lost_at - seen_at, 3.0 + 0.15, 0.16);
+  EXPECT_NEAR(slowed_at - seen_at, p.slow_after_m + 0.15, 0.16);
+  EXPECT_NEAR(lost_at - seen_at, p.max_blind_m + 0.15, 0.16);
 }
 
 TEST(NavHealth, ASingleLuckyFrameDoesNotResetBlindness) {

@@ -47,6 +47,7 @@ RunReport run_mission(const MissionOptions& options) {
   so.extra_plugin_dirs = options.extra_plugin_dirs;
   so.use_default_plugin_path = options.use_default_plugin_path;
   so.map_path = options.map_path;
+  so.create_map = options.create_map;
   so.overrides = options.overrides;
   auto session = Session::create(std::move(config).value(), so);
   if (!session) return error_report(session.error().message);

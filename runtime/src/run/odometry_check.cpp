@@ -27,6 +27,7 @@ bool same(const Odometry& a, const Odometry& b) {
 }  // namespace
 
 std::optional<std::string> OdometryPlausibility::check(const Odometry& reading) {
+  last_late_ = false;
   if (!finite(reading)) {
     return "odometry reading with a non-finite value (t " + fmt(reading.timestamp_s) + " s, x " + fmt(reading.pose.x_m) +
            ", y " + fmt(reading.pose.y_m) + ", heading " + fmt(reading.pose.heading_rad) + ", distance " +
@@ -39,6 +40,7 @@ std::optional<std::string> OdometryPlausibility::check(const Odometry& reading) 
   const Odometry& prev = *last_;
   const double dt_s = reading.timestamp_s - prev.timestamp_s;
   if (dt_s < 0.0) {
+    last_late_ = true;
     return "odometry time went backwards from " + fmt(prev.timestamp_s, "%.6f") + " s to " +
            fmt(reading.timestamp_s, "%.6f") + " s";
   }

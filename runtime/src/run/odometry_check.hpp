@@ -27,10 +27,14 @@ class OdometryPlausibility {
   /// 1.000 s (max 3.50 m at odometry_max_speed_mps = 3.0)". The same reading repeated (equal
   /// timestamp and values) is plausible.
   [[nodiscard]] std::optional<std::string> check(const Odometry& reading);
+  /// True if the last refused reading was only older than the previous one (time went
+  /// backwards): a late, reordered sample, which the caller may drop instead of stopping.
+  [[nodiscard]] bool last_was_late() const { return last_late_; }
 
  private:
   OdometryLimits limits_;
   std::optional<Odometry> last_;
+  bool last_late_ = false;
 };
 
 }  // namespace visnav

@@ -102,6 +102,7 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
   std::optional<double> last_odometry_s;
   std::optional<OdometryPlausibility> plausibility;  // (re)made when its limits change (live reload)
   OdometryLimits plausibility_limits{-1.0, -1.0};
+  std::uint64_t late_odometry = 0;
   auto next_deadline = std::chrono::steady_clock::now();
 
   // Mission control (see runner.hpp): paused = robot held at zero, tree not ticked.
@@ -246,10 +247,16 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
         plausibility_limits = OdometryLimits{rs.odometry_max_speed_mps, rs.odometry_jump_slack_m};
         plausibility.emplace(plausibility_limits);  // restarts from this reading
       }
-      // An implausible reading never reaches the tree (issue 17: spoofed odometry).
-      if (auto why = plausibility->check(*odo)) return finish(RunOutcome::safety_stop, "implausible odometry: " + *why);
-      last_odometry_s = odo->timestamp_s;
-      bus.publish_odometry(*odo);
+      // An implausible reading never reaches the tree (issue 17: spoofed odometry). A late
+      // (reordered) one is dropped: the stale-odometry check stops the robot if nothing newer comes.
+      if (auto why = plausibility->check(*odo)) {
+        if (!plausibility->last_was_late()) return finish(RunOutcome::safety_stop, "implausible odometry: " + *why);
+        if (++late_odometry <= 3 || late_odometry % 100 == 0)
+          log.warn("run", "dropped a late odometry reading (" + *why + "); " + std::to_string(late_odometry) + " so far");
+      } else {
+        last_odometry_s = odo->timestamp_s;
+        bus.publish_odometry(*odo);
+      }
     }
 
     // --- safety ---

@@ -346,11 +346,13 @@ TEST(OdometryPlausibility, RefusesJumpsNanAndTimeGoingBack) {
   auto jump = check.check(odo(2.1, 31.2, 1.5));   // the spoof: 30 m in 1 s
   ASSERT_TRUE(jump);
   EXPECT_TRUE(contains(*jump, "jumped 30.00 m in 1.000 s")) << *jump;
+  EXPECT_FALSE(check.last_was_late());
   // A refused reading is not remembered: the next honest one is checked against the last good one.
   EXPECT_FALSE(check.check(odo(2.1, 2.2, 2.2)));
   auto back = check.check(odo(2.0, 2.2, 2.2));
   ASSERT_TRUE(back);
   EXPECT_TRUE(contains(*back, "went backwards")) << *back;
+  EXPECT_TRUE(check.last_was_late());
   auto nan = check.check(odo(3.0, std::nan(""), 2.2));
   ASSERT_TRUE(nan);
   EXPECT_TRUE(contains(*nan, "non-finite")) << *nan;

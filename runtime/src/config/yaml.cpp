@@ -19,7 +19,7 @@ SourceLocation location_of(const YAML::Mark& mark, const std::string& file, cons
 /// Bounds of one parsed document (issue 17). yaml-cpp keeps an alias as a reference to its
 /// anchor, so a 1.3 kB file of nested aliases ("billion laughs") expands to ~10^9 values only
 /// when walked; the walk below counts every value it produces and stops at the limit.
-constexpr std::size_t kMaxYamlValues = 200000;    // run configs have hundreds
+constexpr std::size_t kMaxYamlValues = 100000;  // run configs have hundreds
 constexpr std::size_t kMaxYamlDepth = 64;
 constexpr std::size_t kMaxYamlTextBytes = 16U << 20;
 

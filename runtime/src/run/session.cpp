@@ -126,6 +126,10 @@ Status Session::build(const SessionOptions& options) {
   loader_ = PluginLoader(std::move(dirs));
   VISNAV_TRY(loader_.scan());
   for (const auto& p : loader_.problems()) logger_->warn("loader", p.path + ": " + p.message);
+  for (const auto& dir : config_.plugin_path) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) logger_->warn("loader", "plugin_path folder '" + dir + "' does not exist");
+  }
 
   host_ = std::make_unique<RuntimeHost>(loader_, *logger_, wall_clock_);
   host_->set_frame_bus(&frame_bus_);

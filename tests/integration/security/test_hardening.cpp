@@ -221,6 +221,16 @@ TEST_F(Hardening, RunRefusesAMissingMapFolderUnlessCreateIsGiven) {
   EXPECT_TRUE(fs::exists(dir_ / "mistyped" / "graph.yaml"));
 }
 
+TEST_F(Hardening, ValidateNamesEachLibraryItLoadsFromPluginPathAndMissingFolders) {
+  std::ofstream(dir_ / "setup.yaml") << "robot: {type: fixture}\ncamera: {type: fixture}\n"
+                                        "plugin_path: [" VISNAV_TEST_FIXTURE_PLUGIN_DIR ", /no/such/plugins]\n"
+                                        "nodes: [fixture_nodes]\n";
+  auto c = run_cli("validate --config '" + (dir_ / "setup.yaml").string() + "'", dir_ / "validate.log");
+  EXPECT_EQ(c.exit_code, 0) << c.out;
+  EXPECT_TRUE(contains(c.out, "plugin_path folder '/no/such/plugins' does not exist")) << c.out;
+  EXPECT_TRUE(contains(c.out, "libvisnav_fixture_robot.so from plugin_path (its constructors run)")) << c.out;
+}
+
 // --- YAML alias bombs --------------------------------------------------------------------------
 
 /// ~1.3 kB: nine levels of nine aliases each, 9^9 = 387 million leaves when expanded.
@@ -291,17 +301,17 @@ TEST(AliasBomb, MapGraphIsRefusedFastAndSmall) {
   const fs::path dir = fs::temp_directory_path() / ("visnav_sec_bomb_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir / "edges");
-  // Aliases in the (non-canonical) graph: every edge's statistics are one anchored map of 20,000
-  // entries, referenced by 2,000 edges: 40 million entries to walk from a ~500 kB file.
+  // Aliases in the (non-canonical) graph: every edge's statistics are one anchored map of 5,000
+  // entries, referenced by 1,000 edges: 5 million entries to walk from a ~200 kB file.
   std::string g = "format: visnav-map\nversion: 1\nname: bomb\nnodes:\n  - id: a\n    outgoing:\n";
-  for (int i = 0; i < 2000; ++i) g += "      - {edge: e" + std::to_string(i) + ", azimuth_rad: 0}\n";
+  for (int i = 0; i < 1000; ++i) g += "      - {edge: e" + std::to_string(i) + ", azimuth_rad: 0}\n";
   g += "edges:\n";
-  for (int i = 0; i < 2000; ++i) {
+  for (int i = 0; i < 1000; ++i) {
     g += "  - {id: e" + std::to_string(i) + ", from: a, to: a, kind: k, length_m: 1, azimuth_rad: 0, created: "
          "\"2026-01-01T00:00:00Z\", payload: edges/e" + std::to_string(i) + ".bin, payload_bytes: 1, statistics: ";
     if (i == 0) {
       g += "&s {";
-      for (int k = 0; k < 20000; ++k) g += (k ? ", s" : "s") + std::to_string(k) + ": 1";
+      for (int k = 0; k < 5000; ++k) g += (k ? ", s" : "s") + std::to_string(k) + ": 1";
       g += "}}\n";
     } else {
       g += "*s}\n";

@@ -53,10 +53,10 @@ int align_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
 
 /// The body states the length the edge was taught with; the graph's length_m decides when the
 /// replay ends. A mismatch means one of them was edited (issue 17: a body saying 500 m under a
-/// 6.3 m graph entry drove 500 m), so the map is refused. 1 cm + 0.1 % absorbs the graph's
-/// decimal formatting.
+/// 6.3 m graph entry drove 500 m), so the map is refused. 5 cm + 1 % absorbs the graph's decimal
+/// formatting and a local-map body ending at the farthest recorded distance after a small reverse.
 visnav::Status check_length(double body_length_m, const visnav::EdgeRecord& edge) {
-  const double tolerance_m = 0.01 + 1e-3 * std::max(std::fabs(body_length_m), std::fabs(edge.length_m));
+  const double tolerance_m = 0.05 + 0.01 * std::max(std::fabs(body_length_m), std::fabs(edge.length_m));
   if (!std::isfinite(body_length_m) || std::fabs(body_length_m - edge.length_m) > tolerance_m)
     return visnav::fail("body does not match the graph: body length " + std::to_string(body_length_m) +
                         " m, graph length_m " + std::to_string(edge.length_m) + " m");

@@ -28,7 +28,7 @@ constexpr const char* kLabelNames[kLabelClassCount] = {"sky",  "path",  "grass",
 
 // Alias bombs (issue 17): yaml-cpp keeps aliases unexpanded, so the walk counts the values it
 // produces and refuses a document that expands beyond what any world or route file needs.
-constexpr std::size_t kMaxYamlValues = 100000;
+constexpr std::size_t kMaxYamlValues = 50000;  // the campus world has a few thousand
 constexpr std::size_t kMaxYamlDepth = 64;
 
 Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, std::size_t& values_left,

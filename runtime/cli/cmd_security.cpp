@@ -87,7 +87,8 @@ bool write_text(const fs::path& p, const std::string& text) {
   return static_cast<bool>(out);
 }
 
-std::string domains_xml() { return "<domains><id_range><min>0</min><max>232</max></id_range></domains>"; }
+// Cyclone accepts domain ids up to 230 in governance and permissions documents.
+std::string domains_xml() { return "<domains><id_range><min>0</min><max>230</max></id_range></domains>"; }
 
 std::string governance_xml() {
   return R"(<?xml version="1.0" encoding="UTF-8"?>

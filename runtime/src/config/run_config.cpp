@@ -216,7 +216,8 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
   }
   for (const auto& [key, value] : endpoints.entries()) {
     const auto docs = dds::TelemetryParams::schema().docs();
-    const bool known = std::any_of(docs.begin(), docs.end(), [&key](const ParamDoc& d) { return d.name == key; });
+    const std::string& name = key;  // (clang 14 cannot capture a structured binding)
+    const bool known = std::any_of(docs.begin(), docs.end(), [&name](const ParamDoc& d) { return d.name == name; });
     if (!known)
       errors.push_back(value.where().str() + ": unknown key '" + key + "' in 'dds' (known keys: " +
                        key_list({"enabled", "telemetry", "control", "security", "domain_id", "partition",

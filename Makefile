@@ -5,6 +5,7 @@
 #   make test        build, then run every test (ctest)
 #   make bench       build, then run the benchmarks
 #   make asan        build into build-asan with AddressSanitizer+UBSan and run the tests there
+#   make fuzz        build the libFuzzer targets with clang into build-fuzz, run each FUZZ_S s (default 60)
 #   make install     install runtime, SDK, plugins and CMake package (PREFIX=/usr/local)
 #   make clean       remove the build folders
 #
@@ -16,10 +17,11 @@ JOBS       ?= $(shell nproc)
 WERROR     ?= OFF
 PREFIX     ?= /usr/local
 CTEST_ARGS ?=
+FUZZ_S     ?= 60
 EXTRA_CMAKE ?=
 GENERATOR  := $(shell command -v ninja >/dev/null 2>&1 && echo "-G Ninja")
 
-.PHONY: all deps configure build test demo bench asan install clean
+.PHONY: all deps configure build test demo bench asan fuzz install clean
 
 all: build
 
@@ -49,8 +51,17 @@ bench: build
 asan:
 	$(MAKE) test BUILD=build-asan WERROR=$(WERROR) EXTRA_CMAKE="-DVISNAV_SANITIZE=ON -DVISNAV_BUILD_BENCHMARKS=OFF"
 
+# Separate from `make test` (needs clang: Debian clang + libclang-rt-14-dev, see install-deps.sh).
+fuzz:
+	@VISNAV_FUZZ=1 scripts/install-deps.sh
+	cmake -S . -B build-fuzz $(GENERATOR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
+	  -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link -DVISNAV_SANITIZE=ON \
+	  -DVISNAV_BUILD_FUZZERS=ON -DVISNAV_BUILD_TESTS=OFF -DVISNAV_BUILD_BENCHMARKS=OFF
+	cmake --build build-fuzz --target fuzzers -j $(JOBS)
+	scripts/fuzz.sh build-fuzz $(FUZZ_S)
+
 install: build
 	cmake --install $(BUILD)
 
 clean:
-	rm -rf build build-asan
+	rm -rf build build-asan build-fuzz

@@ -19,6 +19,7 @@ constexpr const char* kUsage =
     "usage: visnav monitor [--domain N] [--partition P] [--topic T] [--count N] [--duration S] [--json]\n"
     "       visnav monitor --send pause|resume|abort|swap_detector [--arg DETECTOR] [--domain N] [--partition P]\n"
     "                      [--control-topic T] [--wait S]\n"
+    "       (both forms) [--keystore DIR --identity NAME]   DDS Security as an operator (docs/security.md)\n"
     "\n"
     "Prints every visnav/msg/Telemetry sample published by `visnav run` (config block `dds:`)\n"
     "as one line: sequence, status, behaviour-tree node, map node and edge, distance along the edge,\n"
@@ -35,6 +36,8 @@ constexpr const char* kUsage =
     "  --arg DETECTOR     swap_detector: the detector type to switch to (e.g. orb)\n"
     "  --control-topic T  control topic (default rt/visnav/control)\n"
     "  --wait S           --send: wait up to S s for a subscriber first (default 2)\n"
+    "  --keystore DIR     DDS Security keystore (`visnav security init`); with --identity NAME (an\n"
+    "  --identity NAME    operator): authenticated, encrypted; without: security off\n"
     "\n"
     "Exit status: 0 ok, 1 DDS error / --count not reached / no subscriber for --send, 2 usage error.\n";
 
@@ -53,7 +56,7 @@ int monitor(const std::vector<std::string>& args) {
   if (auto st = a.parse(args, {{"--domain", Opt::value}, {"--partition", Opt::value}, {"--topic", Opt::value},
                                {"--count", Opt::value}, {"--duration", Opt::value}, {"--json", Opt::flag},
                                {"--send", Opt::value}, {"--arg", Opt::value}, {"--control-topic", Opt::value},
-                               {"--wait", Opt::value}});
+                               {"--wait", Opt::value}, {"--keystore", Opt::value}, {"--identity", Opt::value}});
       !st)
     return visnav::cli::usage_error("monitor", st.error().message);
 
@@ -69,6 +72,15 @@ int monitor(const std::vector<std::string>& args) {
   params.telemetry_topic = a.get("--topic", params.telemetry_topic);
   params.control_topic = a.get("--control-topic", params.control_topic);
   if (auto st = params.validate(); !st) return visnav::cli::usage_error("monitor", st.error().message);
+  if (a.has("--keystore") != a.has("--identity"))
+    return visnav::cli::usage_error("monitor", "--keystore and --identity go together");
+  if (a.has("--keystore")) {
+    auto st = visnav::dds::set_default_security(visnav::dds::keystore_identity(a.get("--keystore"), a.get("--identity")));
+    if (!st) {
+      std::cerr << "visnav monitor: " << st.error().message << "\n";
+      return 1;
+    }
+  }
 
   if (a.has("--send")) {
     auto command = visnav::dds::parse_control_command(a.get("--send"));

@@ -18,7 +18,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kUsage =
-    "usage: visnav play RUN --tree T [--bb key=value]... [--config C] [--map M] [--set k=v]... [--commands-out F]\n"
+    "usage: visnav play RUN --tree T [--bb key=value]... [--config C] [--map M [--create]] [--set k=v]... [--commands-out F]\n"
     "                   [--trace F] [--plugin-path DIR]... [--log-level L] [--image-topic T] [--odom-topic T]\n"
     "\n"
     "Runs the mission tree T on the recorded run RUN (written by `visnav record`) with no robot:\n"
@@ -37,7 +37,8 @@ constexpr const char* kUsage =
     "  --tree T          mission tree\n"
     "  --bb key=value    blackboard entry before the first tick (after the recorded ones in run.yaml)\n"
     "  --config C        configuration to take detector/nodes/run settings from\n"
-    "  --map M           map folder (as `visnav run --map`)\n"
+    "  --map M           map folder (as `visnav run --map`: must exist unless --create)\n"
+    "  --create          with --map: create M as an empty map if missing\n"
     "  --set k=v         config override (repeatable), applied after the recorded ones\n"
     "  --commands-out F  write this run's decisions as F (same columns as RUN/commands.csv)\n"
     "  --trace F         BT status transitions as JSON lines\n"
@@ -94,7 +95,7 @@ int play(const std::vector<std::string>& raw_args) {
   }
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--run", Opt::value}, {"--tree", Opt::value}, {"--config", Opt::value}, {"--map", Opt::value},
-                               {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--commands-out", Opt::value}, {"--trace", Opt::value},
+                               {"--create", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--commands-out", Opt::value}, {"--trace", Opt::value},
                                {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value},
                                {"--image-topic", Opt::value}, {"--odom-topic", Opt::value}, {"--no-compare", Opt::flag}});
       !st)
@@ -147,6 +148,7 @@ int play(const std::vector<std::string>& raw_args) {
   visnav::SessionOptions so;
   so.extra_plugin_dirs = a.all("--plugin-path");
   so.map_path = a.get("--map");
+  so.create_map = a.has("--create");
   so.overrides = overrides;
   auto session_made = visnav::Session::create(std::move(*config), so);
   if (!session_made) {

@@ -25,7 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kUsage =
-    "usage: visnav record --config C -o RUN [--tree T] [--bb key=value]... [--duration-s S] [--map M] [--set k=v]...\n"
+    "usage: visnav record --config C -o RUN [--tree T] [--bb key=value]... [--duration-s S] [--map M [--create]] [--set k=v]...\n"
     "                     [--format folder|mcap] [--image-format png|jpg] [--jpeg-quality Q] [--force]\n"
     "                     [--plugin-path DIR]... [--log-level L]\n"
     "\n"
@@ -46,7 +46,8 @@ constexpr const char* kUsage =
     "  --tree T             mission tree to run while recording\n"
     "  --bb key=value       blackboard entry before the first tick (as `visnav run --bb`; kept in run.yaml)\n"
     "  --duration-s S       stop after S s of run time (0 = until the tree ends / Ctrl-C)\n"
-    "  --map M              map folder for the tree (as `visnav run --map`)\n"
+    "  --map M              map folder for the tree (as `visnav run --map`: must exist unless --create)\n"
+    "  --create             with --map: create M as an empty map if missing\n"
     "  --set k=v            config override (repeatable)\n"
     "  --image-format F     png (default, lossless: bit-exact playback) or jpg\n"
     "  --jpeg-quality Q     1..100 (default 95)\n"
@@ -282,7 +283,7 @@ int record(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"-o", Opt::value}, {"--out", Opt::value}, {"--tree", Opt::value},
-                               {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--set", Opt::repeated}, {"--bb", Opt::repeated},
+                               {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--create", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated},
                                {"--image-format", Opt::value}, {"--jpeg-quality", Opt::value}, {"--force", Opt::flag},
                                {"--format", Opt::value},
                                {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
@@ -335,6 +336,7 @@ int record(const std::vector<std::string>& args) {
   visnav::SessionOptions so;
   so.extra_plugin_dirs = a.all("--plugin-path");
   so.map_path = a.get("--map");
+  so.create_map = a.has("--create");
   so.overrides = overrides;
   auto session_made = visnav::Session::create(std::move(*config), so);
   if (!session_made) {

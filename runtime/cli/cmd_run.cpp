@@ -12,7 +12,7 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: visnav run --config C --tree T [--map M] [--set key.path=value]... [--bb key=value]...\n"
+    "usage: visnav run --config C --tree T [--map M [--create]] [--set key.path=value]... [--bb key=value]...\n"
     "                  [--trace F] [--view PORT]\n"
     "                  [--plugin-path DIR]... [--log-level debug|info|warn|error]\n"
     "\n"
@@ -22,7 +22,8 @@ constexpr const char* kUsage =
     "\n"
     "  --config C         run configuration (docs/config.md)\n"
     "  --tree T           mission tree, BehaviorTree.CPP v4 XML\n"
-    "  --map M            map folder (opened; created empty if missing)\n"
+    "  --map M            map folder (opened; a missing folder is an error unless --create)\n"
+    "  --create           with --map: create M as an empty map if it does not exist (teaching)\n"
     "  --set k=v          override a config value, e.g. --set detector.params.target_keypoints=300\n"
     "  --bb key=value     set a blackboard entry before the first tick, e.g. --bb start=dock\n"
     "  --trace F          write every node status transition to F as JSON lines\n"
@@ -118,7 +119,7 @@ int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"--tree", Opt::value}, {"--map", Opt::value},
-                               {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
+                               {"--create", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
                                {"--log-level", Opt::value}, {"--view", Opt::value}, {"--view-speed", Opt::value}});
       !st)
     return visnav::cli::usage_error("run", st.error().message);
@@ -128,6 +129,7 @@ int run(const std::vector<std::string>& args) {
   m.config_file = a.get("--config");
   m.tree_file = a.get("--tree");
   m.map_path = a.get("--map");
+  m.create_map = a.has("--create");
   m.overrides = a.all("--set");
   m.blackboard_values = a.all("--bb");
   m.trace_file = a.get("--trace");

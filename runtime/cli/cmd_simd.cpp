@@ -38,6 +38,8 @@ constexpr const char* kUsage =
     "                   [--command-timeout S] [--brake-decel MPS2] [--transport raw|compressed]\n"
     "                   [--jpeg-quality Q] [--cmd-vel-topic T] [--odom-topic T] [--image-topic T]\n"
     "                   [--ground-truth-topic T] [--robot-param k=v]... [--camera-param k=v]...\n"
+    "                   [--cmd-vel-writer GUID|first] [--control-topic T] [--no-control]\n"
+    "                   [--keystore DIR --identity NAME]\n"
     "                   [--duration S] [--plugin-path DIR]... [--log-level L]\n"
     "\n"
     "Runs the simulated robot (type sim) in world W and its camera (type sim) in real time and\n"
@@ -59,6 +61,14 @@ constexpr const char* kUsage =
     "  --transport T         raw (sensor_msgs/Image) or compressed (JPEG CompressedImage)\n"
     "  --robot-param k=v     sim robot parameter (see `visnav plugins --params`), repeatable\n"
     "  --camera-param k=v    sim camera parameter, repeatable\n"
+    "  --cmd-vel-writer W    command arbitration: accept cmd_vel only from the participant with GUID W\n"
+    "                        (32 hex digits; `visnav run` logs its robot's GUID), or `first`: from the\n"
+    "                        participant that sends the first command; others are dropped and counted\n"
+    "  --control-topic T     mission control topic obeyed at the robot side (default rt/visnav/control):\n"
+    "                        pause (or abort) holds the robot at zero whoever sends cmd_vel, until resume\n"
+    "  --no-control          do not subscribe the control topic\n"
+    "  --keystore DIR        DDS Security: authenticate as --identity from a keystore made by\n"
+    "  --identity NAME       `visnav security init` (e.g. ROBOT-driver; docs/security.md). Without: security off\n"
     "  --duration S          exit after S seconds (default: until SIGINT/SIGTERM)\n"
     "\n"
     "Prints \"simd: ready\" on stdout once publishing. Exit status: 0 ok, 1 setup error, 2 usage error.\n";
@@ -91,6 +101,9 @@ struct CommandSlot {
   std::chrono::steady_clock::time_point received{};
   std::uint64_t count = 0;
   std::uint64_t rejected = 0;
+  std::uint64_t foreign = 0;   ///< dropped by arbitration (--cmd-vel-writer)
+  std::string allowed_writer;  ///< participant GUID allowed to drive; empty = anyone (or not locked yet)
+  bool paused = false;         ///< control topic: pause/abort hold zero until resume
 };
 
 dds::msg::Odometry to_ros_odometry(const visnav::Pose2D& pose, const visnav::Twist& twist, const char* frame_id) {
@@ -114,6 +127,8 @@ int simd(const std::vector<std::string>& args) {
                                {"--cmd-vel-topic", Opt::value}, {"--odom-topic", Opt::value}, {"--image-topic", Opt::value},
                                {"--ground-truth-topic", Opt::value}, {"--robot-param", Opt::repeated},
                                {"--camera-param", Opt::repeated}, {"--duration", Opt::value},
+                               {"--cmd-vel-writer", Opt::value}, {"--control-topic", Opt::value},
+                               {"--no-control", Opt::flag}, {"--keystore", Opt::value}, {"--identity", Opt::value},
                                {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
       !st)
     return visnav::cli::usage_error("simd", st.error().message);
@@ -144,6 +159,13 @@ int simd(const std::vector<std::string>& args) {
   const std::string image_topic =
       a.get("--image-topic", transport == "raw" ? "rt/camera/image_raw" : "rt/camera/image_raw/compressed");
   const std::string gt_topic = a.get("--ground-truth-topic", "rt/visnav/sim/ground_truth");
+  const std::string control_topic = a.get("--control-topic", "rt/visnav/control");
+  const std::string writer_rule = a.get("--cmd-vel-writer");
+  const bool lock_first = writer_rule == "first";
+  if (!writer_rule.empty() && !lock_first &&
+      (writer_rule.size() != 32 || writer_rule.find_first_not_of("0123456789abcdef") != std::string::npos))
+    return visnav::cli::usage_error("simd", "--cmd-vel-writer: expected 32 lowercase hex digits or 'first', got '" +
+                                                dds::log_safe(writer_rule) + "'");
 
   visnav::LogLevel level = visnav::LogLevel::info;
   if (a.has("--log-level")) {
@@ -185,6 +207,16 @@ int simd(const std::vector<std::string>& args) {
   if (!camera) return error("camera: " + camera.error().message);
 
   // --- DDS endpoints -------------------------------------------------------------------------
+  if (a.has("--keystore") != a.has("--identity"))
+    return visnav::cli::usage_error("simd", "--keystore and --identity go together");
+  if (a.has("--keystore")) {
+    if (auto st = dds::set_default_security(dds::keystore_identity(a.get("--keystore"), a.get("--identity"))); !st)
+      return error(st.error().message);
+    logger.info("simd", "DDS Security on: identity '" + a.get("--identity") + "' from " + a.get("--keystore"));
+  } else {
+    logger.info("simd", "DDS Security off: any participant on the domain can command this robot unless "
+                        "--cmd-vel-writer pins the sender (docs/security.md)");
+  }
   auto participant = dds::Participant::create(domain_id);
   if (!participant) return error(participant.error().message);
   const dds::Qos odom_qos = dds::Qos::ros_default();
@@ -205,11 +237,27 @@ int simd(const std::vector<std::string>& args) {
     jpeg_writer.emplace(std::move(*w));
   }
   CommandSlot commands;
+  commands.allowed_writer = lock_first ? std::string() : writer_rule;
   dds::WarningLimiter command_warnings(1.0);
   auto cmd_sub = dds::Subscription<dds::msg::Twist>::create(
       *participant, {cmd_topic, dds::Qos::sensor_data(), partition},
       [&](dds::msg::Twist&& t, const dds::SampleInfo& info) {
         std::lock_guard lock(commands.mutex);
+        // Command arbitration (issue 17): with --cmd-vel-writer only one participant drives.
+        if (!writer_rule.empty()) {
+          if (lock_first && commands.allowed_writer.empty() && !info.writer_participant.empty()) {
+            commands.allowed_writer = info.writer_participant;
+            logger.info("simd", "cmd_vel: locked to the first sender, participant " + commands.allowed_writer);
+          }
+          if (info.writer_participant.empty() || info.writer_participant != commands.allowed_writer) {
+            ++commands.foreign;
+            if (command_warnings.allow(info.receive_time_s))
+              logger.warn("simd", "dropped cmd_vel from participant '" + dds::log_safe(info.writer_participant) +
+                                      "' (only " + commands.allowed_writer + " may drive; " +
+                                      std::to_string(commands.foreign) + " dropped so far)");
+            return;
+          }
+        }
         if (!std::isfinite(t.linear.x) || !std::isfinite(t.angular.z)) {
           ++commands.rejected;
           if (command_warnings.allow(info.receive_time_s))
@@ -222,6 +270,29 @@ int simd(const std::vector<std::string>& args) {
       },
       [&](const std::string& message) { logger.warn("simd", message); });
   if (!cmd_sub) return error(cmd_sub.error().message);
+  // Pause at the robot side (issue 17): whoever sends cmd_vel, a paused robot stays at zero. Any
+  // participant may pause (stopping is always safe); with DDS Security only operators can.
+  std::unique_ptr<dds::Subscription<dds::msg::Control>> control_sub;
+  if (!a.has("--no-control")) {
+    auto made = dds::Subscription<dds::msg::Control>::create(
+        *participant, {control_topic, dds::Qos{dds::Reliability::reliable, dds::Durability::volatile_data, 32, 0.0}, partition},
+        [&](dds::msg::Control&& c, const dds::SampleInfo& info) {
+          const auto command = static_cast<dds::msg::ControlCommand>(c.command);
+          if (command != dds::msg::ControlCommand::pause && command != dds::msg::ControlCommand::resume &&
+              command != dds::msg::ControlCommand::abort)
+            return;  // swap_detector and unknown codes concern the mission only
+          std::lock_guard lock(commands.mutex);
+          const bool hold = command != dds::msg::ControlCommand::resume;
+          if (hold == commands.paused) return;
+          commands.paused = hold;
+          logger.warn("simd", std::string(hold ? "paused" : "resumed") + " by " + dds::to_string(command) +
+                                  " from participant " + dds::log_safe(info.writer_participant) +
+                                  (hold ? ": holding zero velocity until resume" : ""));
+        },
+        [&](const std::string& message) { logger.warn("simd", message); });
+    if (!made) return error(made.error().message);
+    control_sub = std::move(*made);
+  }
 
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
@@ -272,7 +343,10 @@ int simd(const std::vector<std::string>& args) {
                           (partition.empty() ? "" : ", partition '" + partition + "'") + ": cmd_vel from '" + cmd_topic +
                           "' (watchdog " + fmt(*timeout_s) + " s), odometry on '" + odom_topic + "' at " +
                           fmt(*rate_hz) + " Hz, " + transport + " images on '" + image_topic + "' at " +
-                          fmt(*camera_rate_hz) + " Hz");
+                          fmt(*camera_rate_hz) + " Hz; participant " + participant->guid() +
+                          (writer_rule.empty() ? ", cmd_vel from any participant (no --cmd-vel-writer)"
+                                               : ", cmd_vel only from " + (lock_first ? std::string("the first sender") : writer_rule)) +
+                          (control_sub ? ", pause/resume on '" + control_topic + "'" : ""));
   std::cout << "simd: ready" << std::endl;
 
   // --- real-time simulation loop ----------------------------------------------------------------
@@ -300,7 +374,7 @@ int simd(const std::vector<std::string>& args) {
       any = commands.count > 0;
       fresh = any &&
               (*timeout_s <= 0.0 || std::chrono::duration<double>(now - commands.received).count() <= *timeout_s);
-      if (fresh) command = commands.command;
+      if (fresh && !commands.paused) command = commands.command;
     }
     if (fresh && braking) {
       braking = false;
@@ -329,13 +403,17 @@ int simd(const std::vector<std::string>& args) {
   if (camera_thread.joinable()) camera_thread.join();
   (void)(*robot)->send_command(visnav::Twist{});
   std::uint64_t received = 0;
+  std::uint64_t foreign = 0;
   {
     std::lock_guard lock(commands.mutex);
     received = commands.count;
+    foreign = commands.foreign;
   }
   logger.info("simd", "stopped after " + fmt(sim->time_s()) + " s: " + std::to_string(received) +
-                          " commands, " + std::to_string(watchdog_trips) + " watchdog stops, " +
+                          " commands, " + std::to_string(foreign) + " dropped by arbitration, " +
+                          std::to_string(watchdog_trips) + " watchdog stops, " +
                           std::to_string(frames.load()) + " images");
+  control_sub.reset();
   cmd_sub->reset();
   return exit_code;
 }

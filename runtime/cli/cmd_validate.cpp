@@ -15,7 +15,10 @@ constexpr const char* kUsage =
     "  * that a plugin provides each robot/camera/detector type, and each params block against\n"
     "    the type's declared parameters (unknown keys, types, ranges),\n"
     "  * that the nodes plugins register, and the tree T against the registered node types.\n"
-    "Prints every problem as file:line: message and exits 1 if there is any, 0 otherwise.\n";
+    "Prints every problem as file:line: message and exits 1 if there is any, 0 otherwise.\n"
+    "Plugins are loaded to read their parameter declarations, which runs their constructors: each\n"
+    "library loaded from the config's plugin_path is named in a warning, as is a plugin_path folder\n"
+    "that does not exist (the build and install plugin folders are trusted).\n";
 
 int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;

@@ -32,10 +32,14 @@ struct DdsRobotParams {
   double odom_deadline_s = 0.0;
   std::string timestamp = "receive";
   double connect_timeout_s = 0.0;
+  std::string odom_writer;  // participant GUID allowed to publish odometry; empty = any
 
   [[nodiscard]] Status validate() const {
     if (cmd_vel_topic.empty() || odom_topic.empty()) return fail("topic names must not be empty");
     if (cmd_vel_topic == odom_topic) return fail("cmd_vel_topic and odom_topic must differ");
+    if (!odom_writer.empty() &&
+        (odom_writer.size() != 32 || odom_writer.find_first_not_of("0123456789abcdef") != std::string::npos))
+      return fail("odom_writer must be 32 lowercase hex digits (a participant GUID, as `visnav simd` logs it)");
     return ok();
   }
   static const ParamSchema<DdsRobotParams>& schema() {
@@ -50,7 +54,8 @@ struct DdsRobotParams {
         .field("odom_history_depth", &DdsRobotParams::odom_history_depth, "keep-last depth of the odometry reader").range(1, 1000)
         .field("odom_deadline_s", &DdsRobotParams::odom_deadline_s, "QoS deadline of the odometry reader; 0 = none").range(0, 3600)
         .field("timestamp", &DdsRobotParams::timestamp, "odometry time: arrival on the run clock, or the header stamp mapped onto it").one_of({"receive", "header"})
-        .field("connect_timeout_s", &DdsRobotParams::connect_timeout_s, "wait this long at creation for the first odometry sample; 0 = don't wait").range(0, 600);
+        .field("connect_timeout_s", &DdsRobotParams::connect_timeout_s, "wait this long at creation for the first odometry sample; 0 = don't wait").range(0, 600)
+        .field("odom_writer", &DdsRobotParams::odom_writer, "accept odometry only from this participant GUID (32 hex digits; the robot driver logs it); empty = any (see docs/security.md)");
     return s;
   }
 };
@@ -95,6 +100,14 @@ class DdsRobot final : public Robot {
     writer_.emplace(std::move(writer));
     const bool use_header = params_.timestamp == "header";
     auto on_odometry = [this, use_header](dds::msg::Odometry&& sample, const dds::SampleInfo& info) {
+      if (!params_.odom_writer.empty() && info.writer_participant != params_.odom_writer) {
+        const auto foreign = ++foreign_;  // arbitration (issue 17): another participant's odometry
+        if (limiter_.allow(info.receive_time_s))
+          host_->logger().warn("dds.robot", "topic '" + params_.odom_topic + "': dropped odometry from participant '" +
+                                                dds::log_safe(info.writer_participant) + "' (odom_writer is " +
+                                                params_.odom_writer + "); " + std::to_string(foreign) + " dropped so far");
+        return;
+      }
       const double run_now_s = host_->clock().now_s();
       const double stamp_s =
           use_header ? to_run_clock(sample.header.stamp.seconds(), info.receive_time_s, run_now_s) : run_now_s;
@@ -114,7 +127,10 @@ class DdsRobot final : public Robot {
                                      participant, dds::EndpointOptions{params_.odom_topic, odom_qos, params_.partition},
                                      on_odometry, on_warning));
     host_->logger().info("dds.robot", "domain " + std::to_string(params_.domain_id) + ": commands on '" +
-                                          params_.cmd_vel_topic + "', odometry from '" + params_.odom_topic + "'");
+                                          params_.cmd_vel_topic + "' from participant " + participant.guid() +
+                                          ", odometry from '" + params_.odom_topic + "'" +
+                                          (params_.odom_writer.empty() ? std::string(" (any participant)")
+                                                                       : " (only participant " + params_.odom_writer + ")"));
     if (params_.connect_timeout_s > 0.0 && !odometry_.wait_newer(0, params_.connect_timeout_s))
       return fail("dds robot: no odometry on '" + params_.odom_topic + "' (domain " + std::to_string(params_.domain_id) +
                   ") within connect_timeout_s = " + std::to_string(params_.connect_timeout_s) + " s");
@@ -127,6 +143,7 @@ class DdsRobot final : public Robot {
   OdometryTracker tracker_;  // subscription thread only
   dds::LatestSlot<Odometry> odometry_;
   std::atomic<std::uint64_t> dropped_{0};
+  std::atomic<std::uint64_t> foreign_{0};
   dds::WarningLimiter limiter_{1.0};
   std::unique_ptr<dds::Subscription<dds::msg::Odometry>> subscription_;  // last: stopped first
 };

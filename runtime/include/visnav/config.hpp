@@ -51,6 +51,11 @@ struct RunSettings {
   std::string telemetry_file;          ///< NavStatus per tick as JSON lines; empty = off
   std::string log_level = "info";      ///< debug, info, warn, error
   double reload_poll_s = 0.5;          ///< config file mtime poll interval (wall time); 0 = no live reload
+  /// Odometry plausibility (issue 17): a reading farther from the previous one than
+  /// odometry_max_speed_mps x dt + odometry_jump_slack_m, non-finite, or going back in time
+  /// stops the robot (safety stop) with the reason.
+  double odometry_max_speed_mps = 3.0;
+  double odometry_jump_slack_m = 0.5;
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RunSettings>& schema();
@@ -65,6 +70,10 @@ struct DdsSettings {
   bool telemetry = true;   ///< publish NavStatus on the telemetry topic
   bool control = true;     ///< subscribe the control topic
   dds::TelemetryParams endpoints;  ///< domain_id, partition, telemetry_topic, control_topic
+  /// `security: {ca, identity_cert, private_key, governance, permissions}` (paths relative to
+  /// the config file's folder): every DDS participant of the run (robot, camera, telemetry,
+  /// control) authenticates with this identity (docs/security.md). Absent = security off.
+  std::optional<dds::SecurityFiles> security;
   SourceLocation where;    ///< location of the block (for error messages)
 
   /// Key docs of the block (enabled, telemetry, control, then TelemetryParams' keys).

@@ -183,13 +183,48 @@ struct SubscriptionCore;
 }  // namespace detail
 
 /// A domain participant. Copies share the same participant.
+/// DDS Security (OMG DDS Security 1.1, Cyclone's builtin plugins) files of one identity; paths
+/// of PEM certificates/keys and S/MIME-signed XML documents (docs/security.md; `visnav security
+/// init` makes them).
+struct SecurityFiles {
+  std::string ca;             ///< CA certificate (PEM) that signed the identities, governance and permissions
+  std::string identity_cert;  ///< this participant's certificate (PEM), signed by `ca`
+  std::string private_key;    ///< its private key (PEM, unencrypted: protect it with file permissions)
+  std::string governance;     ///< signed governance document (.p7s): what is encrypted/signed
+  std::string permissions;    ///< signed permissions of this identity (.p7s): topics it may publish/subscribe
+
+  /// Every path set and readable; errors name the key ("security.private_key: ...: cannot read").
+  [[nodiscard]] Status validate() const;
+};
+
+/// The files of identity `name` in a keystore made by `visnav security init`:
+/// KEYSTORE/ca.pem, KEYSTORE/governance.p7s, KEYSTORE/<name>/{cert.pem,key.pem,permissions.p7s}.
+[[nodiscard]] SecurityFiles keystore_identity(const std::string& keystore, const std::string& name);
+
+/// Process-wide default: every Participant::create(domain_id) afterwards authenticates with
+/// `files` (std::nullopt: security off, the default). Validates the files first. Thread-safe.
+[[nodiscard]] Status set_default_security(std::optional<SecurityFiles> files);
+/// True if set_default_security() enabled security.
+[[nodiscard]] bool default_security_enabled();
+namespace detail {
+/// The process default of set_default_security (a copy). Thread-safe.
+[[nodiscard]] std::optional<SecurityFiles> default_security();
+}  // namespace detail
+
 class Participant {
  public:
-  /// Joins DDS domain `domain_id` (0..232). Cyclone reads CYCLONEDDS_URI when the first
-  /// participant of a domain is created in the process.
+  /// Joins DDS domain `domain_id` (0..232), with the process default security
+  /// (set_default_security). Cyclone reads CYCLONEDDS_URI when the first participant of a domain
+  /// is created in the process.
   [[nodiscard]] static Result<Participant> create(int domain_id);
+  /// Joins with explicit security: `security` set = authenticate with those files (errors name
+  /// them, e.g. a certificate not signed by the CA); std::nullopt = an unsecured participant.
+  [[nodiscard]] static Result<Participant> create(int domain_id, const std::optional<SecurityFiles>& security);
 
   [[nodiscard]] int domain_id() const;
+  /// This participant's GUID, 32 lowercase hex digits (what receivers see as
+  /// SampleInfo::writer_participant). Logged at start so operators can pin a command source.
+  [[nodiscard]] std::string guid() const;
 
  private:
   template <typename M> friend class Writer;
@@ -234,6 +269,10 @@ struct SampleInfo {
   double source_time_s = 0.0;   ///< writer's source timestamp, s since the Unix epoch
   double receive_time_s = 0.0;  ///< when it was taken here, s since the Unix epoch
   std::uint64_t writer_handle = 0;  ///< instance handle of the publication (identifies the writer)
+  /// GUID of the writer's participant, 32 lowercase hex digits (Participant::guid() of the
+  /// sender); empty if discovery data was not available. Identifies the sending process for
+  /// command arbitration; it can be forged by anyone on an unsecured domain (use DDS Security).
+  std::string writer_participant;
 };
 
 /// Typed data reader with explicit, non-blocking `take` and a blocking `wait` (waitset).
@@ -434,10 +473,25 @@ struct ControlRequest {
 /// "pause", "resume", "abort", "swap_detector".
 [[nodiscard]] Result<msg::ControlCommand> parse_control_command(std::string_view text);
 
+/// Text from the network made safe for one log line: control characters, DEL, '\\' and bytes
+/// >= 0x80 are written as \xNN (a newline or ANSI escape cannot forge a line or recolour the
+/// terminal) and the result is cut to `max_bytes` of input with "...(N bytes)" appended. Pure.
+[[nodiscard]] std::string log_safe(std::string_view text, std::size_t max_bytes = 64);
+
+/// Limits of a control request (checked before anything is logged or queued).
+inline constexpr std::size_t kMaxControlArgumentBytes = 64;
+/// Requests accepted per second; more are dropped (a flood cannot starve the tick thread).
+inline constexpr double kMaxControlRequestsPerS = 20.0;
+
+/// True if `argument` is valid for `command`: pause/resume/abort take none; swap_detector a
+/// detector type of 1-64 characters [A-Za-z0-9_.-]. Pure.
+[[nodiscard]] bool valid_control_argument(msg::ControlCommand command, std::string_view argument);
+
 /// Receives control requests on `control_topic` (reliable, keep-last 32) on its own thread and
 /// queues them; the tick thread drains the queue with `take_pending()` between ticks.
-/// Unknown command codes and `swap_detector` without a type are dropped with a warning
-/// (at most one per second) and counted in `rejected()`.
+/// Dropped with a warning (at most one per second, the argument shown through log_safe) and
+/// counted in `rejected()`: unknown command codes, arguments invalid for their command
+/// (valid_control_argument: size limit, charset), and requests beyond kMaxControlRequestsPerS.
 class ControlSubscriber {
  public:
   [[nodiscard]] static Result<std::unique_ptr<ControlSubscriber>> create(const TelemetryParams& params, Logger& logger);

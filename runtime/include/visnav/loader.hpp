@@ -35,6 +35,7 @@
 #include "visnav/config_node.hpp"
 #include "visnav/devices.hpp"
 #include "visnav/host.hpp"
+#include "visnav/map.hpp"
 #include "visnav/params.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/result.hpp"
@@ -71,6 +72,13 @@ struct PluginLibraryInfo {
   std::uint32_t abi_version = 0;
   std::vector<std::string> type_names;     ///< robot/camera/detector kinds
   std::vector<std::string> command_names;
+};
+
+/// A plugin-provided reader of one edge kind's payload bodies (PayloadCheckEntry).
+struct PayloadCheckInfo {
+  std::string kind;
+  PayloadBodyCheck check = nullptr;
+  std::string library_path;
 };
 
 /// A library on the search path that could not be used (kept so errors can mention it).
@@ -155,6 +163,11 @@ class PluginLoader {
 
   /// All plugin-contributed CLI commands (first library wins on a name clash).
   [[nodiscard]] std::vector<PluginCommandInfo> commands() const;
+
+  /// All plugin-provided payload body readers (first library wins on a kind clash).
+  [[nodiscard]] std::vector<PayloadCheckInfo> payload_checks() const;
+  /// Registers every payload_checks() entry with `map`; the loader must outlive that use.
+  void install_payload_checks(MapStore& map) const;
 
  private:
   struct Loaded;

@@ -145,6 +145,12 @@ struct PayloadView {
 [[nodiscard]] bool valid_kind(std::string_view kind);
 }  // namespace map_format
 
+/// A primitive's reader of its own payload bodies: decodes `body` (the payload without its
+/// header) as the primitive's replay would and checks it against the graph's record of the edge
+/// (e.g. the length the body was taught with versus `edge.length_m`). Errors say what is wrong
+/// without the file name (the store prefixes it). Must not throw; pure; thread-safe.
+using PayloadBodyCheck = Status (*)(std::span<const std::uint8_t> body, const EdgeRecord& edge) noexcept;
+
 /// The map folder. Movable, not copyable. See the file comment for the contract.
 class MapStore {
  public:
@@ -152,7 +158,9 @@ class MapStore {
   /// writes its graph file. `name` is the map's display name.
   [[nodiscard]] static Result<MapStore> create(const std::string& dir, const std::string& name);
   /// Opens an existing map: parses and checks graph.yaml (syntax, keys, types, duplicate ids,
-  /// dangling references, node/edge azimuth consistency). Payloads are not read (lazy).
+  /// duplicate non-empty node names, dangling references, node/edge azimuth consistency).
+  /// Payloads are not read (lazy). Temporary files (".<name>.tmp.<pid>") left by a writer
+  /// process that no longer runs are deleted; those of a live process are left alone.
   [[nodiscard]] static Result<MapStore> open(const std::string& dir);
 
   MapStore(MapStore&&) noexcept;
@@ -171,6 +179,7 @@ class MapStore {
   // --- Writing (tick thread, exclusive) ---
 
   /// Adds a node and (with autoflush) rewrites the graph crash-safely. Returns the node id.
+  /// A non-empty name already used by another node is an error.
   [[nodiscard]] Result<std::string> add_node(NodeRecord node);
   /// Writes the payload file for a new edge immediately and crash-safely, then (with autoflush)
   /// the graph. `from`/`to` must exist, the id must be new. `payload_file` and
@@ -213,16 +222,29 @@ class MapStore {
 
   // --- Payloads ---
 
-  /// Reads and verifies an edge payload (magic, version, kind and id match the graph, length,
-  /// checksums) and returns the body. Cost is independent of the number of edges in the map.
+  /// Reads and verifies an edge payload (magic, version, kind and id match the graph, file size
+  /// matches the graph's payload_bytes, checksums) and returns the body. Cost is independent of
+  /// the number of edges in the map.
   [[nodiscard]] Result<std::vector<std::uint8_t>> read_payload(std::string_view edge_id) const;
-  /// Same checks as read_payload without returning the body.
+  /// Same checks as read_payload, and when a body check is registered for the edge's kind
+  /// (set_payload_check) the body is decoded by it too; error e.g.
+  ///   "maps/m/edges/e3.bin: body does not match graph.yaml: body length 500 m, graph 6.3 m".
   [[nodiscard]] Status check_payload(std::string_view edge_id) const;
+  /// check_payload of every edge of a route, in order; the first problem is the error. Missions
+  /// call it on the planned route before the robot moves.
+  [[nodiscard]] Status check_route(std::span<const std::string> edge_ids) const;
+  /// Registers the body reader of one edge kind (replaces an earlier one). The function usually
+  /// lives in a plugin library: the caller keeps that library loaded while this map is used.
+  void set_payload_check(const std::string& kind, PayloadBodyCheck check);
+  /// True if a body reader is registered for `kind`.
+  [[nodiscard]] bool has_payload_check(std::string_view kind) const;
   /// Checks every file: re-parses graph.yaml from disk (it may have changed since open) and
-  /// verifies every payload. Returns one problem per line, each naming its file; empty = valid.
+  /// verifies every payload (check_payload: headers, sizes, and bodies of kinds with a registered
+  /// reader). Returns one problem per line, each naming its file; empty = valid.
   [[nodiscard]] std::vector<std::string> validate() const;
   /// Files in the map folder that are not part of the map: temporary files left by an
   /// interrupted write and payloads no edge references. Harmless; listed by `visnav map info`.
+  /// open() already deletes temporary files whose writer process is gone.
   [[nodiscard]] std::vector<std::string> leftover_files() const;
 
  private:

@@ -35,6 +35,7 @@
 #include "visnav/config_node.hpp"
 #include "visnav/devices.hpp"
 #include "visnav/host.hpp"
+#include "visnav/map.hpp"
 #include "visnav/params.hpp"
 #include "visnav/result.hpp"
 
@@ -43,6 +44,7 @@ namespace visnav {
 namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 
 /// Bumped whenever the descriptor or any SDK class layout changes.
+/// 2: PluginDescriptor gained payload_checks (issue 17).
 inline constexpr std::uint32_t kPluginAbiVersion = 2;
 
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };
@@ -79,6 +81,15 @@ struct CommandEntry {
   int (*run)(int argc, char** argv, HostServices& host);
 };
 
+/// The body reader of one edge kind, for checking maps before anything moves (`visnav map
+/// validate`, a mission's planned route): `check` decodes a payload body exactly as the
+/// primitive's replay would and compares what the body states with the graph's record (e.g. the
+/// taught length). Interim hook until primitives become SDK types (DESIGN.md).
+struct PayloadCheckEntry {
+  const char* kind;          ///< edge kind, e.g. "feature_segment"
+  PayloadBodyCheck check;    ///< noexcept, pure, thread-safe
+};
+
 struct PluginDescriptor {
   std::uint32_t abi_version;      ///< must be first; == kPluginAbiVersion
   std::uint32_t descriptor_size;  ///< sizeof(PluginDescriptor) as compiled into the plugin
@@ -91,6 +102,8 @@ struct PluginDescriptor {
   NodesRegistrar register_nodes;  ///< nodes kind; nullptr otherwise
   const CommandEntry* commands;   ///< optional CLI subcommands
   std::size_t command_count;
+  const PayloadCheckEntry* payload_checks;  ///< optional (nodes plugins providing primitives)
+  std::size_t payload_check_count;
 };
 
 /// Wraps `Impl::create(params, host)` (returning Result<std::unique_ptr<Impl>>) so that
@@ -125,9 +138,15 @@ constexpr TypeEntry make_type(const char* type_name, const char* description) {
 
 /// Defines the entry symbol. TYPES and COMMANDS are arrays (or use VISNAV_NO_ITEMS).
 #define VISNAV_PLUGIN(KIND, NAME, VERSION, DESCRIPTION, TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, COMMAND_COUNT) \
-  extern "C" __attribute__((visibility("default"))) const ::visnav::PluginDescriptor* visnav_plugin_entry() {  \
-    static const ::visnav::PluginDescriptor descriptor{                                                     \
-        ::visnav::kPluginAbiVersion, sizeof(::visnav::PluginDescriptor), KIND, NAME, VERSION, DESCRIPTION,  \
-        TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, COMMAND_COUNT};                                             \
-    return &descriptor;                                                                                     \
+  VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(KIND, NAME, VERSION, DESCRIPTION, TYPES, TYPE_COUNT, REGISTRAR, COMMANDS,  \
+                                    COMMAND_COUNT, nullptr, 0)
+
+/// As VISNAV_PLUGIN, plus a table of PayloadCheckEntry (the plugin's edge payload readers).
+#define VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(KIND, NAME, VERSION, DESCRIPTION, TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, \
+                                          COMMAND_COUNT, CHECKS, CHECK_COUNT)                                     \
+  extern "C" __attribute__((visibility("default"))) const ::visnav::PluginDescriptor* visnav_plugin_entry() {    \
+    static const ::visnav::PluginDescriptor descriptor{                                                       \
+        ::visnav::kPluginAbiVersion, sizeof(::visnav::PluginDescriptor), KIND, NAME, VERSION, DESCRIPTION,    \
+        TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, COMMAND_COUNT, CHECKS, CHECK_COUNT};                          \
+    return &descriptor;                                                                                       \
   }

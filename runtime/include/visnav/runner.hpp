@@ -82,8 +82,11 @@ struct SessionOptions {
   std::vector<std::string> extra_plugin_dirs;
   /// false: only config plugin_path + extra_plugin_dirs are searched (tests).
   bool use_default_plugin_path = true;
-  /// `--map`: opened with MapStore::open; a missing folder is created as an empty map.
+  /// `--map`: opened with MapStore::open; a missing folder is created as an empty map only with
+  /// `create_map` (the CLI's `--create`), else it is an error. The loaded plugins' payload
+  /// readers are registered with the map (MapStore::set_payload_check).
   std::string map_path;
+  bool create_map = true;
   /// Overrides applied to the file on every live reload (the `--set` list used to load it).
   std::vector<std::string> overrides;
   /// Borrowed logger; nullptr: a StderrLogger at run.log_level owned by the session.
@@ -263,6 +266,7 @@ struct MissionOptions {
   std::vector<std::string> overrides;
   std::string tree_file;
   std::string map_path;
+  bool create_map = true;  ///< SessionOptions::create_map (`visnav run` sets it from --create)
   std::string trace_file;
   std::vector<std::string> extra_plugin_dirs;
   bool use_default_plugin_path = true;

@@ -121,7 +121,13 @@ const ParamSchema<RunSettings>& RunSettings::schema() {
           .field("log_level", &RunSettings::log_level, "lowest level logged to stderr")
           .one_of({"debug", "info", "warn", "error"})
           .field("reload_poll_s", &RunSettings::reload_poll_s, "config file change poll interval (wall time); 0 = no live reload")
-          .range(0.0, 3600.0);
+          .range(0.0, 3600.0)
+          .field("odometry_max_speed_mps", &RunSettings::odometry_max_speed_mps,
+                 "odometry moving faster than this between two readings (plus the slack) is implausible: safety stop")
+          .range(0.01, 100.0)
+          .field("odometry_jump_slack_m", &RunSettings::odometry_jump_slack_m,
+                 "allowed on top of odometry_max_speed_mps x dt between two readings (noise, latency)")
+          .range(0.0, 100.0);
   return s;
 }
 
@@ -135,6 +141,48 @@ std::vector<ParamDoc> DdsSettings::docs() {
   return out;
 }
 
+namespace {
+
+/// The `dds.security` block: five file paths, relative ones resolved against the folder of the
+/// file that names them. Files are checked when the run starts (SecurityFiles::validate).
+Result<dds::SecurityFiles> parse_security_block(const ConfigNode& node) {
+  const std::string what = node.where().str() + ": 'dds.security'";
+  if (!node.is_map())
+    return fail(what + " must be a map with keys ca, identity_cert, private_key, governance, permissions");
+  dds::SecurityFiles files;
+  std::vector<std::string> errors;
+  std::pair<const char*, std::string*> keys[] = {{"ca", &files.ca},
+                                                 {"identity_cert", &files.identity_cert},
+                                                 {"private_key", &files.private_key},
+                                                 {"governance", &files.governance},
+                                                 {"permissions", &files.permissions}};
+  for (const auto& [key, value] : node.entries()) {
+    std::string* target = nullptr;
+    for (auto& [name, field] : keys)
+      if (key == name) target = field;
+    if (target == nullptr) {
+      errors.push_back(value.where().str() + ": unknown key '" + key +
+                       "' in 'dds.security' (known keys: ca, identity_cert, private_key, governance, permissions)");
+      continue;
+    }
+    if (!value.is_scalar() || value.scalar().empty()) {
+      errors.push_back(value.where().str() + ": key '" + key + "' in 'dds.security': expected a file path");
+      continue;
+    }
+    std::filesystem::path p(value.scalar());
+    const std::string& file = value.where().file;
+    if (p.is_relative() && !file.empty() && file.rfind("--set", 0) != 0)
+      p = std::filesystem::path(file).parent_path() / p;
+    *target = p.lexically_normal().string();
+  }
+  for (const auto& [name, field] : keys)
+    if (field->empty()) errors.push_back(what + ": missing key '" + name + "'");
+  if (!errors.empty()) return fail(join_lines(errors));
+  return files;
+}
+
+}  // namespace
+
 Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
   DdsSettings settings;
   settings.enabled = true;
@@ -145,6 +193,12 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
   ConfigNode endpoints = ConfigNode::make_map(node.where());
   std::vector<std::string> errors;
   for (const auto& [key, value] : node.entries()) {
+    if (key == "security") {
+      auto parsed = parse_security_block(value);
+      if (!parsed) errors.push_back(parsed.error().message);
+      else settings.security = std::move(*parsed);
+      continue;
+    }
     bool* flag = key == "enabled" ? &settings.enabled
                  : key == "telemetry" ? &settings.telemetry
                  : key == "control" ? &settings.control
@@ -162,11 +216,12 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
   }
   for (const auto& [key, value] : endpoints.entries()) {
     const auto docs = dds::TelemetryParams::schema().docs();
-    const bool known = std::any_of(docs.begin(), docs.end(), [&key](const ParamDoc& d) { return d.name == key; });
+    const std::string& name = key;  // (clang 14 cannot capture a structured binding)
+    const bool known = std::any_of(docs.begin(), docs.end(), [&name](const ParamDoc& d) { return d.name == name; });
     if (!known)
       errors.push_back(value.where().str() + ": unknown key '" + key + "' in 'dds' (known keys: " +
-                       key_list({"enabled", "telemetry", "control", "domain_id", "partition", "telemetry_topic",
-                                 "control_topic"}) +
+                       key_list({"enabled", "telemetry", "control", "security", "domain_id", "partition",
+                                 "telemetry_topic", "control_topic"}) +
                        ")");
   }
   if (!errors.empty()) return fail(join_lines(errors));

@@ -16,8 +16,26 @@ SourceLocation location_of(const YAML::Mark& mark, const std::string& file, cons
   return SourceLocation{file, mark.line + 1};
 }
 
-Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, const SourceLocation& fallback) {
+/// Bounds of one parsed document (issue 17). yaml-cpp keeps an alias as a reference to its
+/// anchor, so a 1.3 kB file of nested aliases ("billion laughs") expands to ~10^9 values only
+/// when walked; the walk below counts every value it produces and stops at the limit.
+constexpr std::size_t kMaxYamlValues = 100000;  // run configs have hundreds
+constexpr std::size_t kMaxYamlDepth = 64;
+constexpr std::size_t kMaxYamlTextBytes = 16U << 20;
+
+struct Budget {
+  std::size_t values_left = kMaxYamlValues;
+};
+
+Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, const SourceLocation& fallback,
+                           Budget& budget, std::size_t depth) {
   const SourceLocation where = location_of(node.Mark(), file, fallback);
+  if (budget.values_left == 0)
+    return fail(where.str() + ": document expands to more than " + std::to_string(kMaxYamlValues) +
+                " values (nested aliases?); refused");
+  --budget.values_left;
+  if (depth > kMaxYamlDepth)
+    return fail(where.str() + ": nested deeper than " + std::to_string(kMaxYamlDepth) + " levels; refused");
   switch (node.Type()) {
     case YAML::NodeType::Undefined:
     case YAML::NodeType::Null: {
@@ -30,7 +48,7 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, cons
     case YAML::NodeType::Sequence: {
       ConfigNode n = ConfigNode::make_sequence(where);
       for (const auto& item : node) {
-        VISNAV_ASSIGN(ConfigNode child, convert(item, file, where));
+        VISNAV_ASSIGN(ConfigNode child, convert(item, file, where, budget, depth + 1));
         n.push_back(std::move(child));
       }
       return n;
@@ -43,7 +61,7 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, cons
         if (!entry.first.IsScalar()) return fail(key_where.str() + ": map keys must be plain scalars");
         const std::string key = entry.first.Scalar();
         if (!seen.insert(key).second) return fail(key_where.str() + ": duplicate key '" + key + "'");
-        VISNAV_ASSIGN(ConfigNode child, convert(entry.second, file, key_where));
+        VISNAV_ASSIGN(ConfigNode child, convert(entry.second, file, key_where, budget, depth + 1));
         if (child.is_null() || child.where().line == 0) child.set_where(key_where);
         n.set(key, std::move(child));
       }
@@ -80,9 +98,13 @@ Status set_path(ConfigNode& node, const std::vector<std::string>& keys, std::siz
 }  // namespace
 
 Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& file_label) {
+  if (text.size() > kMaxYamlTextBytes)
+    return fail(file_label + ": " + std::to_string(text.size()) + " bytes is more than a configuration may have (" +
+                std::to_string(kMaxYamlTextBytes) + ")");
   try {
     YAML::Node doc = YAML::Load(std::string(text));
-    return convert(doc, file_label, SourceLocation{file_label, 1});
+    Budget budget;
+    return convert(doc, file_label, SourceLocation{file_label, 1}, budget, 0);
   } catch (const YAML::Exception& e) {
     SourceLocation where{file_label, e.mark.line >= 0 ? e.mark.line + 1 : 0};
     std::string detail = e.msg;

@@ -6,6 +6,13 @@
 
 #include "visnav/dds.hpp"
 
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <mutex>
+#include <utility>
+
 namespace visnav::dds {
 
 namespace msg {
@@ -91,6 +98,48 @@ Result<msg::ControlCommand> parse_control_command(std::string_view text) {
                  msg::ControlCommand::swap_detector})
     if (text == to_string(c)) return c;
   return fail("control command '" + std::string(text) + "' is not one of: pause resume abort swap_detector");
+}
+
+Status SecurityFiles::validate() const {
+  const std::pair<const char*, const std::string*> files[] = {{"ca", &ca},
+                                                              {"identity_cert", &identity_cert},
+                                                              {"private_key", &private_key},
+                                                              {"governance", &governance},
+                                                              {"permissions", &permissions}};
+  for (const auto& [key, path] : files) {
+    if (path->empty()) return fail(std::string("security.") + key + ": missing (docs/security.md)");
+    if (::access(path->c_str(), R_OK) != 0)
+      return fail(std::string("security.") + key + ": " + *path + ": cannot read (" + std::strerror(errno) + ")");
+  }
+  return ok();
+}
+
+SecurityFiles keystore_identity(const std::string& keystore, const std::string& name) {
+  const std::string k = keystore.empty() || keystore.back() == '/' ? keystore : keystore + "/";
+  return SecurityFiles{k + "ca.pem", k + name + "/cert.pem", k + name + "/key.pem", k + "governance.p7s",
+                       k + name + "/permissions.p7s"};
+}
+
+namespace {
+std::mutex g_security_mutex;
+std::optional<SecurityFiles> g_security;
+}  // namespace
+
+Status set_default_security(std::optional<SecurityFiles> files) {
+  if (files) VISNAV_TRY(files->validate());
+  std::lock_guard lock(g_security_mutex);
+  g_security = std::move(files);
+  return ok();
+}
+
+bool default_security_enabled() {
+  std::lock_guard lock(g_security_mutex);
+  return g_security.has_value();
+}
+
+std::optional<SecurityFiles> detail::default_security() {
+  std::lock_guard lock(g_security_mutex);
+  return g_security;
 }
 
 Status TelemetryParams::validate() const {

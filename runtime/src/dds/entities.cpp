@@ -6,12 +6,16 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <map>
 #include <set>
 #include <thread>
 
 #ifdef VISNAV_HAVE_DDS
 #include <dds/dds.h>
+#include <unistd.h>
 
 #include "ros2_msgs.h"
 #endif
@@ -36,7 +40,9 @@ struct SubscriptionCore { std::string topic; };
 }  // namespace detail
 
 Result<Participant> Participant::create(int) { return no_dds(); }
+Result<Participant> Participant::create(int, const std::optional<SecurityFiles>&) { return no_dds(); }
 int Participant::domain_id() const { return core_ ? core_->domain_id : -1; }
+std::string Participant::guid() const { return {}; }
 
 template <typename M> Result<Writer<M>> Writer<M>::create(const Participant&, const EndpointOptions&) { return no_dds(); }
 template <typename M> Writer<M>::Writer(std::unique_ptr<detail::WriterCore> core) : core_(std::move(core)) {}
@@ -352,9 +358,35 @@ struct WriterCore : EndpointCore {
   }
 };
 
+std::string guid_hex(const dds_guid_t& guid) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (unsigned char b : guid.v) {
+    out += kHex[b >> 4];
+    out += kHex[b & 0xf];
+  }
+  return out;
+}
+
 struct ReaderCore : EndpointCore {
   dds_entity_t waitset = 0;
   dds_entity_t condition = 0;
+  std::map<dds_instance_handle_t, std::string> writer_participants;  // take thread only
+
+  /// Participant GUID of a matched writer (cached per publication handle; bounded).
+  const std::string& participant_of(dds_instance_handle_t writer) {
+    auto it = writer_participants.find(writer);
+    if (it != writer_participants.end()) return it->second;
+    if (writer_participants.size() > 4096) writer_participants.clear();
+    std::string hex;
+    if (dds_builtintopic_endpoint_t* ep = dds_get_matched_publication_data(endpoint, writer); ep != nullptr) {
+      hex = guid_hex(ep->participant_key);
+      dds_builtintopic_free_endpoint(ep);
+      return writer_participants.emplace(writer, std::move(hex)).first->second;
+    }
+    static const std::string kUnknown;
+    return kUnknown;  // not cached: discovery data may arrive later
+  }
   ~ReaderCore() {
     if (waitset > 0) dds_delete(waitset);
     if (condition > 0) dds_delete(condition);
@@ -392,6 +424,7 @@ struct ReaderCore : EndpointCore {
         info.source_time_s = to_seconds(infos[i].source_timestamp);
         info.receive_time_s = now_s;
         info.writer_handle = infos[i].publication_handle;
+        info.writer_participant = participant_of(infos[i].publication_handle);
         ++valid;
         fn(*static_cast<const CType*>(samples[i]), info);
       }
@@ -496,22 +529,80 @@ struct SubscriptionCore {
 
 // ---- Participant ---------------------------------------------------------------------------
 
-Result<Participant> Participant::create(int domain_id) {
+namespace {
+
+/// Folder of Cyclone's builtin security plugins (libdds_security_{auth,crypto,ac}.so). Debian
+/// installs them outside the linker path; VISNAV_DDS_SECURITY_LIB_DIR overrides.
+std::string security_library_dir() {
+  if (const char* env = std::getenv("VISNAV_DDS_SECURITY_LIB_DIR"); env != nullptr && *env != '\0') return env;
+  for (const char* dir : {"/usr/lib/x86_64-linux-gnu/libddsc0debian", "/usr/lib/aarch64-linux-gnu/libddsc0debian",
+                          "/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/local/lib", "/usr/lib"}) {
+    if (::access((std::string(dir) + "/libdds_security_auth.so").c_str(), R_OK) == 0) return dir;
+  }
+  return {};
+}
+
+std::string file_uri(const std::string& path) {
+  std::error_code ec;
+  const auto abs = std::filesystem::absolute(path, ec);
+  return "file:" + (ec ? path : abs.lexically_normal().string());
+}
+
+}  // namespace
+
+Result<Participant> Participant::create(int domain_id) { return create(domain_id, detail::default_security()); }
+
+Result<Participant> Participant::create(int domain_id, const std::optional<SecurityFiles>& security) {
   if (domain_id < 0 || domain_id > 232) return fail("DDS domain id " + std::to_string(domain_id) + " is out of range [0, 232]");
+  QosHandle qos;
+  if (security) {
+    VISNAV_TRY(security->validate());
+    const std::string dir = security_library_dir();
+    if (dir.empty())
+      return fail("DDS Security: Cyclone's security plugins (libdds_security_auth.so) were not found; install the "
+                  "Debian package libddsc0debian or set VISNAV_DDS_SECURITY_LIB_DIR");
+    const std::pair<const char*, std::string> props[] = {
+        {"dds.sec.auth.library.path", dir + "/libdds_security_auth.so"},
+        {"dds.sec.auth.library.init", "init_authentication"},
+        {"dds.sec.auth.library.finalize", "finalize_authentication"},
+        {"dds.sec.crypto.library.path", dir + "/libdds_security_crypto.so"},
+        {"dds.sec.crypto.library.init", "init_crypto"},
+        {"dds.sec.crypto.library.finalize", "finalize_crypto"},
+        {"dds.sec.access.library.path", dir + "/libdds_security_ac.so"},
+        {"dds.sec.access.library.init", "init_access_control"},
+        {"dds.sec.access.library.finalize", "finalize_access_control"},
+        {"dds.sec.auth.identity_ca", file_uri(security->ca)},
+        {"dds.sec.auth.identity_certificate", file_uri(security->identity_cert)},
+        {"dds.sec.auth.private_key", file_uri(security->private_key)},
+        {"dds.sec.access.permissions_ca", file_uri(security->ca)},
+        {"dds.sec.access.governance", file_uri(security->governance)},
+        {"dds.sec.access.permissions", file_uri(security->permissions)},
+    };
+    for (const auto& [name, value] : props) dds_qset_prop(qos.get(), name, value.c_str());
+  }
   auto core = std::make_shared<detail::ParticipantCore>();
   core->domain_id = domain_id;
-  core->participant = dds_create_participant(static_cast<dds_domainid_t>(domain_id), nullptr, nullptr);
+  core->participant = dds_create_participant(static_cast<dds_domainid_t>(domain_id), qos.get(), nullptr);
   if (core->participant < 0) {
     const dds_return_t rc = core->participant;
     core->participant = 0;
     return dds_error("create DDS participant in domain " + std::to_string(domain_id) +
-                         " (check CYCLONEDDS_URI and the network configuration)",
+                         (security ? " with DDS Security (identity " + security->identity_cert +
+                                         "; check that the CA signed it, the key matches and governance/permissions "
+                                         "are signed by the CA and name this identity)"
+                                   : std::string(" (check CYCLONEDDS_URI and the network configuration)")),
                      rc);
   }
   return Participant(std::move(core));
 }
 
 int Participant::domain_id() const { return core_->domain_id; }
+
+std::string Participant::guid() const {
+  dds_guid_t guid{};
+  if (dds_get_guid(core_->participant, &guid) < 0) return {};
+  return detail::guid_hex(guid);
+}
 
 // ---- Writer --------------------------------------------------------------------------------
 

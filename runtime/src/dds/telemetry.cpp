@@ -1,5 +1,6 @@
 // DDS telemetry publisher and mission-control endpoints (visnav/dds.hpp), built on the typed
 // Writer/Subscription layer only.
+#include <algorithm>
 #include <atomic>
 #include <deque>
 #include <mutex>
@@ -68,6 +69,36 @@ int DdsTelemetry::matched_readers() const { return impl_->writer.matched_readers
 
 // ---- ControlSubscriber ----------------------------------------------------------------------
 
+std::string log_safe(std::string_view text, std::size_t max_bytes) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  const std::size_t shown = std::min(text.size(), max_bytes);
+  std::string out;
+  out.reserve(shown + 16);
+  for (std::size_t i = 0; i < shown; ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c >= 0x7f || c == '\\') {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  if (shown < text.size()) out += "...(" + std::to_string(text.size()) + " bytes)";
+  return out;
+}
+
+bool valid_control_argument(msg::ControlCommand command, std::string_view argument) {
+  if (command != msg::ControlCommand::swap_detector) return argument.empty();
+  if (argument.empty() || argument.size() > kMaxControlArgumentBytes) return false;
+  for (char ch : argument) {
+    const bool ok_char = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
+                         ch == '_' || ch == '.' || ch == '-';
+    if (!ok_char) return false;
+  }
+  return true;
+}
+
 struct ControlSubscriber::Impl {
   static constexpr std::size_t kMaxPending = 256;
   Participant participant;
@@ -76,7 +107,27 @@ struct ControlSubscriber::Impl {
   std::mutex mutex;
   std::deque<ControlRequest> pending;
   std::atomic<std::uint64_t> rejected{0};
+  // Token bucket of accepted requests (listener thread only).
+  double tokens = kMaxControlRequestsPerS;
+  double tokens_at_s = 0.0;
   std::unique_ptr<Subscription<msg::Control>> subscription;  // last: stopped first
+
+  void reject(double now_s, const std::string& why) {
+    const std::uint64_t n = ++rejected;
+    if (limiter.allow(now_s)) {
+      const std::uint64_t hidden = limiter.suppressed_before_last();
+      logger->warn("dds.control", "dropped a control request: " + why + " (" + std::to_string(n) + " rejected so far" +
+                                      (hidden > 0 ? ", " + std::to_string(hidden) + " warnings suppressed" : "") + ")");
+    }
+  }
+  bool take_token(double now_s) {
+    if (tokens_at_s > 0.0 && now_s > tokens_at_s)
+      tokens = std::min(kMaxControlRequestsPerS, tokens + (now_s - tokens_at_s) * kMaxControlRequestsPerS);
+    tokens_at_s = now_s;
+    if (tokens < 1.0) return false;
+    tokens -= 1.0;
+    return true;
+  }
 
   explicit Impl(Participant p) : participant(std::move(p)) {}
   ~Impl() { subscription.reset(); }
@@ -92,23 +143,26 @@ Result<std::unique_ptr<ControlSubscriber>> ControlSubscriber::create(const Telem
   impl->logger = &logger;
   Impl* raw = impl.get();
   auto on_sample = [raw](msg::Control&& c, const SampleInfo& info) {
+    // Everything here comes from any participant on the domain: validate before logging or
+    // queuing, and never log the argument unescaped (issue 17).
+    const double now_s = info.receive_time_s;
     const auto code = c.command;
     if (code < static_cast<std::uint8_t>(msg::ControlCommand::pause) ||
         code > static_cast<std::uint8_t>(msg::ControlCommand::swap_detector)) {
-      const std::uint64_t n = ++raw->rejected;
-      if (raw->limiter.allow(info.receive_time_s))
-        raw->logger->warn("dds.control", "dropped a control request with unknown command code " + std::to_string(code) +
-                                             " (" + std::to_string(n) + " rejected so far)");
+      raw->reject(now_s, "unknown command code " + std::to_string(code));
       return;
     }
-    ControlRequest r{static_cast<msg::ControlCommand>(code), std::move(c.argument), info.receive_time_s};
-    if (r.command == msg::ControlCommand::swap_detector && r.argument.empty()) {
-      const std::uint64_t n = ++raw->rejected;
-      if (raw->limiter.allow(info.receive_time_s))
-        raw->logger->warn("dds.control", "dropped a swap_detector request without a detector type (" +
-                                             std::to_string(n) + " rejected so far)");
+    const auto command = static_cast<msg::ControlCommand>(code);
+    if (!valid_control_argument(command, c.argument)) {
+      raw->reject(now_s, std::string(to_string(command)) + " with an invalid argument '" + log_safe(c.argument) + "'");
       return;
     }
+    if (!raw->take_token(now_s)) {
+      raw->reject(now_s, "more than " + std::to_string(static_cast<int>(kMaxControlRequestsPerS)) +
+                             " requests per second (" + to_string(command) + ")");
+      return;
+    }
+    ControlRequest r{command, std::move(c.argument), now_s};
     std::lock_guard lock(raw->mutex);
     if (raw->pending.size() >= Impl::kMaxPending) raw->pending.pop_front();
     raw->pending.push_back(std::move(r));

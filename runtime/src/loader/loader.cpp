@@ -286,6 +286,14 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
     info.command_names.emplace_back(c.name);
   }
 
+  if (descriptor->payload_check_count > 0 && descriptor->payload_checks == nullptr)
+    return fail(path + ": descriptor declares payload checks but no table");
+  for (std::size_t i = 0; i < descriptor->payload_check_count; ++i) {
+    const PayloadCheckEntry& c = descriptor->payload_checks[i];
+    if (c.kind == nullptr || !map_format::valid_kind(c.kind) || c.check == nullptr)
+      return fail(path + ": payload check #" + std::to_string(i) + " has no valid edge kind or no check function");
+  }
+
   // Report type clashes with libraries loaded earlier (both stay loaded; see find_type).
   for (const auto& type_name : info.type_names) {
     for (const auto& other : loaded_) {
@@ -445,6 +453,23 @@ std::vector<PluginCommandInfo> PluginLoader::commands() const {
     }
   }
   return out;
+}
+
+std::vector<PayloadCheckInfo> PluginLoader::payload_checks() const {
+  std::vector<PayloadCheckInfo> out;
+  std::set<std::string, std::less<>> seen;
+  for (const auto& l : loaded_) {
+    for (std::size_t i = 0; i < l->descriptor->payload_check_count; ++i) {
+      const PayloadCheckEntry& c = l->descriptor->payload_checks[i];
+      if (!seen.insert(c.kind).second) continue;
+      out.push_back({c.kind, c.check, l->info.path});
+    }
+  }
+  return out;
+}
+
+void PluginLoader::install_payload_checks(MapStore& map) const {
+  for (const auto& c : payload_checks()) map.set_payload_check(c.kind, c.check);
 }
 
 }  // namespace visnav

@@ -15,7 +15,7 @@ namespace {
 
 class Reader {
  public:
-  explicit Reader(const std::string& file) : file_(file) {}
+  explicit Reader(const std::string& file, std::size_t entry_budget = 0) : file_(file), entries_left_(entry_budget) {}
 
   [[nodiscard]] Error at(const YAML::Node& n, const std::string& message) const {
     return at_line(n.Mark().line, message);
@@ -31,6 +31,7 @@ class Reader {
     if (!n.IsMap()) return at(n, what + ": expected a map");
     std::set<std::string> seen;
     for (auto it = n.begin(); it != n.end(); ++it) {
+      VISNAV_TRY(spend(it->first, what));
       if (!it->first.IsScalar()) return at(it->first, what + ": keys must be plain text");
       const std::string key = it->first.Scalar();
       bool ok_key = false;
@@ -43,6 +44,17 @@ class Reader {
       if (!seen.insert(key).second) return at(it->first, what + ": duplicate key '" + key + "'");
       VISNAV_TRY(fn(key, it->first, it->second));
     }
+    return ok();
+  }
+
+  /// Counts one visited entry. Without aliases every entry costs at least two bytes of text, so
+  /// a walk visiting more entries than the file has bytes is expanding aliases (issue 17: alias
+  /// bombs cost time and memory only when walked).
+  [[nodiscard]] Status spend(const YAML::Node& n, const std::string& what) const {
+    if (entries_left_ == 0)
+      return at(n, what + ": the graph expands to more entries than its text holds (YAML aliases are not allowed "
+                          "in a map graph)");
+    --entries_left_;
     return ok();
   }
 
@@ -69,6 +81,7 @@ class Reader {
 
  private:
   const std::string& file_;
+  mutable std::size_t entries_left_;
 };
 
 std::string quoted(std::string_view s) {
@@ -185,7 +198,7 @@ std::string utc_now() {
 }
 
 Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_name) {
-  Reader r(file_name);
+  Reader r(file_name, text_in.size());
   YAML::Node root;
   try {
     root = YAML::Load(text_in);
@@ -304,6 +317,7 @@ Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_
           if (v.IsNull()) return ok();
           if (!v.IsMap()) return r.at(v, what + ": statistics must be a map of name: number");
           for (auto it = v.begin(); it != v.end(); ++it) {
+            if (auto spent = r.spend(it->first, what + " statistics"); !spent) return spent;
             if (!it->first.IsScalar() || !map_format::valid_kind(it->first.Scalar())) {
               return r.at(it->first, what + ": statistics keys must be 1-64 of A-Z a-z 0-9 _ - .");
             }
@@ -380,6 +394,18 @@ Result<Graph> check_references(RawGraph raw, const std::string& file_name) {
     auto [it, inserted] = node_index.emplace(g.nodes[i].id, i);
     if (!inserted) {
       return r.at_line(node_lines[i], "duplicate node id '" + g.nodes[i].id + "' (first defined at line " +
+                                          std::to_string(node_lines[it->second] + 1) + ")");
+    }
+  }
+  // Names are how trees and operators address places ("start", "door"): two nodes of one name
+  // would make the route depend on file order, so it is an error (empty names are allowed).
+  std::map<std::string, std::size_t, std::less<>> name_index;
+  for (std::size_t i = 0; i < g.nodes.size(); ++i) {
+    if (g.nodes[i].name.empty()) continue;
+    auto [it, inserted] = name_index.emplace(g.nodes[i].name, i);
+    if (!inserted) {
+      return r.at_line(node_lines[i], "node '" + g.nodes[i].id + "': duplicate node name '" + g.nodes[i].name +
+                                          "' (also node '" + g.nodes[it->second].id + "' at line " +
                                           std::to_string(node_lines[it->second] + 1) + ")");
     }
   }

@@ -1,5 +1,6 @@
 // MapStore: the map folder, crash-safe writes, lazy payload reads.
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -7,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <unordered_map>
 
@@ -151,6 +153,7 @@ struct MapStore::Impl {
   bool autoflush = true;
   bool sync = true;
   bool dirty = false;
+  std::map<std::string, PayloadBodyCheck, std::less<>> body_checks;
 
   void index() {
     node_index.clear();
@@ -210,6 +213,13 @@ struct MapStore::Impl {
       return fail(path + ": payload kind '" + view.kind + "' differs from the graph's kind '" + e.kind + "' for edge '" +
                   e.id + "'");
     }
+    // The graph records each payload's size when it was written: a file of another size was
+    // replaced or edited since, even if its own checksums were recomputed.
+    if (e.payload_bytes != 0 && file.size() != e.payload_bytes) {
+      return fail(path + ": size " + std::to_string(file.size()) + " bytes differs from payload_bytes " +
+                  std::to_string(e.payload_bytes) + " recorded for edge '" + e.id + "' in " +
+                  join(dir, map_format::kGraphFile));
+    }
     if (!want_body) return std::vector<std::uint8_t>{};
     // Move the body to the front of the file buffer instead of copying into a new vector.
     const std::size_t offset = static_cast<std::size_t>(view.body.data() - file.data());
@@ -217,6 +227,36 @@ struct MapStore::Impl {
     if (offset > 0) std::memmove(file.data(), file.data() + offset, size);
     file.resize(size);
     return file;
+  }
+  /// Headers, sizes and (when a reader is registered for the kind) the decoded body.
+  Status check_edge(const EdgeRecord& e) const {
+    const auto check = body_checks.find(e.kind);
+    VISNAV_ASSIGN(auto body, load_payload(e, check != body_checks.end()));
+    if (check == body_checks.end()) return ok();
+    auto st = check->second(body, e);
+    if (!st) return fail(join(dir, e.payload_file) + ": edge '" + e.id + "' (" + e.kind + "): " + st.error().message);
+    return ok();
+  }
+
+  /// Deletes ".<name>.tmp.<pid>" files whose writer process is gone (kill(pid, 0) fails with
+  /// ESRCH); a live writer's file, or one whose pid cannot be read, is left alone.
+  void remove_stale_temp_files() const {
+    std::error_code ec;
+    for (const std::string& folder : {dir, join(dir, map_format::kEdgeFolder)}) {
+      for (const auto& entry : fs::directory_iterator(folder, ec)) {
+        const std::string name = entry.path().filename().string();
+        if (!is_temp_name(name) || !entry.is_regular_file(ec)) continue;
+        const std::string pid_text = name.substr(name.rfind(".tmp.") + 5);
+        if (pid_text.empty() || pid_text.size() > 9 ||
+            pid_text.find_first_not_of("0123456789") != std::string::npos)
+          continue;
+        const long pid = std::stol(pid_text);
+        if (pid <= 0 || pid == static_cast<long>(::getpid())) continue;
+        if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+        std::error_code rm;
+        fs::remove(entry.path(), rm);
+      }
+    }
   }
 };
 
@@ -256,6 +296,7 @@ Result<MapStore> MapStore::open(const std::string& dir) {
   impl->dir = dir;
   impl->graph = std::move(graph);
   impl->index();
+  impl->remove_stale_temp_files();
   return MapStore(std::move(impl));
 }
 
@@ -272,6 +313,11 @@ Result<std::string> MapStore::add_node(NodeRecord node) {
   if (!map_format::valid_id(node.id)) return fail(graph_path() + ": node id '" + node.id + "' is not a valid id (1-64 of A-Z a-z 0-9 _ -)");
   if (m.node_index.count(node.id) != 0) return fail(graph_path() + ": node '" + node.id + "' already exists");
   if (!map_detail::valid_text(node.name)) return fail(graph_path() + ": node '" + node.id + "': name is not valid UTF-8 text");
+  if (!node.name.empty()) {
+    if (const auto it = m.name_index.find(node.name); it != m.name_index.end())
+      return fail(graph_path() + ": node name '" + node.name + "' is already used by node '" + m.graph.nodes[it->second].id +
+                  "' (node names must be unique)");
+  }
   if (node.position_hint && (!std::isfinite(node.position_hint->x_m) || !std::isfinite(node.position_hint->y_m) ||
                              !std::isfinite(node.position_hint->heading_rad))) {
     return fail(graph_path() + ": node '" + node.id + "': position_hint must be finite");
@@ -421,10 +467,23 @@ Result<std::vector<std::uint8_t>> MapStore::read_payload(std::string_view edge_i
 Status MapStore::check_payload(std::string_view edge_id) const {
   const auto* e = find_edge(edge_id);
   if (e == nullptr) return fail(graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
-  auto r = impl_->load_payload(*e, false);
-  if (!r) return std::move(r).error();
+  return impl_->check_edge(*e);
+}
+
+Status MapStore::check_route(std::span<const std::string> edge_ids) const {
+  for (const auto& id : edge_ids) VISNAV_TRY(check_payload(id));
   return ok();
 }
+
+void MapStore::set_payload_check(const std::string& kind, PayloadBodyCheck check) {
+  if (check == nullptr) {
+    impl_->body_checks.erase(kind);
+  } else {
+    impl_->body_checks[kind] = check;
+  }
+}
+
+bool MapStore::has_payload_check(std::string_view kind) const { return impl_->body_checks.count(kind) != 0; }
 
 std::vector<std::string> MapStore::validate() const {
   std::vector<std::string> problems;
@@ -445,17 +504,7 @@ std::vector<std::string> MapStore::validate() const {
     }
   }
   for (const auto& e : graph->edges) {
-    auto r = impl_->load_payload(e, false);
-    if (!r) {
-      problems.push_back(r.error().message);
-      continue;
-    }
-    struct stat st {};
-    const std::string path = join(impl_->dir, e.payload_file);
-    if (e.payload_bytes != 0 && ::stat(path.c_str(), &st) == 0 && static_cast<std::uint64_t>(st.st_size) != e.payload_bytes) {
-      problems.push_back(path + ": size " + std::to_string(st.st_size) + " bytes differs from payload_bytes " +
-                         std::to_string(e.payload_bytes) + " recorded in " + gp);
-    }
+    if (auto st = impl_->check_edge(e); !st) problems.push_back(st.error().message);
   }
   return problems;
 }

@@ -3,6 +3,9 @@
 
 #include "visnav/bt/registry.hpp"
 #include "visnav/bt/tree.hpp"
+#include <algorithm>
+#include <filesystem>
+
 #include "visnav/runner.hpp"
 
 namespace visnav {
@@ -47,6 +50,7 @@ RunReport run_mission(const MissionOptions& options) {
   so.extra_plugin_dirs = options.extra_plugin_dirs;
   so.use_default_plugin_path = options.use_default_plugin_path;
   so.map_path = options.map_path;
+  so.create_map = options.create_map;
   so.overrides = options.overrides;
   auto session = Session::create(std::move(config).value(), so);
   if (!session) return error_report(session.error().message);
@@ -61,6 +65,28 @@ RunReport run_mission(const MissionOptions& options) {
   ro.stop_requested = options.stop_requested;
   RunReport report = run_tree(**session, *tree, ro);
   return report;  // the tree goes before the session (declared after it)
+}
+
+/// Loading a library runs its constructors: say which libraries from the config's plugin_path
+/// (not the trusted build/install dirs) `visnav validate` is about to load, and which plugin_path
+/// folders do not exist (issue 17).
+static void report_plugin_path(const std::vector<std::string>& dirs, Logger& log) {
+  namespace fs = std::filesystem;
+  for (const auto& dir : dirs) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) {
+      log.warn("validate", "plugin_path folder '" + dir + "' does not exist");
+      continue;
+    }
+    std::vector<std::string> libs;
+    for (const auto& entry : fs::directory_iterator(dir, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("libvisnav_", 0) == 0 && name.size() > 3 && name.compare(name.size() - 3, 3, ".so") == 0)
+        libs.push_back(name);
+    }
+    std::sort(libs.begin(), libs.end());
+    for (const auto& l : libs) log.warn("validate", "loading " + dir + "/" + l + " from plugin_path (its constructors run)");
+  }
 }
 
 std::vector<std::string> validate_setup(const std::string& config_file, const std::vector<std::string>& overrides,
@@ -113,10 +139,11 @@ std::vector<std::string> validate_setup(const std::string& config_file, const st
   if (use_default_plugin_path) dirs = PluginLoader::default_search_path();
   dirs.insert(dirs.end(), plugin_dirs.begin(), plugin_dirs.end());
   dirs.insert(dirs.end(), extra_plugin_dirs.begin(), extra_plugin_dirs.end());
+  StderrLogger logger(LogLevel::warn);
+  report_plugin_path(plugin_dirs, logger);
   PluginLoader loader(std::move(dirs));
   if (auto scanned = loader.scan(); !scanned) problems.push_back(scanned.error().message);
 
-  StderrLogger logger(LogLevel::warn);
   WallClock clock;
   RuntimeHost host(loader, logger, clock);
 

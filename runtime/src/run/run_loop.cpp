@@ -6,6 +6,7 @@
 #include <thread>
 #include <vector>
 
+#include "run/odometry_check.hpp"
 #include "visnav/runner.hpp"
 
 namespace visnav {
@@ -99,6 +100,9 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
   const double start_s = clock.now_s();
   std::optional<double> last_frame_s;
   std::optional<double> last_odometry_s;
+  std::optional<OdometryPlausibility> plausibility;  // (re)made when its limits change (live reload)
+  OdometryLimits plausibility_limits{-1.0, -1.0};
+  std::uint64_t late_odometry = 0;
   auto next_deadline = std::chrono::steady_clock::now();
 
   // Mission control (see runner.hpp): paused = robot held at zero, tree not ticked.
@@ -238,8 +242,21 @@ RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) 
       }
     }
     if (auto odo = robot.latest_odometry()) {
-      last_odometry_s = odo->timestamp_s;
-      bus.publish_odometry(*odo);
+      if (rs.odometry_max_speed_mps != plausibility_limits.max_speed_mps ||
+          rs.odometry_jump_slack_m != plausibility_limits.slack_m) {
+        plausibility_limits = OdometryLimits{rs.odometry_max_speed_mps, rs.odometry_jump_slack_m};
+        plausibility.emplace(plausibility_limits);  // restarts from this reading
+      }
+      // An implausible reading never reaches the tree (issue 17: spoofed odometry). A late
+      // (reordered) one is dropped: the stale-odometry check stops the robot if nothing newer comes.
+      if (auto why = plausibility->check(*odo)) {
+        if (!plausibility->last_was_late()) return finish(RunOutcome::safety_stop, "implausible odometry: " + *why);
+        if (++late_odometry <= 3 || late_odometry % 100 == 0)
+          log.warn("run", "dropped a late odometry reading (" + *why + "); " + std::to_string(late_odometry) + " so far");
+      } else {
+        last_odometry_s = odo->timestamp_s;
+        bus.publish_odometry(*odo);
+      }
     }
 
     // --- safety ---

@@ -126,10 +126,19 @@ Status Session::build(const SessionOptions& options) {
   loader_ = PluginLoader(std::move(dirs));
   VISNAV_TRY(loader_.scan());
   for (const auto& p : loader_.problems()) logger_->warn("loader", p.path + ": " + p.message);
+  for (const auto& dir : config_.plugin_path) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) logger_->warn("loader", "plugin_path folder '" + dir + "' does not exist");
+  }
 
   host_ = std::make_unique<RuntimeHost>(loader_, *logger_, wall_clock_);
   host_->set_frame_bus(&frame_bus_);
 
+  // DDS Security (issue 17) applies to every participant this process creates, the robot's and
+  // camera's included, so it is set before any plugin is made.
+  const bool secure = config_.dds.enabled && config_.dds.security.has_value();
+  if (auto st = dds::set_default_security(secure ? config_.dds.security : std::nullopt); !st)
+    return st.error().with_context("dds block at " + config_.dds.where.str());
   {
     auto made = loader_.create<Robot>(config_.robot.type, config_.robot.params, *host_, config_.robot.plugin);
     if (!made) return made.error().with_context(spec_label("robot", config_.robot));
@@ -143,6 +152,17 @@ Status Session::build(const SessionOptions& options) {
     return fail(config_.robot.where.str() + ": run.lockstep is 'on' but robot '" + config_.robot.type +
                 "' is not simulated");
   lockstep_ = sim != nullptr && config_.run.lockstep != "off";
+  const bool uses_dds = config_.dds.enabled || config_.robot.type == "dds" || config_.camera.type == "dds";
+  if (secure) {
+    logger_->info("run", "DDS Security on: identity " + config_.dds.security->identity_cert +
+                             " (authenticated, access-controlled; governance " + config_.dds.security->governance + ")");
+  } else if (uses_dds && sim == nullptr) {
+    logger_->warn("run", "DDS SECURITY IS OFF on a real robot: any participant on the domain can read telemetry, "
+                         "pause/abort the mission and publish cmd_vel/odometry. Add dds: {security: {...}} "
+                         "(visnav security init; docs/security.md)");
+  } else {
+    logger_->info("run", std::string("DDS Security off") + (uses_dds ? " (simulated robot)" : " (no DDS in use)"));
+  }
   if (lockstep_) {
     sim_clock_ = std::make_unique<SimulationClock>(*sim);
     host_->set_clock(*sim_clock_);
@@ -163,6 +183,9 @@ Status Session::build(const SessionOptions& options) {
   if (!options.map_path.empty()) {
     std::error_code ec;
     if (!fs::exists(options.map_path, ec)) {
+      // A mistyped path must not silently become an empty map (issue 17): creating is explicit.
+      if (!options.create_map)
+        return fail("--map " + options.map_path + ": no such map folder (give --create to start a new map there)");
       auto created = MapStore::create(options.map_path, fs::path(options.map_path).filename().string());
       if (!created) return created.error().with_context("--map " + options.map_path);
       logger_->info("run", "created empty map " + options.map_path);
@@ -172,6 +195,7 @@ Status Session::build(const SessionOptions& options) {
       if (!opened) return opened.error().with_context("--map " + options.map_path);
       map_.emplace(std::move(opened).value());
     }
+    loader_.install_payload_checks(*map_);  // the loader outlives the map (member order)
     host_->set_map(&*map_);
   }
 

@@ -30,7 +30,7 @@ TEST(FeatureReplayPlay, RecordedReplayPlaysBackWithTheSameDecisions) {
       "  waypoints:\n    - {at: [0, 0], kind: feature}\n    - {at: [2.5, 0.3]}\n    - {at: [5, 0]}\n");
   const std::string map = dir + "/map";
   const std::string log = dir + "/teach.log";
-  ASSERT_EQ(shell("'" + cli + "' run --config " + config + " --map " + map + " --tree " + src + "/trees/teach_feature_edge.xml" +
+  ASSERT_EQ(shell("'" + cli + "' run --config " + config + " --map " + map + " --create --tree " + src + "/trees/teach_feature_edge.xml" +
                       " --bb route_file=" + route + " --bb style=localmaps" +
                       " --bb force_kind=feature_localmaps --bb close_loop=false",
                   log),

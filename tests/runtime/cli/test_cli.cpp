@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <thread>
+#include "visnav/plugin.hpp"
 
 #include "visnav/plugin.hpp"
 
@@ -267,8 +268,10 @@ TEST_F(CliTest, SigintHaltsTheTreeStopsTheRobotAndExits130) {
 TEST_F(CliTest, PluginsListsKindTypesAbiAndPath) {
   auto o = run({"plugins"}, {fixture_env()});
   EXPECT_EQ(o.exit_code, 0) << o.err;
-  EXPECT_TRUE(contains(o.out, "robot  fixture_robot 1.0  (ABI " + std::to_string(visnav::kPluginAbiVersion) + ")  " VISNAV_TEST_FIXTURE_PLUGIN_DIR "/libvisnav_fixture_robot.so"))
-      << o.out;
+  std::string listed = "robot  fixture_robot 1.0  (ABI ";
+  listed += std::to_string(visnav::kPluginAbiVersion);
+  listed += ")  " VISNAV_TEST_FIXTURE_PLUGIN_DIR "/libvisnav_fixture_robot.so";
+  EXPECT_TRUE(contains(o.out, listed)) << o.out;
   EXPECT_TRUE(contains(o.out, "type grid_l2")) << o.out;
   EXPECT_TRUE(contains(o.out, "command visnav fixture-hello")) << o.out;
   EXPECT_TRUE(contains(o.out, "node FixtureDrive")) << o.out;

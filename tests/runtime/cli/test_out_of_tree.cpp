@@ -55,7 +55,8 @@ TEST(OutOfTreePlugin, BuildsAgainstTheInstalledSdkAndLoadsThroughConfig) {
   const fs::path out = dir / "plugins.txt";
   ASSERT_EQ(sh("VISNAV_PLUGIN_PATH='" + build.string() + "' '" + visnav + "' plugins >'" + out.string() + "'", log), 0)
       << read_file(log);
-  EXPECT_NE(read_file(out).find("nodes  example_nodes 1.0  (ABI " + std::to_string(visnav::kPluginAbiVersion) + ")"), std::string::npos) << read_file(out);
+  const std::string listed = "nodes  example_nodes 1.0  (ABI " + std::to_string(visnav::kPluginAbiVersion) + ")";
+  EXPECT_NE(read_file(out).find(listed), std::string::npos) << read_file(out);
 
   // ...and runs a mission with its node, found through the config's plugin_path alone.
   std::ofstream(dir / "setup.yaml") << "robot: {type: fixture}\n"

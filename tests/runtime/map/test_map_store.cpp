@@ -1,4 +1,6 @@
 // MapStore: round trip, ids, statistics, bytes per metre, batching, leftovers, large maps.
+#include <unistd.h>
+
 #include <cmath>
 
 #include "map_test_util.hpp"
@@ -128,14 +130,14 @@ TEST(MapStore, AssignsIdsAndRejectsBadRecordsWithoutChangingTheMap) {
 }
 
 TEST(MapStore, NodeNamesResolveToTheFirstNodeOfThatNameBeforeAndAfterReopening) {
-  // find_node_by_name uses an index (bench/replay: O(1) on a 10 km map); its contract is still
-  // "first match in insertion order", and an id wins over a name.
+  // find_node_by_name uses an index (bench/replay: O(1) on a 10 km map); an id wins over a name.
+  // Non-empty names are unique (issue 17); empty names repeat and resolve to the first node.
   TempDir tmp;
   {
     auto map = MapStore::create(tmp / "m", "m");
     ASSERT_TRUE(map);
     ASSERT_TRUE(map->add_node(node("a", "door")));
-    ASSERT_TRUE(map->add_node(node("b", "door")));
+    EXPECT_FALSE(map->add_node(node("b", "door")));  // a second "door" is refused
     ASSERT_TRUE(map->add_node(node("c", "a")));  // named like node a's id
     ASSERT_TRUE(map->add_node(node("d")));       // empty name
     ASSERT_TRUE(map->add_node(node("e")));
@@ -238,8 +240,11 @@ TEST(MapStore, LeftoverFilesAreListedButNeverTakenForEdges) {
   }
   // What an interrupted write can leave: a half-written temporary payload, a temporary graph,
   // and a complete payload whose graph update never happened.
-  test::write_bytes(tmp / "m/edges/.e1.bin.tmp.4242", make_body(20, 9));
-  test::write_text(tmp / "m/.graph.yaml.tmp.4242", "format: visnav-map\nversion: 1\nname: x\nno");
+  // Their writer is still running here (the parent process): open() leaves them in place (it
+  // deletes only those of dead writers, tested in tests/integration/security).
+  const std::string live = std::to_string(::getppid());
+  test::write_bytes(tmp / ("m/edges/.e1.bin.tmp." + live), make_body(20, 9));
+  test::write_text(tmp / ("m/.graph.yaml.tmp." + live), "format: visnav-map\nversion: 1\nname: x\nno");
   auto orphan = map_format::encode_payload("feature_segment", "e1", make_body(50, 2));
   test::write_bytes(tmp / "m/edges/e1.bin", orphan);
   auto map = MapStore::open(tmp / "m");
@@ -248,7 +253,7 @@ TEST(MapStore, LeftoverFilesAreListedButNeverTakenForEdges) {
   EXPECT_TRUE(map->validate().empty());
   const auto left = map->leftover_files();
   ASSERT_EQ(left.size(), 3u);
-  EXPECT_NE(left[0].find(".graph.yaml.tmp.4242"), std::string::npos);
+  EXPECT_NE(left[0].find(".graph.yaml.tmp." + live), std::string::npos);
   // The next edge reuses the orphan's id and replaces its file.
   auto id = map->add_edge(edge("a", "a", "path_following", 2.0), make_body(30, 3));
   ASSERT_TRUE(id);

@@ -139,8 +139,9 @@ Result<std::vector<RawSample>> parse_yaml_log(const std::string& path) {
       const std::string where = value.where().str();
       if (!value.is_scalar()) return fail(where + ": key '" + key + "': expected a number");
       VISNAV_ASSIGN(double v, csv_number(value.scalar(), where, key));
+      const std::string_view key_view = key;  // (clang 14 cannot capture a structured binding)
       auto is = [&](std::initializer_list<std::string_view> names) {
-        return std::find(names.begin(), names.end(), std::string_view(key)) != names.end();
+        return std::find(names.begin(), names.end(), key_view) != names.end();
       };
       if (is(kT)) { s.odo.timestamp_s = v; has_t = true; }
       else if (is(kX)) { s.odo.pose.x_m = v; has_x = true; }

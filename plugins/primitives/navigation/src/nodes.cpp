@@ -236,6 +236,9 @@ Status FollowRoute::start() {
     if (!child) return fail("edge kind '" + edge->kind + "' needs a child " + *node_id + " under FollowRoute");
     child_for_edge_.push_back(*child);
   }
+  // Every payload of the route is read and decoded before the robot moves (issue 17): a damaged
+  // or edited edge further on must not be found after the earlier edges have been driven.
+  VISNAV_TRY(map->check_route(route_));
   index_ = 0;
   turning_ = true;
   turn_target_.reset();

@@ -372,4 +372,14 @@ Status register_path_nodes(bt::NodeRegistry& registry, HostServices& host) {
       });
 }
 
+Status check_path_payload(std::span<const std::uint8_t> body, const EdgeRecord& /*edge*/) noexcept {
+  try {
+    auto models = decode_models(body);
+    if (!models) return std::move(models).error();
+    return ok();
+  } catch (...) {  // decode_models allocates; an allocation failure must not cross the ABI
+    return fail("path-following payload reader threw an exception");
+  }
+}
+
 }  // namespace visnav::path_following

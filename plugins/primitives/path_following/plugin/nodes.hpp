@@ -9,12 +9,20 @@
 // Thread-safety: tick thread only.
 #pragma once
 
+#include <cstdint>
+#include <span>
+
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
+#include "visnav/map.hpp"
 
 namespace visnav::path_following {
 
 /// Registers FollowPathEdge and TeachPathEdge.
 Status register_path_nodes(bt::NodeRegistry& registry, HostServices& host);
+
+/// Decodes a path_following payload body (the appearance summary) as FollowPathEdge does; the
+/// plugin's PayloadCheckEntry (map validate, route checks before moving). Never throws.
+Status check_path_payload(std::span<const std::uint8_t> body, const EdgeRecord& edge) noexcept;
 
 }  // namespace visnav::path_following

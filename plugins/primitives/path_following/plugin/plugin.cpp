@@ -30,6 +30,13 @@ const visnav::CommandEntry kCommands[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "path_following", "0.1.0",
-              "Segmentation-based path following (superpixels + Gaussian path models, seed 000 Sec. 4)",
-              nullptr, 0, &register_nodes, kCommands, 1)
+namespace {
+const visnav::PayloadCheckEntry kPayloadChecks[] = {
+    {"path_following", &visnav::path_following::check_path_payload},
+};
+}  // namespace
+
+VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(visnav::PluginKind::nodes, "path_following", "0.1.0",
+                                  "Segmentation-based path following (superpixels + Gaussian path models, seed 000 "
+                                  "Sec. 4)",
+                                  nullptr, 0, &register_nodes, kCommands, 1, kPayloadChecks, 1)

@@ -26,8 +26,18 @@ namespace {
 constexpr const char* kLabelNames[kLabelClassCount] = {"sky",  "path",  "grass", "floor", "pavement",
                                                         "ground", "wall", "fence", "tree",  "obstacle"};
 
-Result<ConfigNode> convert(const YAML::Node& node, const std::string& file) {
+// Alias bombs (issue 17): yaml-cpp keeps aliases unexpanded, so the walk counts the values it
+// produces and refuses a document that expands beyond what any world or route file needs.
+constexpr std::size_t kMaxYamlValues = 50000;  // the campus world has a few thousand
+constexpr std::size_t kMaxYamlDepth = 64;
+
+Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, std::size_t& values_left,
+                           std::size_t depth = 0) {
   SourceLocation where{file, node.Mark().line + 1};
+  if (values_left == 0 || depth > kMaxYamlDepth)
+    return fail(where.str() + ": document expands to more than " + std::to_string(kMaxYamlValues) + " values or " +
+                std::to_string(kMaxYamlDepth) + " levels (nested aliases?); refused");
+  --values_left;
   switch (node.Type()) {
     case YAML::NodeType::Null:
     case YAML::NodeType::Undefined: {
@@ -39,7 +49,7 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file) {
     case YAML::NodeType::Sequence: {
       ConfigNode n = ConfigNode::make_sequence(where);
       for (const auto& item : node) {
-        VISNAV_ASSIGN(ConfigNode child, convert(item, file));
+        VISNAV_ASSIGN(ConfigNode child, convert(item, file, values_left, depth + 1));
         n.push_back(std::move(child));
       }
       return n;
@@ -50,7 +60,7 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file) {
         const std::string key = kv.first.Scalar();
         if (n.find(key) != nullptr)
           return fail(file + ":" + std::to_string(kv.first.Mark().line + 1) + ": duplicate key '" + key + "'");
-        VISNAV_ASSIGN(ConfigNode child, convert(kv.second, file));
+        VISNAV_ASSIGN(ConfigNode child, convert(kv.second, file, values_left, depth + 1));
         n.set(key, std::move(child));
       }
       return n;
@@ -404,7 +414,8 @@ cv::Rect2d World::bounds() const {
 Result<ConfigNode> parse_yaml_text(std::string_view text, const std::string& file_label) {
   try {
     YAML::Node root = YAML::Load(std::string(text));
-    return convert(root, file_label);
+    std::size_t values_left = kMaxYamlValues;
+    return convert(root, file_label, values_left);
   } catch (const YAML::Exception& e) {
     return fail(file_label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <span>
 
 #include "visnav/bt/registry.hpp"
 #include "visnav/bt/tree.hpp"
@@ -285,6 +286,30 @@ TEST_F(NavigationNodes, FollowRouteRunsEdgesInOrderAndTurnsRelativelyAtNodes) {
   EXPECT_NEAR(robot_.odom_.distance_m, 5.0, 0.15);
   EXPECT_EQ(*tree.blackboard().get<std::string>("current_node"), c);
   EXPECT_EQ(*tree.blackboard().get<std::string>("previous_edge"), bc);
+}
+
+// Issue 17: a damaged payload further along the route fails the mission before the robot moves.
+std::string g_damaged_edge;
+Status refuse_damaged(std::span<const std::uint8_t>, const EdgeRecord& e) noexcept {
+  if (e.id == g_damaged_edge) return fail("body does not decode");
+  return ok();
+}
+
+TEST_F(NavigationNodes, FollowRouteChecksEveryPayloadOfTheRouteBeforeMoving) {
+  auto a = node("A"), b = node("B"), c = node("C");
+  auto ab = edge(a, b, 2.0, 0.0, 0.0);
+  auto bc = edge(b, c, 3.0, 0.0, 0.0);
+  g_damaged_edge = bc;
+  map_->set_payload_check("feature_segment", &refuse_damaged);
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute></Sequence>)");
+  EXPECT_EQ(run(tree), NodeStatus::failure);
+  EXPECT_TRUE(rec_.edges.empty());                 // not even the good first edge was started
+  EXPECT_NEAR(robot_.odom_.distance_m, 0.0, 1e-9);  // the robot never moved
+  map_->set_payload_check("feature_segment", nullptr);
+  auto again = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute></Sequence>)");
+  EXPECT_EQ(run(again), NodeStatus::success);  // the same route without the damage
 }
 
 TEST_F(NavigationNodes, FollowRouteCarriesTheOvershootIntoAStraightContinuation) {

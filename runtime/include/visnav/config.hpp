@@ -51,6 +51,9 @@ struct RunSettings {
   std::string telemetry_file;          ///< NavStatus per tick as JSON lines; empty = off
   std::string log_level = "info";      ///< debug, info, warn, error
   double reload_poll_s = 0.5;          ///< config file mtime poll interval (wall time); 0 = no live reload
+  int bt_max_subtree_depth = 64;       ///< deepest SubTree nesting a tree may use (bt::LoadOptions)
+  int bt_max_nodes = 100000;           ///< nodes the expanded tree may instantiate (bt::LoadOptions)
+  int bt_max_tree_depth = 1000;        ///< deepest node, counted through SubTrees (bt::LoadOptions)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RunSettings>& schema();

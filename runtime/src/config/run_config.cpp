@@ -121,7 +121,13 @@ const ParamSchema<RunSettings>& RunSettings::schema() {
           .field("log_level", &RunSettings::log_level, "lowest level logged to stderr")
           .one_of({"debug", "info", "warn", "error"})
           .field("reload_poll_s", &RunSettings::reload_poll_s, "config file change poll interval (wall time); 0 = no live reload")
-          .range(0.0, 3600.0);
+          .range(0.0, 3600.0)
+          .field("bt_max_subtree_depth", &RunSettings::bt_max_subtree_depth, "deepest SubTree nesting a behaviour tree may use")
+          .range(1, 1000)
+          .field("bt_max_nodes", &RunSettings::bt_max_nodes, "nodes a behaviour tree may instantiate, SubTrees expanded")
+          .range(1, 10000000)
+          .field("bt_max_tree_depth", &RunSettings::bt_max_tree_depth, "deepest behaviour-tree node, counted through SubTrees")
+          .range(2, 10000);
   return s;
 }
 

@@ -172,11 +172,14 @@ class NodeRegistry {
 };
 
 /// Registers the BehaviorTree.CPP v4 standard nodes:
-///  Controls: Sequence, SequenceWithMemory, ReactiveSequence, Fallback, ReactiveFallback,
-///            Parallel, IfThenElse, WhileDoElse, Switch2..Switch6.
+///  Controls: Sequence, SequenceWithMemory, ReactiveSequence, AsyncSequence, Fallback,
+///            ReactiveFallback, AsyncFallback, Parallel, ParallelAll, IfThenElse, WhileDoElse,
+///            TryCatch, Switch2..Switch6.
 ///  Decorators: Inverter, ForceSuccess, ForceFailure, Repeat, RetryUntilSuccessful, Timeout,
-///              Delay, RunOnce, KeepRunningUntilFailure.
-///  Actions: AlwaysSuccess, AlwaysFailure, SetBlackboard, Sleep.
+///              Delay, RunOnce, KeepRunningUntilFailure, Precondition, SkipUnlessUpdated,
+///              WaitValueUpdate, LoopInt, LoopDouble, LoopString, LoopBool.
+///  Actions: AlwaysSuccess, AlwaysFailure, SetBlackboard, UnsetBlackboard, Sleep, Script,
+///           WasEntryUpdated.  Conditions: ScriptCondition.
 /// Timed nodes use the tree's Clock. Fails if one of these IDs is already registered.
 Status register_builtin_nodes(NodeRegistry& registry);
 

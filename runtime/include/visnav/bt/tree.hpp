@@ -16,6 +16,10 @@
 // both directions, a literal is written into the child blackboard, _autoremap exposes every
 // (non-'_'-prefixed) parent entry under its own name.
 //
+// Loading, validation and instantiation use explicit work stacks, not recursion: XML nesting
+// is capped at 100 per file by tinyxml2, SubTree nesting, expanded node count and expanded
+// depth by LoadOptions' limits.
+//
 // Validation happens before anything is instantiated and collects every error: malformed XML,
 // missing/extra root attributes, unknown node ID, missing required port, unknown port attribute,
 // bad literal for the port type, literal given to an output port, undefined or cyclic SubTree,
@@ -75,6 +79,20 @@ struct LoadOptions {
   /// (default: current directory) and the name used in diagnostics.
   std::filesystem::path base_dir;
   std::string source_name = "<string>";
+
+  // Limits, checked at validation (before anything is instantiated) on the main tree as it
+  // would be expanded; exceeding one is a diagnostic naming the limit and the SubTree chain.
+  /// Deepest chain of nested SubTrees (the main tree is depth 0). `run.bt_max_subtree_depth`.
+  int max_subtree_depth = 64;
+  /// Nodes the expanded main tree may instantiate (SubTree nodes included). `run.bt_max_nodes`.
+  std::size_t max_nodes = 100'000;
+  /// Deepest node (root = 1) counted through SubTrees: bounds the C++ stack used by tick()
+  /// and halt(), which recurse parent -> child. `run.bt_max_tree_depth`.
+  int max_tree_depth = 1'000;
+  /// `<include path>` must be relative and stay inside this folder (after resolving "..",
+  /// symlinks included). Empty: the folder of the main file (load_tree_file) or base_dir
+  /// (load_tree_string, current directory when that is empty as well).
+  std::filesystem::path include_root;
 };
 
 class Tree;
@@ -115,6 +133,9 @@ class Tree {
   [[nodiscard]] NodeStatus status() const noexcept;
   /// Message of the last exception caught by tick_once() (empty if none).
   [[nodiscard]] const std::string& last_error() const noexcept { return last_error_; }
+  /// Last pre/post-condition script that failed to evaluate ("file:line: path: _skipIf:
+  /// column C: variable 'x' is not set"); empty if none. Such a pre-condition yields FAILURE.
+  [[nodiscard]] const std::string& last_script_error() const noexcept { return context_->last_script_error; }
   [[nodiscard]] TreeNode& root() const noexcept { return *root_; }
   /// ID of the BehaviorTree that was instantiated as the main tree.
   [[nodiscard]] const std::string& main_tree_id() const noexcept { return main_tree_id_; }

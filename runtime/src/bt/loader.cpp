@@ -238,9 +238,8 @@ class Loader {
     }
     if (is_main) root_ok_ = true;
     const char* format = root->Attribute("BTCPP_format");
-    if (format == nullptr) {
-      add(pf, root->GetLineNum(), {}, "<root> is missing the attribute BTCPP_format=\"4\"");
-    } else if (std::string_view(format) != "4") {
+    // A missing BTCPP_format is accepted (BehaviorTree.CPP only warns); a wrong one is an error.
+    if (format != nullptr && std::string_view(format) != "4") {
       add(pf, root->GetLineNum(), {}, "unsupported BTCPP_format \"" + std::string(format) + "\" (expected \"4\")");
     }
     for (const tinyxml2::XMLAttribute* a = root->FirstAttribute(); a != nullptr; a = a->Next()) {
@@ -617,8 +616,11 @@ class Loader {
       std::string out = main_tree_;
       std::size_t n = 0;
       for (const SubTreeRef* r = m.*next; r != nullptr; r = expanded[r->to_tree].*next, ++n) {
-        if (n < 6) out += " -> " + r->to_tree;
-        else if (n == 6) out += " -> ...";
+        if (n == 6) {
+          out += " -> ...";
+          break;
+        }
+        out += " -> " + r->to_tree;
       }
       return out;
     };
@@ -902,7 +904,9 @@ Status Loader::instantiate_one(Work& w, std::vector<Work>& stack) {
   const char* name_attr = el->Attribute("name");
   if (is_subtree) {
     Blackboard::Ptr child_bb = subtree_blackboard(el, w.blackboard);
-    config.blackboard = child_bb;
+    // The SubTree node belongs to the calling tree: its own conditions (_skipIf, ...) see the
+    // caller's blackboard; the called tree's nodes get child_bb.
+    config.blackboard = w.blackboard;
     const std::string name = name_attr != nullptr && *name_attr != '\0' ? std::string(name_attr) : target;
     auto node = std::make_unique<SubTreeNode>(name, config, target);
     TreeNode* raw = node.get();

@@ -177,12 +177,18 @@ class ScriptParser {
     tok_.text = src_.substr(pos_, e - pos_);
     const char* b = src_.data() + pos_;
     const char* end = src_.data() + e;
+    pos_ = e;
+    if (e < src_.size() && ident_char(src_[e])) {  // "12abc": one bad token
+      while (pos_ < src_.size() && ident_char(src_[pos_])) ++pos_;
+      tok_.kind = T::bad;
+      tok_.text = src_.substr(tok_.pos, pos_ - tok_.pos);
+      return;
+    }
     if (!real) {
       std::int64_t v = 0;
       auto r = std::from_chars(b, end, v);
       if (r.ec == std::errc{} && r.ptr == end) {
         tok_.value = ScriptValue::integer(v);
-        pos_ = e;
         return;
       }
     }
@@ -192,11 +198,6 @@ class ScriptParser {
       tok_.kind = T::bad;
     } else {
       tok_.value = ScriptValue::real(d);
-    }
-    pos_ = e;
-    if (e < src_.size() && (ident_start(src_[e]) || digit(src_[e]))) {
-      tok_.kind = T::bad;
-      tok_.text = src_.substr(tok_.pos, e + 1 - tok_.pos);
     }
   }
 

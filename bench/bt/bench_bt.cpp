@@ -3,7 +3,8 @@
 //    leaves where every node is ticked every tick (target <= 10 ns/node with the scripting
 //    engine linked in but unused), and heap allocations per tick (target 0).
 //    ns_per_node / ms_per_parse are thread CPU time; wall_* also shown.
-//  * BM_TickPerNodeWithPorts: same shape, leaves read a literal double and a blackboard int port.
+//  * BM_TickPerNodeWithPorts: same shape, leaves read a literal double and a blackboard int port
+//    (target <= 50 ns/node).
 //  * BM_TickScriptHeavy: same shape, every leaf a Script (`n += 1`) or ScriptCondition
 //    (`n < 0`); the figure for trees that use scripting everywhere (no target).
 //  * BM_TickPreconditionAttributes: same shape, every leaf an AlwaysSuccess/AlwaysFailure
@@ -43,7 +44,8 @@ namespace {
 
 using visnav::bt::NodeStatus;
 
-constexpr double kTargetNsPerNode = 10.0;
+constexpr double kTargetNsPerNode = 10.0;          // plain tree, scripting linked in but unused
+constexpr double kTargetNsPerNodeWithPorts = 50.0;  // leaves reading two ports
 constexpr double kTargetParseMs = 5.0;
 
 /// CPU time of this thread: the figure that matters on a loaded (shared) machine, where wall
@@ -118,7 +120,7 @@ visnav::bt::NodeRegistry make_registry() {
   return r;
 }
 
-void run_tick_bench(benchmark::State& state, const std::string& xml, bool with_ports, bool with_target = true) {
+void run_tick_bench(benchmark::State& state, const std::string& xml, bool with_ports, double target_ns) {
   const auto registry = make_registry();
   auto loaded = visnav::bt::load_tree_string(xml, registry);
   if (!loaded) {
@@ -147,31 +149,31 @@ void run_tick_bench(benchmark::State& state, const std::string& xml, bool with_p
   state.counters["nodes"] = nodes;
   state.counters["ns_per_node"] = ns_per_node;
   state.counters["wall_ns_per_node"] = std::chrono::duration<double, std::nano>(t1 - t0).count() / (iterations * nodes);
-  if (with_target) {
-    state.counters["target_ns"] = kTargetNsPerNode;
-    state.counters["ratio_to_target"] = ns_per_node / kTargetNsPerNode;
+  if (target_ns > 0.0) {
+    state.counters["target_ns"] = target_ns;
+    state.counters["ratio_to_target"] = ns_per_node / target_ns;
   }
   state.counters["allocs_per_tick"] = static_cast<double>(allocs) / iterations;
 }
 
 void BM_TickPerNode(benchmark::State& state) {
-  run_tick_bench(state, tick_tree_xml("AlwaysSuccess", "AlwaysFailure"), false);
+  run_tick_bench(state, tick_tree_xml("AlwaysSuccess", "AlwaysFailure"), false, kTargetNsPerNode);
 }
 BENCHMARK(BM_TickPerNode);
 
 void BM_TickPerNodeWithPorts(benchmark::State& state) {
-  run_tick_bench(state, tick_tree_xml("PortLeaf", "AlwaysFailure"), true);
+  run_tick_bench(state, tick_tree_xml("PortLeaf", "AlwaysFailure"), true, kTargetNsPerNodeWithPorts);
 }
 BENCHMARK(BM_TickPerNodeWithPorts);
 
 void BM_TickScriptHeavy(benchmark::State& state) {
-  run_tick_bench(state, tick_tree_xml("Script code=\"n += 1\"", "ScriptCondition code=\"n &lt; 0\""), false, false);
+  run_tick_bench(state, tick_tree_xml("Script code=\"n += 1\"", "ScriptCondition code=\"n &lt; 0\""), false, 0.0);
 }
 BENCHMARK(BM_TickScriptHeavy);
 
 void BM_TickPreconditionAttributes(benchmark::State& state) {
   run_tick_bench(state, tick_tree_xml("AlwaysSuccess _skipIf=\"n &lt; 0\"", "AlwaysFailure _skipIf=\"n &lt; 0\""), false,
-                 false);
+                 0.0);
 }
 BENCHMARK(BM_TickPreconditionAttributes);
 

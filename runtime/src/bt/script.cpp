@@ -516,7 +516,10 @@ class Evaluator {
       case Op::neg: {
         VISNAV_ASSIGN(ScriptValue x, eval(n.a));
         if (x.kind == Kind::real) return ScriptValue::real(-x.d);
-        if (is_int_like(x)) return ScriptValue::integer(-as_int(x));
+        if (is_int_like(x)) {
+          if (as_int(x) == std::numeric_limits<std::int64_t>::min()) return ScriptValue::real(-static_cast<double>(as_int(x)));
+          return ScriptValue::integer(-as_int(x));
+        }
         return error(n, "unary '-' needs a number, got " + describe(x));
       }
       case Op::lnot: {

@@ -7,9 +7,11 @@
 //   VISNAV_ASSIGN(visnav::bt::Tree tree, visnav::bt::load_tree_file("trees/mission.xml", registry, options));
 //   while (tree.tick_once() == visnav::bt::NodeStatus::running) { ... wait for the next frame ... }
 //
-// XML: `<root BTCPP_format="4" [main_tree_to_execute="ID"]>` with one or more
+// XML: `<root [BTCPP_format="4"] [main_tree_to_execute="ID"]>` with one or more
 // `<BehaviorTree ID="...">` (one root node each), `<include path="..."/>` (path relative to
-// the including file) and an optional `<TreeNodesModel>` (ignored). The main tree is
+// the including file, confined to LoadOptions::include_root) and an optional
+// `<TreeNodesModel>` (ignored). Scripts, pre/post-condition attributes and the typed
+// blackboard: docs/bt.md. The main tree is
 // LoadOptions::main_tree, else main_tree_to_execute, else the only BehaviorTree of the file.
 // `<SubTree ID="X" [name=".."] [_autoremap="true"] port="{parent_key}" other="literal"/>`
 // instantiates tree X with a child blackboard: `{parent_key}` remaps port <-> parent entry in
@@ -21,9 +23,11 @@
 // depth by LoadOptions' limits.
 //
 // Validation happens before anything is instantiated and collects every error: malformed XML,
-// missing/extra root attributes, unknown node ID, missing required port, unknown port attribute,
+// wrong BTCPP_format / extra root attributes, unknown node ID, missing required port, unknown port attribute,
 // bad literal for the port type, literal given to an output port, undefined or cyclic SubTree,
-// wrong number of children, include errors. Each Diagnostic names file:line and the node path
+// wrong number of children, include errors, script syntax (with its column), unknown
+// '_'-attributes, non-UTF-8 attributes, a blackboard key used with two port types, and the
+// limits below. Each Diagnostic names file:line and the node path
 // (paths in diagnostics are relative to the BehaviorTree that contains the element, e.g.
 // "MainTree/Sequence[0]/Replay").
 //

@@ -10,11 +10,13 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: visnav nodes [--xml] [--output F] [--no-builtin] [--config C] [--plugin-path DIR]...\n"
+    "usage: visnav nodes [--xml [--tree T]] [--output F] [--no-builtin] [--config C] [--plugin-path DIR]...\n"
     "\n"
     "Lists every registered node type (built-in BehaviorTree.CPP nodes and those of the nodes\n"
     "plugins found on the search path) with its kind, description and ports.\n"
     "  --xml          write a <TreeNodesModel> (loadable as a Groot2 palette) instead\n"
+    "  --tree T       with --xml: add a <SubTree> model (its remapped ports) for every\n"
+    "                 BehaviorTree of T and its includes, so Groot2 keeps SubTree ports on save\n"
     "  --output F     write to F instead of stdout\n"
     "  --no-builtin   leave out the built-in nodes\n"
     "  --config C     use C's plugin_path and nodes selection\n"
@@ -43,7 +45,7 @@ const char* direction_name(visnav::bt::PortDirection d) {
 int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
-  if (auto st = a.parse(args, {{"--xml", Opt::flag}, {"--output", Opt::value}, {"--no-builtin", Opt::flag},
+  if (auto st = a.parse(args, {{"--xml", Opt::flag}, {"--tree", Opt::value}, {"--output", Opt::value}, {"--no-builtin", Opt::flag},
                                {"--config", Opt::value}, {"--plugin-path", Opt::repeated}});
       !st)
     return visnav::cli::usage_error("nodes", st.error().message);
@@ -85,7 +87,16 @@ int run(const std::vector<std::string>& args) {
     out = &file;
   }
   if (a.has("--xml")) {
-    *out << visnav::bt::write_nodes_model(registry, builtin);
+    std::vector<visnav::bt::SubTreeModel> subtrees;
+    if (a.has("--tree")) {
+      auto models = visnav::bt::subtree_models(a.get("--tree"));
+      if (!models) {
+        std::cerr << "visnav nodes: " << models.error().message << "\n";
+        return 1;
+      }
+      subtrees = std::move(*models);
+    }
+    *out << visnav::bt::write_nodes_model(registry, builtin, subtrees);
     return out->good() ? 0 : 1;
   }
   for (const auto* m : registry.manifests()) {

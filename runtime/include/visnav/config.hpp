@@ -56,6 +56,9 @@ struct RunSettings {
   /// stops the robot (safety stop) with the reason.
   double odometry_max_speed_mps = 3.0;
   double odometry_jump_slack_m = 0.5;
+  int bt_max_subtree_depth = 64;       ///< deepest SubTree nesting a tree may use (bt::LoadOptions)
+  int bt_max_nodes = 100000;           ///< nodes the expanded tree may instantiate (bt::LoadOptions)
+  int bt_max_tree_depth = 1000;        ///< deepest node, counted through SubTrees (bt::LoadOptions)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RunSettings>& schema();

@@ -68,6 +68,13 @@ void Blackboard::set_any(std::string_view key, std::any value) {
   ++e.sequence;
 }
 
+void Blackboard::unset(std::string_view key) {
+  if (Entry* e = find_entry(key); e != nullptr && e->value.has_value()) {
+    e->value.reset();
+    ++e->sequence;
+  }
+}
+
 const std::any* Blackboard::get_any(std::string_view key) const {
   const Entry* e = find_entry(key);
   return e != nullptr && e->value.has_value() ? &e->value : nullptr;

@@ -1,4 +1,5 @@
 // Built-in control nodes (BehaviorTree.CPP v4 semantics).
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -14,7 +15,10 @@ using S = NodeStatus;
 // the node with `Stop` (children reset, restart from the first child next time), and when every
 // child has completed otherwise the node returns `Done`.
 //   Sequence = <failure, success>: until one fails.   Fallback = <success, failure>: until one succeeds.
-template <NodeStatus Stop, NodeStatus Done>
+// Async (AsyncSequence, AsyncFallback): after a child that was IDLE completes with `Done`
+// synchronously and more children remain, the node returns RUNNING (one child per tick), so
+// the rest of the tree gets a chance to run and to halt it.
+template <NodeStatus Stop, NodeStatus Done, bool Async = false>
 class OrderedControl final : public ControlNode {
  public:
   using ControlNode::ControlNode;
@@ -26,7 +30,9 @@ class OrderedControl final : public ControlNode {
     set_status(S::running);
     const std::size_t n = children_.size();
     while (current_ < n) {
-      const S s = children_[current_]->execute_tick();
+      TreeNode* child = children_[current_];
+      [[maybe_unused]] const S before = child->status();
+      const S s = child->execute_tick();
       all_skipped_ = all_skipped_ && s == S::skipped;
       if (s == S::running) return S::running;
       if (s == Stop) {
@@ -35,6 +41,9 @@ class OrderedControl final : public ControlNode {
         return Stop;
       }
       ++current_;  // Done, skipped (or idle)
+      if constexpr (Async) {
+        if (s == Done && before == S::idle && current_ < n) return S::running;
+      }
     }
     reset_children();
     current_ = 0;
@@ -51,6 +60,8 @@ class OrderedControl final : public ControlNode {
 };
 using Sequence = OrderedControl<S::failure, S::success>;
 using Fallback = OrderedControl<S::success, S::failure>;
+using AsyncSequence = OrderedControl<S::failure, S::success, true>;
+using AsyncFallback = OrderedControl<S::success, S::failure, true>;
 
 // SequenceWithMemory: like Sequence, but after a FAILURE the next tick resumes at the failed
 // child (children that already succeeded are not ticked again) until the sequence completes.
@@ -205,6 +216,134 @@ class Parallel final : public ControlNode {
   std::vector<unsigned char> completed_;
   int success_ = 0;
   int failure_ = 0;
+};
+
+// ParallelAll: ticks every child that has not completed yet until all have completed (or were
+// skipped); then FAILURE when at least max_failures failed, else SUCCESS. max_failures < 0
+// means "children + max_failures + 1" (-1: all must fail).
+class ParallelAll final : public ControlNode {
+ public:
+  using ControlNode::ControlNode;
+  static PortsList provided_ports() {
+    return {input_port<int>("max_failures", "1", "failed children that make the node fail (-1: all)")};
+  }
+
+ protected:
+  NodeStatus tick() override {
+    const auto param = get_input<int>("max_failures");
+    if (!param) return S::failure;
+    const int n = static_cast<int>(children_.size());
+    const int threshold = *param < 0 ? std::max(n + *param + 1, 0) : *param;
+    if (threshold > n) return S::failure;  // could never fail: a configuration error
+    if (status() == S::idle) {
+      completed_.assign(children_.size(), 0);
+      failures_ = 0;
+    }
+    set_status(S::running);
+    int skipped = 0;
+    int done = 0;
+    for (std::size_t i = 0; i < children_.size(); ++i) {
+      if (completed_[i] != 0) {
+        ++done;
+        continue;
+      }
+      const S s = children_[i]->execute_tick();
+      if (s == S::success || s == S::failure) {
+        completed_[i] = 1;
+        ++done;
+        if (s == S::failure) ++failures_;
+      } else if (s == S::skipped) {
+        ++skipped;
+      }
+    }
+    if (skipped == n) return S::skipped;
+    if (skipped + done >= n) {
+      const S out = failures_ >= threshold ? S::failure : S::success;
+      reset_children();
+      std::fill(completed_.begin(), completed_.end(), 0);
+      failures_ = 0;
+      return out;
+    }
+    return S::running;
+  }
+  void halt() override {
+    std::fill(completed_.begin(), completed_.end(), 0);
+    failures_ = 0;
+    ControlNode::halt();
+  }
+
+ private:
+  std::vector<unsigned char> completed_;
+  int failures_ = 0;
+};
+
+// TryCatch: children 0..N-2 are the try block, ticked as a Sequence; the last child is the
+// catch block. All try children succeed -> SUCCESS (SKIPPED if all were skipped). One fails ->
+// the try block is halted, the catch child is ticked until it completes, then FAILURE whatever
+// the catch child returned. catch_on_halt="true": halting the node while the try block runs
+// ticks the catch child once (cleanup) before halting.
+class TryCatch final : public ControlNode {
+ public:
+  using ControlNode::ControlNode;
+  static constexpr int min_children = 2;
+  static PortsList provided_ports() {
+    return {input_port<bool>("catch_on_halt", "false", "run the catch child once when halted in the try block")};
+  }
+
+ protected:
+  NodeStatus tick() override {
+    if (status() != S::running) {
+      skipped_ = 0;
+      in_catch_ = false;
+      current_ = 0;
+    }
+    set_status(S::running);
+    const std::size_t try_count = children_.size() - 1;
+    if (in_catch_) return tick_catch();
+    while (current_ < try_count) {
+      const S s = children_[current_]->execute_tick();
+      if (s == S::running) return S::running;
+      if (s == S::failure) {
+        halt_children(0);
+        in_catch_ = true;
+        current_ = 0;
+        return tick_catch();
+      }
+      if (s == S::skipped) ++skipped_;
+      ++current_;
+    }
+    const bool all_skipped = skipped_ == try_count;
+    reset_children();
+    current_ = 0;
+    skipped_ = 0;
+    return all_skipped ? S::skipped : S::success;
+  }
+  void halt() override {
+    const auto catch_on_halt = get_input<bool>("catch_on_halt");
+    if (catch_on_halt && *catch_on_halt && !in_catch_ && status() == S::running) {
+      halt_children(0);
+      TreeNode* c = children_.back();
+      if (c->execute_tick() == S::running) c->halt_node();
+    }
+    current_ = 0;
+    skipped_ = 0;
+    in_catch_ = false;
+    ControlNode::halt();
+  }
+
+ private:
+  S tick_catch() {
+    const S c = children_.back()->execute_tick();
+    if (c == S::running) return S::running;
+    reset_children();
+    in_catch_ = false;
+    current_ = 0;
+    return S::failure;
+  }
+
+  std::size_t current_ = 0;
+  std::size_t skipped_ = 0;
+  bool in_catch_ = false;
 };
 
 // IfThenElse: child 0 is the condition; SUCCESS -> tick child 1, FAILURE -> child 2 (or
@@ -379,6 +518,14 @@ Status register_builtin_controls(NodeRegistry& r) {
   VISNAV_TRY(r.register_node<ReactiveSequence>(
       "ReactiveSequence", "Sequence that re-ticks all children every tick and halts a running child when an earlier one changes"));
   VISNAV_TRY(r.register_node<Fallback>("Fallback", "Ticks children in order until one succeeds"));
+  VISNAV_TRY(r.register_node<AsyncSequence>(
+      "AsyncSequence", "Sequence that returns RUNNING after each child that succeeds at once (one child per tick)"));
+  VISNAV_TRY(r.register_node<AsyncFallback>(
+      "AsyncFallback", "Fallback that returns RUNNING after each child that fails at once (one child per tick)"));
+  VISNAV_TRY(r.register_node<ParallelAll>(
+      "ParallelAll", "Ticks all children until all complete; fails when at least max_failures failed"));
+  VISNAV_TRY(r.register_node<TryCatch>(
+      "TryCatch", "Runs children 1..N-1 as a sequence; on a failure runs the last child (catch) and fails"));
   VISNAV_TRY(r.register_node<ReactiveFallback>(
       "ReactiveFallback", "Fallback that re-ticks all children every tick and halts a running child when an earlier one succeeds"));
   VISNAV_TRY(r.register_node<Parallel>("Parallel", "Ticks all children concurrently; succeeds/fails by counts"));

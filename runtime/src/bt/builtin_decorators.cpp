@@ -95,7 +95,7 @@ struct RetryTraits {
 };
 using RetryUntilSuccessful = CountedLoop<RetryTraits>;
 
-double msec_to_s(int msec) { return static_cast<double>(msec) * 1e-3; }
+double msec_to_s(unsigned msec) { return static_cast<double>(msec) * 1e-3; }
 
 // Shared by Timeout and Delay: a timer started at the first tick (`started_`), forgotten when the
 // child completes or the node is halted.
@@ -127,19 +127,19 @@ class Timeout final : public TimedDecorator {
  public:
   using TimedDecorator::TimedDecorator;
   static PortsList provided_ports() {
-    return {input_port<int>("msec", "time limit in milliseconds, from the first tick")};
+    return {input_port<unsigned>("msec", "time limit in milliseconds, from the first tick")};
   }
 
  protected:
   NodeStatus tick() override {
-    const auto msec = get_input<int>("msec");
+    const auto msec = get_input<unsigned>("msec");
     if (!msec) return S::failure;
     if (!started_) {
       started_ = true;
       start_s_ = clock().now_s();
       set_status(S::running);
     }
-    if (*msec > 0 && clock().now_s() - start_s_ >= msec_to_s(*msec)) {
+    if (*msec > 0u && clock().now_s() - start_s_ >= msec_to_s(*msec)) {
       started_ = false;
       halt_child();
       return S::failure;
@@ -156,14 +156,14 @@ class Delay final : public TimedDecorator {
  public:
   using TimedDecorator::TimedDecorator;
   static PortsList provided_ports() {
-    return {input_port<int>("delay_msec", "delay before ticking the child, in milliseconds")};
+    return {input_port<unsigned>("delay_msec", "delay before ticking the child, in milliseconds")};
   }
 
  protected:
   NodeStatus tick() override {
     if (!started_) {
-      const auto msec = get_input<int>("delay_msec");
-      if (!msec || *msec < 0) return S::failure;
+      const auto msec = get_input<unsigned>("delay_msec");
+      if (!msec) return S::failure;
       started_ = true;
       deadline_s_ = clock().now_s() + msec_to_s(*msec);
       set_status(S::running);

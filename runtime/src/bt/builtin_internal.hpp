@@ -8,5 +8,6 @@ namespace visnav::bt::detail {
 Status register_builtin_controls(NodeRegistry& registry);
 Status register_builtin_decorators(NodeRegistry& registry);
 Status register_builtin_actions(NodeRegistry& registry);
+Status register_builtin_script_nodes(NodeRegistry& registry);
 
 }  // namespace visnav::bt::detail

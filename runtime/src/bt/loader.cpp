@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 #include <set>
 
+#include "node_scripts.hpp"
 #include "subtree_node.hpp"
 #include "visnav/bt/tree.hpp"
 
@@ -58,7 +60,63 @@ struct SubTreeRef {
   const ParsedFile* file = nullptr;
   int line = 0;
   std::string path;
+  int depth = 0;  // depth of the <SubTree> element in its tree (root node = 1)
 };
+
+// Size of one BehaviorTree without expanding its SubTrees.
+struct TreeStats {
+  std::uint64_t local_nodes = 0;  // elements (a <SubTree> element counts as its SubTree node)
+  int local_depth = 0;            // deepest element (root node = 1)
+};
+
+// The same for the tree with every SubTree expanded (computed bottom-up over the SubTree DAG).
+struct ExpandedStats {
+  std::uint64_t nodes = 0;
+  int subtree_depth = 0;
+  int depth = 0;
+  const SubTreeRef* deepest_subtree = nullptr;  // ref on the longest SubTree chain
+  const SubTreeRef* deepest_node = nullptr;     // ref on the path to the deepest node
+};
+
+// RFC 3629: no overlongs, no surrogates, nothing above U+10FFFF.
+bool valid_utf8(std::string_view text) {
+  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
+  const auto* end = p + text.size();
+  while (p < end) {
+    const unsigned c = *p;
+    if (c < 0x80) {
+      ++p;
+      continue;
+    }
+    int n = 0;
+    unsigned lo = 0x80, hi = 0xBF;
+    if (c >= 0xC2 && c <= 0xDF) {
+      n = 1;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      n = 2;
+      if (c == 0xE0) lo = 0xA0;
+      if (c == 0xED) hi = 0x9F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      n = 3;
+      if (c == 0xF0) lo = 0x90;
+      if (c == 0xF4) hi = 0x8F;
+    } else {
+      return false;
+    }
+    if (end - p <= n) return false;
+    for (int i = 1; i <= n; ++i) {
+      const unsigned b = p[i];
+      if (b < (i == 1 ? lo : 0x80u) || b > (i == 1 ? hi : 0xBFu)) return false;
+    }
+    p += n + 1;
+  }
+  return true;
+}
+
+// Editor metadata written by Groot2 and BehaviorTree.CPP: accepted and ignored.
+bool is_metadata_attribute(std::string_view name) {
+  return name == "_description" || name == "_uid" || name == "_fullpath";
+}
 
 bool is_generic_element(std::string_view name) {
   return name == "Action" || name == "Condition" || name == "Control" || name == "Decorator";
@@ -98,6 +156,8 @@ class Loader {
     pf->display = file.string();
     pf->dir = file.parent_path();
     pf->key = normalized(file);
+    include_root_ = options_.include_root.empty() ? pf->dir : options_.include_root;
+    include_root_ = normalized(std::filesystem::absolute(include_root_.empty() ? std::filesystem::path(".") : include_root_));
     const std::string path_text = file.string();
     if (pf->doc.LoadFile(path_text.c_str()) != tinyxml2::XML_SUCCESS) {
       report_xml_error(*pf);
@@ -113,6 +173,8 @@ class Loader {
     pf->display = options_.source_name;
     pf->dir = options_.base_dir;
     pf->key = pf->display;
+    include_root_ = options_.include_root.empty() ? options_.base_dir : options_.include_root;
+    include_root_ = normalized(std::filesystem::absolute(include_root_.empty() ? std::filesystem::path(".") : include_root_));
     if (pf->doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS) {
       report_xml_error(*pf);
       return;
@@ -123,8 +185,10 @@ class Loader {
   void validate() {
     if (!root_ok_) return;  // nothing to validate without a parsed main file
     for (const auto& [id, def] : trees_) validate_tree(def);
-    check_cycles();
+    const bool acyclic = check_cycles();
     resolve_main_tree();
+    if (acyclic && trees_.find(main_tree_) != trees_.end()) check_limits();
+    if (diags_.empty()) check_types();
   }
 
   std::vector<Diagnostic>& diagnostics() { return diags_; }
@@ -174,9 +238,8 @@ class Loader {
     }
     if (is_main) root_ok_ = true;
     const char* format = root->Attribute("BTCPP_format");
-    if (format == nullptr) {
-      add(pf, root->GetLineNum(), {}, "<root> is missing the attribute BTCPP_format=\"4\"");
-    } else if (std::string_view(format) != "4") {
+    // A missing BTCPP_format is accepted (BehaviorTree.CPP only warns); a wrong one is an error.
+    if (format != nullptr && std::string_view(format) != "4") {
       add(pf, root->GetLineNum(), {}, "unsupported BTCPP_format \"" + std::string(format) + "\" (expected \"4\")");
     }
     for (const tinyxml2::XMLAttribute* a = root->FirstAttribute(); a != nullptr; a = a->Next()) {
@@ -238,9 +301,22 @@ class Loader {
       add(pf, el->GetLineNum(), {}, "<include> is missing the attribute path");
       return;
     }
+    if (!valid_utf8(path)) {
+      add(pf, el->GetLineNum(), {}, "<include> path is not valid UTF-8");
+      return;
+    }
     std::filesystem::path target(path);
-    if (target.is_relative()) target = pf->dir / target;
+    if (!target.is_relative() || target.has_root_name()) {
+      add(pf, el->GetLineNum(), {}, "<include path=\"" + std::string(path) + "\">: absolute paths are not allowed (give a path relative to the including file)");
+      return;
+    }
+    target = pf->dir / target;
     const std::filesystem::path key = normalized(target);
+    const std::filesystem::path rel = normalized(std::filesystem::absolute(target)).lexically_relative(include_root_);
+    if (rel.empty() || *rel.begin() == "..") {
+      add(pf, el->GetLineNum(), {}, "<include path=\"" + std::string(path) + "\"> resolves outside the tree folder '" + include_root_.string() + "'");
+      return;
+    }
     if (std::find(include_stack_.begin(), include_stack_.end(), key) != include_stack_.end()) {
       add(pf, el->GetLineNum(), {}, "cyclic <include> of '" + std::string(path) + "'");
       return;
@@ -277,9 +353,62 @@ class Loader {
           "BehaviorTree '" + def.id + "' must have exactly one root node, has " + std::to_string(n));
       if (n == 0) return;
     }
-    std::size_t index = 0;
-    for (const XMLElement* c = def.element->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
-      validate_node(def, c, def.id, index++);
+    // Explicit stack (no recursion): frames are pushed in reverse so elements are visited in
+    // document order, parents first.
+    TreeStats& stats = stats_[def.id];
+    struct Frame {
+      const XMLElement* el;
+      std::shared_ptr<const NodePath> parent;
+      std::size_t index;
+      int depth;
+    };
+    std::vector<Frame> stack;
+    const auto top = NodePath::make(nullptr, def.id);
+    push_children(stack, def.element, top, 1);
+    while (!stack.empty()) {
+      const Frame f = std::move(stack.back());
+      stack.pop_back();
+      ++stats.local_nodes;
+      stats.local_depth = std::max(stats.local_depth, f.depth);
+      auto path = validate_node(def, f.el, f.parent, f.index, f.depth);
+      if (path) push_children(stack, f.el, path, f.depth + 1);
+    }
+  }
+
+  template <typename Stack>
+  static void push_children(Stack& stack, const XMLElement* el, const std::shared_ptr<const NodePath>& path, int depth) {
+    const std::size_t first = stack.size();
+    std::size_t i = 0;
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+      stack.push_back({c, path, i++, depth});
+    std::reverse(stack.begin() + static_cast<std::ptrdiff_t>(first), stack.end());
+  }
+
+  // Attribute names and values must be UTF-8 (tinyxml2 passes bytes through unchecked).
+  bool check_utf8(const TreeDef& def, const XMLElement* el, const std::string& path) {
+    bool ok = true;
+    for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
+      if (!valid_utf8(a->Name()) || !valid_utf8(a->Value())) {
+        add(def.file, el->GetLineNum(), path,
+            "attribute '" + std::string(valid_utf8(a->Name()) ? a->Name() : "?") + "' is not valid UTF-8");
+        ok = false;
+      }
+    }
+    return ok;
+  }
+
+  // A '_'-attribute on a node element: metadata (ignored), a pre/post-condition script, or an error.
+  void validate_underscore_attribute(const TreeDef& def, const XMLElement* el, int line, const std::string& path,
+                                     std::string_view name, std::string_view value) {
+    if (is_metadata_attribute(name)) return;
+    if (auto slot = script_slot(name)) {
+      check_script(def, line, path, *slot, el, value);
+      return;
+    }
+    add(def.file, line, path,
+        "unknown attribute '" + std::string(name) +
+            "' (pre/post conditions: _skipIf _successIf _failureIf _while _onSuccess _onFailure _onHalted _post; "
+            "metadata: _description _uid _fullpath)");
   }
 
   static std::string component(const XMLElement* el, std::string_view id, std::size_t index) {
@@ -305,22 +434,28 @@ class Loader {
       add(def.file, line, path, what + ": bad value for type " + port.type_name + ": " + parsed.error().message);
   }
 
-  void validate_node(const TreeDef& def, const XMLElement* el, const std::string& parent_path, std::size_t index) {
+  // Validates one element (not its children). Returns its path, or nullptr when its children
+  // must not be visited (SubTree, generic element without ID).
+  std::shared_ptr<const NodePath> validate_node(const TreeDef& def, const XMLElement* el,
+                                                const std::shared_ptr<const NodePath>& parent, std::size_t index,
+                                                int depth) {
     const int line = el->GetLineNum();
     std::string id = el->Name();
     if (is_generic_element(id)) {
       const char* attr = el->Attribute("ID");
       if (attr == nullptr) {
-        add(def.file, line, parent_path + "/" + component(el, id, index), "<" + id + "> is missing the attribute ID");
-        return;
+        add(def.file, line, NodePath::make(parent, component(el, id, index))->str(), "<" + id + "> is missing the attribute ID");
+        return nullptr;
       }
       id = attr;
     }
     if (id == "SubTree") {
-      validate_subtree(def, el, parent_path, index);
-      return;
+      validate_subtree(def, el, parent, index, depth);
+      return nullptr;
     }
-    const std::string path = parent_path + "/" + component(el, id, index);
+    auto node_path = NodePath::make(parent, component(el, id, index));
+    const std::string path = node_path->str();
+    if (!check_utf8(def, el, path)) return node_path;
     const NodeManifest* m = registry_.find(id);
     const std::size_t n_children = element_children_count(el);
     if (m == nullptr) {
@@ -330,16 +465,16 @@ class Loader {
         const std::string_view name = a->Name();
         if (name == "name") continue;
         if (name == "ID" && is_generic_element(el->Name())) continue;
+        if (!name.empty() && name.front() == '_') {
+          validate_underscore_attribute(def, el, line, path, name, a->Value());
+          continue;
+        }
         const PortInfo* p = m->find_port(name);
         if (p == nullptr) {
           std::string known;
           for (const PortInfo& q : m->ports) known += (known.empty() ? "" : ", ") + q.name;
-          if (!name.empty() && name.front() == '_') {
-            add(def.file, line, path, "unsupported attribute '" + std::string(name) + "' (scripting pre/post conditions are not supported)");
-          } else {
-            add(def.file, line, path, "unknown port '" + std::string(name) + "' for " + id +
-                                          (known.empty() ? " (it has no ports)" : " (ports: " + known + ")"));
-          }
+          add(def.file, line, path, "unknown port '" + std::string(name) + "' for " + id +
+                                        (known.empty() ? " (it has no ports)" : " (ports: " + known + ")"));
           continue;
         }
         validate_port_value(def, line, path, *p, a->Value(), false);
@@ -358,21 +493,21 @@ class Loader {
             std::string(kind_word(m->kind)) + " " + id + " " + children_rule(*m) + ", has " + std::to_string(n));
       }
     }
-    std::size_t i = 0;
-    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
-      validate_node(def, c, path, i++);
+    return node_path;
   }
 
-  void validate_subtree(const TreeDef& def, const XMLElement* el, const std::string& parent_path, std::size_t index) {
+  void validate_subtree(const TreeDef& def, const XMLElement* el, const std::shared_ptr<const NodePath>& parent,
+                        std::size_t index, int depth) {
     const int line = el->GetLineNum();
     const char* target = el->Attribute("ID");
-    const std::string path = parent_path + "/" + component(el, target != nullptr ? target : "SubTree", index);
+    const std::string path = NodePath::make(parent, component(el, target != nullptr ? target : "SubTree", index))->str();
+    if (!check_utf8(def, el, path)) return;
     if (target == nullptr || *target == '\0') {
       add(def.file, line, path, "<SubTree> is missing the attribute ID");
     } else if (trees_.find(target) == trees_.end()) {
       add(def.file, line, path, "undefined SubTree '" + std::string(target) + "'");
     } else {
-      refs_.push_back(SubTreeRef{def.id, target, def.file, line, path});
+      refs_.push_back(SubTreeRef{def.id, target, def.file, line, path, depth});
     }
     for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
       const std::string_view name = a->Name();
@@ -383,7 +518,7 @@ class Loader {
         continue;
       }
       if (!name.empty() && name.front() == '_') {
-        add(def.file, line, path, "unsupported attribute '" + std::string(name) + "' on <SubTree>");
+        validate_underscore_attribute(def, el, line, path, name, a->Value());
         continue;
       }
       const std::string_view v = detail::trim(a->Value());
@@ -393,34 +528,119 @@ class Loader {
     if (element_children_count(el) != 0) add(def.file, line, path, "<SubTree> cannot have children");
   }
 
-  void check_cycles() {
+  // Iterative DFS over the SubTree graph (a chain of 50,000 SubTrees must not exhaust the C++
+  // stack). Reports every cycle edge once; on success fills postorder_ (callees first).
+  bool check_cycles() {
     std::map<std::string, std::vector<const SubTreeRef*>, std::less<>> edges;
     for (const SubTreeRef& r : refs_) edges[r.from_tree].push_back(&r);
     std::map<std::string, int, std::less<>> state;  // 0 unvisited, 1 on stack, 2 done
-    std::vector<std::string> stack;
     std::set<const SubTreeRef*> reported;
-    std::function<void(const std::string&)> dfs = [&](const std::string& tree) {
+    struct Frame {
+      const std::string* tree;
+      const std::vector<const SubTreeRef*>* out;
+      std::size_t next;
+    };
+    static const std::vector<const SubTreeRef*> none;
+    std::vector<Frame> stack;
+    auto push = [&](const std::string& tree) {
       state[tree] = 1;
-      stack.push_back(tree);
-      for (const SubTreeRef* r : edges[tree]) {
-        const int s = state[r->to_tree];
-        if (s == 1) {
+      auto it = edges.find(tree);
+      stack.push_back(Frame{&tree, it != edges.end() ? &it->second : &none, 0});
+    };
+    bool acyclic = true;
+    for (const auto& [id, def] : trees_) {
+      if (state[id] != 0) continue;
+      push(id);
+      while (!stack.empty()) {
+        Frame& f = stack.back();
+        if (f.next == f.out->size()) {
+          state[*f.tree] = 2;
+          postorder_.push_back(f.tree);
+          stack.pop_back();
+          continue;
+        }
+        const SubTreeRef* r = (*f.out)[f.next++];
+        const int st = state[r->to_tree];
+        if (st == 1) {
+          acyclic = false;
           if (reported.insert(r).second) {
             std::string cycle;
-            auto it = std::find(stack.begin(), stack.end(), r->to_tree);
-            for (; it != stack.end(); ++it) cycle += *it + " -> ";
+            auto it = std::find_if(stack.begin(), stack.end(), [&](const Frame& x) { return *x.tree == r->to_tree; });
+            std::size_t shown = 0;
+            for (; it != stack.end(); ++it, ++shown) {
+              if (shown == 8 && stack.end() - it > 4) {  // keep the message short for long cycles
+                cycle += "... -> ";
+                it = stack.end() - 4;
+              }
+              cycle += *it->tree + " -> ";
+            }
             cycle += r->to_tree;
             add(r->file, r->line, r->path, "cyclic SubTree: " + cycle);
           }
-        } else if (s == 0) {
-          dfs(r->to_tree);
+        } else if (st == 0) {
+          push(trees_.find(r->to_tree)->first);
         }
       }
-      stack.pop_back();
-      state[tree] = 2;
+    }
+    return acyclic;
+  }
+
+  // Expanded size of the main tree, bottom-up over the (acyclic) SubTree graph.
+  void check_limits() {
+    std::map<std::string, std::vector<const SubTreeRef*>, std::less<>> edges;
+    for (const SubTreeRef& r : refs_) edges[r.from_tree].push_back(&r);
+    constexpr std::uint64_t cap = std::uint64_t{1} << 62;  // saturate: 2 SubTrees per level overflow fast
+    std::map<std::string, ExpandedStats, std::less<>> expanded;
+    for (const std::string* tree : postorder_) {
+      const TreeStats& local = stats_[*tree];
+      ExpandedStats e;
+      e.nodes = local.local_nodes;
+      e.depth = local.local_depth;
+      for (const SubTreeRef* r : edges[*tree]) {
+        const ExpandedStats& sub = expanded[r->to_tree];
+        e.nodes = std::min(cap, e.nodes + sub.nodes);
+        if (sub.subtree_depth + 1 > e.subtree_depth) {
+          e.subtree_depth = sub.subtree_depth + 1;
+          e.deepest_subtree = r;
+        }
+        if (r->depth + sub.depth > e.depth) {
+          e.depth = r->depth + sub.depth;
+          e.deepest_node = r;
+        }
+      }
+      expanded[*tree] = e;
+    }
+    const ExpandedStats& m = expanded[main_tree_];
+    const TreeDef& def = trees_.at(main_tree_);
+    auto chain = [&](const SubTreeRef* ExpandedStats::*next) {
+      std::string out = main_tree_;
+      std::size_t n = 0;
+      for (const SubTreeRef* r = m.*next; r != nullptr; r = expanded[r->to_tree].*next, ++n) {
+        if (n == 6) {
+          out += " -> ...";
+          break;
+        }
+        out += " -> " + r->to_tree;
+      }
+      return out;
     };
-    for (const auto& [id, def] : trees_)
-      if (state[id] == 0) dfs(id);
+    if (m.subtree_depth > options_.max_subtree_depth) {
+      const SubTreeRef* r = m.deepest_subtree;
+      add(r->file, r->line, r->path,
+          "SubTrees nest " + std::to_string(m.subtree_depth) + " deep, more than the limit " +
+              std::to_string(options_.max_subtree_depth) + " (run.bt_max_subtree_depth): " + chain(&ExpandedStats::deepest_subtree));
+    }
+    if (m.nodes > options_.max_nodes) {
+      add(def.file, def.element->GetLineNum(), main_tree_,
+          "the expanded tree would have " + (m.nodes >= cap ? std::string("more than 4e18") : std::to_string(m.nodes)) +
+              " nodes, more than the limit " + std::to_string(options_.max_nodes) + " (run.bt_max_nodes)");
+    }
+    if (m.depth > options_.max_tree_depth) {
+      const SubTreeRef* r = m.deepest_node;
+      add(r != nullptr ? r->file : def.file, r != nullptr ? r->line : def.element->GetLineNum(), r != nullptr ? r->path : main_tree_,
+          "the expanded tree is " + std::to_string(m.depth) + " nodes deep, more than the limit " +
+              std::to_string(options_.max_tree_depth) + " (run.bt_max_tree_depth): " + chain(&ExpandedStats::deepest_node));
+    }
   }
 
   void resolve_main_tree() {
@@ -448,12 +668,117 @@ class Loader {
     }
   }
 
+  // ---- typed blackboard ------------------------------------------------------------------
+
+  // The child blackboard of a <SubTree> element: remapped ports, literals, _autoremap.
+  static Blackboard::Ptr subtree_blackboard(const XMLElement* el, const Blackboard::Ptr& parent) {
+    Blackboard::Ptr child_bb = Blackboard::create(parent);
+    for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
+      const std::string_view name = a->Name();
+      if (name == "ID" || name == "name") continue;
+      if (name == "_autoremap") {
+        child_bb->enable_auto_remapping(*detail::parse_bool(a->Value()));
+        continue;
+      }
+      if (!name.empty() && name.front() == '_') continue;  // conditions and metadata
+      if (auto key = blackboard_key(a->Value())) {
+        child_bb->add_subtree_remapping(std::string(name), *key == "=" ? std::string(name) : std::string(*key));
+      } else {
+        child_bb->set(name, std::string(a->Value()));
+      }
+    }
+    return child_bb;
+  }
+
+  // The blackboard key a port of element `el` references, or nullopt (literal / not given).
+  static std::optional<std::string> port_key(const XMLElement* el, const PortInfo& p) {
+    const char* attr = el->Attribute(p.name.c_str());
+    const std::string_view text = attr != nullptr ? std::string_view(attr) : p.default_value ? std::string_view(*p.default_value) : std::string_view();
+    auto key = blackboard_key(text);
+    if (!key) return std::nullopt;
+    return *key == "=" ? p.name : std::string(*key);
+  }
+
+  // Declares the type of the entry `key` by port `p` (first declaration wins). Returns the
+  // entry when it was already declared with another type.
+  static Blackboard::Entry* declare(Blackboard& bb, const std::string& key, const PortInfo& p) {
+    if (!p.strongly_typed) return nullptr;
+    Blackboard::Entry& e = bb.get_or_create_entry(key);
+    if (e.type == std::type_index(typeid(void))) {
+      e.type = p.type;
+      e.type_name = p.type_name;
+      e.parse = p.parse;
+      return nullptr;
+    }
+    return e.type == p.type ? nullptr : &e;
+  }
+
+  // Walks the expanded main tree (bounded by check_limits) with scratch blackboards and reports
+  // every blackboard key used with two different port types, as BehaviorTree.CPP does at load.
+  void check_types() {
+    struct Item {
+      const TreeDef* def;
+      const XMLElement* el;
+      std::shared_ptr<const NodePath> parent;
+      std::size_t index;
+      Blackboard::Ptr bb;
+    };
+    std::map<const Blackboard::Entry*, std::string> first;  // where each entry was declared
+    std::set<std::pair<const XMLElement*, std::string>> reported;
+    const TreeDef& main = trees_.at(main_tree_);
+    std::vector<Item> stack{Item{&main, main.element->FirstChildElement(), NodePath::make(nullptr, main.id), 0, Blackboard::create()}};
+    while (!stack.empty()) {
+      Item it = std::move(stack.back());
+      stack.pop_back();
+      std::string id = it.el->Name();
+      if (is_generic_element(id)) id = it.el->Attribute("ID");
+      if (id == "SubTree") {
+        const std::string target = it.el->Attribute("ID");
+        auto path = NodePath::make(it.parent, component(it.el, target, it.index));
+        const TreeDef& sub = trees_.at(target);
+        stack.push_back(Item{&sub, sub.element->FirstChildElement(), std::move(path), 0, subtree_blackboard(it.el, it.bb)});
+        continue;
+      }
+      auto path = NodePath::make(it.parent, component(it.el, id, it.index));
+      if (const NodeManifest* m = registry_.find(id)) {
+        for (const PortInfo& p : m->ports) {
+          auto key = port_key(it.el, p);
+          if (!key) continue;
+          if (Blackboard::Entry* e = declare(*it.bb, *key, p)) {
+            if (!reported.insert({it.el, p.name}).second) continue;
+            add(it.def->file, it.el->GetLineNum(), path->str(),
+                "port '" + p.name + "' uses blackboard key '" + *key + "' as " + p.type_name + ", but it was declared " +
+                    e->type_name + " by " + first[e]);
+          } else if (p.strongly_typed) {
+            Blackboard::Entry* declared = it.bb->find_entry(*key);
+            if (declared != nullptr && first.find(declared) == first.end())
+              first[declared] = "port '" + p.name + "' of " + path->str() + " (" + it.def->file->display + ":" +
+                         std::to_string(it.el->GetLineNum()) + ")";
+          }
+        }
+      }
+      const std::size_t base = stack.size();
+      std::size_t i = 0;
+      for (const XMLElement* c = it.el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+        stack.push_back(Item{it.def, c, path, i++, it.bb});
+      std::reverse(stack.begin() + static_cast<std::ptrdiff_t>(base), stack.end());
+    }
+  }
+
   // ---- instantiation ---------------------------------------------------------------------
 
-  Result<TreeNode*> instantiate(const TreeDef& def, const XMLElement* el, const std::string& parent_path,
-                                std::size_t index, const Blackboard::Ptr& blackboard);
-  Result<TreeNode*> instantiate_subtree(const TreeDef& def, const XMLElement* el, const std::string& parent_path,
-                                        std::size_t index, const Blackboard::Ptr& blackboard);
+  // One element to instantiate: its tree, its parent node (nullptr for the root) and scope.
+  struct Work {
+    const TreeDef* def;
+    const XMLElement* el;
+    TreeNode* parent;
+    std::shared_ptr<const NodePath> parent_path;
+    std::size_t index;
+    Blackboard::Ptr blackboard;
+  };
+  Result<TreeNode*> instantiate_main();
+  Status instantiate_one(Work& w, std::vector<Work>& stack);
+  Status attach(const Work& w, TreeNode* node);
 
   std::vector<PortBinding> bindings(const NodeManifest& m, const XMLElement* el) const {
     std::vector<PortBinding> out;
@@ -487,6 +812,24 @@ class Loader {
     return out;
   }
 
+  // Parses a condition script once; instances of the element share the parsed scripts.
+  void check_script(const TreeDef& def, int line, const std::string& path, ScriptSlot slot, const XMLElement* el,
+                    std::string_view text) {
+    auto script = Script::parse(text);
+    if (!script) {
+      add(def.file, line, path, std::string(script_attribute(slot)) + ": script error at " + script.error().message +
+                                    " in '" + std::string(text) + "'");
+      return;
+    }
+    auto& entry = scripts_[el];
+    if (!entry) entry = std::make_shared<NodeScripts>();
+    entry->slots[static_cast<std::size_t>(slot)] = std::make_shared<const Script>(std::move(*script));
+  }
+  std::shared_ptr<const NodeScripts> node_scripts(const XMLElement* el) const {
+    auto it = scripts_.find(el);
+    return it == scripts_.end() ? nullptr : it->second;
+  }
+
   const NodeRegistry& registry_;
   const LoadOptions& options_;
   std::vector<Diagnostic> diags_;
@@ -495,6 +838,10 @@ class Loader {
   std::map<std::string, TreeDef, std::less<>> trees_;
   std::vector<std::string> main_file_trees_;
   std::vector<SubTreeRef> refs_;
+  std::map<std::string, TreeStats, std::less<>> stats_;
+  std::vector<const std::string*> postorder_;  // trees, SubTree callees before callers
+  std::filesystem::path include_root_;
+  std::map<const XMLElement*, std::shared_ptr<NodeScripts>> scripts_;
   std::string main_tree_attr_;
   int main_tree_line_ = 0;
   int root_line_ = 0;
@@ -504,6 +851,7 @@ class Loader {
   // build state
   TreeContext* context_ = nullptr;
   std::vector<std::unique_ptr<TreeNode>>* nodes_ = nullptr;
+  Blackboard::Ptr root_blackboard_;
 };
 
 }  // namespace
@@ -522,83 +870,101 @@ struct TreeBuilder {
 
 namespace {
 
-Result<TreeNode*> Loader::instantiate(const TreeDef& def, const XMLElement* el, const std::string& parent_path,
-                                      std::size_t index, const Blackboard::Ptr& blackboard) {
+Status Loader::attach(const Work& w, TreeNode* node) {
+  if (w.parent == nullptr) return ok();
+  if (auto* control = dynamic_cast<ControlNode*>(w.parent)) {
+    control->add_child(node);
+  } else if (auto* decorator = dynamic_cast<DecoratorNode*>(w.parent)) {
+    decorator->set_child(node);
+  } else {
+    return fail(w.parent->where().str() + ": " + w.parent->path() + ": node type " + w.parent->registration_id() +
+                " is registered with children but its class cannot hold children");
+  }
+  return ok();
+}
+
+// Creates the node of one element, attaches it to its parent and pushes its children (or, for
+// a SubTree, the root of the called tree) onto `stack`.
+Status Loader::instantiate_one(Work& w, std::vector<Work>& stack) {
+  if (nodes_->size() >= options_.max_nodes)  // validation bounds this; keep the guard cheap
+    return fail("the tree has more than " + std::to_string(options_.max_nodes) + " nodes (run.bt_max_nodes)");
+  const XMLElement* el = w.el;
+  const TreeDef& def = *w.def;
   std::string id = el->Name();
   if (is_generic_element(id)) id = el->Attribute("ID");
-  if (id == "SubTree") return instantiate_subtree(def, el, parent_path, index, blackboard);
-  std::shared_ptr<const NodeManifest> m = registry_.find_shared(id);
-  const std::string path = parent_path + "/" + component(el, id, index);
+  const bool is_subtree = id == "SubTree";
+  const std::string target = is_subtree ? std::string(el->Attribute("ID")) : std::string();
+  auto path = NodePath::make(w.parent_path, component(el, is_subtree ? target : id, w.index));
   NodeConfig config;
   config.id = id;
   config.path = path;
   config.where = SourceLocation{def.file->display, el->GetLineNum()};
-  config.blackboard = blackboard;
-  config.ports = bindings(*m, el);
-  config.manifest = m;
   config.context = context_;
+  config.scripts = node_scripts(el);
   const char* name_attr = el->Attribute("name");
+  if (is_subtree) {
+    Blackboard::Ptr child_bb = subtree_blackboard(el, w.blackboard);
+    // The SubTree node belongs to the calling tree: its own conditions (_skipIf, ...) see the
+    // caller's blackboard; the called tree's nodes get child_bb.
+    config.blackboard = w.blackboard;
+    const std::string name = name_attr != nullptr && *name_attr != '\0' ? std::string(name_attr) : target;
+    auto node = std::make_unique<SubTreeNode>(name, config, target);
+    TreeNode* raw = node.get();
+    nodes_->push_back(std::move(node));
+    VISNAV_TRY(attach(w, raw));
+    const TreeDef& sub = trees_.at(target);
+    stack.push_back(Work{&sub, sub.element->FirstChildElement(), raw, std::move(path), 0, std::move(child_bb)});
+    return ok();
+  }
+  std::shared_ptr<const NodeManifest> m = registry_.find_shared(id);
+  config.blackboard = w.blackboard;
+  config.ports = bindings(*m, el);
+  for (const PortInfo& p : m->ports)  // typed blackboard (conflicts were validation errors)
+    if (auto key = port_key(el, p)) (void)declare(*w.blackboard, *key, p);
+  config.manifest = m;
   const std::string name = name_attr != nullptr && *name_attr != '\0' ? std::string(name_attr) : id;
   auto made = registry_.instantiate(id, name, config);
-  if (!made) return made.error().with_context(def.file->display + ":" + std::to_string(el->GetLineNum()) + ": " + path);
+  if (!made) return made.error().with_context(def.file->display + ":" + std::to_string(el->GetLineNum()) + ": " + path->str());
   TreeNode* node = made->get();
   nodes_->push_back(std::move(*made));
-  std::size_t i = 0;
-  for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
-    VISNAV_ASSIGN(TreeNode * child, instantiate(def, c, path, i++, blackboard));
-    if (auto* control = dynamic_cast<ControlNode*>(node)) {
-      control->add_child(child);
-    } else if (auto* decorator = dynamic_cast<DecoratorNode*>(node)) {
-      decorator->set_child(child);
-    } else {
-      return fail(def.file->display + ":" + std::to_string(el->GetLineNum()) + ": " + path + ": node type " + id +
-                  " is registered as a " + kind_word(m->kind) + " but its class cannot hold children");
-    }
+  VISNAV_TRY(attach(w, node));
+  if (el->FirstChildElement() != nullptr && dynamic_cast<ControlNode*>(node) == nullptr &&
+      dynamic_cast<DecoratorNode*>(node) == nullptr) {
+    return fail(def.file->display + ":" + std::to_string(el->GetLineNum()) + ": " + path->str() + ": node type " + id +
+                " is registered as a " + kind_word(m->kind) + " but its class cannot hold children");
   }
-  return node;
+  const std::size_t first = stack.size();
+  std::size_t i = 0;
+  for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+    stack.push_back(Work{w.def, c, node, path, i++, w.blackboard});
+  std::reverse(stack.begin() + static_cast<std::ptrdiff_t>(first), stack.end());  // document order
+  return ok();
 }
 
-Result<TreeNode*> Loader::instantiate_subtree(const TreeDef& def, const XMLElement* el, const std::string& parent_path,
-                                              std::size_t index, const Blackboard::Ptr& blackboard) {
-  const std::string target = el->Attribute("ID");
-  const std::string path = parent_path + "/" + component(el, target, index);
-  const TreeDef& sub = trees_.at(target);
-  Blackboard::Ptr child_bb = Blackboard::create(blackboard);
-  for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
-    const std::string_view name = a->Name();
-    if (name == "ID" || name == "name") continue;
-    if (name == "_autoremap") {
-      child_bb->enable_auto_remapping(*detail::parse_bool(a->Value()));
-      continue;
-    }
-    if (auto key = blackboard_key(a->Value())) {
-      child_bb->add_subtree_remapping(std::string(name), *key == "=" ? std::string(name) : std::string(*key));
-    } else {
-      child_bb->set(name, std::string(a->Value()));
-    }
+Result<TreeNode*> Loader::instantiate_main() {
+  const TreeDef& def = trees_.at(main_tree_);
+  std::vector<Work> stack;
+  stack.push_back(Work{&def, def.element->FirstChildElement(), nullptr, NodePath::make(nullptr, def.id), 0, root_blackboard_});
+  while (!stack.empty()) {
+    Work w = std::move(stack.back());
+    stack.pop_back();
+    VISNAV_TRY(instantiate_one(w, stack));
   }
-  NodeConfig config;
-  config.id = "SubTree";
-  config.path = path;
-  config.where = SourceLocation{def.file->display, el->GetLineNum()};
-  config.blackboard = child_bb;
-  config.context = context_;
-  const char* name_attr = el->Attribute("name");
-  const std::string name = name_attr != nullptr && *name_attr != '\0' ? std::string(name_attr) : target;
-  auto node = std::make_unique<SubTreeNode>(name, config, target);
-  SubTreeNode* raw = node.get();
-  nodes_->push_back(std::move(node));
-  VISNAV_ASSIGN(TreeNode * child, instantiate(sub, sub.element->FirstChildElement(), path, 0, child_bb));
-  raw->set_child(child);
-  return static_cast<TreeNode*>(raw);
+  return nodes_->empty() ? nullptr : nodes_->front().get();
 }
 
 Result<Tree> Loader::build(std::unique_ptr<TreeContext> context, Blackboard::Ptr blackboard) {
   std::vector<std::unique_ptr<TreeNode>> nodes;
+  struct ReverseDestroy {  // on failure too: children before parents (see Tree::~Tree)
+    std::vector<std::unique_ptr<TreeNode>>& n;
+    ~ReverseDestroy() {
+      while (!n.empty()) n.pop_back();
+    }
+  } guard{nodes};
   context_ = context.get();
   nodes_ = &nodes;
-  const TreeDef& def = trees_.at(main_tree_);
-  VISNAV_ASSIGN(TreeNode * root, instantiate(def, def.element->FirstChildElement(), def.id, 0, blackboard));
+  root_blackboard_ = blackboard;
+  VISNAV_ASSIGN(TreeNode * root, instantiate_main());
   Tree tree = TreeBuilder::make();
   TreeBuilder::assign(tree, std::move(context), std::move(nodes), root, std::move(blackboard), main_tree_);
   return tree;

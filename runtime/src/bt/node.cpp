@@ -29,12 +29,33 @@ const Clock& fallback_clock() noexcept {
 
 }  // namespace detail
 
+std::string NodePath::str() const {
+  std::size_t length = 0;
+  std::size_t depth = 0;
+  for (const NodePath* p = this; p != nullptr; p = p->parent.get()) {
+    length += p->component.size() + 1;
+    ++depth;
+  }
+  std::string out(length > 0 ? length - 1 : 0, '/');
+  std::size_t end = out.size();
+  for (const NodePath* p = this; p != nullptr; p = p->parent.get()) {
+    end -= p->component.size();
+    out.replace(end, p->component.size(), p->component);
+    if (end > 0) --end;  // the '/' separator already in place
+  }
+  return out;
+}
+
+std::shared_ptr<const NodePath> NodePath::make(std::shared_ptr<const NodePath> parent, std::string component) {
+  return std::make_shared<const NodePath>(NodePath{std::move(parent), std::move(component)});
+}
+
 TreeNode::TreeNode(const std::string& name, const NodeConfig& config) : name_(name), config_(config) {
   if (!config_.blackboard) config_.blackboard = Blackboard::create();
 }
 
 Error TreeNode::port_error(std::string_view port_name, std::string_view message) const {
-  std::string where = config_.path.empty() ? name_ : config_.path;
+  std::string where = config_.path ? config_.path->str() : name_;
   return Error{where + ": port '" + std::string(port_name) + "' " + std::string(message)};
 }
 

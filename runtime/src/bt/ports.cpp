@@ -17,6 +17,13 @@ const char* to_string(NodeStatus status) noexcept {
   return "UNKNOWN";
 }
 
+Result<NodeStatus> PortConverter<NodeStatus>::parse(std::string_view text, const EnumTables*) {
+  const std::string_view t = detail::trim(text);
+  for (NodeStatus s : {NodeStatus::idle, NodeStatus::running, NodeStatus::success, NodeStatus::failure, NodeStatus::skipped})
+    if (t == to_string(s)) return s;
+  return fail(detail::quoted(text) + " is not a status (SUCCESS, FAILURE, SKIPPED, RUNNING, IDLE)");
+}
+
 const char* to_string(NodeKind kind) noexcept {
   switch (kind) {
     case NodeKind::action: return "Action";
@@ -97,6 +104,19 @@ Result<int> parse_int(std::string_view text) {
   if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
     return fail(quoted(text) + " is out of the int range");
   return static_cast<int>(v);
+}
+
+Result<unsigned> parse_unsigned(std::string_view text) {
+  std::string_view t = trim(text);
+  const char* b = t.data();
+  const char* e = b + t.size();
+  if (b != e && *b == '+') ++b;
+  if (b != e && *b == '-') return fail(quoted(text) + " is negative (the port is unsigned)");
+  unsigned long long v = 0;
+  auto [p, ec] = std::from_chars(b, e, v);
+  if (b == e || ec != std::errc{} || p != e) return fail(quoted(text) + " is not an unsigned integer");
+  if (v > std::numeric_limits<unsigned>::max()) return fail(quoted(text) + " is out of the unsigned int range");
+  return static_cast<unsigned>(v);
 }
 
 Result<double> parse_double(std::string_view text) {

@@ -4,6 +4,8 @@
 #include <tinyxml2.h>
 
 #include <algorithm>
+#include <map>
+#include <set>
 
 namespace visnav::bt {
 
@@ -92,6 +94,61 @@ Result<std::unique_ptr<TreeNode>> NodeRegistry::instantiate(std::string_view id,
 }
 
 std::string write_nodes_model(const NodeRegistry& registry, bool include_builtin) {
+  return write_nodes_model(registry, include_builtin, {});
+}
+
+Result<std::vector<SubTreeModel>> subtree_models(const std::filesystem::path& tree_file) {
+  std::map<std::string, std::set<std::string>, std::less<>> ports;  // SubTree ID -> attribute names
+  std::set<std::string, std::less<>> defined;
+  std::vector<std::filesystem::path> work{tree_file};
+  std::set<std::filesystem::path> seen;
+  while (!work.empty()) {  // files, breadth first; includes are followed once each
+    const std::filesystem::path file = work.back();
+    work.pop_back();
+    std::error_code ec;
+    const auto key = std::filesystem::weakly_canonical(file, ec);
+    if (!seen.insert(ec ? file : key).second) continue;
+    tinyxml2::XMLDocument doc;
+    if (doc.LoadFile(file.string().c_str()) != tinyxml2::XML_SUCCESS)
+      return fail(file.string() + ": cannot read the tree (" + std::string(doc.ErrorName()) + ")");
+    const tinyxml2::XMLElement* root = doc.RootElement();
+    if (root == nullptr) return fail(file.string() + ": no root element");
+    std::vector<const tinyxml2::XMLElement*> stack;
+    for (const auto* el = root->FirstChildElement(); el != nullptr; el = el->NextSiblingElement()) {
+      const std::string_view name = el->Name();
+      if (name == "include") {
+        if (const char* path = el->Attribute("path")) work.push_back(file.parent_path() / path);
+      } else if (name == "BehaviorTree") {
+        if (const char* id = el->Attribute("ID")) defined.insert(id);
+        stack.push_back(el);
+      }
+    }
+    while (!stack.empty()) {
+      const tinyxml2::XMLElement* el = stack.back();
+      stack.pop_back();
+      if (std::string_view(el->Name()) == "SubTree") {
+        if (const char* id = el->Attribute("ID")) {
+          auto& set = ports[id];
+          for (const auto* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
+            const std::string_view n = a->Name();
+            if (n != "ID" && n != "name" && !n.empty() && n.front() != '_') set.emplace(n);
+          }
+        }
+      }
+      for (const auto* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) stack.push_back(c);
+    }
+  }
+  std::vector<SubTreeModel> out;
+  for (const std::string& id : defined) {
+    SubTreeModel m{id, {}};
+    if (auto it = ports.find(id); it != ports.end()) m.ports.assign(it->second.begin(), it->second.end());
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+std::string write_nodes_model(const NodeRegistry& registry, bool include_builtin,
+                              const std::vector<SubTreeModel>& subtrees) {
   tinyxml2::XMLDocument doc;
   doc.InsertEndChild(doc.NewDeclaration());
   tinyxml2::XMLElement* root = doc.NewElement("root");
@@ -120,6 +177,16 @@ std::string write_nodes_model(const NodeRegistry& registry, bool include_builtin
       tinyxml2::XMLElement* d = doc.NewElement("description");
       d->SetText(m->description.c_str());
       el->InsertEndChild(d);
+    }
+    model->InsertEndChild(el);
+  }
+  for (const SubTreeModel& st : subtrees) {
+    tinyxml2::XMLElement* el = doc.NewElement("SubTree");
+    el->SetAttribute("ID", st.id.c_str());
+    for (const std::string& port : st.ports) {
+      tinyxml2::XMLElement* pe = doc.NewElement("inout_port");
+      pe->SetAttribute("name", port.c_str());
+      el->InsertEndChild(pe);
     }
     model->InsertEndChild(el);
   }

@@ -8,6 +8,14 @@ namespace visnav::bt {
 
 Tree::Tree() = default;
 
+namespace {
+// Children are created after their parents, so destroying from the back frees every NodePath
+// while its parent's node still holds the parent path: no release chain as deep as the tree.
+void destroy_nodes(std::vector<std::unique_ptr<TreeNode>>& nodes) {
+  while (!nodes.empty()) nodes.pop_back();
+}
+}  // namespace
+
 Tree::Tree(Tree&& other) noexcept
     : context_(std::move(other.context_)),
       nodes_(std::move(other.nodes_)),
@@ -19,7 +27,7 @@ Tree::Tree(Tree&& other) noexcept
 Tree& Tree::operator=(Tree&& other) noexcept {
   if (this != &other) {
     if (root_ != nullptr && root_->status() == NodeStatus::running) root_->halt_node();
-    nodes_.clear();
+    destroy_nodes(nodes_);
     context_ = std::move(other.context_);
     nodes_ = std::move(other.nodes_);
     root_ = std::exchange(other.root_, nullptr);
@@ -32,7 +40,7 @@ Tree& Tree::operator=(Tree&& other) noexcept {
 
 Tree::~Tree() {
   if (root_ != nullptr && root_->status() == NodeStatus::running) root_->halt_node();
-  nodes_.clear();  // before the context the nodes point to
+  destroy_nodes(nodes_);  // before the context the nodes point to
 }
 
 NodeStatus Tree::tick_once() {

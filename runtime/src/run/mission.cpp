@@ -172,7 +172,13 @@ std::vector<std::string> validate_setup(const std::string& config_file, const st
     problems.push_back(st.error().message);
 
   if (!tree_file.empty()) {
-    for (const auto& d : bt::validate_tree_file(tree_file, registry)) problems.push_back(d.str());
+    bt::LoadOptions limits;  // the run: block's behaviour-tree limits, when the config parsed
+    if (config) {
+      limits.max_subtree_depth = config->run.bt_max_subtree_depth;
+      limits.max_nodes = static_cast<std::size_t>(config->run.bt_max_nodes);
+      limits.max_tree_depth = config->run.bt_max_tree_depth;
+    }
+    for (const auto& d : bt::validate_tree_file(tree_file, registry, limits)) problems.push_back(d.str());
   }
   return problems;
 }

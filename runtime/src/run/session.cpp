@@ -241,6 +241,9 @@ Status Session::build(const SessionOptions& options) {
 Result<bt::Tree> Session::load_tree(const std::string& tree_file) {
   bt::LoadOptions options;
   options.clock = &host_->clock();
+  options.max_subtree_depth = config_.run.bt_max_subtree_depth;
+  options.max_nodes = static_cast<std::size_t>(config_.run.bt_max_nodes);
+  options.max_tree_depth = config_.run.bt_max_tree_depth;
   return bt::load_tree_file(tree_file, *registry_, options);
 }
 

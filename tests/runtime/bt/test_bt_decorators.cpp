@@ -204,16 +204,40 @@ TEST_F(Leaves, AlwaysSuccessAndAlwaysFailure) {
   EXPECT_EQ(t2.tick_once(), kFailure);
 }
 
-TEST_F(Leaves, SetBlackboardWritesStringReadableAsTypedPort) {
+TEST_F(Leaves, SetBlackboardConvertsToTheDeclaredTypeOfTheEntry) {
   auto tree = load_main(R"(<Sequence>
     <SetBlackboard value="21" output_key="n"/>
-    <SetBlackboard value="2.5" output_key="{x}"/>
+    <SetBlackboard value="2.5" output_key="x"/>
+    <SetBlackboard value="free text" output_key="untyped"/>
     <Probe i="{n}" d="{x}" out_i="{doubled}" out_s="{s}"/>
   </Sequence>)");
   EXPECT_EQ(tree.tick_once(), kSuccess);
   EXPECT_EQ(*tree.blackboard().get<int>("doubled"), 42);
+  // n and x were declared int and double by Probe's ports: the text was converted (BT.CPP).
+  EXPECT_EQ(tree.blackboard().get_any("n")->type(), typeid(int));
+  EXPECT_EQ(tree.blackboard().get_any("x")->type(), typeid(double));
+  EXPECT_EQ(tree.blackboard().get_any("untyped")->type(), typeid(std::string));
   EXPECT_EQ(*tree.blackboard().get<std::string>("n"), "21");
-  EXPECT_DOUBLE_EQ(*tree.blackboard().get<double>("x"), 2.5);
+}
+
+TEST_F(Leaves, SetBlackboardFailsWhenTextDoesNotConvertToTheDeclaredType) {
+  auto tree = load_main(R"(<Sequence>
+    <SetBlackboard value="many" output_key="n"/>
+    <Probe i="{n}" d="1" out_i="{o}" out_s="{s}"/>
+  </Sequence>)");
+  EXPECT_EQ(tree.tick_once(), kFailure);
+  EXPECT_NE(tree.last_script_error().find("cannot convert 'many' to int"), std::string::npos) << tree.last_script_error();
+}
+
+TEST_F(Leaves, SetBlackboardOutputKeyInBracesNamesTheKeyHeldInThatEntry) {
+  // BT.CPP reads output_key as a port: {k} is the name stored in k, not k itself.
+  auto tree = load_main(R"(<Sequence>
+    <SetBlackboard value="target" output_key="k"/>
+    <SetBlackboard value="hello" output_key="{k}"/>
+  </Sequence>)");
+  EXPECT_EQ(tree.tick_once(), kSuccess);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("target"), "hello");
+  EXPECT_EQ(*tree.blackboard().get<std::string>("k"), "target");
 }
 
 TEST_F(Leaves, SetBlackboardCopiesTypedEntry) {

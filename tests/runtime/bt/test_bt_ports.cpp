@@ -113,8 +113,12 @@ TEST_F(Ports, EmptyBlackboardReferenceIsAnError) {
 }
 
 TEST_F(Ports, BlackboardReferencesAreReadAndConverted) {
-  auto tree = load_main(R"(<Probe name="P" i="{n}" d="{n}" s="{n}" vi="{list}" out_i="{oi}" out_s="{os}"/>)");
+  // One key per port type (a key used as int and double is a validation error, see
+  // TypedBlackboard); values set by the host with another type are converted when read.
+  auto tree = load_main(R"(<Probe name="P" i="{n}" d="{m}" s="{t}" vi="{list}" out_i="{oi}" out_s="{os}"/>)");
   tree.blackboard().set("n", 5);
+  tree.blackboard().set("m", 5);
+  tree.blackboard().set("t", 5);
   tree.blackboard().set("list", std::vector<int>{9, 8});
   ASSERT_EQ(tree.tick_once(), NodeStatus::success);
   Probe* p = find_probe(tree, "MainTree/P");

@@ -160,7 +160,7 @@ TEST_F(TreeTest, NodesModelListsPortsWithTypesDefaultsAndDescriptions) {
   EXPECT_NE(xml.find("<Condition ID=\"Cond\">"), std::string::npos);
   EXPECT_NE(xml.find("<Control ID=\"Sequence\">"), std::string::npos);
   EXPECT_NE(xml.find("<Decorator ID=\"Timeout\">"), std::string::npos);
-  EXPECT_NE(xml.find("<inout_port name=\"output_key\" type=\"std::string\">"), std::string::npos);
+  EXPECT_NE(xml.find("<inout_port name=\"output_key\" type=\"BT::AnyTypeAllowed\">"), std::string::npos);
   EXPECT_NE(xml.find("<description>port probe</description>"), std::string::npos);
 }
 

@@ -3,8 +3,8 @@
 // Values are stored type-erased (std::any). `get<T>` returns the stored T, or converts:
 //  * a stored std::string to T with PortConverter<T> (so `SetBlackboard value="3.5"` can be read
 //    as a double),
-//  * int <-> double (double -> int only when integral), int -> enum,
-//  * int / double / bool -> std::string.
+//  * int <-> double <-> unsigned (to an integer only when integral and in range), int -> enum,
+//  * int / unsigned / double / bool -> std::string.
 //
 // Scopes (SubTree): every SubTree instance gets a child blackboard whose parent is the
 // blackboard of the tree that contains the SubTree node. A child resolves a key as follows
@@ -28,6 +28,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <typeindex>
 #include <typeinfo>
 #include <unordered_map>
 #include <vector>
@@ -55,14 +56,26 @@ Result<T> any_to(const std::any& value, const EnumTables* enums) {
   }
   if constexpr (std::is_same_v<T, double>) {
     if (const int* i = std::any_cast<int>(&value)) return static_cast<double>(*i);
+    if (const unsigned* u = std::any_cast<unsigned>(&value)) return static_cast<double>(*u);
   } else if constexpr (std::is_same_v<T, int>) {
     if (const double* d = std::any_cast<double>(&value)) {
       if (std::trunc(*d) == *d && std::fabs(*d) < 2147483647.0) return static_cast<int>(*d);
+    }
+    if (const unsigned* u = std::any_cast<unsigned>(&value)) {
+      if (*u <= 2147483647u) return static_cast<int>(*u);
+    }
+  } else if constexpr (std::is_same_v<T, unsigned>) {
+    if (const int* i = std::any_cast<int>(&value)) {
+      if (*i >= 0) return static_cast<unsigned>(*i);
+    }
+    if (const double* d = std::any_cast<double>(&value)) {
+      if (std::trunc(*d) == *d && *d >= 0.0 && *d <= 4294967295.0) return static_cast<unsigned>(*d);
     }
   } else if constexpr (std::is_enum_v<T>) {
     if (const int* i = std::any_cast<int>(&value)) return static_cast<T>(*i);
   } else if constexpr (std::is_same_v<T, std::string>) {
     if (const int* i = std::any_cast<int>(&value)) return std::to_string(*i);
+    if (const unsigned* u = std::any_cast<unsigned>(&value)) return std::to_string(*u);
     if (const bool* b = std::any_cast<bool>(&value)) return std::string(*b ? "true" : "false");
     if (const double* d = std::any_cast<double>(&value)) {
       char buf[64];
@@ -81,6 +94,12 @@ class Blackboard {
   struct Entry {
     std::any value;
     std::uint64_t sequence = 0;  ///< incremented on every write (lets readers detect updates)
+    /// Declared type: set by the first port that references the key when the tree is loaded
+    /// (typed blackboard); typeid(void) while untyped. Writes of strings (SetBlackboard,
+    /// scripts) are converted to it with `parse`.
+    std::type_index type = std::type_index(typeid(void));
+    std::string type_name;              ///< e.g. "int", for messages
+    PortInfo::Parser parse = nullptr;   ///< text -> value of `type`
   };
 
   /// A new blackboard; with a parent it is a SubTree scope (no remapping until configured).
@@ -113,7 +132,11 @@ class Blackboard {
 
   /// Stored value, or nullptr when the key is not set.
   [[nodiscard]] const std::any* get_any(std::string_view key) const;
-  [[nodiscard]] bool has(std::string_view key) const { return find_entry(key) != nullptr; }
+  /// True when `key` resolves to an entry holding a value.
+  [[nodiscard]] bool has(std::string_view key) const { return get_any(key) != nullptr; }
+  /// Removes the value of `key` (UnsetBlackboard); the entry and its declared type stay, so
+  /// cached Entry pointers remain valid. Counts as a write (sequence is incremented).
+  void unset(std::string_view key);
 
   /// The entry `key` resolves to (see scope rules), or nullptr.
   [[nodiscard]] Entry* find_entry(std::string_view key);

@@ -55,6 +55,18 @@ namespace visnav::bt {
 class TreeNode;
 struct NodeManifest;  // visnav/bt/registry.hpp
 
+/// A node's path, stored as its last component plus a shared pointer to the parent's path, so
+/// a tree of N nodes keeps O(N) path text whatever its depth. Immutable once built.
+struct NodePath {
+  std::shared_ptr<const NodePath> parent;
+  std::string component;  ///< `name` attribute, or `ID[index]`; the top one is the BehaviorTree ID
+
+  /// "MainTree/Sequence[0]/Replay" (components joined with '/'); O(depth).
+  [[nodiscard]] std::string str() const;
+  [[nodiscard]] static std::shared_ptr<const NodePath> make(std::shared_ptr<const NodePath> parent,
+                                                            std::string component);
+};
+
 /// Called on every status change of every node of a tree: time on the tree's clock (s),
 /// the node, old and new status. Runs synchronously on the tick thread; keep it cheap.
 using StatusObserver = std::function<void(double t_s, const TreeNode& node, NodeStatus from, NodeStatus to)>;
@@ -66,9 +78,17 @@ struct TreeContext {
   std::shared_ptr<const EnumTables> enums;
   std::vector<std::pair<std::uint64_t, StatusObserver>> observers;
   std::uint64_t next_observer_id = 1;
+  std::string last_script_error;  ///< last failed pre/post-condition script (file:line: path: attr: message)
 
   void notify(const TreeNode& node, NodeStatus from, NodeStatus to) const;
 };
+/// Pre/post-condition scripts of one node instance (`_skipIf`, `_onSuccess`, ...; see
+/// docs/bt.md). Defined in the runtime; nodes only hold a pointer.
+class NodeScripts;
+/// Runs the node's conditions around tick() (out of line: the common no-script path stays inline).
+NodeStatus execute_tick_scripted(TreeNode& node, const NodeScripts& scripts);
+/// Runs `_onHalted` (called after halt()).
+void run_on_halted(TreeNode& node, const NodeScripts& scripts);
 /// Monotonic wall clock used when a node is not part of a tree with a clock.
 const Clock& fallback_clock() noexcept;
 }  // namespace detail
@@ -94,12 +114,13 @@ struct PortBinding {
 /// Everything a node instance is constructed with. Built by the tree loader.
 struct NodeConfig {
   std::string id;                 ///< registration ID ("Sequence", "Replay", ...)
-  std::string path;               ///< full node path, e.g. "MainTree/Sequence[0]/Replay"
+  std::shared_ptr<const NodePath> path;  ///< full node path, e.g. "MainTree/Sequence[0]/Replay"
   SourceLocation where;           ///< XML file and line of the element
   Blackboard::Ptr blackboard;     ///< the blackboard of the (sub)tree the node is in
   std::vector<PortBinding> ports; ///< one per declared port, declaration order
   std::shared_ptr<const NodeManifest> manifest;
   detail::TreeContext* context = nullptr;  ///< owned by the Tree; nullptr outside a tree
+  std::shared_ptr<const detail::NodeScripts> scripts;  ///< pre/post conditions; nullptr when none
 };
 
 class TreeNode {
@@ -112,7 +133,9 @@ class TreeNode {
   /// Instance name: the XML `name` attribute, or the registration ID.
   [[nodiscard]] const std::string& name() const noexcept { return name_; }
   [[nodiscard]] const std::string& registration_id() const noexcept { return config_.id; }
-  [[nodiscard]] const std::string& path() const noexcept { return config_.path; }
+  /// Full path ("MainTree/Sequence[0]/Replay"), built on each call from the shared
+  /// NodePath (empty when the node was made outside a tree).
+  [[nodiscard]] std::string path() const { return config_.path ? config_.path->str() : std::string(); }
   [[nodiscard]] const SourceLocation& where() const noexcept { return config_.where; }
   [[nodiscard]] NodeStatus status() const noexcept { return status_; }
   [[nodiscard]] virtual NodeKind kind() const noexcept = 0;
@@ -122,6 +145,8 @@ class TreeNode {
 
   /// Ticks the node: calls tick(), stores and returns the new status. Called by parents/Tree.
   NodeStatus execute_tick() {
+    if (config_.scripts != nullptr) [[unlikely]]
+      return detail::execute_tick_scripted(*this, *config_.scripts);
     NodeStatus s = tick();
     if (s == NodeStatus::idle) [[unlikely]] s = NodeStatus::failure;
     set_status(s);
@@ -129,7 +154,11 @@ class TreeNode {
   }
   /// Interrupts the node: halt() if RUNNING, then status IDLE.
   void halt_node() {
-    if (status_ == NodeStatus::running) halt();
+    if (status_ == NodeStatus::running) {
+      halt();
+      if (config_.scripts != nullptr) [[unlikely]]
+        detail::run_on_halted(*this, *config_.scripts);
+    }
     set_status(NodeStatus::idle);
   }
   /// Sets the status to IDLE without calling halt().
@@ -162,6 +191,8 @@ class TreeNode {
   }
 
  protected:
+  friend NodeStatus detail::execute_tick_scripted(TreeNode&, const detail::NodeScripts&);
+  friend void detail::run_on_halted(TreeNode&, const detail::NodeScripts&);
   /// The node's work for one tick. Must not return idle.
   virtual NodeStatus tick() = 0;
   /// Stops asynchronous work. Called by halt_node() only while the node is RUNNING.

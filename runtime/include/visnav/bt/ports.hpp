@@ -76,6 +76,7 @@ class EnumTables {
 namespace detail {
 std::string_view trim(std::string_view text) noexcept;
 Result<int> parse_int(std::string_view text);
+Result<unsigned> parse_unsigned(std::string_view text);
 Result<double> parse_double(std::string_view text);
 Result<bool> parse_bool(std::string_view text);
 std::vector<std::string_view> split_list(std::string_view text);
@@ -95,6 +96,11 @@ template <>
 struct PortConverter<int> {
   static Result<int> parse(std::string_view text, const EnumTables*) { return detail::parse_int(text); }
   static std::string type_name() { return "int"; }
+};
+template <>
+struct PortConverter<unsigned> {
+  static Result<unsigned> parse(std::string_view text, const EnumTables*) { return detail::parse_unsigned(text); }
+  static std::string type_name() { return "unsigned int"; }
 };
 template <>
 struct PortConverter<double> {
@@ -136,6 +142,25 @@ struct PortConverter<std::vector<T>> {
   static std::string type_name() { return "std::vector<" + PortConverter<T>::type_name() + ">"; }
 };
 
+/// Port type that accepts an entry of any type (BehaviorTree.CPP's AnyTypeAllowed): such a
+/// port does not fix the type of the blackboard entry it names. Literals are kept as text.
+struct AnyTypeAllowed {
+  std::string text;
+};
+template <>
+struct PortConverter<AnyTypeAllowed> {
+  static constexpr bool strongly_typed = false;
+  static Result<AnyTypeAllowed> parse(std::string_view text, const EnumTables*) { return AnyTypeAllowed{std::string(text)}; }
+  static std::string type_name() { return "BT::AnyTypeAllowed"; }
+};
+
+/// NodeStatus as a port type ("SUCCESS", "FAILURE", "SKIPPED", "RUNNING", "IDLE").
+template <>
+struct PortConverter<NodeStatus> {
+  static Result<NodeStatus> parse(std::string_view text, const EnumTables*);
+  static std::string type_name() { return "BT::NodeStatus"; }
+};
+
 /// Converts a string to T with PortConverter<T>.
 template <typename T>
 Result<T> convert_from_string(std::string_view text, const EnumTables* enums = nullptr) {
@@ -154,6 +179,8 @@ struct PortInfo {
   std::optional<std::string> default_value;  ///< as it would be written in XML; may be "{key}"
   std::string description;
   Parser parse = nullptr;
+  /// False for AnyTypeAllowed (and scripts): the port does not fix its entry's type.
+  bool strongly_typed = true;
 
   /// An input or inout port without a default must be given in the XML.
   [[nodiscard]] bool required() const noexcept {
@@ -181,6 +208,7 @@ PortInfo make_port(PortDirection dir, std::string name, std::optional<std::strin
   p.default_value = std::move(def);
   p.description = std::move(description);
   p.parse = &parse_as_any<T>;
+  if constexpr (requires { PortConverter<T>::strongly_typed; }) p.strongly_typed = PortConverter<T>::strongly_typed;
   return p;
 }
 }  // namespace detail

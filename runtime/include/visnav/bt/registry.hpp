@@ -19,6 +19,7 @@
 #pragma once
 
 #include <exception>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -172,11 +173,14 @@ class NodeRegistry {
 };
 
 /// Registers the BehaviorTree.CPP v4 standard nodes:
-///  Controls: Sequence, SequenceWithMemory, ReactiveSequence, Fallback, ReactiveFallback,
-///            Parallel, IfThenElse, WhileDoElse, Switch2..Switch6.
+///  Controls: Sequence, SequenceWithMemory, ReactiveSequence, AsyncSequence, Fallback,
+///            ReactiveFallback, AsyncFallback, Parallel, ParallelAll, IfThenElse, WhileDoElse,
+///            TryCatch, Switch2..Switch6.
 ///  Decorators: Inverter, ForceSuccess, ForceFailure, Repeat, RetryUntilSuccessful, Timeout,
-///              Delay, RunOnce, KeepRunningUntilFailure.
-///  Actions: AlwaysSuccess, AlwaysFailure, SetBlackboard, Sleep.
+///              Delay, RunOnce, KeepRunningUntilFailure, Precondition, SkipUnlessUpdated,
+///              WaitValueUpdate, LoopInt, LoopDouble, LoopString, LoopBool.
+///  Actions: AlwaysSuccess, AlwaysFailure, SetBlackboard, UnsetBlackboard, Sleep, Script,
+///           WasEntryUpdated.  Conditions: ScriptCondition.
 /// Timed nodes use the tree's Clock. Fails if one of these IDs is already registered.
 Status register_builtin_nodes(NodeRegistry& registry);
 
@@ -185,5 +189,19 @@ Status register_builtin_nodes(NodeRegistry& registry);
 /// elements (text: description) and the node description as `<description>` — loadable as a
 /// Groot2 palette. Built-in nodes are left out unless `include_builtin`.
 [[nodiscard]] std::string write_nodes_model(const NodeRegistry& registry, bool include_builtin = true);
+
+/// The ports of one BehaviorTree used as a SubTree, for a Groot2 model: every attribute name
+/// given to `<SubTree ID="id">` elements (other than ID, name and '_'-attributes), sorted.
+struct SubTreeModel {
+  std::string id;
+  std::vector<std::string> ports;
+};
+/// SubTree models of the trees defined in `tree_file` and the files it includes (transitively).
+/// Errors: unreadable or malformed files, naming the file.
+[[nodiscard]] Result<std::vector<SubTreeModel>> subtree_models(const std::filesystem::path& tree_file);
+/// write_nodes_model plus one `<SubTree ID=".."><inout_port name=".."/>...</SubTree>` per model,
+/// so that Groot2 keeps the remapping attributes of SubTree elements when it saves the file.
+[[nodiscard]] std::string write_nodes_model(const NodeRegistry& registry, bool include_builtin,
+                                            const std::vector<SubTreeModel>& subtrees);
 
 }  // namespace visnav::bt

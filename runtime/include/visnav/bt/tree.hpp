@@ -7,19 +7,27 @@
 //   VISNAV_ASSIGN(visnav::bt::Tree tree, visnav::bt::load_tree_file("trees/mission.xml", registry, options));
 //   while (tree.tick_once() == visnav::bt::NodeStatus::running) { ... wait for the next frame ... }
 //
-// XML: `<root BTCPP_format="4" [main_tree_to_execute="ID"]>` with one or more
+// XML: `<root [BTCPP_format="4"] [main_tree_to_execute="ID"]>` with one or more
 // `<BehaviorTree ID="...">` (one root node each), `<include path="..."/>` (path relative to
-// the including file) and an optional `<TreeNodesModel>` (ignored). The main tree is
+// the including file, confined to LoadOptions::include_root) and an optional
+// `<TreeNodesModel>` (ignored). Scripts, pre/post-condition attributes and the typed
+// blackboard: docs/bt.md. The main tree is
 // LoadOptions::main_tree, else main_tree_to_execute, else the only BehaviorTree of the file.
 // `<SubTree ID="X" [name=".."] [_autoremap="true"] port="{parent_key}" other="literal"/>`
 // instantiates tree X with a child blackboard: `{parent_key}` remaps port <-> parent entry in
 // both directions, a literal is written into the child blackboard, _autoremap exposes every
 // (non-'_'-prefixed) parent entry under its own name.
 //
+// Loading, validation and instantiation use explicit work stacks, not recursion: XML nesting
+// is capped at 100 per file by tinyxml2, SubTree nesting, expanded node count and expanded
+// depth by LoadOptions' limits.
+//
 // Validation happens before anything is instantiated and collects every error: malformed XML,
-// missing/extra root attributes, unknown node ID, missing required port, unknown port attribute,
+// wrong BTCPP_format / extra root attributes, unknown node ID, missing required port, unknown port attribute,
 // bad literal for the port type, literal given to an output port, undefined or cyclic SubTree,
-// wrong number of children, include errors. Each Diagnostic names file:line and the node path
+// wrong number of children, include errors, script syntax (with its column), unknown
+// '_'-attributes, non-UTF-8 attributes, a blackboard key used with two port types, and the
+// limits below. Each Diagnostic names file:line and the node path
 // (paths in diagnostics are relative to the BehaviorTree that contains the element, e.g.
 // "MainTree/Sequence[0]/Replay").
 //
@@ -75,6 +83,20 @@ struct LoadOptions {
   /// (default: current directory) and the name used in diagnostics.
   std::filesystem::path base_dir;
   std::string source_name = "<string>";
+
+  // Limits, checked at validation (before anything is instantiated) on the main tree as it
+  // would be expanded; exceeding one is a diagnostic naming the limit and the SubTree chain.
+  /// Deepest chain of nested SubTrees (the main tree is depth 0). `run.bt_max_subtree_depth`.
+  int max_subtree_depth = 64;
+  /// Nodes the expanded main tree may instantiate (SubTree nodes included). `run.bt_max_nodes`.
+  std::size_t max_nodes = 100'000;
+  /// Deepest node (root = 1) counted through SubTrees: bounds the C++ stack used by tick()
+  /// and halt(), which recurse parent -> child. `run.bt_max_tree_depth`.
+  int max_tree_depth = 1'000;
+  /// `<include path>` must be relative and stay inside this folder (after resolving "..",
+  /// symlinks included). Empty: the folder of the main file (load_tree_file) or base_dir
+  /// (load_tree_string, current directory when that is empty as well).
+  std::filesystem::path include_root;
 };
 
 class Tree;
@@ -115,6 +137,9 @@ class Tree {
   [[nodiscard]] NodeStatus status() const noexcept;
   /// Message of the last exception caught by tick_once() (empty if none).
   [[nodiscard]] const std::string& last_error() const noexcept { return last_error_; }
+  /// Last pre/post-condition script that failed to evaluate ("file:line: path: _skipIf:
+  /// column C: variable 'x' is not set"); empty if none. Such a pre-condition yields FAILURE.
+  [[nodiscard]] const std::string& last_script_error() const noexcept { return context_->last_script_error; }
   [[nodiscard]] TreeNode& root() const noexcept { return *root_; }
   /// ID of the BehaviorTree that was instantiated as the main tree.
   [[nodiscard]] const std::string& main_tree_id() const noexcept { return main_tree_id_; }

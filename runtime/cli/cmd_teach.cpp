@@ -164,7 +164,7 @@ int teach(const std::vector<std::string>& args) {
   end << last_t_s - margin_s;
   std::vector<std::string> play{run.string(), "--tree",
                                 a.get("--tree", (fs::path(VISNAV_SOURCE_DIR) / "trees" / "teach_recorded.xml").string()),
-                                "--map", a.get("--map"), "--no-compare",
+                                "--map", a.get("--map"), "--create", "--no-compare",
                                 "--bb", "marks_file=" + fs::absolute(marks).string(),
                                 "--bb", "end_time_s=" + end.str(),
                                 "--bb", std::string("close_loop=") + (a.has("--close-loop") ? "true" : "false")};

@@ -45,7 +45,7 @@ struct McapSetup {
 TEST(McapRuns, RecordedReplayPlaysBackFromMcapWithTheSameDecisionsAndConvertsExactly) {
   McapSetup s("mcap_replay");
   const std::string map = s.dir + "/map";
-  ASSERT_EQ(shell("'" + s.cli + "' run --config " + s.config + " --map " + map + s.teach_args("localmaps"), s.dir + "/teach.log"), 0)
+  ASSERT_EQ(shell("'" + s.cli + "' run --config " + s.config + " --map " + map + " --create" + s.teach_args("localmaps"), s.dir + "/teach.log"), 0)
       << slurp(s.dir + "/teach.log");
   std::string goal;
   {
@@ -59,13 +59,13 @@ TEST(McapRuns, RecordedReplayPlaysBackFromMcapWithTheSameDecisionsAndConvertsExa
   const std::string run = s.dir + "/replay.mcap";
   const std::string tree = s.src + "/trees/replay_feature_edge.xml";
   const std::string bb = " --bb start=start --bb goal=" + goal + " --bb loops=1 --bb laps=1 --bb speed_mps=0.4";
-  ASSERT_EQ(shell("'" + s.cli + "' record --format mcap --config " + s.config + " --map " + s.dir + "/map_live -o " + run +
+  ASSERT_EQ(shell("'" + s.cli + "' record --format mcap --config " + s.config + " --map " + s.dir + "/map_live --create -o " + run +
                       " --tree " + tree + bb + " --set robot.params.displacement_lateral_m=0.3",
                   s.dir + "/record.log"),
             0)
       << slurp(s.dir + "/record.log");
   const std::string play_log = s.dir + "/play.log";
-  ASSERT_EQ(shell("'" + s.cli + "' play " + run + " --map " + s.dir + "/map_play --tree " + tree, play_log), 0) << slurp(play_log);
+  ASSERT_EQ(shell("'" + s.cli + "' play " + run + " --map " + s.dir + "/map_play --create --tree " + tree, play_log), 0) << slurp(play_log);
   const std::string text = slurp(play_log);
   const auto pos = text.find("decisions: ");
   ASSERT_NE(pos, std::string::npos) << text;
@@ -92,7 +92,7 @@ TEST(McapRuns, OfflineTeachFromARecordedDriveMatchesTheLiveTeach) {
   McapSetup s("mcap_teach");
   const std::string live = s.dir + "/map_live";
   const std::string drive = s.dir + "/drive.mcap";
-  ASSERT_EQ(shell("'" + s.cli + "' record --format mcap --config " + s.config + " --map " + live + " -o " + drive + s.teach_args("segment"),
+  ASSERT_EQ(shell("'" + s.cli + "' record --format mcap --config " + s.config + " --map " + live + " --create -o " + drive + s.teach_args("segment"),
                   s.dir + "/record.log"),
             0)
       << slurp(s.dir + "/record.log");

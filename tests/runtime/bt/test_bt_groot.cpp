@@ -80,7 +80,7 @@ std::vector<std::string> groot_save(tinyxml2::XMLDocument& doc, const std::map<s
 TEST(Groot2, EveryShippedTreeSurvivesASaveWithAllAttributes) {
   const fs::path src = VISNAV_TEST_SOURCE_DIR;
   const std::string cli = VISNAV_TEST_CLI;
-  const fs::path config = src / "config/sim_experiment.yaml";
+  const fs::path config = src / "config/sim_campus.yaml";  // loads every shipped nodes plugin (teleop too)
   bt_test::TempDir tmp;
   fs::copy(src / "trees", tmp.path() / "trees", fs::copy_options::recursive);  // saved copies go there
   int checked = 0;

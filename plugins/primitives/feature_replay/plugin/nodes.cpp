@@ -265,6 +265,10 @@ bt::PortsList ReplayFeatureEdge::provided_ports() {
       bt::input_port<double>("distance_margin_m", "0", "style A: widen each landmark's visibility window"),
       bt::input_port<double>("ratio", "0.8", "matching: Lowe ratio test (issue 13: 0.8 chosen on appearance-change pairs)"),
       bt::input_port<double>("min_confidence", "0.25", "histogram confidence below which no correction is applied"),
+      bt::input_port<double>("scan_deg", "75",
+                             "start-view search: when an edge's first frames do not see its taught start view, "
+                             "turn in place up to this far left and right to find it (0 = off)"),
+      bt::input_port<double>("scan_speed_radps", "0.4", "start-view search: turn rate"),
       bt::input_port<int>("min_expected_features", "15",
                           "lost policy: where the map holds fewer landmarks/features than this at the current "
                           "distance, a frame without a match does not count as blind (nothing was seen there "
@@ -320,6 +324,12 @@ Status ReplayFeatureEdge::load_edge() {
   if (laps < 1) return fail("laps must be >= 1");
   VISNAV_ASSIGN(LostPolicy policy, bt::read_lost_policy(*this));
   VISNAV_ASSIGN(min_expected_features_, get_input<int>("min_expected_features"));
+  VISNAV_ASSIGN(double scan_deg, get_input<double>("scan_deg"));
+  VISNAV_ASSIGN(scan_speed_radps_, get_input<double>("scan_speed_radps"));
+  if (!(scan_deg >= 0.0 && scan_deg <= 180.0)) return fail("scan_deg must be in [0, 180]");
+  if (!(scan_speed_radps_ > 0.0 && scan_speed_radps_ <= 3.0)) return fail("scan_speed_radps must be in (0, 3]");
+  scan_rad_ = scan_deg * std::numbers::pi / 180.0;
+  min_frame_confidence_ = policy.min_confidence;
   if (min_expected_features_ < 0) return fail("min_expected_features must be >= 0");
   health_ = NavHealthMonitor(policy);
   edge_kind_ = edge->kind;
@@ -374,6 +384,11 @@ NodeStatus ReplayFeatureEdge::on_start() {
   std::optional<TaughtHeading> taught;
   if (segment_ || laps_ == 1) taught = taught_heading_;
   bt::begin_nav_health(health_, *this, odom->distance_m, odom->pose.heading_rad, taught);
+  // Only an edge started at its beginning searches its start view.
+  phase_ = scan_rad_ > 0.0 && odom->distance_m - origin_m < 0.3 ? StartPhase::probe : StartPhase::driving;
+  probe_frames_ = 0;
+  probe_confidence_sum_ = 0.0;
+  best_confidence_ = -1.0;
   have_frame_ = false;
   last_command_ = Twist{};
   last_state_ = ReplayState::steering;
@@ -462,6 +477,11 @@ NodeStatus ReplayFeatureEdge::on_running() {
   last_state_ = state;
 
   if (bad_frame != nullptr) confidence = 0.0;
+  if (phase_ != StartPhase::driving) {
+    // Where the map itself holds little at the start (open grass), there is no view to search for.
+    if (phase_ == StartPhase::probe && !informative) phase_ = StartPhase::driving;
+    else if (auto st = search_start_view(*robot, *odom, confidence)) return *st;
+  }
   const NavHealthVerdict& health =
       health_.update(odom->distance_m, odom->pose.heading_rad, distance_m, image, confidence, saturated, informative);
   bt::store_nav_health(health_, *this);
@@ -494,6 +514,71 @@ NodeStatus ReplayFeatureEdge::on_running() {
   last_command_ = command;
   if (auto st = robot->send_command(command); !st) return failed("sending the command: " + st.error().message);
   return NodeStatus::running;
+}
+
+std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, const Odometry& odom, double confidence) {
+  const double heading = odom.pose.heading_rad;
+  auto turn = [&](double w) {
+    last_command_ = Twist{0.0, w};
+    if (auto st = robot.send_command(last_command_); !st) return failed("sending the command: " + st.error().message);
+    return NodeStatus::running;
+  };
+  auto track = [&]() {
+    scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
+    scan_last_rad_ = heading;
+    if (confidence > best_confidence_) {
+      best_confidence_ = confidence;
+      best_turn_rad_ = scan_turned_rad_;
+    }
+  };
+  switch (phase_) {
+    case StartPhase::probe: {
+      // Three frames standing at the start: is the taught start view there?
+      probe_confidence_sum_ += confidence;
+      if (++probe_frames_ < 3) return turn(0.0);
+      if (probe_confidence_sum_ / probe_frames_ >= min_frame_confidence_) {
+        phase_ = StartPhase::driving;
+        return std::nullopt;
+      }
+      host_.logger().info(path(), "edge " + edge_id_ + ": start view not seen (confidence " +
+                                      format_double(probe_confidence_sum_ / probe_frames_) + "); searching by turning");
+      phase_ = StartPhase::scan_left;
+      scan_origin_rad_ = scan_last_rad_ = heading;
+      scan_turned_rad_ = 0.0;
+      best_confidence_ = confidence;
+      best_turn_rad_ = 0.0;
+      return turn(scan_speed_radps_);
+    }
+    case StartPhase::scan_left:
+      track();
+      if (scan_turned_rad_ < scan_rad_) return turn(scan_speed_radps_);
+      phase_ = StartPhase::scan_right;
+      return turn(-scan_speed_radps_);
+    case StartPhase::scan_right:
+      track();
+      if (scan_turned_rad_ > -scan_rad_) return turn(-scan_speed_radps_);
+      if (best_confidence_ < min_frame_confidence_) {
+        (void)robot.stop();
+        return failed("lost: the start view of edge " + edge_id_ + " was not found within +-" +
+                      format_double(scan_rad_ * 180.0 / std::numbers::pi) + " deg (best confidence " +
+                      format_double(best_confidence_) + ")");
+      }
+      phase_ = StartPhase::turn_to_best;
+      return turn(scan_speed_radps_);
+    case StartPhase::turn_to_best: {
+      scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
+      scan_last_rad_ = heading;
+      const double left = best_turn_rad_ - scan_turned_rad_;
+      if (std::abs(left) > 0.03) return turn(std::copysign(std::min(scan_speed_radps_, 0.2 + std::abs(left)), left));
+      host_.logger().info(path(), "edge " + edge_id_ + ": start view found " +
+                                      format_double((scan_turned_rad_) * 180.0 / std::numbers::pi) +
+                                      " deg from the odometric heading (confidence " + format_double(best_confidence_) + ")");
+      phase_ = StartPhase::driving;
+      return std::nullopt;
+    }
+    case StartPhase::driving: break;
+  }
+  return std::nullopt;
 }
 
 void ReplayFeatureEdge::on_halted() {

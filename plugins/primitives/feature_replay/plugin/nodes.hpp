@@ -84,6 +84,8 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
  private:
   bt::NodeStatus failed(const std::string& message);
   Status load_edge();
+  /// One frame of the start-view search; returns the status to report, or nullopt once driving.
+  std::optional<bt::NodeStatus> search_start_view(Robot& robot, const Odometry& odom, double confidence);
 
   HostServices& host_;
   std::string edge_id_;
@@ -105,6 +107,23 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   double max_correction_radps_ = 0.3;
   int laps_ = 1;
   int min_expected_features_ = 15;
+  // Start-view search (scan_deg > 0): when the first frames of an edge do not see the taught
+  // start view, the robot turns in place left then right by up to scan_deg, remembers the
+  // heading with the best match, turns there and starts the edge. An odometric turn at a node
+  // carries the teach run's heading drift (e.g. the turn that closes a loop: the whole loop's
+  // drift); this finds the view instead. Fails "lost: start view not found" when nothing matches.
+  enum class StartPhase : std::uint8_t { probe, scan_left, scan_right, turn_to_best, driving };
+  StartPhase phase_ = StartPhase::driving;
+  double scan_rad_ = 0.0;
+  double scan_speed_radps_ = 0.4;
+  double scan_origin_rad_ = 0.0;    // odometric heading when the scan started
+  double scan_last_rad_ = 0.0;      // previous heading (unwrapping)
+  double scan_turned_rad_ = 0.0;    // unwrapped turn since scan_origin_rad_
+  double best_turn_rad_ = 0.0;
+  double best_confidence_ = -1.0;
+  int probe_frames_ = 0;
+  double probe_confidence_sum_ = 0.0;
+  double min_frame_confidence_ = 0.2;
   std::string edge_kind_;
 };
 

@@ -111,7 +111,7 @@ TEST(LostDetection, CoveredLensStops) {
   ExperimentOptions o = rectangle("covered");
   o.replay_overrides = {"camera.params.gain=0"};  // black frames with sensor noise
   const ExperimentRun r = run_single(o);
-  expect_stopped(r, "lost: no confident frame", 6.5);
+  expect_stopped(r, "lost", 6.5);  // the start-view search or the blind distance
 }
 
 TEST(LostDetection, KidnappedRobotStops) {
@@ -119,10 +119,10 @@ TEST(LostDetection, KidnappedRobotStops) {
   bool done = false;
   o.replay_hook = [&done](SimulationControl& sim, Robot&, double driven_m) {
     if (done || driven_m < 2.0) return;
-    done = true;  // carried 3 m away and turned; odometry sees nothing
+    done = true;  // carried 1.5 m away and turned 150 deg (7 m of open courtyard ahead); odometry sees nothing
     Pose2D p = sim.ground_truth_pose();
-    p.y_m += 3.0;
-    p.heading_rad += 2.0;
+    p.y_m += 1.5;
+    p.heading_rad += 2.6;
     (void)sim.set_ground_truth_pose(p);
   };
   const ExperimentRun r = run_single(o);

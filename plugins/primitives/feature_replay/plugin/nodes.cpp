@@ -540,7 +540,7 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
         phase_ = StartPhase::driving;
         return std::nullopt;
       }
-      host_.logger().info(path(), "edge " + edge_id_ + ": start view not seen (confidence " +
+      host_.logger().warn(path(), "edge " + edge_id_ + ": start view not seen (confidence " +
                                       format_double(probe_confidence_sum_ / probe_frames_) + "); searching by turning");
       phase_ = StartPhase::scan_left;
       scan_origin_rad_ = scan_last_rad_ = heading;
@@ -558,10 +558,12 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
       track();
       if (scan_turned_rad_ > -scan_rad_) return turn(-scan_speed_radps_);
       if (best_confidence_ < min_frame_confidence_) {
-        (void)robot.stop();
-        return failed("lost: the start view of edge " + edge_id_ + " was not found within +-" +
-                      format_double(scan_rad_ * 180.0 / std::numbers::pi) + " deg (best confidence " +
-                      format_double(best_confidence_) + ")");
+        // Nothing matched anywhere: start on the odometric heading and leave it to the lost
+        // policy (a stretch that was hard to see when taught may still be driven on odometry).
+        host_.logger().warn(path(), "edge " + edge_id_ + ": start view not found within +-" +
+                                        format_double(scan_rad_ * 180.0 / std::numbers::pi) +
+                                        " deg; starting on the odometric heading");
+        best_turn_rad_ = 0.0;
       }
       phase_ = StartPhase::turn_to_best;
       return turn(scan_speed_radps_);

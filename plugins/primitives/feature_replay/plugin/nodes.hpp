@@ -111,7 +111,8 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   // start view, the robot turns in place left then right by up to scan_deg, remembers the
   // heading with the best match, turns there and starts the edge. An odometric turn at a node
   // carries the teach run's heading drift (e.g. the turn that closes a loop: the whole loop's
-  // drift); this finds the view instead. Fails "lost: start view not found" when nothing matches.
+  // drift); this finds the view instead. When nothing matches it starts on the odometric heading
+  // and the lost policy decides.
   enum class StartPhase : std::uint8_t { probe, scan_left, scan_right, turn_to_best, driving };
   StartPhase phase_ = StartPhase::driving;
   double scan_rad_ = 0.0;

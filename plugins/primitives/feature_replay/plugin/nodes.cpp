@@ -479,8 +479,18 @@ NodeStatus ReplayFeatureEdge::on_running() {
   if (bad_frame != nullptr) confidence = 0.0;
   if (phase_ != StartPhase::driving) {
     // Where the map itself holds little at the start (open grass), there is no view to search for.
-    if (phase_ == StartPhase::probe && !informative) phase_ = StartPhase::driving;
-    else if (auto st = search_start_view(*robot, *odom, confidence)) return *st;
+    if (phase_ == StartPhase::probe && !informative) {
+      phase_ = StartPhase::driving;
+    } else if (auto st = search_start_view(*robot, *odom, confidence)) {
+      if (Telemetry* telemetry = host_.telemetry()) {
+        status_.distance_m = distance_m;
+        status_.command = last_command_;
+        status_.confidence = confidence;
+        status_.status = phase_ == StartPhase::probe ? "looking for the start view" : "turning to find the start view";
+        telemetry->publish(status_);
+      }
+      return *st;
+    }
   }
   const NavHealthVerdict& health =
       health_.update(odom->distance_m, odom->pose.heading_rad, distance_m, image, confidence, saturated, informative);

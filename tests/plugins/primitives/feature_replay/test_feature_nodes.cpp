@@ -225,7 +225,7 @@ TEST_F(FeatureNodes, TeachSegmentWritesAParsableEdgeWithTheProtocolFields) {
   // Replaying it with bad frames drives straight at the set speed (omega 0), never steering.
   robot_.odom_ = Odometry{};
   robot_.publish();
-  auto replay = load("<ReplayFeatureEdge edge=\"" + id + "\" speed_mps=\"0.3\"/>");
+  auto replay = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" speed_mps=\"0.3\"/>");
   EXPECT_EQ(tick(replay, scene_.view(0.f), 0), NodeStatus::running);  // empty frame
   EXPECT_EQ(telemetry_.statuses.back().status, "bad frame");
   EXPECT_EQ(robot_.command_.linear_mps, 0.3);
@@ -259,7 +259,7 @@ TEST_F(FeatureNodes, TeachLocalMapsRecordsTheOperatorsCommands) {
 
 TEST_F(FeatureNodes, UnknownKindFailsWithAClearMessageAndNeverMoves) {
   const std::string id = add_edge("path_following", {1, 2, 3});
-  auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\"/>");
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\"/>");
   EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::failure);
   EXPECT_NE(logger_.text().find("has kind 'path_following'"), std::string::npos) << logger_.text();
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
@@ -268,13 +268,13 @@ TEST_F(FeatureNodes, UnknownKindFailsWithAClearMessageAndNeverMoves) {
 
 TEST_F(FeatureNodes, CorruptedPayloadFailsWithAClearMessageAndNeverMoves) {
   const std::string id = add_edge("feature_segment", {'V', 'N', 'F', 'A', 9, 9, 9, 9, 1, 2, 3});
-  auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\"/>");
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\"/>");
   EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::failure);
   EXPECT_NE(logger_.text().find("edge " + id + " payload"), std::string::npos) << logger_.text();
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
   EXPECT_EQ(robot_.odom_.distance_m, 0.0);
   // An unknown edge id fails the same way.
-  auto tree2 = load("<ReplayFeatureEdge edge=\"nope\"/>");
+  auto tree2 = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"nope\"/>");
   EXPECT_EQ(tick(tree2, scene_.view(0.f)), NodeStatus::failure);
   EXPECT_NE(logger_.text().find("unknown edge 'nope'"), std::string::npos);
   EXPECT_EQ(robot_.odom_.distance_m, 0.0);
@@ -282,7 +282,7 @@ TEST_F(FeatureNodes, CorruptedPayloadFailsWithAClearMessageAndNeverMoves) {
 
 TEST_F(FeatureNodes, BadInputsKeepTheRecordedCommand) {
   const std::string id = add_scene_localmaps_edge(Twist{0.5, 0.2});
-  auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\" correction_gain_radps_per_px=\"0.004\"/>");
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" correction_gain_radps_per_px=\"0.004\"/>");
   // A good frame with the scene 20 px to the right: the robot is turned left -> steer right.
   EXPECT_EQ(tick(tree, scene_.view(20.f)), NodeStatus::running);
   EXPECT_EQ(telemetry_.statuses.back().status, "steering");
@@ -325,7 +325,7 @@ TEST_F(FeatureNodes, ReplayCountsTheDistanceFollowRouteCarriedIntoTheEdge) {
     robot_.odom_ = Odometry{};
     robot_.command_ = Twist{};
     robot_.publish();
-    auto tree = load("<ReplayFeatureEdge edge=\"" + id + "\"/>");
+    auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\"/>");
     if (carried) tree.blackboard().set("edge_carried_m", *carried);
     EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::running);
     const double first_distance_m = telemetry_.statuses.back().distance_m;

@@ -329,7 +329,6 @@ Status ReplayFeatureEdge::load_edge() {
   if (!(scan_deg >= 0.0 && scan_deg <= 180.0)) return fail("scan_deg must be in [0, 180]");
   if (!(scan_speed_radps_ > 0.0 && scan_speed_radps_ <= 3.0)) return fail("scan_speed_radps must be in (0, 3]");
   scan_rad_ = scan_deg * std::numbers::pi / 180.0;
-  min_frame_confidence_ = policy.min_confidence;
   if (min_expected_features_ < 0) return fail("min_expected_features must be >= 0");
   health_ = NavHealthMonitor(policy);
   edge_kind_ = edge->kind;
@@ -533,9 +532,12 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
     if (auto st = robot.send_command(last_command_); !st) return failed("sending the command: " + st.error().message);
     return NodeStatus::running;
   };
-  auto track = [&]() {
+  auto unwrap = [&]() {
     scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
     scan_last_rad_ = heading;
+  };
+  auto track = [&]() {
+    unwrap();
     if (confidence > best_confidence_) {
       best_confidence_ = confidence;
       best_turn_rad_ = scan_turned_rad_;
@@ -546,14 +548,14 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
       // Three frames standing at the start: is the taught start view there?
       probe_confidence_sum_ += confidence;
       if (++probe_frames_ < 3) return turn(0.0);
-      if (probe_confidence_sum_ / probe_frames_ >= min_frame_confidence_) {
+      if (probe_confidence_sum_ / probe_frames_ >= health_.policy().min_confidence) {
         phase_ = StartPhase::driving;
         return std::nullopt;
       }
       host_.logger().warn(path(), "edge " + edge_id_ + ": start view not seen (confidence " +
                                       format_double(probe_confidence_sum_ / probe_frames_) + "); searching by turning");
       phase_ = StartPhase::scan_left;
-      scan_origin_rad_ = scan_last_rad_ = heading;
+      scan_last_rad_ = heading;
       scan_turned_rad_ = 0.0;
       best_confidence_ = confidence;
       best_turn_rad_ = 0.0;
@@ -567,7 +569,7 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
     case StartPhase::scan_right:
       track();
       if (scan_turned_rad_ > -scan_rad_) return turn(-scan_speed_radps_);
-      if (best_confidence_ < min_frame_confidence_) {
+      if (best_confidence_ < health_.policy().min_confidence) {
         // Nothing matched anywhere: start on the odometric heading and leave it to the lost
         // policy (a stretch that was hard to see when taught may still be driven on odometry).
         host_.logger().warn(path(), "edge " + edge_id_ + ": start view not found within +-" +
@@ -578,13 +580,13 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
       phase_ = StartPhase::turn_to_best;
       return turn(scan_speed_radps_);
     case StartPhase::turn_to_best: {
-      scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
-      scan_last_rad_ = heading;
+      unwrap();
       const double left = best_turn_rad_ - scan_turned_rad_;
       if (std::abs(left) > 0.03) return turn(std::copysign(std::min(scan_speed_radps_, 0.2 + std::abs(left)), left));
-      host_.logger().info(path(), "edge " + edge_id_ + ": start view found " +
-                                      format_double((scan_turned_rad_) * 180.0 / std::numbers::pi) +
-                                      " deg from the odometric heading (confidence " + format_double(best_confidence_) + ")");
+      if (best_confidence_ >= health_.policy().min_confidence)
+        host_.logger().info(path(), "edge " + edge_id_ + ": start view found " +
+                                        format_double(scan_turned_rad_ * 180.0 / std::numbers::pi) +
+                                        " deg from the odometric heading (confidence " + format_double(best_confidence_) + ")");
       phase_ = StartPhase::driving;
       return std::nullopt;
     }

@@ -117,14 +117,12 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   StartPhase phase_ = StartPhase::driving;
   double scan_rad_ = 0.0;
   double scan_speed_radps_ = 0.4;
-  double scan_origin_rad_ = 0.0;    // odometric heading when the scan started
   double scan_last_rad_ = 0.0;      // previous heading (unwrapping)
-  double scan_turned_rad_ = 0.0;    // unwrapped turn since scan_origin_rad_
+  double scan_turned_rad_ = 0.0;    // unwrapped turn since the scan started
   double best_turn_rad_ = 0.0;
   double best_confidence_ = -1.0;
   int probe_frames_ = 0;
   double probe_confidence_sum_ = 0.0;
-  double min_frame_confidence_ = 0.2;
   std::string edge_kind_;
 };
 

@@ -455,11 +455,10 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   t.teach_path.push_back(t.taught_end);
   for (auto& e : t.taught_edge_ends)
     if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
-  if (const auto stats = session->map()->stats(); true) {
-    for (const auto& [kind, ks] : stats.per_kind) {
-      r.map_bytes += ks.payload_bytes;
-      r.map_length_m += ks.length_m;
-    }
+  const MapStats map_stats = session->map()->stats();
+  for (const auto& [kind, ks] : map_stats.per_kind) {
+    r.map_bytes += ks.payload_bytes;
+    r.map_length_m += ks.length_m;
   }
 
   // --- the replay run: its own draw of every error model (and its appearance)

@@ -186,24 +186,35 @@ std::string resolve_pair_path(const std::string& path, const std::filesystem::pa
   return path;
 }
 
-int run_align(int argc, char** argv, HostServices& host) {
+bool print_usage_if_help(int argc, char** argv, const char* usage) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "-h" || a == "--help") {
-      std::fputs(kAlignUsage, stdout);
-      return 0;
+      std::fputs(usage, stdout);
+      return true;
     }
   }
+  return false;
+}
+
+std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, const char* command) {
+  auto heading = HeadingParams::schema().parse(sets.is_null() ? ConfigNode{} : sets);
+  if (!heading) {
+    std::fprintf(stderr, "visnav %s: --set: %s\n", command, heading.error().message.c_str());
+    return std::nullopt;
+  }
+  return *heading;
+}
+
+int run_align(int argc, char** argv, HostServices& host) {
+  if (print_usage_if_help(argc, argv, kAlignUsage)) return 0;
   auto opts = parse(argc, argv);
   if (!opts) {
     std::fprintf(stderr, "visnav align: %s\n%s", opts.error().message.c_str(), kAlignUsage);
     return 2;
   }
-  auto heading = HeadingParams::schema().parse(opts->heading_params.is_null() ? ConfigNode{} : opts->heading_params);
-  if (!heading) {
-    std::fprintf(stderr, "visnav align: --set: %s\n", heading.error().message.c_str());
-    return 2;
-  }
+  const auto heading = heading_params_or_report(opts->heading_params, "align");
+  if (!heading) return 2;
   Aligner al{&host, opts->detector, opts->detector_params, HeadingEstimator(*heading), {}, {}, {}, {}};
   // Default keypoint density (issue 13): the target follows the image area, unless the user set
   // it. A detector type without the key (a third-party plugin) gets the params as given.

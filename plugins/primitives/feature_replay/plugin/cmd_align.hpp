@@ -2,9 +2,11 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "visnav/devices.hpp"
+#include "visnav/feature_replay/heading.hpp"
 #include "visnav/host.hpp"
 
 namespace visnav::feature_replay {
@@ -24,5 +26,13 @@ Status detect_settled(HostServices& host, const std::string& type, const ConfigN
 
 /// A path from a pairs file: as given if it exists (or is absolute), else relative to `base`.
 std::string resolve_pair_path(const std::string& path, const std::filesystem::path& base);
+
+/// Shared start of the pair commands (`align`, `train-descriptor`): true when -h/--help stands
+/// in argv[1..] (then `usage` was printed on stdout).
+bool print_usage_if_help(int argc, char** argv, const char* usage);
+
+/// HeadingParams from the commands' `--set` values (null = defaults); on error prints
+/// "visnav <command>: --set: <reason>" on stderr and returns nullopt (exit status 2).
+std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, const char* command);
 
 }  // namespace visnav::feature_replay

@@ -197,23 +197,14 @@ std::string fitness_text(const TrainingFitness& f) {
 }  // namespace
 
 int run_train_descriptor(int argc, char** argv, HostServices& host) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "-h" || a == "--help") {
-      std::fputs(kTrainDescriptorUsage, stdout);
-      return 0;
-    }
-  }
+  if (print_usage_if_help(argc, argv, kTrainDescriptorUsage)) return 0;
   auto opts = parse(argc, argv);
   if (!opts) {
     std::fprintf(stderr, "visnav train-descriptor: %s\n%s", opts.error().message.c_str(), kTrainDescriptorUsage);
     return 2;
   }
-  auto heading = HeadingParams::schema().parse(opts->heading_params.is_null() ? ConfigNode{} : opts->heading_params);
-  if (!heading) {
-    std::fprintf(stderr, "visnav train-descriptor: --set: %s\n", heading.error().message.c_str());
-    return 2;
-  }
+  const auto heading = heading_params_or_report(opts->heading_params, "train-descriptor");
+  if (!heading) return 2;
   opts->training.heading = *heading;
   auto fail_with = [](const std::string& m) {
     std::fprintf(stderr, "visnav train-descriptor: %s\n", m.c_str());

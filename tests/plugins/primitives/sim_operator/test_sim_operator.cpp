@@ -5,6 +5,7 @@
 
 #include "experiment.hpp"
 #include "operator_core.hpp"
+#include "visnav/config.hpp"
 
 using namespace visnav;
 using namespace visnav::simop;
@@ -74,4 +75,40 @@ TEST(ScriptedOperator, ParamsValidation) {
   EXPECT_TRUE(p.validate().ok());
   p.speed_mps = 0.0;
   EXPECT_FALSE(p.validate().ok());
+}
+
+TEST(ExperimentMetrics, SpreadIsMeanSampleSdAndWorst) {
+  const Spread s = spread({0.1, 0.2, 0.3});
+  EXPECT_NEAR(s.mean, 0.2, 1e-12);
+  EXPECT_NEAR(s.sd, 0.1, 1e-12);  // sample sd
+  EXPECT_EQ(s.worst, 0.3);
+  EXPECT_EQ(s.count, 3);
+  EXPECT_EQ(spread({}).count, 0);
+  EXPECT_EQ(spread({0.5}).sd, 0.0);
+}
+
+TEST(ExperimentOptions, AppearancesAreKnownAndABadOneListsTheKnownOnes) {
+  EXPECT_TRUE(appearance_overrides("same")->empty());
+  ASSERT_TRUE(appearance_overrides("winter").ok());
+  EXPECT_EQ(appearance_overrides("winter")->front(), "camera.params.season=winter");
+  for (const char* name : {"autumn", "dusk", "low_sun", "overcast"}) EXPECT_TRUE(appearance_overrides(name).ok()) << name;
+  auto bad = appearance_overrides("fog");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("'fog'"), std::string::npos) << bad.error().message;
+  EXPECT_NE(bad.error().message.find("winter"), std::string::npos) << bad.error().message;
+}
+
+TEST(ExperimentOptions, IdealSwitchesEveryErrorModelOfTheExperimentConfigOff) {
+  // Every override must name a key the experiment config's robot/camera accept, and loading the
+  // shipped config with them must succeed (a renamed key would silently stop switching it off).
+  auto config = load_run_config(std::string(VISNAV_SOURCE_DIR) + "/config/sim_experiment.yaml", ideal_overrides());
+  ASSERT_TRUE(config.ok()) << config.error().message;
+  for (const char* key : {"odom_scale_error_sd_pct", "odom_wheel_asymmetry_sd_pct", "slip_grass_pct"}) {
+    const ConfigNode* v = config->robot.params.find(key);
+    ASSERT_NE(v, nullptr) << key;
+    EXPECT_EQ(v->scalar(), "0") << key;
+  }
+  const ConfigNode* noise = config->camera.params.find("noise_std");
+  ASSERT_NE(noise, nullptr);
+  EXPECT_EQ(noise->scalar(), "0");
 }

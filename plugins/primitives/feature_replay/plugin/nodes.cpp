@@ -269,6 +269,10 @@ bt::PortsList ReplayFeatureEdge::provided_ports() {
                              "start-view search: when an edge's first frames do not see its taught start view, "
                              "turn in place up to this far left and right to find it (0 = off)"),
       bt::input_port<double>("scan_speed_radps", "0.4", "start-view search: turn rate"),
+      bt::input_port<double>("start_max_offset", "0.15",
+                             "start-view search: the first frames see the start view only if their mean "
+                             "|offset| is at most this fraction of the image width (0.15 of a 60 deg camera is "
+                             "9 deg); a confident match farther off means the robot faces away from the edge"),
       bt::input_port<int>("min_expected_features", "15",
                           "lost policy: where the map holds fewer landmarks/features than this at the current "
                           "distance, a frame without a match does not count as blind (nothing was seen there "
@@ -328,6 +332,8 @@ Status ReplayFeatureEdge::load_edge() {
   VISNAV_ASSIGN(scan_speed_radps_, get_input<double>("scan_speed_radps"));
   if (!(scan_deg >= 0.0 && scan_deg <= 180.0)) return fail("scan_deg must be in [0, 180]");
   if (!(scan_speed_radps_ > 0.0 && scan_speed_radps_ <= 3.0)) return fail("scan_speed_radps must be in (0, 3]");
+  VISNAV_ASSIGN(start_max_offset_, get_input<double>("start_max_offset"));
+  if (!(start_max_offset_ > 0.0 && start_max_offset_ <= 0.5)) return fail("start_max_offset must be in (0, 0.5]");
   scan_rad_ = scan_deg * std::numbers::pi / 180.0;
   if (min_expected_features_ < 0) return fail("min_expected_features must be >= 0");
   health_ = NavHealthMonitor(policy);
@@ -387,7 +393,9 @@ NodeStatus ReplayFeatureEdge::on_start() {
   phase_ = scan_rad_ > 0.0 && odom->distance_m - origin_m < 0.3 ? StartPhase::probe : StartPhase::driving;
   probe_frames_ = 0;
   probe_confidence_sum_ = 0.0;
+  probe_offset_sum_ = 0.0;
   best_confidence_ = -1.0;
+  best_score_ = -1.0;
   have_frame_ = false;
   last_command_ = Twist{};
   last_state_ = ReplayState::steering;
@@ -480,7 +488,8 @@ NodeStatus ReplayFeatureEdge::on_running() {
     // Where the map itself holds little at the start (open grass), there is no view to search for.
     if (phase_ == StartPhase::probe && !informative) {
       phase_ = StartPhase::driving;
-    } else if (auto st = search_start_view(*robot, *odom, confidence)) {
+    } else if (auto st = search_start_view(*robot, *odom, confidence,
+                                           width_px > 0.0 ? std::abs(status_.offset_px) / width_px : 1.0)) {
       if (Telemetry* telemetry = host_.telemetry()) {
         status_.distance_m = distance_m;
         status_.command = last_command_;
@@ -525,7 +534,8 @@ NodeStatus ReplayFeatureEdge::on_running() {
   return NodeStatus::running;
 }
 
-std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, const Odometry& odom, double confidence) {
+std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, const Odometry& odom, double confidence,
+                                                               double offset_fraction) {
   const double heading = odom.pose.heading_rad;
   auto turn = [&](double w) {
     last_command_ = Twist{0.0, w};
@@ -536,9 +546,13 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
     scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
     scan_last_rad_ = heading;
   };
+  // The best heading is the one that sees the start view most confidently and most centred: a
+  // view at the image edge still matches but is the wrong way to drive.
   auto track = [&]() {
     unwrap();
-    if (confidence > best_confidence_) {
+    const double score = confidence * std::max(0.0, 1.0 - 2.0 * offset_fraction);
+    if (score > best_score_) {
+      best_score_ = score;
       best_confidence_ = confidence;
       best_turn_rad_ = scan_turned_rad_;
     }
@@ -547,18 +561,23 @@ std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, con
     case StartPhase::probe: {
       // Three frames standing at the start: is the taught start view there?
       probe_confidence_sum_ += confidence;
+      probe_offset_sum_ += confidence > 0.0 ? offset_fraction : 1.0;
       if (++probe_frames_ < 3) return turn(0.0);
-      if (probe_confidence_sum_ / probe_frames_ >= health_.policy().min_confidence) {
+      const double mean_confidence = probe_confidence_sum_ / probe_frames_;
+      const double mean_offset = probe_offset_sum_ / probe_frames_;
+      if (mean_confidence >= health_.policy().min_confidence && mean_offset <= start_max_offset_) {
         phase_ = StartPhase::driving;
         return std::nullopt;
       }
-      host_.logger().warn(path(), "edge " + edge_id_ + ": start view not seen (confidence " +
-                                      format_double(probe_confidence_sum_ / probe_frames_) + "); searching by turning");
+      host_.logger().warn(path(), "edge " + edge_id_ + ": start view not seen ahead (confidence " +
+                                      format_double(mean_confidence) + ", offset " + format_double(mean_offset) +
+                                      " of the width); searching by turning");
       phase_ = StartPhase::scan_left;
       scan_last_rad_ = heading;
       scan_turned_rad_ = 0.0;
-      best_confidence_ = confidence;
-      best_turn_rad_ = 0.0;
+      best_confidence_ = -1.0;
+      best_score_ = -1.0;
+      track();
       return turn(scan_speed_radps_);
     }
     case StartPhase::scan_left:

@@ -85,7 +85,8 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   bt::NodeStatus failed(const std::string& message);
   Status load_edge();
   /// One frame of the start-view search; returns the status to report, or nullopt once driving.
-  std::optional<bt::NodeStatus> search_start_view(Robot& robot, const Odometry& odom, double confidence);
+  std::optional<bt::NodeStatus> search_start_view(Robot& robot, const Odometry& odom, double confidence,
+                                                  double offset_fraction);
 
   HostServices& host_;
   std::string edge_id_;
@@ -111,7 +112,8 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   // start view, the robot turns in place left then right by up to scan_deg, remembers the
   // heading with the best match, turns there and starts the edge. An odometric turn at a node
   // carries the teach run's heading drift (e.g. the turn that closes a loop: the whole loop's
-  // drift); this finds the view instead. When nothing matches it starts on the odometric heading
+  // drift); this finds the view instead. The probe must see the view near the image centre: a
+  // view 40 deg off still overlaps a 60 deg camera's image enough for a confident match. When nothing matches it starts on the odometric heading
   // and the lost policy decides.
   enum class StartPhase : std::uint8_t { probe, scan_left, scan_right, turn_to_best, driving };
   StartPhase phase_ = StartPhase::driving;
@@ -121,8 +123,11 @@ class ReplayFeatureEdge final : public bt::StatefulActionNode {
   double scan_turned_rad_ = 0.0;    // unwrapped turn since the scan started
   double best_turn_rad_ = 0.0;
   double best_confidence_ = -1.0;
+  double best_score_ = -1.0;        // confidence weighted by how centred the view is
+  double start_max_offset_ = 0.15;  // probe passes only with |offset| <= this fraction of the width
   int probe_frames_ = 0;
   double probe_confidence_sum_ = 0.0;
+  double probe_offset_sum_ = 0.0;   // sum of |offset_px| / width over the probe frames
   std::string edge_kind_;
 };
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -314,6 +315,11 @@ double FollowRoute::turn_target_rad(const EdgeRecord* previous, const EdgeRecord
   // one process it carries the teach run's heading drift), so by default the robot starts as it
   // stands and the edge's visual correction aligns it.
   if (previous == nullptr) return first_turn_absolute_ ? next.azimuth_rad : heading_rad;
+  // From the route's last edge into its first (the next lap): the turn the operator made when
+  // closing the loop, not the headings measured a whole loop apart.
+  if (index_ == 0 && previous->to == next.from)
+    if (auto it = previous->statistics.find(kClosingTurnStatistic); it != previous->statistics.end())
+      return heading_rad + it->second;
   const bool holds_heading = std::find(heading_holding_kinds_.begin(), heading_holding_kinds_.end(),
                                        previous->kind) != heading_holding_kinds_.end();
   // The previous edge's primitive ended on its taught heading: turn relative to now.
@@ -342,6 +348,10 @@ bt::PortsList TeachRoute::provided_ports() {
       bt::input_port<bool>("done", "{teach_done}", "the operator finished the route"),
       bt::input_port<std::string>("start_node", "start", "name of the first node"),
       bt::input_port<bool>("close_loop", "false", "the last edge ends at the first node (closed route)"),
+      bt::input_port<bool>("closing", "{teach_closing}",
+                           "closed route: the operator has driven every leg and is turning to face the first edge; "
+                           "the last edge ends at the first node and the turn made until {teach_done} is recorded "
+                           "(statistic closing_turn_rad; unset counts as false)"),
       bt::input_port<std::vector<std::string>>("primitives", kDefaultTeachKinds,
                                                 "which child node teaches which edge kind (kind=NodeID;...)"),
       bt::input_port<std::string>("taught_edge", "{taught_edge}", "edge id written by the teaching child"),
@@ -381,6 +391,8 @@ NodeStatus TeachRoute::tick() {
     taught_.clear();
     last_end_m_.reset();
     pending_gap_m_.reset();
+    closing_ = false;
+    closing_from_heading_rad_.reset();
     (void)set_output("current_node", current_id_);
     (void)set_output("finish_edge", false);
   }
@@ -388,13 +400,14 @@ NodeStatus TeachRoute::tick() {
   auto done_input = get_input<bool>("done");
   const std::string kind = primitive ? *primitive : std::string();
   const bool done = done_input && *done_input;
+  if (auto closing = get_input<bool>("closing"); closing && *closing && close_loop_) closing_ = true;
 
   if (active_child_) {
-    const bool finishing = done || kind != active_kind_;
+    const bool finishing = done || closing_ || kind != active_kind_;
     if (finishing && !edge_to_) {
       // Close the edge: create its end node first, so the edge never references a node that
       // is not on disk yet.
-      if (done && close_loop_) {
+      if ((done || closing_) && close_loop_) {
         edge_to_ = start_id_;
       } else {
         auto id = add_node("n" + std::to_string(nodes_created_++));
@@ -423,7 +436,10 @@ NodeStatus TeachRoute::tick() {
     pending_gap_m_.reset();
     last_end_m_.reset();
     if (FrameBus* bus = host_.frame_bus())
-      if (auto odom = bus->latest_odometry()) last_end_m_ = odom->distance_m;
+      if (auto odom = bus->latest_odometry()) {
+        last_end_m_ = odom->distance_m;
+        if (closing_) closing_from_heading_rad_ = odom->pose.heading_rad;
+      }
     (void)set_output("route", taught_);
     current_id_ = *edge_to_;
     (void)set_output("current_node", current_id_);
@@ -434,8 +450,11 @@ NodeStatus TeachRoute::tick() {
     host_.logger().info(path(), "taught edge " + (taught_.empty() ? std::string("?") : taught_.back()) + " (" +
                                     active_kind_ + ") ending at node " + current_id_);
   }
-  if (done) return NodeStatus::success;
-  if (kind.empty()) return NodeStatus::running;  // operator is between edges (e.g. turning)
+  if (done) {
+    record_closing_turn();
+    return NodeStatus::success;
+  }
+  if (kind.empty() || closing_) return NodeStatus::running;  // operator is between edges (e.g. turning)
   const std::string* node_id = find_kind(kinds_, kind);
   if (node_id == nullptr) return fail_node(host_, *this, "no teaching node is mapped for kind '" + kind + "'");
   for (std::size_t i = 0; i < children_.size(); ++i) {
@@ -459,6 +478,20 @@ NodeStatus TeachRoute::tick() {
     return fail_node(host_, *this, "teaching the " + kind + " edge failed to start");
   }
   return NodeStatus::running;
+}
+
+void TeachRoute::record_closing_turn() {
+  if (!closing_from_heading_rad_ || taught_.empty()) return;
+  FrameBus* bus = host_.frame_bus();
+  const auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
+  if (!odom) return;
+  const double turn_rad = wrap_angle_rad(odom->pose.heading_rad - *closing_from_heading_rad_);
+  if (auto st = host_.map()->set_edge_statistic(taught_.back(), kClosingTurnStatistic, turn_rad); !st) {
+    host_.logger().warn(path(), "edge " + taught_.back() + ": " + st.error().message);
+    return;
+  }
+  host_.logger().info(path(), "closing turn " + std::to_string(turn_rad * 180.0 / std::numbers::pi) +
+                                  " deg recorded on edge " + taught_.back());
 }
 
 void TeachRoute::halt() {

@@ -96,7 +96,10 @@ class FollowRoute final : public bt::ControlNode {
 
 /// Operator-driven teaching (seed 000 Sec. 2.1): creates a node and closes the current edge
 /// whenever the operator switches primitive ({primitive}), pauses between edges while the
-/// primitive is empty, and ends when {teach_done} is true.
+/// primitive is empty, and ends when {teach_done} is true. On a closed route, an operator that
+/// signals {teach_closing} (every leg driven, turning to face the first edge) closes the last
+/// edge at the start node at once and the turn it then makes is stored on that edge
+/// (kClosingTurnStatistic) for FollowRoute's lap-to-lap turn.
 class TeachRoute final : public bt::ControlNode {
  public:
   TeachRoute(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -108,6 +111,7 @@ class TeachRoute final : public bt::ControlNode {
 
  private:
   Result<std::string> add_node(const std::string& name);
+  void record_closing_turn();
 
   HostServices& host_;
   KindMap kinds_;
@@ -121,6 +125,8 @@ class TeachRoute final : public bt::ControlNode {
   std::vector<std::string> taught_;
   std::optional<double> last_end_m_;     ///< odometric distance when the last edge was stored
   std::optional<double> pending_gap_m_;  ///< distance between that and the start of the edge being taught
+  bool closing_ = false;                 ///< closed route: the operator is making the closing turn
+  std::optional<double> closing_from_heading_rad_;  ///< odometric heading when the last edge was stored
 };
 
 }  // namespace visnav::nav

@@ -96,7 +96,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: visnav experiment [--world W] [--route R] [--displace M[,DEG]] [--loops N] [--seeds N]\n"
-    "                         [--seed S] [--jobs J] [--radius M] [--maps hybrid,feature] [--ideal]\n"
+    "                         [--seed S] [--jobs J] [--radius M] [--maps hybrid,feature,path] [--ideal]\n"
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
     "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]...\n"
     "\n"
@@ -109,7 +109,8 @@ constexpr const char* kUsage =
     "simulator's ground truth. A loop is completed only when the robot finished it within the\n"
     "radius of the taught end and without a collision; a replay that stops (lost, camera frozen,\n"
     "collision) fails that loop and every loop after it. 'hybrid' teaches every leg with the\n"
-    "primitive the route names, 'feature' every leg with the feature-based primitive.\n"
+    "primitive the route names, 'feature' every leg with the feature-based primitive, 'path'\n"
+    "every leg with path following (legs without a visible path, e.g. indoors, fail).\n"
     "\n"
     "  --world W             world name or file (default campus)\n"
     "  --route R             route name or file (default: the world's name)\n"
@@ -120,7 +121,7 @@ constexpr const char* kUsage =
     "  --seed S              first seed (default 1): runs use S, S+1, ...; same seed, same result\n"
     "  --jobs J              runs in parallel (default: the number of cores)\n"
     "  --radius M            a loop ending farther than M from the taught end failed (default 1.0)\n"
-    "  --maps LIST           map styles, comma-separated (default hybrid,feature)\n"
+    "  --maps LIST           map styles, comma-separated: hybrid, feature, path (default hybrid,feature)\n"
     "  --ideal               every error model off: a noise-free regression run, not a result\n"
     "  --teach-appearance A  appearance while teaching: same, winter, autumn, dusk, low_sun, overcast\n"
     "  --replay-appearance A appearance while replaying (default same)\n"
@@ -178,7 +179,8 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
       o.maps.clear();
       std::stringstream ss(v);
       for (std::string m; std::getline(ss, m, ',');) {
-        if (m != "hybrid" && m != "feature") return fail("--maps: '" + m + "' is not hybrid or feature");
+        if (m != "hybrid" && m != "feature" && m != "path")
+          return fail("--maps: '" + m + "' is not hybrid, feature or path");
         o.maps.push_back(m);
       }
       if (o.maps.empty()) return fail("--maps needs at least one style");
@@ -413,7 +415,9 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
       return done();
     }
     if (auto st = set_blackboard_values(*teach, {"route_file=" + route_file,
-                                                 std::string("force_kind=") + (style == "feature" ? "feature_segment" : ""),
+                                                 std::string("force_kind=") + (style == "feature" ? "feature_segment"
+                                                                         : style == "path" ? "path_following"
+                                                                                           : ""),
                                                  std::string("close_loop=") + (route.closed ? "true" : "false")});
         !st) {
       r.setup_error = st.error().message;
@@ -451,7 +455,10 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     }
   }
   t.taught_end = xy(sim->ground_truth_pose());
-  t.taught_end_heading_rad = sim->ground_truth_pose().heading_rad;
+  // Along/cross-track are split along the last edge's direction: the heading when that edge was
+  // stored, not after the operator's closing turn to face the first edge.
+  t.taught_end_heading_rad = t.taught_edge_ends.empty() ? sim->ground_truth_pose().heading_rad
+                                                        : t.taught_edge_ends.back().pose.heading_rad;
   t.teach_path.push_back(t.taught_end);
   for (auto& e : t.taught_edge_ends)
     if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;

@@ -21,8 +21,8 @@ Status OperatorParams::validate() const {
   return ok();
 }
 
-ScriptedOperatorCore::ScriptedOperatorCore(std::vector<OperatorLeg> legs, OperatorParams params)
-    : legs_(std::move(legs)), params_(params) {
+ScriptedOperatorCore::ScriptedOperatorCore(std::vector<OperatorLeg> legs, OperatorParams params, bool closed)
+    : legs_(std::move(legs)), params_(params), closed_(closed) {
   done_ = legs_.empty();
 }
 
@@ -31,6 +31,22 @@ OperatorAction ScriptedOperatorCore::update(const Pose2D& pose) {
   if (done_) {
     action.done = true;
     action.leg = static_cast<int>(legs_.size());
+    return action;
+  }
+  if (closing_) {
+    // Every leg driven: face the first leg's direction again, then the route is done.
+    action.closing = true;
+    action.leg = static_cast<int>(legs_.size());
+    const cv::Point2d d0 = legs_.front().to_m - legs_.front().from_m;
+    const double error = wrap(std::atan2(d0.y, d0.x) - pose.heading_rad);
+    if (std::abs(error) > params_.turn_tolerance_rad) {
+      const double w = std::clamp(params_.heading_gain_per_s * error, -params_.max_angular_radps,
+                                  params_.max_angular_radps);
+      action.command.angular_radps = std::abs(w) < 0.05 ? std::copysign(0.05, w) : w;
+      return action;
+    }
+    done_ = true;
+    action.done = true;
     return action;
   }
   const OperatorLeg& leg = legs_[leg_];
@@ -58,8 +74,13 @@ OperatorAction ScriptedOperatorCore::update(const Pose2D& pose) {
     ++leg_;
     turning_ = true;
     if (leg_ >= legs_.size()) {
-      done_ = true;
-      action.done = true;
+      if (closed_) {
+        closing_ = true;
+        action.closing = true;
+      } else {
+        done_ = true;
+        action.done = true;
+      }
     }
     return action;
   }

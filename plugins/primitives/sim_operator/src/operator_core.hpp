@@ -38,13 +38,17 @@ struct OperatorLeg {
 struct OperatorAction {
   Twist command;
   std::string primitive;  ///< kind being taught now; empty while turning between legs
-  bool done = false;      ///< all legs driven
+  bool done = false;      ///< all legs driven (and, on a closed route, the closing turn made)
+  bool closing = false;   ///< closed route: every leg driven, turning in place to face the first leg
   int leg = 0;
 };
 
 class ScriptedOperatorCore {
  public:
-  ScriptedOperatorCore(std::vector<OperatorLeg> legs, OperatorParams params);
+  /// `closed`: the last leg ends where the first starts; after it the operator turns in place to
+  /// face the first leg again (as a person closing a taught loop would), so the map can record
+  /// that turn instead of deriving it from headings measured a whole loop apart.
+  ScriptedOperatorCore(std::vector<OperatorLeg> legs, OperatorParams params, bool closed = false);
   /// Next action for the robot's true pose (world frame).
   OperatorAction update(const Pose2D& true_pose);
   [[nodiscard]] const std::vector<OperatorLeg>& legs() const { return legs_; }
@@ -55,6 +59,8 @@ class ScriptedOperatorCore {
   std::size_t leg_ = 0;
   bool turning_ = true;
   bool done_ = false;
+  bool closed_ = false;
+  bool closing_ = false;
 };
 
 /// Legs between consecutive waypoints (and back to the first when `closed`), with kinds mapped

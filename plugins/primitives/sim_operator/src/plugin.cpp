@@ -31,6 +31,9 @@ class ScriptedOperator final : public bt::StatefulActionNode {
             bt::input_port<std::string>("force_kind", "", "teach every leg with this edge kind (e.g. a feature-only map)"),
             bt::input_port<double>("speed_mps", "0.5", "driving speed"),
             bt::output_port<std::string>("primitive", "{primitive}", "edge kind being taught; empty while turning"),
+            bt::output_port<bool>("closing", "{teach_closing}",
+                                  "closed route: true once every leg is driven, while the operator turns to face "
+                                  "the first leg again (TeachRoute records that turn)"),
             bt::output_port<bool>("done", "{teach_done}", "true once the route is driven")};
   }
 
@@ -59,8 +62,10 @@ class ScriptedOperator final : public bt::StatefulActionNode {
     OperatorParams params;
     params.speed_mps = *speed;
     if (auto st = params.validate(); !st) return failed(st.error().message);
-    core_.emplace(std::move(*legs), params);
+    core_.emplace(std::move(*legs), params, route->closed);
     (void)set_output("done", false);
+    (void)set_output("closing", false);
+    closing_ = false;
     (void)set_output("primitive", std::string());
     return on_running();
   }
@@ -70,6 +75,10 @@ class ScriptedOperator final : public bt::StatefulActionNode {
     if (a.primitive != last_primitive_) {
       (void)set_output("primitive", a.primitive);
       last_primitive_ = a.primitive;
+    }
+    if (a.closing != closing_) {
+      (void)set_output("closing", a.closing);
+      closing_ = a.closing;
     }
     if (a.done) {
       (void)host_.robot()->stop();
@@ -94,6 +103,7 @@ class ScriptedOperator final : public bt::StatefulActionNode {
   SimulationControl* sim_ = nullptr;
   std::optional<ScriptedOperatorCore> core_;
   std::string last_primitive_ = "?";
+  bool closing_ = false;
 };
 
 Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& host) {

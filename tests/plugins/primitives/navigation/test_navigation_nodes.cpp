@@ -401,6 +401,60 @@ TEST_F(NavigationNodes, PatrolLoopTurnsRelativeToThePreviousLoopsLastEdge) {
   EXPECT_NEAR(rec_.heading_at_edge_start[4] - rec_.heading_at_edge_start[3], q, 0.02);
 }
 
+TEST_F(NavigationNodes, PatrolLoopTurnsIntoTheNextLapByTheRecordedClosingTurn) {
+  // The same square, taught with 0.5 rad of odometric heading drift over the loop: the last
+  // edge's headings read 0.5 rad too far left, so the azimuths alone ask for a 1.07 rad turn
+  // into the next lap. The closing turn the operator made (and TeachRoute recorded) is 90°.
+  auto a = node("A"), b = node("B"), c = node("C"), d = node("D");
+  const double q = std::numbers::pi / 2;
+  const double drift = 0.5;
+  edge(a, b, 1.0, 0.0, 0.0);
+  edge(b, c, 1.0, q, q);
+  edge(c, d, 1.0, 2 * q, 2 * q);
+  const std::string last = edge(d, a, 1.0, -q + drift, -q + drift);
+  ASSERT_TRUE(map_->set_edge_statistic(last, "closing_turn_rad", q).ok());
+  auto tree = load(R"(<Repeat num_cycles="2"><Sequence><PlanRoute start="A" goal="A"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute>
+      </Sequence></Repeat>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.edges.size(), 8u);
+  EXPECT_NEAR(rec_.heading_at_edge_start[4] - rec_.heading_at_edge_start[3], q, 0.02);
+}
+
+TEST_F(NavigationNodes, TeachRouteRecordsTheClosingTurnOfAClosedRoute) {
+  // One edge driven east; the operator then signals closing and turns +90° in place before
+  // saying done: the edge ends on the start node and carries that turn.
+  auto tree = teach_route(" close_loop=\"true\"");
+  auto& bb = tree.blackboard();
+  bb.set("teach_closing", false);
+  double turn_start_heading = 0.0;
+  bool turning = false;
+  auto op = [&](int i) {
+    const auto& o = robot_.odom_;
+    if (i == 10) {
+      bb.set("primitive", std::string());
+      bb.set("teach_closing", true);
+      turning = true;
+      turn_start_heading = o.pose.heading_rad;
+      (void)robot_.send_command({0.0, 0.5});
+    }
+    if (turning && o.pose.heading_rad - turn_start_heading >= std::numbers::pi / 2) {
+      (void)robot_.send_command({0.0, 0.0});
+      bb.set("teach_done", true);
+      turning = false;
+    }
+  };
+  EXPECT_EQ(run(tree, 200, op), NodeStatus::success);
+  ASSERT_EQ(map_->edges().size(), 1u);
+  const auto& e = map_->edges()[0];
+  EXPECT_EQ(e.from, e.to);
+  EXPECT_NEAR(e.length_m, 1.0, 0.15);
+  ASSERT_EQ(e.statistics.count("closing_turn_rad"), 1u);
+  EXPECT_NEAR(e.statistics.at("closing_turn_rad"), std::numbers::pi / 2, 0.08);
+  // The end heading is the one before the closing turn, not after it.
+  EXPECT_NEAR(e.statistics.at("end_heading_rad"), 0.0, 0.06);
+}
+
 TEST_F(NavigationNodes, TeachRouteCreatesANodeAndEdgeAtEveryPrimitiveSwitch) {
   // Operator script: 2 m feature, turn +90°, 3 m path, then done (closing the loop is off).
   auto tree = load(R"(<TeachRoute start_node="dock" primitives="feature_segment=TestTeachEdge;path_following=TestTeachEdge">

@@ -99,6 +99,20 @@ TEST(HonestExperiment, FirstEdgeDoesNotDependOnTheTeachRunsHeadingDrift) {
   }
 }
 
+TEST(HonestExperiment, TheTurnIntoTheNextLapDoesNotDependOnTheTeachRunsHeadingDrift) {
+  ExperimentOptions o = rectangle("lap_drift");
+  // 2 deg/m while teaching: the last edge's taught headings are 40 deg off the first edge's by
+  // the end of the 20 m loop. The turn into lap 2 is the closing turn recorded when teaching.
+  o.teach_overrides = {"robot.params.odom_heading_drift_degpm=2.0"};
+  o.loops = 2;
+  const ExperimentRun r = run_single(o);
+  ASSERT_EQ(r.loops.size(), 2u);
+  for (const auto& l : r.loops) {
+    EXPECT_TRUE(l.completed) << "loop " << l.loop << ": " << l.failure;
+    EXPECT_LT(l.error_m, 0.5) << "loop " << l.loop;
+  }
+}
+
 TEST(LostDetection, FrozenCameraStops) {
   ExperimentOptions o = rectangle("frozen");
   o.replay_overrides = {"camera.params.freeze_probability=1"};
@@ -165,10 +179,20 @@ TEST(LostDetection, RouteReplayedInTheWrongWorldStops) {
 
 TEST(HonestExperiment, ACollisionFailsTheLoopAndSaysWhere) {
   ExperimentOptions o = rectangle("collision");
-  // carried 2.9 m to the right (south, towards the wall at y = -5.5) and turned to face it
-  o.displace_m = -2.9;
-  o.displace_heading_deg = -80.0;
+  // 1 m into the replay the robot is carried to 0.15 m in front of the south wall (y = -5.5)
+  // and turned to face it: the mission drives on for the few frames the lost policy needs, and
+  // the 0.25 m body touches the wall first.
+  bool carried = false;
+  o.replay_hook = [&carried](SimulationControl& sim, Robot&, double driven_m) {
+    if (carried || driven_m < 1.0) return;
+    carried = true;
+    Pose2D p = sim.ground_truth_pose();
+    p.y_m = -5.5 + 0.25 + 0.15;
+    p.heading_rad = -std::numbers::pi / 2;
+    (void)sim.set_ground_truth_pose(p);
+  };
   const ExperimentRun r = run_single(o);
+  EXPECT_TRUE(carried);
   ASSERT_EQ(r.loops.size(), 1u);
   EXPECT_FALSE(r.loops[0].completed);
   ASSERT_FALSE(r.collisions.empty());

@@ -70,6 +70,46 @@ TEST(ScriptedOperator, DrivesASquareLegByLegTurningInPlaceBetweenLegs) {
   EXPECT_TRUE(op.update(pose).done);
 }
 
+TEST(ScriptedOperator, ClosedRouteEndsFacingTheFirstLegAgain) {
+  // Two legs out and back; on a closed route the operator, back at the start facing west,
+  // turns in place (closing, no primitive) until it faces the first leg (east), then is done.
+  const std::vector<OperatorLeg> legs = {{{0, 0}, {4, 0}, "feature_segment"}, {{4, 0}, {0, 0}, "feature_segment"}};
+  ScriptedOperatorCore op(legs, OperatorParams{}, true);
+  Pose2D pose{0.0, 0.0, 0.0};
+  bool saw_closing = false;
+  int ticks = 0;
+  OperatorAction a;
+  for (; ticks < 20000; ++ticks) {
+    a = op.update(pose);
+    if (a.done) break;
+    if (a.closing) {
+      saw_closing = true;
+      EXPECT_TRUE(a.primitive.empty());
+      EXPECT_EQ(a.command.linear_mps, 0.0);
+    }
+    const double dt = 0.05;
+    pose.heading_rad += a.command.angular_radps * dt;
+    pose.x_m += a.command.linear_mps * dt * std::cos(pose.heading_rad);
+    pose.y_m += a.command.linear_mps * dt * std::sin(pose.heading_rad);
+  }
+  ASSERT_LT(ticks, 20000);
+  EXPECT_TRUE(saw_closing);
+  EXPECT_TRUE(a.closing);
+  EXPECT_NEAR(std::remainder(pose.heading_rad, 2 * std::numbers::pi), 0.0, 0.02);
+  EXPECT_NEAR(pose.x_m, 0.0, 0.1);
+  // An open route never closes.
+  ScriptedOperatorCore open_route(legs, OperatorParams{});
+  Pose2D p2{0.0, 0.0, 0.0};
+  for (int i = 0; i < 20000; ++i) {
+    const OperatorAction b = open_route.update(p2);
+    EXPECT_FALSE(b.closing);
+    if (b.done) break;
+    p2.heading_rad += b.command.angular_radps * 0.05;
+    p2.x_m += b.command.linear_mps * 0.05 * std::cos(p2.heading_rad);
+    p2.y_m += b.command.linear_mps * 0.05 * std::sin(p2.heading_rad);
+  }
+}
+
 TEST(ScriptedOperator, ParamsValidation) {
   OperatorParams p;
   EXPECT_TRUE(p.validate().ok());

@@ -40,6 +40,13 @@ struct TurnParams {
 /// Relative turns are immune to the odometric heading drift accumulated since teaching.
 [[nodiscard]] double turn_between_edges_rad(const EdgeRecord& previous, const EdgeRecord& next);
 
+/// Edge statistic written by TeachRoute on the last edge of a closed route: the in-place turn
+/// the operator made at the end of teaching, from that edge's end heading to facing the first
+/// edge again, rad (left +). Measured by odometry over one turn, it is what a lap of the route
+/// must turn between its last and first edge; the two edges' own headings were measured a whole
+/// loop apart and differ by the loop's odometric heading drift as well.
+inline constexpr const char* kClosingTurnStatistic = "closing_turn_rad";
+
 /// Edge statistic written by TeachRoute: odometric distance the robot travelled between the end
 /// of the previous edge and the start of this one while teaching (its stopping distance), m.
 inline constexpr const char* kStartGapStatistic = "start_gap_m";

@@ -115,15 +115,15 @@ TEST(OutOfTreePlugin, ExamplePrimitiveTeachesAndReplaysAnEdgeOnTheSimulatedRobot
 </BehaviorTree></root>)";
   std::ofstream(dir / "replay.xml") << R"(<root BTCPP_format="4"><BehaviorTree ID="Replay">
   <Sequence>
-    <PlanRoute start="start" goal="n0"/>
+    <PlanRoute start="start" goal="n1"/>
     <FollowRoute primitives="brightness=ReplayBrightnessEdge"><ReplayBrightnessEdge speed_mps="0.3"/></FollowRoute>
   </Sequence>
 </BehaviorTree></root>)";
   const std::string run = "cd '" + dir.string() + "' && '" + oot.visnav() + "' run --config sim.yaml --map map --tree ";
   const fs::path out = dir / "run.txt";
-  ASSERT_EQ(sh(run + "teach.xml >'" + out.string() + "'", oot.log), 0) << read_file(oot.log) << read_file(out);
+  ASSERT_EQ(sh(run + "teach.xml --create >'" + out.string() + "'", oot.log), 0) << read_file(oot.log) << read_file(out);
   const std::string graph = read_file(dir / "map/graph.yaml");
-  EXPECT_NE(graph.find("kind: brightness"), std::string::npos) << graph;
+  EXPECT_NE(graph.find("kind: \"brightness\""), std::string::npos) << graph;
 
   fs::remove(dir / "telemetry.jsonl");
   ASSERT_EQ(sh(run + "replay.xml >'" + out.string() + "'", oot.log), 0) << read_file(oot.log) << read_file(out);

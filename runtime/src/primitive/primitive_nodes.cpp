@@ -8,7 +8,6 @@
 #include <sstream>
 #include <utility>
 
-#include "visnav/bt/nav_health_ports.hpp"
 #include "visnav/bt/node.hpp"
 #include "visnav/primitive.hpp"
 
@@ -41,10 +40,16 @@ std::string join(const std::vector<T>& items) {
   return out;
 }
 
+/// A set of parameter ports: the docs of a ParamSchema and its one-field check.
+struct ParamPorts {
+  std::vector<ParamDoc> docs;
+  std::function<Status(std::string_view key, const ConfigNode& value)> check;
+};
+
 /// One port per parameter: type from the schema's type name, default = the Params default,
 /// the schema's constraint checked on literals (before the first tick).
-Status append_param_ports(bt::PortsList& ports, const std::shared_ptr<const PrimitiveType>& type) {
-  for (const ParamDoc& d : type->params) {
+Status append_param_ports(bt::PortsList& ports, const ParamPorts& params) {
+  for (const ParamDoc& d : params.docs) {
     bt::PortInfo p;
     if (d.type == "int") p = bt::input_port<int>(d.name, d.default_value, d.description);
     else if (d.type == "double") p = bt::input_port<double>(d.name, d.default_value, d.description);
@@ -52,11 +57,11 @@ Status append_param_ports(bt::PortsList& ports, const std::shared_ptr<const Prim
     else if (d.type == "string") p = bt::input_port<std::string>(d.name, d.default_value, d.description);
     else if (d.type == "list<double>") p = bt::input_port<std::vector<double>>(d.name, d.default_value, d.description);
     else if (d.type == "list<string>") p = bt::input_port<std::vector<std::string>>(d.name, d.default_value, d.description);
-    else return fail("node '" + type->node_id + "': parameter '" + d.name + "' has unsupported type " + d.type);
+    else return fail("parameter '" + d.name + "' has unsupported type " + d.type);
     if (!d.constraint.empty()) p.description += " " + d.constraint;
     p.constraint = d.constraint;
-    p.check = [type, name = d.name](std::string_view text) {
-      return type->check_param(name, ConfigNode::make_scalar(std::string(text)));
+    p.check = [check = params.check, name = d.name](std::string_view text) {
+      return check(name, ConfigNode::make_scalar(std::string(text)));
     };
     ports.push_back(std::move(p));
   }
@@ -65,9 +70,9 @@ Status append_param_ports(bt::PortsList& ports, const std::shared_ptr<const Prim
 
 /// The parameter ports' current values (literals as written, blackboard entries rendered) as the
 /// `params` map the schema parses; errors name the node's file:line and the port.
-Result<ConfigNode> read_param_ports(const bt::TreeNode& node, const PrimitiveType& type) {
+Result<ConfigNode> read_param_ports(const bt::TreeNode& node, const std::vector<ParamDoc>& docs) {
   ConfigNode map = ConfigNode::make_map(node.where());
-  for (const ParamDoc& d : type.params) {
+  for (const ParamDoc& d : docs) {
     const bt::PortBinding* b = node.port(d.name);
     std::string text;
     if (b != nullptr && b->source == bt::PortBinding::Source::literal) {
@@ -93,6 +98,80 @@ Result<ConfigNode> read_param_ports(const bt::TreeNode& node, const PrimitiveTyp
     map.set(d.name, ConfigNode::make_scalar(std::move(text), node.where()));
   }
   return map;
+}
+
+ParamPorts primitive_ports(const std::shared_ptr<const PrimitiveType>& type) {
+  return {type->params, [type](std::string_view key, const ConfigNode& v) { return type->check_param(key, v); }};
+}
+
+/// The lost policy (nav_health.hpp) as every replay node's ports (docs/navigation.md, "Lost
+/// detection"): the defaults are LostPolicy's, the ranges checked on literals, validate() the policy's own.
+struct LostPolicyPorts {
+  double min_frame_confidence = LostPolicy{}.min_confidence;
+  double slow_after_m = LostPolicy{}.slow_after_m;
+  double max_blind_m = LostPolicy{}.max_blind_m;
+  double max_frozen_m = LostPolicy{}.max_frozen_m;
+  double max_saturated_m = LostPolicy{}.max_saturated_m;
+  double max_heading_deviation_deg = LostPolicy{}.max_heading_deviation_rad * 180.0 / std::numbers::pi;
+
+  [[nodiscard]] LostPolicy policy() const {
+    LostPolicy p;
+    p.min_confidence = min_frame_confidence;
+    p.slow_after_m = slow_after_m;
+    p.max_blind_m = max_blind_m;
+    p.max_frozen_m = max_frozen_m;
+    p.max_saturated_m = max_saturated_m;
+    p.max_heading_deviation_rad = max_heading_deviation_deg * std::numbers::pi / 180.0;
+    return p;
+  }
+  [[nodiscard]] Status validate() const {
+    VISNAV_TRY(schema().check(*this));
+    return policy().validate();
+  }
+  static const ParamSchema<LostPolicyPorts>& schema() {
+    using P = LostPolicyPorts;
+    static const auto s =
+        ParamSchema<P>{}
+            .field("min_frame_confidence", &P::min_frame_confidence,
+                   "lost policy: window-mean confidence at which the robot sees the route")
+            .range(0.0, 1.0)
+            .field("slow_after_m", &P::slow_after_m, "lost policy: blind distance after which the speed is reduced, m")
+            .range(0.0, 1e6)
+            .field("max_blind_m", &P::max_blind_m,
+                   "lost policy: blind distance after which the edge fails with 'lost', m")
+            .range(0.0, 1e6)
+            .field("max_frozen_m", &P::max_frozen_m,
+                   "lost policy: travel with identical frames (or without a new frame) after which the edge fails "
+                   "with 'camera frozen', m")
+            .range(0.0, 1e6)
+            .field("max_saturated_m", &P::max_saturated_m,
+                   "lost policy: travel with a saturated correction after which the edge fails, m")
+            .range(0.0, 1e6)
+            .field("max_heading_deviation_deg", &P::max_heading_deviation_deg,
+                   "lost policy: odometric heading vs the taught one, deg; 0 = off")
+            .range(0.0, 180.0);
+    return s;
+  }
+  static ParamPorts ports() {
+    return {schema().docs(), [](std::string_view key, const ConfigNode& v) { return schema().check_field(key, v); }};
+  }
+};
+
+Result<LostPolicy> read_lost_policy(const bt::TreeNode& node) {
+  VISNAV_ASSIGN(ConfigNode params, read_param_ports(node, LostPolicyPorts::schema().docs()));
+  VISNAV_ASSIGN(LostPolicyPorts p, LostPolicyPorts::schema().parse(params));
+  return p.policy();
+}
+
+/// Starts `monitor` for an edge from the node's carried inout ports (unset ones count from here).
+void begin_nav_health(NavHealthMonitor& monitor, const bt::TreeNode& node, double odom_distance_m,
+                      double odom_heading_rad, std::optional<TaughtHeading> taught) {
+  auto carried = [&](const char* port) -> std::optional<double> {
+    auto v = node.get_input<double>(port);
+    if (!v) return std::nullopt;
+    return *v;
+  };
+  monitor.begin(odom_distance_m, odom_heading_rad, carried("confident_at_m"), carried("image_changed_at_m"), taught);
 }
 
 /// The newest frame if it is new, its features (when the primitive uses a detector) and what
@@ -166,8 +245,13 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                                "unset counts as 0)"),
         bt::output_port<int>("lap", "{lap}", "0-based lap being driven (closed paths driven several times)"),
     };
-    VISNAV_TRY(append_param_ports(p, type));
-    bt::append_lost_policy_ports(p);
+    VISNAV_TRY(append_param_ports(p, primitive_ports(type)));
+    VISNAV_TRY(append_param_ports(p, LostPolicyPorts::ports()));
+    p.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
+                                       "odometric distance at which the route was last seen (carried between edges; "
+                                       "unset: count from the edge start)"));
+    p.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
+                                       "odometric distance at which the image last changed (carried between edges)"));
     return p;
   }
 
@@ -204,7 +288,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     }
     const NavHealthVerdict& health = health_.update(odom->distance_m, odom->pose.heading_rad, step.distance_m,
                                                     frame->image, step.confidence, step.saturated, step.informative);
-    bt::store_nav_health(health_, *this);
+    // The carried distances (errors ignored: a tree that does not carry them may bind literals).
+    (void)set_output("confident_at_m", health_.confident_at_m());
+    (void)set_output("image_changed_at_m", health_.changed_at_m());
     // A robot that is not sure where the route is slows down (the curvature is kept).
     Twist command{step.command.linear_mps * health.speed_factor, step.command.angular_radps * health.speed_factor};
     publish(step, health.must_stop() ? Twist{} : command, problem, &health);
@@ -248,9 +334,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     expected_width_px_ = statistic(*edge, "image_width_px");
     expected_height_px_ = statistic(*edge, "image_height_px");
 
-    VISNAV_ASSIGN(LostPolicy policy, bt::read_lost_policy(*this));
+    VISNAV_ASSIGN(LostPolicy policy, read_lost_policy(*this));
     health_ = NavHealthMonitor(policy);
-    VISNAV_ASSIGN(ConfigNode params, read_param_ports(*this, *type_));
+    VISNAV_ASSIGN(ConfigNode params, read_param_ports(*this, type_->params));
     VISNAV_ASSIGN(replayer_, type_->make_replayer(params));
     // The payload is read and verified once, here, before the robot moves (never per frame).
     auto body = map->read_payload(edge_id_);
@@ -269,7 +355,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
       if (auto it = edge->statistics.find("end_heading_rad"); it != edge->statistics.end())
         taught->end_turn_rad = wrap_angle_rad(it->second - edge->azimuth_rad);
     }
-    bt::begin_nav_health(health_, *this, odom->distance_m, odom->pose.heading_rad, taught);
+    begin_nav_health(health_, *this, odom->distance_m, odom->pose.heading_rad, taught);
     frames_.reset();
     last_frame_odom_m_ = odom->distance_m;
     last_command_ = Twist{};
@@ -354,7 +440,7 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
         bt::input_port<bool>("finish", "{finish_edge}", "true: store the edge and succeed (unset counts as false)"),
         bt::output_port<std::string>("edge", "{taught_edge}", "id of the stored edge"),
     };
-    VISNAV_TRY(append_param_ports(p, type));
+    VISNAV_TRY(append_param_ports(p, primitive_ports(type)));
     return p;
   }
 
@@ -366,7 +452,7 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
       return failed(id + " needs a detector (config section 'detector')");
     auto odom = host_.frame_bus()->latest_odometry();
     if (!odom) return failed("no odometry yet");
-    auto params = read_param_ports(*this, *type_);
+    auto params = read_param_ports(*this, type_->params);
     if (!params) return failed(params.error().message);
     auto made = type_->make_teacher(*params);
     if (!made) return failed(made.error().message);

@@ -174,13 +174,18 @@ TEST_F(PrimitiveAdapter, PortsComeFromTheSchemaWithItsDefaultsAndConstraints) {
 TEST_F(PrimitiveAdapter, AnOutOfRangeLiteralFailsWhenTheTreeLoadsNotWhenTheRobotGetsThere) {
   const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">\n<Sequence>\n"
                           "<ReplayTestEdge edge=\"e0\" speed_mps=\"9\"/>\n"
-                          "<ReplayTestEdge edge=\"e1\" core_gain=\"2\"/>\n</Sequence></BehaviorTree></root>";
+                          "<ReplayTestEdge edge=\"e1\" core_gain=\"2\"/>\n"
+                          "<ReplayTestEdge edge=\"e2\" max_heading_deviation_deg=\"270\"/>\n</Sequence></BehaviorTree></root>";
   auto tree = bt::load_tree_string(xml, registry_, bt::LoadOptions{});
   ASSERT_FALSE(tree.ok());
   EXPECT_NE(tree.error().message.find(":3:"), std::string::npos) << tree.error().message;
   EXPECT_NE(tree.error().message.find("port 'speed_mps': value 9 is out of range [0.1, 1]"), std::string::npos)
       << tree.error().message;
   EXPECT_NE(tree.error().message.find(":4:"), std::string::npos) << tree.error().message;
+  // The lost policy's ports are generated and checked the same way.
+  EXPECT_NE(tree.error().message.find("port 'max_heading_deviation_deg': value 270 is out of range [0, 180]"),
+            std::string::npos)
+      << tree.error().message;
 }
 
 TEST_F(PrimitiveAdapter, TeachesAnEdgeThatTheReplayerDrivesToItsEnd) {

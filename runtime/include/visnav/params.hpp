@@ -210,16 +210,21 @@ class ParamSchema {
     f.doc.constraint = os.str();
     auto previous = f.assign;
     f.assign = [previous, min_value, max_value, c = f.doc.constraint](P& p, const ConfigNode& node) -> Status {
-      VISNAV_TRY(previous(p, node));
+      // This range first (unparsable text is left to `previous`), so a range that narrows an
+      // included field's is the one an error names.
       auto check = [&](const std::string& text) -> Status {
         auto v = detail::parse_double(text);
         if (v && (*v < min_value || *v > max_value)) return fail("value " + text + " is out of range " + c);
         return ok();
       };
-      if (node.is_scalar() && node.scalar().find(';') == std::string::npos) return check(node.scalar());
-      if (node.is_sequence()) for (const auto& it : node.items()) VISNAV_TRY(check(it.scalar()));
-      if (node.is_scalar()) for (const auto& t : detail::split_list(node.scalar())) VISNAV_TRY(check(t));
-      return ok();
+      if (node.is_scalar() && node.scalar().find(';') == std::string::npos) {
+        VISNAV_TRY(check(node.scalar()));
+      } else if (node.is_sequence()) {
+        for (const auto& it : node.items()) VISNAV_TRY(check(it.scalar()));
+      } else if (node.is_scalar()) {
+        for (const auto& t : detail::split_list(node.scalar())) VISNAV_TRY(check(t));
+      }
+      return previous(p, node);
     };
     f.check = [values = f.values, min_value, max_value, c = f.doc.constraint](const P& p) -> Status {
       for (const std::string& text : values(p)) {

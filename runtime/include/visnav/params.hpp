@@ -28,6 +28,8 @@
 #include <limits>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
+#include <string_view>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -138,6 +140,23 @@ Result<T> convert(const ConfigNode& node) {
   }
 }
 
+/// A field's value(s) as text, one per list element (what range() and one_of() check).
+template <typename T>
+std::vector<std::string> values_of(const T& v) {
+  if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
+    std::vector<std::string> out;
+    for (const auto& item : v) out.push_back(render(item));
+    return out;
+  } else if constexpr (std::is_same_v<T, double>) {
+    std::ostringstream os;
+    os.precision(15);
+    os << v;
+    return {os.str()};
+  } else {
+    return {render(v)};
+  }
+}
+
 }  // namespace detail
 
 template <typename P>
@@ -156,26 +175,62 @@ class ParamSchema {
       p.*member = std::move(*v);
       return ok();
     };
+    f.values = [member](const P& p) { return detail::values_of(p.*member); };
     fields_.push_back(std::move(f));
     return *this;
   }
 
+  /// Adds the fields `names` of a nested struct `Sub` (member `outer` of P) with their
+  /// description, default and constraint taken from `sub`, the nested struct's own schema, so a
+  /// parameter is declared once. Each entry is {key in `sub`, key here} (rename, e.g. a node port
+  /// that predates the core name). Unknown sub keys are a bug: std::logic_error.
+  template <typename Sub>
+  ParamSchema& include(Sub P::*outer, const ParamSchema<Sub>& sub,
+                       const std::vector<std::pair<std::string, std::string>>& names) {
+    for (const auto& [sub_name, name] : names) {
+      const auto* sf = sub.find(sub_name);
+      if (sf == nullptr) throw std::logic_error("ParamSchema::include: no field '" + sub_name + "'");
+      Field f;
+      f.doc = sf->doc;
+      f.doc.name = name;
+      f.render_default = [outer, g = sf->render_default](const P& p) { return g(p.*outer); };
+      f.assign = [outer, a = sf->assign](P& p, const ConfigNode& node) { return a(p.*outer, node); };
+      f.values = [outer, v = sf->values](const P& p) { return v(p.*outer); };
+      f.check = [outer, c = sf->check](const P& p) { return c(p.*outer); };
+      fields_.push_back(std::move(f));
+    }
+    return *this;
+  }
+
   /// Inclusive numeric range for the last int/double field (or for each element of a list<double>).
+  /// After include() it narrows the included field's range (both are enforced by parse()).
   ParamSchema& range(double min_value, double max_value) {
     Field& f = fields_.back();
     std::ostringstream os; os << "[" << min_value << ", " << max_value << "]";
     f.doc.constraint = os.str();
     auto previous = f.assign;
     f.assign = [previous, min_value, max_value, c = f.doc.constraint](P& p, const ConfigNode& node) -> Status {
-      VISNAV_TRY(previous(p, node));
+      // This range first (unparsable text is left to `previous`), so a range that narrows an
+      // included field's is the one an error names.
       auto check = [&](const std::string& text) -> Status {
         auto v = detail::parse_double(text);
         if (v && (*v < min_value || *v > max_value)) return fail("value " + text + " is out of range " + c);
         return ok();
       };
-      if (node.is_scalar() && node.scalar().find(';') == std::string::npos) return check(node.scalar());
-      if (node.is_sequence()) for (const auto& it : node.items()) VISNAV_TRY(check(it.scalar()));
-      if (node.is_scalar()) for (const auto& t : detail::split_list(node.scalar())) VISNAV_TRY(check(t));
+      if (node.is_scalar() && node.scalar().find(';') == std::string::npos) {
+        VISNAV_TRY(check(node.scalar()));
+      } else if (node.is_sequence()) {
+        for (const auto& it : node.items()) VISNAV_TRY(check(it.scalar()));
+      } else if (node.is_scalar()) {
+        for (const auto& t : detail::split_list(node.scalar())) VISNAV_TRY(check(t));
+      }
+      return previous(p, node);
+    };
+    f.check = [values = f.values, min_value, max_value, c = f.doc.constraint](const P& p) -> Status {
+      for (const std::string& text : values(p)) {
+        auto v = detail::parse_double(text);
+        if (!v || *v < min_value || *v > max_value) return fail("value " + text + " is out of range " + c);
+      }
       return ok();
     };
     return *this;
@@ -193,7 +248,33 @@ class ParamSchema {
       for (const auto& a : allowed) if (node.is_scalar() && node.scalar() == a) return ok();
       return fail("value '" + (node.is_scalar() ? node.scalar() : std::string("?")) + "' is not " + c);
     };
+    f.check = [values = f.values, allowed, c](const P& p) -> Status {
+      for (const std::string& text : values(p)) {
+        bool found = false;
+        for (const auto& a : allowed) found = found || text == a;
+        if (!found) return fail("value '" + text + "' is not " + c);
+      }
+      return ok();
+    };
     return *this;
+  }
+
+  /// Checks every field of `p` (a struct filled in code, not parsed) against its constraint:
+  /// the same ranges and choices parse() enforces. Structs call this from their validate(), so
+  /// a constraint is written once, in the schema. Error: "key 'laps': value 0 is out of range [1, 100000]".
+  [[nodiscard]] Status check(const P& p) const {
+    for (const auto& f : fields_)
+      if (auto st = f.check(p); !st) return fail("key '" + f.doc.name + "': " + st.error().message);
+    return ok();
+  }
+
+  /// Parses and checks one value of field `name` alone (type and constraint, not the
+  /// cross-field rules of validate()), e.g. a literal behaviour-tree port generated from this schema.
+  [[nodiscard]] Status check_field(std::string_view name, const ConfigNode& value) const {
+    const Field* f = find(name);
+    if (f == nullptr) return fail("unknown key '" + std::string(name) + "'");
+    P p{};
+    return f->assign(p, value);
   }
 
   /// Parses `node` (a map, or null for all defaults) on top of `base` (defaults when omitted).
@@ -232,12 +313,15 @@ class ParamSchema {
   }
 
  private:
+  template <typename> friend class ParamSchema;  // include() reads another schema's fields
   struct Field {
     ParamDoc doc;
     std::function<std::string(const P&)> render_default;
-    std::function<Status(P&, const ConfigNode&)> assign;
+    std::function<Status(P&, const ConfigNode&)> assign;              ///< convert + constraint
+    std::function<std::vector<std::string>(const P&)> values;         ///< the value(s) as text
+    std::function<Status(const P&)> check = [](const P&) { return ok(); };  ///< constraint on a value
   };
-  const Field* find(const std::string& key) const {
+  const Field* find(std::string_view key) const {
     for (const auto& f : fields_) if (f.doc.name == key) return &f;
     return nullptr;
   }

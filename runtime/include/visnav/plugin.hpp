@@ -45,7 +45,9 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 
 /// Bumped whenever the descriptor or any SDK class layout changes.
 /// 2: PluginDescriptor gained payload_checks (issue 17).
-inline constexpr std::uint32_t kPluginAbiVersion = 2;
+/// 3: bt::PortInfo gained check/constraint; navigation primitives are SDK types (primitive.hpp, issue 14;
+///    the lost-policy ports of bt/nav_health_ports.hpp are the primitive adapter's now).
+inline constexpr std::uint32_t kPluginAbiVersion = 3;
 
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };
 

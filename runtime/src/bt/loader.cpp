@@ -430,8 +430,11 @@ class Loader {
     }
     if (port.parse == nullptr) return;
     auto parsed = port.parse(value, registry_.enums().get());
-    if (!parsed)
+    if (!parsed) {
       add(def.file, line, path, what + ": bad value for type " + port.type_name + ": " + parsed.error().message);
+    } else if (port.check) {
+      if (auto st = port.check(value); !st) add(def.file, line, path, what + ": " + st.error().message);
+    }
   }
 
   // Validates one element (not its children). Returns its path, or nullptr when its children

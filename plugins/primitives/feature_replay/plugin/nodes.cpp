@@ -1,26 +1,25 @@
-// TeachFeatureEdge / ReplayFeatureEdge: thin adapters over the feature_replay core (see nodes.hpp).
+// TeachFeatureEdge / ReplayFeatureEdge: the feature_replay core as an EdgeTeacher and an
+// EdgeReplayer (see nodes.hpp); the runtime's adapter does the rest.
 #include "nodes.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <numbers>
-#include <span>
+#include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
-#include "visnav/bt/nav_health_ports.hpp"
+#include "visnav/feature_replay/heading.hpp"
+#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/map.hpp"
+#include "visnav/primitive.hpp"
 
 namespace visnav::feature_replay {
 namespace {
-
-using bt::NodeStatus;
-
-double wrap_angle_rad(double a) {
-  a = std::remainder(a, 2.0 * std::numbers::pi);
-  return a <= -std::numbers::pi ? a + 2.0 * std::numbers::pi : a;
-}
 
 std::string format_double(double v) {
   char buf[64];
@@ -28,596 +27,399 @@ std::string format_double(double v) {
   return buf;
 }
 
-/// Reads an optional bool port: an unset blackboard entry counts as false (nobody asked to finish yet).
-bool read_flag(const bt::TreeNode& node, std::string_view port) {
-  auto v = node.get_input<bool>(port);
-  return v && *v;
+// ------------------------------------------------------------------------------------ teach
+
+/// Defaults of the nodes where they were tuned in the simulator (docs/feature_replay.md,
+/// "Behaviour-tree nodes"); every other default is the core's.
+LocalMapTeachParams tuned_local_map_teach() {
+  LocalMapTeachParams p;
+  p.command_tolerance = 0.01;
+  return p;
 }
 
-}  // namespace
+struct FeatureTeachParams {
+  std::string style = "segment";
+  SegmentTeachParams segment;
+  LocalMapTeachParams localmaps = tuned_local_map_teach();
+  double min_record_speed_mps = 0.02;
 
-// ------------------------------------------------------------------------------ TeachFeatureEdge
-
-TeachFeatureEdge::TeachFeatureEdge(const std::string& name, const bt::NodeConfig& config, HostServices& host)
-    : StatefulActionNode(name, config), host_(host) {}
-
-bt::PortsList TeachFeatureEdge::provided_ports() {
-  return {
-      bt::input_port<std::string>("style", "segment",
-                                  "map style: segment (A, seed 000: kind feature_segment) or localmaps (B, seed 002: "
-                                  "kind feature_localmaps)"),
-      bt::input_port<std::string>("edge_from", "{edge_from}", "start node (id or name); empty: a new node 'start'"),
-      bt::input_port<std::string>("edge_to", "{edge_to}", "end node (id or name), read at finish; empty: a new node 'end'"),
-      bt::input_port<bool>("finish", "{finish_edge}", "true: store the edge and succeed (unset counts as false)"),
-      bt::output_port<std::string>("edge", "{taught_edge}", "id of the stored edge"),
-      // style A (SegmentTeachParams)
-      bt::input_port<double>("max_landmarks_per_m", "250", "style A: landmark density cap (50 B each)"),
-      bt::input_port<int>("min_observations", "3", "style A: frames a landmark must be seen in"),
-      bt::input_port<double>("max_track_step_px", "40", "style A: max landmark image motion between frames"),
-      // style B (LocalMapTeachParams)
-      bt::input_port<double>("map_spacing_m", "0.2", "style B: distance between local maps"),
-      bt::input_port<int>("max_features_per_map", "0", "style B: keep the strongest N features per map (0 = all)"),
-      bt::input_port<bool>("store_image", "false", "style B: also store a JPEG per local map"),
-      bt::input_port<double>("command_tolerance", "0.01",
-                             "style B: record the odometry twist when v (m/s) or omega (rad/s) changed by more"),
-      bt::input_port<double>("min_record_speed_mps", "0.02",
-                             "style B: twists slower than this are not recorded (replay is indexed by distance, so "
-                             "a recorded stop or turn on the spot would halt the replay there)"),
-  };
-}
-
-NodeStatus TeachFeatureEdge::failed(const std::string& message) {
-  host_.logger().error(path(), message);
-  segment_.reset();
-  localmaps_.reset();
-  return NodeStatus::failure;
-}
-
-NodeStatus TeachFeatureEdge::on_start() {
-  if (host_.map() == nullptr) return failed("TeachFeatureEdge needs a map (visnav run --map M)");
-  if (host_.frame_bus() == nullptr) return failed("TeachFeatureEdge needs a running session (no frame bus)");
-  if (host_.active_detector() == nullptr) return failed("TeachFeatureEdge needs a detector (config section 'detector')");
-  auto style = get_input<std::string>("style");
-  if (!style) return failed(style.error().message);
-  if (*style == "segment") {
-    style_ = Style::segment;
-  } else if (*style == "localmaps") {
-    style_ = Style::localmaps;
-  } else {
-    return failed("port 'style': '" + *style + "' is not one of: segment, localmaps");
+  [[nodiscard]] Status validate() const {
+    VISNAV_TRY(schema().check(*this));
+    if (!(min_record_speed_mps > 0.0)) return fail("min_record_speed_mps must be > 0");
+    VISNAV_TRY(segment.validate());
+    return localmaps.validate();
   }
-  auto odom = host_.frame_bus()->latest_odometry();
-  if (!odom) return failed("no odometry yet");
-
-  segment_.reset();
-  localmaps_.reset();
-  if (style_ == Style::segment) {
-    SegmentTeachParams p;
-    auto density = get_input<double>("max_landmarks_per_m");
-    auto min_obs = get_input<int>("min_observations");
-    auto step = get_input<double>("max_track_step_px");
-    if (!density || !min_obs || !step) return failed("bad style A ports");
-    if (!(*density > 0.0) || *min_obs < 1 || !(*step > 0.0))
-      return failed("max_landmarks_per_m and max_track_step_px must be > 0, min_observations >= 1");
-    p.max_landmarks_per_m = *density;
-    p.min_observations = *min_obs;
-    p.max_track_step_px = *step;
-    segment_.emplace(p);
-    segment_->begin(wrap_angle_rad(odom->pose.heading_rad));
-  } else {
-    LocalMapTeachParams p;
-    auto spacing = get_input<double>("map_spacing_m");
-    auto max_features = get_input<int>("max_features_per_map");
-    auto image = get_input<bool>("store_image");
-    auto tolerance = get_input<double>("command_tolerance");
-    auto min_speed = get_input<double>("min_record_speed_mps");
-    if (!spacing || !max_features || !image || !tolerance || !min_speed) return failed("bad style B ports");
-    if (!(*min_speed > 0.0)) return failed("min_record_speed_mps must be > 0");
-    min_record_speed_mps_ = *min_speed;
-    if (!(*spacing > 0.0) || *max_features < 0 || !(*tolerance >= 0.0))
-      return failed("map_spacing_m must be > 0, max_features_per_map >= 0, command_tolerance >= 0");
-    p.map_interval_m = *spacing;
-    p.max_features_per_map = *max_features;
-    p.store_image = *image;
-    p.command_tolerance = *tolerance;
-    localmaps_.emplace(p);
-    localmaps_->begin();
+  static const ParamSchema<FeatureTeachParams>& schema() {
+    using P = FeatureTeachParams;
+    static const auto s =
+        ParamSchema<P>{}
+            .field("style", &P::style,
+                   "map style: segment (A, seed 000: kind feature_segment) or localmaps (B, seed 002: kind "
+                   "feature_localmaps)")
+            .one_of({"segment", "localmaps"})
+            .include(&P::segment, SegmentTeachParams::schema(),
+                     {{"max_landmarks_per_m", "max_landmarks_per_m"},
+                      {"min_observations", "min_observations"},
+                      {"max_track_step_px", "max_track_step_px"}})
+            .include(&P::localmaps, LocalMapTeachParams::schema(),
+                     {{"map_interval_m", "map_spacing_m"},
+                      {"max_features_per_map", "max_features_per_map"},
+                      {"store_image", "store_image"},
+                      {"command_tolerance", "command_tolerance"}})
+            .field("min_record_speed_mps", &P::min_record_speed_mps,
+                   "style B: twists slower than this are not recorded (replay is indexed by distance, so a "
+                   "recorded stop or turn on the spot would halt the replay there), m/s")
+            .range(0.0, 10.0);
+    return s;
   }
-  start_distance_m_ = odom->distance_m;
-  start_pose_ = odom->pose;
-  have_frame_ = false;
-  last_image_.release();
-  features_.clear();
-  frames_ = bad_frames_ = 0;
-  image_width_px_ = image_height_px_ = 0;
-  if (auto st = record(*odom); !st) return failed(st.error().message);
-  if (read_flag(*this, "finish")) return finish(*odom);
-  return NodeStatus::running;
-}
+};
 
-NodeStatus TeachFeatureEdge::on_running() {
-  auto odom = host_.frame_bus()->latest_odometry();
-  if (!odom) return NodeStatus::running;  // the runtime stops the run on stale odometry
-  if (auto st = record(*odom); !st) return failed(st.error().message);
-  if (read_flag(*this, "finish")) return finish(*odom);
-  return NodeStatus::running;
-}
+class FeatureTeacher final : public EdgeTeacher {
+ public:
+  using Params = FeatureTeachParams;
+  static constexpr bool kUsesDetector = true;
+  explicit FeatureTeacher(const Params& params) : params_(params) {}
 
-void TeachFeatureEdge::on_halted() {
-  // The edge being taught is dropped; completed edges are already on disk.
-  segment_.reset();
-  localmaps_.reset();
-}
-
-Status TeachFeatureEdge::record(const Odometry& odom) {
-  const double d = std::max(0.0, odom.distance_m - start_distance_m_);
-  // Standing still or turning on the spot is not recorded: the replay is indexed by distance and
-  // would stop there for ever (finish() records the final stop).
-  if (localmaps_ && std::abs(odom.twist.linear_mps) >= min_record_speed_mps_) localmaps_->record_command(d, odom.twist);
-
-  std::optional<Frame> frame = host_.frame_bus()->latest_frame();
-  if (!frame || (have_frame_ && frame->sequence <= last_sequence_)) return ok();
-  have_frame_ = true;
-  last_sequence_ = frame->sequence;
-  const cv::Mat& image = frame->image;
-  const bool size_ok = !image.empty() && (image_width_px_ == 0 || (image.cols == image_width_px_ && image.rows == image_height_px_));
-  Status detected = size_ok ? host_.active_detector()->detect(image, features_)
-                            : Status(fail(image.empty() ? "empty frame" : "frame size changed during the edge"));
-  if (!detected) {
-    features_.clear();
-    if (bad_frames_++ == 0) host_.logger().warn(path(), "frame skipped: " + detected.error().message);
+  Status begin(const TeachStart& start) override {
+    if (params_.style == "segment") {
+      segment_.emplace(params_.segment);
+      segment_->begin(wrap_angle_rad(start.odometry.pose.heading_rad));
+    } else {
+      localmaps_.emplace(params_.localmaps);
+      localmaps_->begin();
+    }
     return ok();
   }
-  if (image_width_px_ == 0) {
-    image_width_px_ = image.cols;
-    image_height_px_ = image.rows;
-  }
-  Status added = segment_ ? segment_->add_frame(d, features_) : localmaps_->add_frame(d, features_, image);
-  if (!added) {
-    // E.g. the detector was switched mid-edge (descriptor type changed): skip, keep teaching.
-    features_.clear();
-    if (bad_frames_++ == 0) host_.logger().warn(path(), "frame skipped: " + added.error().message);
+
+  Status step(const TeachInput& in) override {
+    // Standing still or turning on the spot is not recorded: the replay is indexed by distance and
+    // would stop there for ever (finish() records the final stop).
+    if (localmaps_ && std::abs(in.odometry.twist.linear_mps) >= params_.min_record_speed_mps)
+      localmaps_->record_command(in.edge_distance_m, in.odometry.twist);
+    if (in.frame == nullptr) return ok();
+    last_added_ = false;
+    if (in.frame_problem != nullptr) return ok();
+    // E.g. the detector was switched mid-edge (descriptor type changed): the adapter skips the frame.
+    VISNAV_TRY(segment_ ? segment_->add_frame(in.edge_distance_m, *in.features)
+                        : localmaps_->add_frame(in.edge_distance_m, *in.features, in.frame->image));
+    last_added_ = true;
     return ok();
   }
-  last_image_ = image;
-  ++frames_;
-  return ok();
-}
 
-Result<std::string> TeachFeatureEdge::resolve_or_create_node(const std::string& id_or_name, const char* default_name,
-                                                             const Pose2D& hint) {
-  MapStore& map = *host_.map();
-  if (!id_or_name.empty()) {
-    VISNAV_ASSIGN(const NodeRecord* node, map.resolve_node(id_or_name));
-    return node->id;
-  }
-  NodeRecord node;
-  node.name = default_name;
-  node.position_hint = hint;
-  return map.add_node(std::move(node));
-}
-
-NodeStatus TeachFeatureEdge::finish(const Odometry& odom) {
-  const double length_m = std::max(0.0, odom.distance_m - start_distance_m_);
-  EdgeRecord edge;
-  std::vector<std::uint8_t> body;
-  if (segment_) {
-    auto map = segment_->finish(length_m);
-    if (!map) return failed("style A map: " + map.error().message);
-    body = map->serialize();
-    edge.kind = kSegmentKind;
-    edge.statistics["landmarks"] = static_cast<double>(map->landmarks.size());
-  } else {
-    auto path_map = localmaps_->finish(length_m, features_, last_image_);
-    if (!path_map) return failed("style B map: " + path_map.error().message);
-    body = path_map->serialize();
+  Result<TaughtEdge> finish(const TeachInput& last) override {
+    TaughtEdge edge;
+    if (segment_) {
+      auto map = segment_->finish(last.edge_distance_m);
+      if (!map) return fail("style A map: " + map.error().message);
+      edge.payload = map->serialize();
+      edge.kind = kSegmentKind;
+      edge.statistics["landmarks"] = static_cast<double>(map->landmarks.size());
+      return edge;
+    }
+    const Features none;
+    auto path_map = localmaps_->finish(last.edge_distance_m, last_added_ ? *last.features : none,
+                                       last.frame != nullptr ? last.frame->image : cv::Mat());
+    if (!path_map) return fail("style B map: " + path_map.error().message);
+    edge.payload = path_map->serialize();
     std::size_t features = 0;
     for (const auto& m : path_map->maps) features += m.positions_px.size();
     edge.kind = kLocalMapsKind;
     edge.statistics["local_maps"] = static_cast<double>(path_map->maps.size());
     edge.statistics["features"] = static_cast<double>(features);
     edge.statistics["commands"] = static_cast<double>(path_map->commands.size());
+    return edge;
   }
-  segment_.reset();
-  localmaps_.reset();
 
-  auto from = get_input<std::string>("edge_from");
-  auto to = get_input<std::string>("edge_to");
-  auto from_id = resolve_or_create_node(from ? *from : std::string(), "start", start_pose_);
-  if (!from_id) return failed("edge_from: " + from_id.error().message);
-  auto to_id = resolve_or_create_node(to ? *to : std::string(), "end", odom.pose);
-  if (!to_id) return failed("edge_to: " + to_id.error().message);
+ private:
+  Params params_;
+  std::optional<SegmentTeacher> segment_;
+  std::optional<LocalMapTeacher> localmaps_;
+  bool last_added_ = false;  ///< the latest frame's features are in the map (finish may store them)
+};
 
-  edge.from = *from_id;
-  edge.to = *to_id;
-  edge.length_m = length_m;
-  edge.azimuth_rad = wrap_angle_rad(start_pose_.heading_rad);
-  edge.statistics["end_heading_rad"] = wrap_angle_rad(odom.pose.heading_rad);
-  edge.statistics["bytes"] = static_cast<double>(body.size());
-  edge.statistics["frames"] = static_cast<double>(frames_);
-  edge.statistics["image_width_px"] = image_width_px_;
-  edge.statistics["image_height_px"] = image_height_px_;
-  const std::string kind = edge.kind;
-  auto id = host_.map()->add_edge(std::move(edge), body);
-  if (!id) return failed("storing the edge: " + id.error().message);
-  if (auto st = set_output("edge", *id); !st) return failed(st.error().message);
-  host_.logger().info(path(), "taught " + kind + " edge " + *id + ": " + format_double(length_m) + " m, " +
-                                  std::to_string(frames_) + " frames, " + std::to_string(body.size()) + " bytes");
-  return NodeStatus::success;
+// ----------------------------------------------------------------------------------- replay
+
+SegmentReplayParams tuned_segment_replay() {
+  SegmentReplayParams p;
+  p.gain_radps_per_px = 0.01;  // tuned in the simulator (the core's 0.003 is seed 000's)
+  return p;
 }
 
-// ----------------------------------------------------------------------------- ReplayFeatureEdge
-
-ReplayFeatureEdge::ReplayFeatureEdge(const std::string& name, const bt::NodeConfig& config, HostServices& host)
-    : StatefulActionNode(name, config), host_(host) {}
-
-bt::PortsList ReplayFeatureEdge::provided_ports() {
-  bt::PortsList ports = {
-      bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind feature_segment or feature_localmaps)"),
-      bt::input_port<double>("speed_mps", "0.3", "style A: constant forward speed (style B replays the recorded speed)"),
-      bt::input_port<double>("gain_radps_per_px", "0.01",
-                             "style A steering gain: omega = -gain * offset_px (tuned in the simulator)"),
-      bt::input_port<double>("correction_gain_radps_per_px", "0.003",
-                             "style B correction gain: omega = recorded omega - gain * offset_px (tuned in the simulator)"),
-      bt::input_port<double>("max_angular_radps", "0.5", "style A: |omega| clamp"),
-      bt::input_port<double>("max_correction_radps", "0.3", "style B: |correction| clamp"),
-      bt::input_port<int>("laps", "1", "style B: traversals of a closed path (distance overshoot carried over)"),
-      bt::input_port<double>("distance_margin_m", "0", "style A: widen each landmark's visibility window"),
-      bt::input_port<double>("ratio", "0.8", "matching: Lowe ratio test (issue 13: 0.8 chosen on appearance-change pairs)"),
-      bt::input_port<double>("min_confidence", "0.25", "histogram confidence below which no correction is applied"),
-      bt::input_port<double>("scan_deg", "75",
-                             "start-view search: when an edge's first frames do not see its taught start view, "
-                             "turn in place up to this far left and right to find it (0 = off)"),
-      bt::input_port<double>("scan_speed_radps", "0.4", "start-view search: turn rate"),
-      bt::input_port<double>("start_max_offset", "0.15",
-                             "start-view search: the first frames see the start view only if their mean "
-                             "|offset| is at most this fraction of the image width (0.15 of a 60 deg camera is "
-                             "9 deg); a confident match farther off means the robot faces away from the edge"),
-      bt::input_port<int>("min_expected_features", "15",
-                          "lost policy: where the map holds fewer landmarks/features than this at the current "
-                          "distance, a frame without a match does not count as blind (nothing was seen there "
-                          "when teaching either)"),
-      bt::input_port<double>("carried_m", "{edge_carried_m}",
-                             "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
-                             "unset counts as 0)"),
-      bt::output_port<int>("lap", "{lap}", "style B: 0-based lap being driven"),
-  };
-  bt::append_lost_policy_ports(ports);
-  return ports;
-}
-
-NodeStatus ReplayFeatureEdge::failed(const std::string& message) {
-  host_.logger().error(path(), message);
-  segment_.reset();
-  localmaps_.reset();
-  if (Robot* robot = host_.robot()) (void)robot->stop();
-  return NodeStatus::failure;
-}
-
-Status ReplayFeatureEdge::load_edge() {
-  MapStore* map = host_.map();
-  if (map == nullptr) return fail("ReplayFeatureEdge needs a map (visnav run --map M)");
-  if (host_.frame_bus() == nullptr || host_.robot() == nullptr) return fail("ReplayFeatureEdge needs a running session");
-  if (host_.active_detector() == nullptr) return fail("ReplayFeatureEdge needs a detector (config section 'detector')");
-  VISNAV_ASSIGN(edge_id_, get_input<std::string>("edge"));
-  const EdgeRecord* edge = map->find_edge(edge_id_);
-  if (edge == nullptr) return fail("unknown edge '" + edge_id_ + "'");
-  if (edge->kind != kSegmentKind && edge->kind != kLocalMapsKind)
-    return fail("edge " + edge_id_ + " has kind '" + edge->kind + "'; ReplayFeatureEdge replays only " + kSegmentKind +
-                " and " + kLocalMapsKind);
-  from_node_ = edge->from;
-  auto stat = [&](const char* key) {
-    auto it = edge->statistics.find(key);
-    return it != edge->statistics.end() ? static_cast<int>(it->second) : 0;
-  };
-  expected_width_px_ = stat("image_width_px");
-  expected_height_px_ = stat("image_height_px");
-
-  VISNAV_ASSIGN(double speed, get_input<double>("speed_mps"));
-  VISNAV_ASSIGN(double gain, get_input<double>("gain_radps_per_px"));
-  VISNAV_ASSIGN(double correction_gain, get_input<double>("correction_gain_radps_per_px"));
-  VISNAV_ASSIGN(double max_w, get_input<double>("max_angular_radps"));
-  VISNAV_ASSIGN(double max_corr, get_input<double>("max_correction_radps"));
-  VISNAV_ASSIGN(int laps, get_input<int>("laps"));
-  VISNAV_ASSIGN(double margin, get_input<double>("distance_margin_m"));
-  VISNAV_ASSIGN(double ratio, get_input<double>("ratio"));
-  VISNAV_ASSIGN(double min_conf, get_input<double>("min_confidence"));
-  if (!(speed > 0.0 && speed <= 3.0)) return fail("speed_mps must be in (0, 3]");
-  if (!(gain >= 0.0) || !(correction_gain >= 0.0) || !(max_w > 0.0) || !(max_corr >= 0.0) || !(margin >= 0.0))
-    return fail("the gains, max_correction_radps and distance_margin_m must be >= 0 and max_angular_radps > 0");
-  if (laps < 1) return fail("laps must be >= 1");
-  VISNAV_ASSIGN(LostPolicy policy, bt::read_lost_policy(*this));
-  VISNAV_ASSIGN(min_expected_features_, get_input<int>("min_expected_features"));
-  VISNAV_ASSIGN(double scan_deg, get_input<double>("scan_deg"));
-  VISNAV_ASSIGN(scan_speed_radps_, get_input<double>("scan_speed_radps"));
-  if (!(scan_deg >= 0.0 && scan_deg <= 180.0)) return fail("scan_deg must be in [0, 180]");
-  if (!(scan_speed_radps_ > 0.0 && scan_speed_radps_ <= 3.0)) return fail("scan_speed_radps must be in (0, 3]");
-  VISNAV_ASSIGN(start_max_offset_, get_input<double>("start_max_offset"));
-  if (!(start_max_offset_ > 0.0 && start_max_offset_ <= 0.5)) return fail("start_max_offset must be in (0, 0.5]");
-  scan_rad_ = scan_deg * std::numbers::pi / 180.0;
-  if (min_expected_features_ < 0) return fail("min_expected_features must be >= 0");
-  health_ = NavHealthMonitor(policy);
-  edge_kind_ = edge->kind;
-  max_angular_radps_ = max_w;
-  max_correction_radps_ = max_corr;
-  laps_ = laps;
-  taught_heading_ = TaughtHeading{edge->length_m, 0.0};
-  if (auto it = edge->statistics.find("end_heading_rad"); it != edge->statistics.end())
-    taught_heading_.end_turn_rad = wrap_angle_rad(it->second - edge->azimuth_rad);
+struct FeatureReplayParams {
+  SegmentReplayParams segment = tuned_segment_replay();
+  LocalMapReplayParams localmaps;
   HeadingParams heading;
-  heading.ratio = ratio;
-  heading.min_confidence = min_conf;
-  VISNAV_TRY(heading.validate());
+  double scan_deg = 75.0;
+  double scan_speed_radps = 0.4;
+  double start_max_offset = 0.15;
+  int min_expected_features = 15;
 
-  // The payload is read once, here (never per frame).
-  VISNAV_ASSIGN(std::vector<std::uint8_t> body, map->read_payload(edge_id_));
-  if (edge->kind == kSegmentKind) {
-    auto parsed = SegmentMap::deserialize(body);
-    if (!parsed) return fail("edge " + edge_id_ + " payload: " + parsed.error().message);
-    SegmentReplayParams p;
-    p.speed_mps = speed;
-    p.gain_radps_per_px = gain;
-    p.max_angular_radps = max_w;
-    p.distance_margin_m = margin;
-    segment_.emplace(std::make_shared<const SegmentMap>(std::move(*parsed)), p, heading);
-    if (!segment_->map_valid()) return fail("edge " + edge_id_ + " payload: invalid segment map");
-  } else {
-    auto parsed = LocalMapPath::deserialize(body);
-    if (!parsed) return fail("edge " + edge_id_ + " payload: " + parsed.error().message);
-    LocalMapReplayParams p;
-    p.gain_radps_per_px = correction_gain;
-    p.max_correction_radps = max_corr;
-    p.laps = laps;
-    localmaps_.emplace(std::make_shared<const LocalMapPath>(std::move(*parsed)), p, heading);
-    if (!localmaps_->path_valid()) return fail("edge " + edge_id_ + " payload: invalid local-map path");
+  [[nodiscard]] Status validate() const {
+    VISNAV_TRY(schema().check(*this));
+    if (!(segment.speed_mps > 0.0 && segment.speed_mps <= 3.0)) return fail("speed_mps must be in (0, 3]");
+    if (!(segment.max_angular_radps > 0.0)) return fail("max_angular_radps must be > 0");
+    if (!(scan_speed_radps > 0.0)) return fail("scan_speed_radps must be > 0");
+    VISNAV_TRY(segment.validate());
+    VISNAV_TRY(localmaps.validate());
+    return heading.validate();
   }
-  return ok();
-}
+  static const ParamSchema<FeatureReplayParams>& schema() {
+    using P = FeatureReplayParams;
+    static const auto s =
+        ParamSchema<P>{}
+            .include(&P::segment, SegmentReplayParams::schema(), {{"speed_mps", "speed_mps"}})
+            .range(0.0, 3.0)  // the node's limit (the core takes [-5, 5]); 0 is refused by validate()
+            .include(&P::segment, SegmentReplayParams::schema(),
+                     {{"gain_radps_per_px", "gain_radps_per_px"},
+                      {"max_angular_radps", "max_angular_radps"},
+                      {"distance_margin_m", "distance_margin_m"}})
+            .include(&P::localmaps, LocalMapReplayParams::schema(),
+                     {{"gain_radps_per_px", "correction_gain_radps_per_px"},
+                      {"max_correction_radps", "max_correction_radps"},
+                      {"laps", "laps"}})
+            .include(&P::heading, HeadingParams::schema(), {{"ratio", "ratio"}, {"min_confidence", "min_confidence"}})
+            .field("scan_deg", &P::scan_deg,
+                   "start-view search: when an edge's first frames do not see its taught start view, turn in "
+                   "place up to this far left and right to find it (0 = off), deg")
+            .range(0.0, 180.0)
+            .field("scan_speed_radps", &P::scan_speed_radps, "start-view search: turn rate, rad/s")
+            .range(0.0, 3.0)
+            .field("start_max_offset", &P::start_max_offset,
+                   "start-view search: the first frames see the start view only if their mean |offset| is at most "
+                   "this fraction of the image width (0.15 of a 60 deg camera is 9 deg); a confident match farther "
+                   "off means the robot faces away from the edge")
+            .range(0.01, 0.5)
+            .field("min_expected_features", &P::min_expected_features,
+                   "lost policy: where the map holds fewer landmarks/features than this at the current distance, a "
+                   "frame without a match does not count as blind (nothing was seen there when teaching either)")
+            .range(0, 1000000);
+    return s;
+  }
+};
 
-NodeStatus ReplayFeatureEdge::on_start() {
-  segment_.reset();
-  localmaps_.reset();
-  if (auto st = load_edge(); !st) return failed(st.error().message);
-  auto odom = host_.frame_bus()->latest_odometry();
-  if (!odom) return failed("no odometry yet");
-  // The edge counts as started `carried_m` before here (FollowRoute; an unset entry counts as 0).
-  const auto carried = get_input<double>("carried_m");
-  const double origin_m = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
-  if (segment_) segment_->begin(origin_m);
-  if (localmaps_) localmaps_->begin(origin_m);
-  // A closed multi-lap path has no single taught heading profile: no heading check there.
-  std::optional<TaughtHeading> taught;
-  if (segment_ || laps_ == 1) taught = taught_heading_;
-  bt::begin_nav_health(health_, *this, odom->distance_m, odom->pose.heading_rad, taught);
-  // Only an edge started at its beginning searches its start view.
-  phase_ = scan_rad_ > 0.0 && odom->distance_m - origin_m < 0.3 ? StartPhase::probe : StartPhase::driving;
-  probe_frames_ = 0;
-  probe_confidence_sum_ = 0.0;
-  probe_offset_sum_ = 0.0;
-  best_confidence_ = -1.0;
-  best_score_ = -1.0;
-  have_frame_ = false;
-  last_command_ = Twist{};
-  last_state_ = ReplayState::steering;
-  warned_bad_frame_ = false;
-  status_ = NavStatus{};
-  status_.node_path = path();
-  status_.map_node = from_node_;
-  status_.edge = edge_id_;
-  (void)set_output("lap", 0);
-  return on_running();
-}
+/// Start-view search (scan_deg > 0): when the first frames of an edge do not see the taught start
+/// view, the robot turns in place left then right by up to scan_deg, remembers the heading with
+/// the best match, turns there and starts the edge. An odometric turn at a node carries the teach
+/// run's heading drift (e.g. the turn that closes a loop: the whole loop's drift); this finds the
+/// view instead. When nothing matches it starts on the odometric heading and the lost policy decides.
+/// The probe must see the view near the image centre (start_max_offset): a view 40 deg off still
+/// overlaps a 60 deg camera's image enough for a confident match. The scan keeps the heading whose
+/// match is most confident and most centred.
+class StartViewSearch {
+ public:
+  /// Only an edge started at its beginning searches its start view.
+  void begin(double scan_deg, double scan_speed_radps, double max_offset, double min_confidence, double started_m) {
+    scan_rad_ = scan_deg * std::numbers::pi / 180.0;
+    scan_speed_radps_ = scan_speed_radps;
+    max_offset_ = max_offset;
+    min_confidence_ = min_confidence;
+    phase_ = scan_rad_ > 0.0 && started_m < 0.3 ? Phase::probe : Phase::driving;
+    probe_frames_ = 0;
+    probe_confidence_sum_ = 0.0;
+    probe_offset_sum_ = 0.0;
+    best_confidence_ = -1.0;
+    best_score_ = -1.0;
+  }
+  [[nodiscard]] bool searching() const { return phase_ != Phase::driving; }
+  [[nodiscard]] bool probing() const { return phase_ == Phase::probe; }
 
-NodeStatus ReplayFeatureEdge::on_running() {
-  Robot* robot = host_.robot();
-  auto odom = host_.frame_bus()->latest_odometry();
-  std::optional<Frame> frame = host_.frame_bus()->latest_frame();
-  if (!odom || !frame || (have_frame_ && frame->sequence <= last_sequence_)) {
-    // No new data: keep the last command alive (the runtime stops the run on stale data).
-    (void)robot->send_command(last_command_);
-    return NodeStatus::running;
-  }
-  have_frame_ = true;
-  last_sequence_ = frame->sequence;
-
-  const cv::Mat& image = frame->image;
-  const char* bad_frame = nullptr;
-  if (image.empty()) {
-    bad_frame = "empty frame";
-  } else if (expected_width_px_ > 0 && (image.cols != expected_width_px_ || image.rows != expected_height_px_)) {
-    bad_frame = "frame size differs from the taught one";
-  } else if (auto st = host_.active_detector()->detect(image, features_); !st) {
-    bad_frame = "detector failed on the frame";
-    if (!warned_bad_frame_) host_.logger().warn(path(), "detector: " + st.error().message);
-  }
-  if (bad_frame != nullptr) {
-    features_.clear();  // the core keeps the recorded command (style B) / drives straight (style A)
-    if (!warned_bad_frame_) host_.logger().warn(path(), std::string(bad_frame) + ": no correction this frame");
-    warned_bad_frame_ = true;
-  }
-  const double width_px = image.empty() ? 0.0 : static_cast<double>(image.cols);
-
-  Twist command;
-  ReplayState state;
-  bool finished;
-  double distance_m;
-  double confidence;
-  bool saturated;
-  bool informative = true;
-  if (segment_) {
-    const SegmentReplayOutput out = segment_->step(odom->distance_m, features_, width_px);
-    command = out.command;
-    state = out.state;
-    finished = out.finished;
-    status_.matches = out.estimate.matches;
-    status_.inliers = out.estimate.inliers;
-    status_.offset_px = out.estimate.offset_px;
-    distance_m = out.distance_m;
-    confidence = out.estimate.confidence;
-    saturated = state == ReplayState::steering && std::abs(command.angular_radps) >= max_angular_radps_ - 1e-9;
-    informative = out.expected_landmarks >= min_expected_features_;
-  } else {
-    const LocalMapReplayOutput out = localmaps_->step(odom->distance_m, features_, width_px);
-    command = out.command;
-    state = out.state;
-    finished = out.finished;
-    status_.matches = out.estimate.matches;
-    status_.inliers = out.estimate.inliers;
-    status_.offset_px = out.estimate.offset_px;
-    distance_m = out.distance_m;
-    confidence = out.estimate.confidence;
-    saturated = state == ReplayState::steering && max_correction_radps_ > 0.0 &&
-                std::abs(out.correction_radps) >= max_correction_radps_ - 1e-9;
-    const auto& maps = localmaps_->path().maps;
-    informative = out.map_index < 0 || out.map_index >= static_cast<int>(maps.size()) ||
-                  static_cast<int>(maps[static_cast<std::size_t>(out.map_index)].positions_px.size()) >=
-                      min_expected_features_;
-    if (out.lap_completed) {
-      (void)set_output("lap", out.lap);
-      host_.logger().info(path(), "edge " + edge_id_ + ": lap " + std::to_string(out.lap + 1) + " started");
-    }
-  }
-  if (state != last_state_ && (state == ReplayState::low_confidence || state == ReplayState::no_features ||
-                               state == ReplayState::bad_input)) {
-    host_.logger().log(LogLevel::debug, path(), std::string("edge ") + edge_id_ + ": " + to_string(state) + " (no correction)");
-  }
-  last_state_ = state;
-
-  if (bad_frame != nullptr) confidence = 0.0;
-  if (phase_ != StartPhase::driving) {
-    // Where the map itself holds little at the start (open grass), there is no view to search for.
-    if (phase_ == StartPhase::probe && !informative) {
-      phase_ = StartPhase::driving;
-    } else if (auto st = search_start_view(*robot, *odom, confidence,
-                                           width_px > 0.0 ? std::abs(status_.offset_px) / width_px : 1.0)) {
-      if (Telemetry* telemetry = host_.telemetry()) {
-        status_.distance_m = distance_m;
-        status_.command = last_command_;
-        status_.confidence = confidence;
-        status_.status = phase_ == StartPhase::probe ? "looking for the start view" : "turning to find the start view";
-        telemetry->publish(status_);
+  /// One frame: the turn command while searching, nullopt once driving. `informative`: the map
+  /// holds something to see at the start (where it does not, e.g. open grass, there is no view to
+  /// search for). `offset_fraction`: |offset| of the match over the image width.
+  std::optional<Twist> update(double heading, double confidence, double offset_fraction, bool informative,
+                              Logger& logger, const std::string& who, const std::string& edge_id) {
+    if (phase_ == Phase::probe && !informative) phase_ = Phase::driving;
+    auto turn = [](double w) { return std::optional<Twist>(Twist{0.0, w}); };
+    auto unwrap = [&]() {
+      scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
+      scan_last_rad_ = heading;
+    };
+    auto track = [&]() {
+      unwrap();
+      const double score = confidence * std::max(0.0, 1.0 - 2.0 * offset_fraction);
+      if (score > best_score_) {
+        best_score_ = score;
+        best_confidence_ = confidence;
+        best_turn_rad_ = scan_turned_rad_;
       }
-      return *st;
-    }
-  }
-  const NavHealthVerdict& health =
-      health_.update(odom->distance_m, odom->pose.heading_rad, distance_m, image, confidence, saturated, informative);
-  bt::store_nav_health(health_, *this);
-  // A robot that is not sure where the route is slows down (the recorded curvature is kept).
-  command.linear_mps *= health.speed_factor;
-  command.angular_radps *= health.speed_factor;
-  // Blindness at the end of an edge is carried into the next one (confident_at_m), so the
-  // next edge stops within max_blind_m unless it sees the route again.
-  if (Telemetry* telemetry = host_.telemetry()) {
-    status_.distance_m = distance_m;
-    status_.command = health.must_stop() ? Twist{} : command;
-    status_.confidence = health.window_confidence;
-    status_.blind_m = health.blind_m;
-    status_.status = bad_frame != nullptr ? "bad frame" : to_string(state);
-    if (health.state == NavHealthState::slowing || health.must_stop())
-      status_.status += std::string(" | ") + to_string(health.state);
-    telemetry->publish(status_);
-  }
-  if (health.must_stop()) {
-    return failed(health.reason + " on edge " + edge_id_ + " (" + edge_kind_ + ", " + std::to_string(status_.inliers) +
-                  " inliers, window confidence " + format_double(health.window_confidence) + ")");
-  }
-  if (finished) {
-    (void)robot->stop();
-    last_command_ = Twist{};
-    segment_.reset();
-    localmaps_.reset();
-    return NodeStatus::success;
-  }
-  last_command_ = command;
-  if (auto st = robot->send_command(command); !st) return failed("sending the command: " + st.error().message);
-  return NodeStatus::running;
-}
-
-std::optional<NodeStatus> ReplayFeatureEdge::search_start_view(Robot& robot, const Odometry& odom, double confidence,
-                                                               double offset_fraction) {
-  const double heading = odom.pose.heading_rad;
-  auto turn = [&](double w) {
-    last_command_ = Twist{0.0, w};
-    if (auto st = robot.send_command(last_command_); !st) return failed("sending the command: " + st.error().message);
-    return NodeStatus::running;
-  };
-  auto unwrap = [&]() {
-    scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
-    scan_last_rad_ = heading;
-  };
-  // The best heading is the one that sees the start view most confidently and most centred: a
-  // view at the image edge still matches but is the wrong way to drive.
-  auto track = [&]() {
-    unwrap();
-    const double score = confidence * std::max(0.0, 1.0 - 2.0 * offset_fraction);
-    if (score > best_score_) {
-      best_score_ = score;
-      best_confidence_ = confidence;
-      best_turn_rad_ = scan_turned_rad_;
-    }
-  };
-  switch (phase_) {
-    case StartPhase::probe: {
-      // Three frames standing at the start: is the taught start view there?
-      probe_confidence_sum_ += confidence;
-      probe_offset_sum_ += confidence > 0.0 ? offset_fraction : 1.0;
-      if (++probe_frames_ < 3) return turn(0.0);
-      const double mean_confidence = probe_confidence_sum_ / probe_frames_;
-      const double mean_offset = probe_offset_sum_ / probe_frames_;
-      if (mean_confidence >= health_.policy().min_confidence && mean_offset <= start_max_offset_) {
-        phase_ = StartPhase::driving;
+    };
+    switch (phase_) {
+      case Phase::probe: {
+        // Three frames standing at the start: is the taught start view there?
+        probe_confidence_sum_ += confidence;
+        probe_offset_sum_ += confidence > 0.0 ? offset_fraction : 1.0;
+        if (++probe_frames_ < 3) return turn(0.0);
+        const double mean_confidence = probe_confidence_sum_ / probe_frames_;
+        const double mean_offset = probe_offset_sum_ / probe_frames_;
+        if (mean_confidence >= min_confidence_ && mean_offset <= max_offset_) {
+          phase_ = Phase::driving;
+          return std::nullopt;
+        }
+        logger.warn(who, "edge " + edge_id + ": start view not seen ahead (confidence " + format_double(mean_confidence) +
+                             ", offset " + format_double(mean_offset) + " of the width); searching by turning");
+        phase_ = Phase::scan_left;
+        scan_last_rad_ = heading;
+        scan_turned_rad_ = 0.0;
+        best_confidence_ = -1.0;
+        best_score_ = -1.0;
+        track();
+        return turn(scan_speed_radps_);
+      }
+      case Phase::scan_left:
+        track();
+        if (scan_turned_rad_ < scan_rad_) return turn(scan_speed_radps_);
+        phase_ = Phase::scan_right;
+        return turn(-scan_speed_radps_);
+      case Phase::scan_right:
+        track();
+        if (scan_turned_rad_ > -scan_rad_) return turn(-scan_speed_radps_);
+        if (best_confidence_ < min_confidence_) {
+          // Nothing matched anywhere: start on the odometric heading and leave it to the lost
+          // policy (a stretch that was hard to see when taught may still be driven on odometry).
+          logger.warn(who, "edge " + edge_id + ": start view not found within +-" + format_double(scan_rad_ * 180.0 / std::numbers::pi) +
+                               " deg; starting on the odometric heading");
+          best_turn_rad_ = 0.0;
+        }
+        phase_ = Phase::turn_to_best;
+        return turn(scan_speed_radps_);
+      case Phase::turn_to_best: {
+        unwrap();
+        const double left = best_turn_rad_ - scan_turned_rad_;
+        if (std::abs(left) > 0.03) return turn(std::copysign(std::min(scan_speed_radps_, 0.2 + std::abs(left)), left));
+        if (best_confidence_ >= min_confidence_)
+          logger.info(who, "edge " + edge_id + ": start view found " + format_double(scan_turned_rad_ * 180.0 / std::numbers::pi) +
+                               " deg from the odometric heading (confidence " + format_double(best_confidence_) + ")");
+        phase_ = Phase::driving;
         return std::nullopt;
       }
-      host_.logger().warn(path(), "edge " + edge_id_ + ": start view not seen ahead (confidence " +
-                                      format_double(mean_confidence) + ", offset " + format_double(mean_offset) +
-                                      " of the width); searching by turning");
-      phase_ = StartPhase::scan_left;
-      scan_last_rad_ = heading;
-      scan_turned_rad_ = 0.0;
-      best_confidence_ = -1.0;
-      best_score_ = -1.0;
-      track();
-      return turn(scan_speed_radps_);
+      case Phase::driving: break;
     }
-    case StartPhase::scan_left:
-      track();
-      if (scan_turned_rad_ < scan_rad_) return turn(scan_speed_radps_);
-      phase_ = StartPhase::scan_right;
-      return turn(-scan_speed_radps_);
-    case StartPhase::scan_right:
-      track();
-      if (scan_turned_rad_ > -scan_rad_) return turn(-scan_speed_radps_);
-      if (best_confidence_ < health_.policy().min_confidence) {
-        // Nothing matched anywhere: start on the odometric heading and leave it to the lost
-        // policy (a stretch that was hard to see when taught may still be driven on odometry).
-        host_.logger().warn(path(), "edge " + edge_id_ + ": start view not found within +-" +
-                                        format_double(scan_rad_ * 180.0 / std::numbers::pi) +
-                                        " deg; starting on the odometric heading");
-        best_turn_rad_ = 0.0;
-      }
-      phase_ = StartPhase::turn_to_best;
-      return turn(scan_speed_radps_);
-    case StartPhase::turn_to_best: {
-      unwrap();
-      const double left = best_turn_rad_ - scan_turned_rad_;
-      if (std::abs(left) > 0.03) return turn(std::copysign(std::min(scan_speed_radps_, 0.2 + std::abs(left)), left));
-      if (best_confidence_ >= health_.policy().min_confidence)
-        host_.logger().info(path(), "edge " + edge_id_ + ": start view found " +
-                                        format_double(scan_turned_rad_ * 180.0 / std::numbers::pi) +
-                                        " deg from the odometric heading (confidence " + format_double(best_confidence_) + ")");
-      phase_ = StartPhase::driving;
-      return std::nullopt;
-    }
-    case StartPhase::driving: break;
+    return std::nullopt;
   }
-  return std::nullopt;
-}
 
-void ReplayFeatureEdge::on_halted() {
-  if (Robot* robot = host_.robot()) (void)robot->stop();
-  segment_.reset();
-  localmaps_.reset();
+ private:
+  enum class Phase : std::uint8_t { probe, scan_left, scan_right, turn_to_best, driving };
+  Phase phase_ = Phase::driving;
+  double scan_rad_ = 0.0;
+  double scan_speed_radps_ = 0.4;
+  double min_confidence_ = 0.2;     // the lost policy's
+  double scan_last_rad_ = 0.0;      // previous heading (unwrapping)
+  double scan_turned_rad_ = 0.0;    // unwrapped turn since the scan started
+  double best_turn_rad_ = 0.0;
+  double best_confidence_ = -1.0;
+  double best_score_ = -1.0;        // confidence weighted by how centred the view is
+  double max_offset_ = 0.15;        // probe: mean |offset| / width at most this
+  int probe_frames_ = 0;
+  double probe_confidence_sum_ = 0.0;
+  double probe_offset_sum_ = 0.0;   // sum of |offset| / width (1 for a frame without a match)
+};
+
+class FeatureReplayer final : public EdgeReplayer {
+ public:
+  using Params = FeatureReplayParams;
+  static constexpr bool kUsesDetector = true;
+  explicit FeatureReplayer(const Params& params) : params_(params) {}
+
+  Status begin(const ReplayStart& start) override {
+    logger_ = &start.logger;
+    who_ = std::string(start.node_path);
+    edge_id_ = start.edge.id;
+    if (start.edge.kind == kSegmentKind) {
+      VISNAV_ASSIGN(SegmentMap map, SegmentMap::deserialize(start.payload));
+      segment_.emplace(std::make_shared<const SegmentMap>(std::move(map)), params_.segment, params_.heading);
+      if (!segment_->map_valid()) return fail("invalid segment map");
+      segment_->begin(start.origin_m);
+    } else {
+      VISNAV_ASSIGN(LocalMapPath path, LocalMapPath::deserialize(start.payload));
+      localmaps_.emplace(std::make_shared<const LocalMapPath>(std::move(path)), params_.localmaps, params_.heading);
+      if (!localmaps_->path_valid()) return fail("invalid local-map path");
+      localmaps_->begin(start.origin_m);
+    }
+    search_.begin(params_.scan_deg, params_.scan_speed_radps, params_.start_max_offset, start.policy.min_confidence,
+                  start.odometry.distance_m - start.origin_m);
+    return ok();
+  }
+
+  /// A closed multi-lap path has no single taught heading profile.
+  [[nodiscard]] bool heading_check() const override { return segment_ || params_.localmaps.laps == 1; }
+
+  ReplayStep step(const ReplayInput& in) override {
+    const double width_px = in.frame.image.empty() ? 0.0 : static_cast<double>(in.frame.image.cols);
+    ReplayStep out;
+    ReplayState state;
+    HeadingEstimate estimate;
+    if (segment_) {
+      const SegmentReplayOutput r = segment_->step(in.odometry.distance_m, *in.features, width_px);
+      out.command = r.command;
+      state = r.state;
+      out.finished = r.finished;
+      out.distance_m = r.distance_m;
+      estimate = r.estimate;
+      out.saturated = state == ReplayState::steering &&
+                      std::abs(out.command.angular_radps) >= params_.segment.max_angular_radps - 1e-9;
+      out.informative = r.expected_landmarks >= params_.min_expected_features;
+    } else {
+      const LocalMapReplayOutput r = localmaps_->step(in.odometry.distance_m, *in.features, width_px);
+      out.command = r.command;
+      state = r.state;
+      out.finished = r.finished;
+      out.distance_m = r.distance_m;
+      estimate = r.estimate;
+      const double clamp = params_.localmaps.max_correction_radps;
+      out.saturated = state == ReplayState::steering && clamp > 0.0 && std::abs(r.correction_radps) >= clamp - 1e-9;
+      const auto& maps = localmaps_->path().maps;
+      out.informative = r.map_index < 0 || r.map_index >= static_cast<int>(maps.size()) ||
+                        static_cast<int>(maps[static_cast<std::size_t>(r.map_index)].positions_px.size()) >=
+                            params_.min_expected_features;
+      out.lap = r.lap;
+      if (r.lap_completed) logger_->info(who_, "edge " + edge_id_ + ": lap " + std::to_string(r.lap + 1) + " started");
+    }
+    out.matches = estimate.matches;
+    out.inliers = estimate.inliers;
+    out.offset_px = estimate.offset_px;
+    out.confidence = in.frame_problem != nullptr ? 0.0 : estimate.confidence;
+    out.status = to_string(state);
+    if (state != last_state_ && (state == ReplayState::low_confidence || state == ReplayState::no_features ||
+                                 state == ReplayState::bad_input))
+      logger_->log(LogLevel::debug, who_, "edge " + edge_id_ + ": " + to_string(state) + " (no correction)");
+    last_state_ = state;
+
+    if (search_.searching()) {
+      const bool probing = search_.probing();
+      const double offset_fraction = width_px > 0.0 ? std::abs(out.offset_px) / width_px : 1.0;
+      if (auto turn = search_.update(in.odometry.pose.heading_rad, out.confidence, offset_fraction, out.informative,
+                                     *logger_, who_, edge_id_)) {
+        out.command = *turn;
+        out.orienting = true;
+        out.status = probing ? "looking for the start view" : "turning to find the start view";
+      }
+    }
+    return out;
+  }
+
+ private:
+  Params params_;
+  Logger* logger_ = nullptr;
+  std::string who_;
+  std::string edge_id_;
+  std::optional<SegmentReplayer> segment_;
+  std::optional<LocalMapReplayer> localmaps_;
+  ReplayState last_state_ = ReplayState::steering;
+  StartViewSearch search_;
+};
+
+}  // namespace
+
+Status register_feature_nodes(bt::NodeRegistry& registry, HostServices& host) {
+  VISNAV_TRY(register_teacher<FeatureTeacher>(
+      registry, host, "TeachFeatureEdge",
+      "Records a feature edge while the operator drives: style segment (feature_segment, seed 000) or localmaps "
+      "(feature_localmaps, seed 002)",
+      {kSegmentKind, kLocalMapsKind}));
+  return register_replayer<FeatureReplayer>(
+      registry, host, "ReplayFeatureEdge",
+      "Traverses a feature_segment or feature_localmaps edge, steering by histogram voting of feature offsets",
+      {kSegmentKind, kLocalMapsKind});
 }
 
 }  // namespace visnav::feature_replay

@@ -1,7 +1,7 @@
 // libvisnav_feature_replay.so — the feature-based teach-and-replay primitive (nodes plugin).
 //
-// Provides the behaviour-tree nodes TeachFeatureEdge and ReplayFeatureEdge (issue 4, item 5;
-// thin adapters over the core visnav/feature_replay/*.hpp, see nodes.hpp) and the
+// Provides the behaviour-tree nodes TeachFeatureEdge and ReplayFeatureEdge (the core
+// visnav/feature_replay/*.hpp as a teacher and a replayer, see nodes.hpp) and the
 // `visnav align` and `visnav train-descriptor` commands.
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,6 @@
 #include "cmd_align.hpp"
 #include "cmd_train_descriptor.hpp"
 #include "nodes.hpp"
-#include "visnav/bt/registry.hpp"
 #include "visnav/feature_replay/local_map.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/map.hpp"
@@ -22,22 +21,7 @@
 namespace {
 
 visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostServices& host) {
-  using visnav::feature_replay::ReplayFeatureEdge;
-  using visnav::feature_replay::TeachFeatureEdge;
-  VISNAV_TRY(registry.register_node<TeachFeatureEdge>(
-      "TeachFeatureEdge",
-      "Records a feature edge while the operator drives: style segment (feature_segment, seed 000) or localmaps "
-      "(feature_localmaps, seed 002)",
-      [&host](const std::string& name, const visnav::bt::NodeConfig& config) {
-        return std::make_unique<TeachFeatureEdge>(name, config, host);
-      }));
-  VISNAV_TRY(registry.register_node<ReplayFeatureEdge>(
-      "ReplayFeatureEdge",
-      "Traverses a feature_segment or feature_localmaps edge, steering by histogram voting of feature offsets",
-      [&host](const std::string& name, const visnav::bt::NodeConfig& config) {
-        return std::make_unique<ReplayFeatureEdge>(name, config, host);
-      }));
-  return visnav::ok();
+  return visnav::feature_replay::register_feature_nodes(registry, host);
 }
 
 template <int (*Run)(int, char**, visnav::HostServices&)>

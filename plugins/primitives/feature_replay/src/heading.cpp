@@ -12,6 +12,7 @@
 namespace visnav::feature_replay {
 
 Status HeadingParams::validate() const {
+  VISNAV_TRY(schema().check(*this));
   if (bin_count % 2 == 0) return fail("bin_count must be odd (one bin centred on zero), got " + std::to_string(bin_count));
   if (full_confidence_inliers < min_inliers)
     return fail("full_confidence_inliers (" + std::to_string(full_confidence_inliers) + ") must be >= min_inliers (" +

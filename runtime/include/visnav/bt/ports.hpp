@@ -16,6 +16,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -181,6 +182,12 @@ struct PortInfo {
   Parser parse = nullptr;
   /// False for AnyTypeAllowed (and scripts): the port does not fix its entry's type.
   bool strongly_typed = true;
+  /// Constraint beyond the type (e.g. a range from a primitive's ParamSchema): checked on every
+  /// literal value when a tree is validated or loaded, so a bad literal fails before the first
+  /// tick with file:line. Receives the literal text (already parsed by `parse`); empty: none.
+  std::function<Status(std::string_view text)> check;
+  /// Text of that constraint for the nodes model and docs ("[0, 3]", "one of: a b"); may be empty.
+  std::string constraint;
 
   /// An input or inout port without a default must be given in the XML.
   [[nodiscard]] bool required() const noexcept {

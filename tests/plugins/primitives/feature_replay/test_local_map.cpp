@@ -309,3 +309,17 @@ TEST(LocalMapReplayer, InconsistentPathIsNotReplayed) {
   fr::LocalMapReplayer null_path(nullptr);
   EXPECT_EQ(null_path.step(0.0, Features{}, 640.0).state, fr::ReplayState::bad_input);
 }
+
+// The params' validate() runs their schema's ranges (declared once, in schema()).
+TEST(LocalMapParams, ValidateEnforcesTheSchemaRanges) {
+  EXPECT_TRUE(fr::LocalMapTeachParams{}.validate().ok());
+  EXPECT_TRUE(fr::LocalMapReplayParams{}.validate().ok());
+  fr::LocalMapTeachParams teach;
+  teach.map_interval_m = 0.0;
+  EXPECT_FALSE(teach.validate().ok());
+  fr::LocalMapReplayParams replay;
+  replay.laps = 0;
+  const visnav::Status r = replay.validate();
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("key 'laps': value 0 is out of range"), std::string::npos) << r.error().message;
+}

@@ -301,3 +301,21 @@ TEST(SegmentReplayer, InconsistentMapIsNotReplayed) {
   fr::SegmentReplayer null_map(nullptr);
   EXPECT_EQ(null_map.step(0.0, Features{}, 640.0).state, fr::ReplayState::bad_input);
 }
+
+// The params' validate() runs their schema's ranges (declared once, in schema()): a struct filled
+// in code is refused by the same rule as a parsed config value.
+TEST(SegmentParams, ValidateEnforcesTheSchemaRanges) {
+  EXPECT_TRUE(fr::SegmentTeachParams{}.validate().ok());
+  EXPECT_TRUE(fr::SegmentReplayParams{}.validate().ok());
+  fr::SegmentTeachParams teach;
+  teach.min_observations = 0;
+  const visnav::Status t = teach.validate();
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().message.find("key 'min_observations'"), std::string::npos) << t.error().message;
+  fr::SegmentReplayParams replay;
+  replay.gain_radps_per_px = 2.0;
+  const visnav::Status r = replay.validate();
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("key 'gain_radps_per_px': value 2 is out of range [0, 1]"), std::string::npos)
+      << r.error().message;
+}

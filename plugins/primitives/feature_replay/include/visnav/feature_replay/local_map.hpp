@@ -82,7 +82,8 @@ struct LocalMapTeachParams {
   int jpeg_quality = 75;
   double command_tolerance = 1e-3;  ///< a command is recorded when v or omega changes by more
 
-  [[nodiscard]] Status validate() const { return ok(); }
+  /// The schema's ranges (declared once there).
+  [[nodiscard]] Status validate() const { return schema().check(*this); }
   static const ParamSchema<LocalMapTeachParams>& schema();
 };
 
@@ -122,7 +123,8 @@ struct LocalMapReplayParams {
   int laps = 1;                            ///< traversals of a closed path (overshoot carried over)
   double min_speed_for_correction_mps = 0.02;  ///< no correction while |recorded v| is below
 
-  [[nodiscard]] Status validate() const { return ok(); }
+  /// The schema's ranges (declared once there).
+  [[nodiscard]] Status validate() const { return schema().check(*this); }
   static const ParamSchema<LocalMapReplayParams>& schema();
 };
 

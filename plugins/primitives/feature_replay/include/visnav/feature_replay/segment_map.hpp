@@ -85,7 +85,8 @@ struct SegmentTeachParams {
   double min_track_length_m = 0.05;  ///< g - f below this: the track is dropped
   double max_landmarks_per_m = 250.0;  ///< density cap applied by finish() (50 B each -> 12.5 KB/m)
 
-  [[nodiscard]] Status validate() const { return ok(); }
+  /// The schema's ranges (declared once there).
+  [[nodiscard]] Status validate() const { return schema().check(*this); }
   static const ParamSchema<SegmentTeachParams>& schema();
 };
 
@@ -137,7 +138,8 @@ struct SegmentReplayParams {
   double max_angular_radps = 0.5;      ///< |omega| clamp
   double distance_margin_m = 0.0;      ///< widen the [f, g] visibility window by this much
 
-  [[nodiscard]] Status validate() const { return ok(); }
+  /// The schema's ranges (declared once there).
+  [[nodiscard]] Status validate() const { return schema().check(*this); }
   static const ParamSchema<SegmentReplayParams>& schema();
 };
 

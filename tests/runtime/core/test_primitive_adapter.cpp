@@ -1,0 +1,263 @@
+// The runtime's primitive adapter (visnav/primitive.hpp): ports generated from a ParamSchema and
+// checked before the first tick, the edge protocol, the one send-failure and no-new-frame policy,
+// and the teacher's stored edge — on a minimal in-process primitive and a kinematic fake robot.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fake_devices.hpp"
+#include "visnav/primitive.hpp"
+
+namespace fs = std::filesystem;
+using visnav::bt::NodeStatus;
+
+namespace visnav {
+namespace {
+
+struct CoreParams {  // stands for a primitive core's own params, with its own schema
+  double gain = 0.5;
+  [[nodiscard]] Status validate() const { return schema().check(*this); }
+  static const ParamSchema<CoreParams>& schema() {
+    static const auto s = ParamSchema<CoreParams>{}.field("gain", &CoreParams::gain, "core gain").range(0.0, 1.0);
+    return s;
+  }
+};
+
+struct TestParams {
+  double speed_mps = 0.5;
+  CoreParams core;
+  [[nodiscard]] Status validate() const { return schema().check(*this); }
+  static const ParamSchema<TestParams>& schema() {
+    static const auto s = ParamSchema<TestParams>{}
+                              .field("speed_mps", &TestParams::speed_mps, "forward speed")
+                              .range(0.1, 1.0)
+                              .include(&TestParams::core, CoreParams::schema(), {{"gain", "core_gain"}});
+    return s;
+  }
+};
+
+/// Drives straight at speed_mps, always confident; payload: one byte, 7.
+class TestReplayer final : public EdgeReplayer {
+ public:
+  using Params = TestParams;
+  static constexpr bool kUsesDetector = false;
+  explicit TestReplayer(const Params& p) : p_(p) {}
+  Status begin(const ReplayStart& s) override {
+    if (s.payload.size() != 1 || s.payload[0] != 7) return fail("not a test payload");
+    length_m_ = s.edge.length_m;
+    return ok();
+  }
+  ReplayStep step(const ReplayInput& in) override {
+    ReplayStep out;
+    out.distance_m = in.edge_distance_m;
+    out.finished = in.edge_distance_m >= length_m_;
+    out.confidence = 1.0;
+    out.command = out.finished ? Twist{} : Twist{p_.speed_mps, 0.0};
+    out.status = "testing";
+    return out;
+  }
+
+ private:
+  Params p_;
+  double length_m_ = 0.0;
+};
+
+class TestTeacher final : public EdgeTeacher {
+ public:
+  using Params = TestParams;
+  static constexpr bool kUsesDetector = false;
+  explicit TestTeacher(const Params&) {}
+  Status begin(const TeachStart&) override { return ok(); }
+  Status step(const TeachInput& in) override {
+    frames_ += in.frame != nullptr ? 1 : 0;
+    return ok();
+  }
+  Result<TaughtEdge> finish(const TeachInput&) override { return TaughtEdge{"test", {7}, {{"test_frames", frames_}}}; }
+
+ private:
+  double frames_ = 0;
+};
+
+class FailingRobot final : public Robot {
+ public:
+  explicit FailingRobot(test::KinematicRobot& inner) : inner_(inner) {}
+  Status send_command(const Twist& c) override {
+    if (c.linear_mps != 0.0) return fail("link down");
+    return inner_.send_command(c);
+  }
+  std::optional<Odometry> latest_odometry() override { return inner_.latest_odometry(); }
+
+ private:
+  test::KinematicRobot& inner_;
+};
+
+class CaptureLogger final : public Logger {
+ public:
+  void log(LogLevel, std::string_view component, std::string_view message) override {
+    text += std::string(component) + ": " + std::string(message) + "\n";
+  }
+  std::string text;
+};
+
+class PrimitiveAdapter : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = test::fresh_test_dir("visnav_adapter");
+    ASSERT_TRUE(test::attach_scratch_map(host_, bus_, robot_, map_, dir_));
+    ASSERT_TRUE(bt::register_builtin_nodes(registry_).ok());
+    ASSERT_TRUE(register_replayer<TestReplayer>(registry_, host_, "ReplayTestEdge", "test", {"test"}).ok());
+    ASSERT_TRUE(register_teacher<TestTeacher>(registry_, host_, "TeachTestEdge", "test", {"test"}).ok());
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string add_edge(std::vector<std::uint8_t> payload) {
+    NodeRecord node;
+    node.name = "a";
+    auto a = map_->add_node(node);
+    node.name = "b";
+    auto b = map_->add_node(node);
+    EdgeRecord edge;
+    edge.from = *a;
+    edge.to = *b;
+    edge.kind = "test";
+    edge.length_m = 1.0;
+    auto id = map_->add_edge(edge, payload);
+    EXPECT_TRUE(id.ok());
+    return *id;
+  }
+  void publish_frame() {
+    Frame f;
+    f.sequence = ++sequence_;
+    f.image = cv::Mat(4, 4, CV_8UC1, cv::Scalar(static_cast<double>(sequence_ % 200)));
+    bus_.publish_frame(f);
+  }
+  NodeStatus tick(bt::Tree& tree, bool new_frame = true) {
+    if (new_frame) publish_frame();
+    const NodeStatus s = tree.tick_once();
+    robot_.step(0.1);
+    clock_.advance(0.1);
+    return s;
+  }
+
+  fs::path dir_;
+  PluginLoader loader_{std::vector<std::string>{}};
+  CaptureLogger logger_;
+  ManualClock clock_;
+  RuntimeHost host_{loader_, logger_, clock_};
+  bt::NodeRegistry registry_;
+  FrameBus bus_;
+  test::KinematicRobot robot_{bus_};
+  std::optional<MapStore> map_;
+  std::uint64_t sequence_ = 0;
+};
+
+TEST_F(PrimitiveAdapter, PortsComeFromTheSchemaWithItsDefaultsAndConstraints) {
+  const bt::NodeManifest* m = registry_.find("ReplayTestEdge");
+  ASSERT_NE(m, nullptr);
+  const bt::PortInfo* speed = m->find_port("speed_mps");
+  ASSERT_NE(speed, nullptr);
+  EXPECT_EQ(speed->default_value, "0.5");
+  EXPECT_EQ(speed->constraint, "[0.1, 1]");
+  const bt::PortInfo* gain = m->find_port("core_gain");  // renamed field of the nested core params
+  ASSERT_NE(gain, nullptr);
+  EXPECT_EQ(gain->default_value, "0.5");
+  EXPECT_EQ(gain->constraint, "[0, 1]");
+  for (const char* protocol : {"edge", "carried_m", "lap", "max_blind_m", "confident_at_m"})
+    EXPECT_NE(m->find_port(protocol), nullptr) << protocol;
+  for (const char* protocol : {"edge_from", "edge_to", "finish", "edge", "speed_mps"})
+    EXPECT_NE(registry_.find("TeachTestEdge")->find_port(protocol), nullptr) << protocol;
+}
+
+TEST_F(PrimitiveAdapter, AnOutOfRangeLiteralFailsWhenTheTreeLoadsNotWhenTheRobotGetsThere) {
+  const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">\n<Sequence>\n"
+                          "<ReplayTestEdge edge=\"e0\" speed_mps=\"9\"/>\n"
+                          "<ReplayTestEdge edge=\"e1\" core_gain=\"2\"/>\n"
+                          "<ReplayTestEdge edge=\"e2\" max_heading_deviation_deg=\"270\"/>\n</Sequence></BehaviorTree></root>";
+  auto tree = bt::load_tree_string(xml, registry_, bt::LoadOptions{});
+  ASSERT_FALSE(tree.ok());
+  EXPECT_NE(tree.error().message.find(":3:"), std::string::npos) << tree.error().message;
+  EXPECT_NE(tree.error().message.find("port 'speed_mps': value 9 is out of range [0.1, 1]"), std::string::npos)
+      << tree.error().message;
+  EXPECT_NE(tree.error().message.find(":4:"), std::string::npos) << tree.error().message;
+  // The lost policy's ports are generated and checked the same way.
+  EXPECT_NE(tree.error().message.find("port 'max_heading_deviation_deg': value 270 is out of range [0, 180]"),
+            std::string::npos)
+      << tree.error().message;
+}
+
+TEST_F(PrimitiveAdapter, TeachesAnEdgeThatTheReplayerDrivesToItsEnd) {
+  auto teach = test::load_main_tree("<TeachTestEdge edge_from=\"\" edge_to=\"\"/>", registry_, &clock_);
+  robot_.command_ = Twist{0.5, 0.0};  // the operator drives; the teacher never commands
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(tick(teach), NodeStatus::running);
+  teach.blackboard().set("finish_edge", true);
+  EXPECT_EQ(tick(teach), NodeStatus::success) << logger_.text;
+  const std::string id = *teach.blackboard().get<std::string>("taught_edge");
+  const EdgeRecord* e = map_->find_edge(id);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->kind, "test");
+  EXPECT_NEAR(e->length_m, 1.05, 0.06);
+  EXPECT_EQ(e->statistics.at("test_frames"), 21.0);
+  EXPECT_EQ(e->statistics.at("frames"), 21.0);
+  EXPECT_EQ(e->statistics.at("image_width_px"), 4.0);
+
+  robot_.odom_ = Odometry{};
+  robot_.command_ = Twist{};
+  robot_.publish();
+  auto replay = test::load_main_tree("<ReplayTestEdge edge=\"" + id + "\"/>", registry_, &clock_);
+  NodeStatus s = NodeStatus::running;
+  for (int i = 0; i < 100 && s == NodeStatus::running; ++i) s = tick(replay);
+  EXPECT_EQ(s, NodeStatus::success) << logger_.text;
+  EXPECT_NEAR(robot_.odom_.distance_m, e->length_m, 0.06);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(PrimitiveAdapter, ABadPayloadFailsBeforeTheRobotMoves) {
+  const std::string id = add_edge({1, 2});
+  auto tree = test::load_main_tree("<ReplayTestEdge edge=\"" + id + "\"/>", registry_, &clock_);
+  EXPECT_EQ(tick(tree), NodeStatus::failure);
+  EXPECT_NE(logger_.text.find("edge " + id + " payload: not a test payload"), std::string::npos) << logger_.text;
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+TEST_F(PrimitiveAdapter, AFailedCommandFailsTheNodeAndStopsTheRobot) {
+  FailingRobot failing(robot_);
+  host_.set_robot(&failing);
+  const std::string id = add_edge({7});
+  auto tree = test::load_main_tree("<ReplayTestEdge edge=\"" + id + "\"/>", registry_, &clock_);
+  EXPECT_EQ(tick(tree), NodeStatus::failure);
+  EXPECT_NE(logger_.text.find("sending the command: link down"), std::string::npos) << logger_.text;
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(PrimitiveAdapter, WithoutNewFramesTheLastCommandIsKeptOnlyWithinMaxFrozen) {
+  const std::string id = add_edge({7});
+  auto tree = test::load_main_tree("<ReplayTestEdge edge=\"" + id + "\" speed_mps=\"1\" max_frozen_m=\"0.35\"/>",
+                                   registry_, &clock_);
+  EXPECT_EQ(tick(tree), NodeStatus::running);
+  const int sent = robot_.commands_;
+  // 0.1 m per tick without a new frame: re-sent at 0.1, 0.2 and 0.3 m, refused beyond 0.35 m.
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(tick(tree, /*new_frame=*/false), NodeStatus::running) << i;
+  EXPECT_EQ(robot_.commands_, sent + 3);
+  EXPECT_EQ(robot_.command_.linear_mps, 1.0);
+  EXPECT_EQ(tick(tree, /*new_frame=*/false), NodeStatus::failure);
+  EXPECT_NE(logger_.text.find("camera frozen: no new frame over 0.400 m"), std::string::npos) << logger_.text;
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST(ParamSchemaCheck, AStructFilledInCodeIsCheckedByTheSchemasRanges) {
+  TestParams p;
+  EXPECT_TRUE(p.validate().ok());
+  p.core.gain = 3.0;
+  const Status st = p.validate();
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("key 'core_gain': value 3 is out of range [0, 1]"), std::string::npos)
+      << st.error().message;
+  EXPECT_FALSE(TestParams::schema().check_field("speed_mps", ConfigNode::make_scalar("0.05")).ok());
+  EXPECT_TRUE(TestParams::schema().check_field("speed_mps", ConfigNode::make_scalar("0.5")).ok());
+}
+
+}  // namespace
+}  // namespace visnav

@@ -15,6 +15,26 @@
 namespace visnav::feature_replay {
 namespace {
 
+// The one rule for ReplayFeatureEdge's speed_mps: the port's literal check (so `visnav
+// validate` and the tree loader reject speed_mps="9" before the first tick) and the node's
+// start both call it.
+Status check_replay_speed(double speed_mps) {
+  if (!(speed_mps > 0.0 && speed_mps <= 3.0))
+    return Error{"speed_mps must be in (0, 3], is " + std::to_string(speed_mps), ErrorCode::out_of_range};
+  return ok();
+}
+
+bt::PortInfo replay_speed_port() {
+  bt::PortInfo port = bt::input_port<double>("speed_mps", "0.3",
+                                             "style A: constant forward speed (style B replays the recorded speed)");
+  port.constraint = "(0, 3]";
+  port.check = [](std::string_view text) -> Status {
+    VISNAV_ASSIGN(double v, bt::convert_from_string<double>(text));
+    return check_replay_speed(v);
+  };
+  return port;
+}
+
 using bt::NodeStatus;
 
 double wrap_angle_rad(double a) {
@@ -254,7 +274,7 @@ ReplayFeatureEdge::ReplayFeatureEdge(const std::string& name, const bt::NodeConf
 bt::PortsList ReplayFeatureEdge::provided_ports() {
   bt::PortsList ports = {
       bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind feature_segment or feature_localmaps)"),
-      bt::input_port<double>("speed_mps", "0.3", "style A: constant forward speed (style B replays the recorded speed)"),
+      replay_speed_port(),
       bt::input_port<double>("gain_radps_per_px", "0.01",
                              "style A steering gain: omega = -gain * offset_px (tuned in the simulator)"),
       bt::input_port<double>("correction_gain_radps_per_px", "0.003",
@@ -318,7 +338,7 @@ Status ReplayFeatureEdge::load_edge() {
   VISNAV_ASSIGN(double margin, get_input<double>("distance_margin_m"));
   VISNAV_ASSIGN(double ratio, get_input<double>("ratio"));
   VISNAV_ASSIGN(double min_conf, get_input<double>("min_confidence"));
-  if (!(speed > 0.0 && speed <= 3.0)) return fail("speed_mps must be in (0, 3]");
+  VISNAV_TRY(check_replay_speed(speed));
   if (!(gain >= 0.0) || !(correction_gain >= 0.0) || !(max_w > 0.0) || !(max_corr >= 0.0) || !(margin >= 0.0))
     return fail("the gains, max_correction_radps and distance_margin_m must be >= 0 and max_angular_radps > 0");
   if (laps < 1) return fail("laps must be >= 1");

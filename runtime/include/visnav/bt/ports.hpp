@@ -16,6 +16,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -181,6 +182,12 @@ struct PortInfo {
   Parser parse = nullptr;
   /// False for AnyTypeAllowed (and scripts): the port does not fix its entry's type.
   bool strongly_typed = true;
+  /// Constraint beyond the type (e.g. a range from a primitive's ParamSchema): checked on every
+  /// literal value when a tree is validated or loaded, so a bad literal fails before the first
+  /// tick with file:line. Receives the literal text (already parsed by `parse`); empty: none.
+  std::function<Status(std::string_view text)> check;
+  /// Text of that constraint for the nodes model and docs ("[0, 3]", "one of: a b"); may be empty.
+  std::string constraint;
 
   /// An input or inout port without a default must be given in the XML.
   [[nodiscard]] bool required() const noexcept {
@@ -243,6 +250,12 @@ template <typename T = std::string>
 PortInfo inout_port(std::string name, std::string default_value, std::string description) {
   return detail::make_port<T>(PortDirection::inout, std::move(name), std::move(default_value), std::move(description));
 }
+
+/// Gives `port` an inclusive numeric range (its `check` and `constraint`), for a port whose
+/// type parses as a number: `with_range(input_port<double>("speed_mps", "0.3", "..."), 0.0, 1.5)`.
+/// A literal outside it fails validation with ErrorCode::out_of_range ("value 9 is out of
+/// range [0, 1.5]"); values read from the blackboard are the node's to check.
+[[nodiscard]] PortInfo with_range(PortInfo port, double min_value, double max_value);
 
 /// If `text` is a blackboard reference `{key}` returns the key (with a leading '@' kept for
 /// root references, "=" for `{=}`); otherwise nullopt.

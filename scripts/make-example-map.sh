@@ -17,7 +17,7 @@ tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 taught="$tmp/$(basename "$out")"  # the map's name is its folder's name
 "$visnav" run --config config/sim_feature.yaml --tree trees/teach_hybrid_route.xml --map "$taught" --create \
-  --set run.log_level=warn \
+  --set run.log_level=warn --set "nodes=[feature_replay, navigation, sim_operator, path_following]" \
   --bb route_file=config/routes/curve20m_polygon.yaml --bb force_kind=feature_segment --bb close_loop=true
 "$visnav" map validate "$taught"
 rm -rf "$out"

@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,21 @@ namespace {
 
 const fs::path kSource = VISNAV_TEST_SOURCE_DIR;
 const fs::path kMap = kSource / "maps" / "example";
+const fs::path kBuild = VISNAV_TEST_BINARY_DIR;
+
+std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// graph.yaml without the `created:` times (the one thing a re-teach changes).
+std::string graph_without_times(const fs::path& map) {
+  std::istringstream in(read_bytes(map / "graph.yaml"));
+  std::string out, line;
+  while (std::getline(in, line))
+    if (line.find("created:") == std::string::npos) out.append(line).append("\n");
+  return out;
+}
 
 std::string dump(const std::vector<visnav::Error>& errors) {
   std::string out;
@@ -100,6 +117,25 @@ TEST_F(ExampleMap, ADamagedPayloadIsRefusedBeforeTheRobotMoves) {
   const visnav::RunReport r = visnav::run_mission(m);
   EXPECT_EQ(r.outcome, visnav::RunOutcome::error) << r.reason;
   EXPECT_EQ(r.ticks, 0u);
+}
+
+// The shipped files are what scripts/make-example-map.sh writes (the teach is deterministic: the
+// simulator's default seeds), so nobody edits them by hand and a format change shows up here.
+TEST_F(ExampleMap, IsWhatTheScriptProduces) {
+  const fs::path out = tmp_ / "regenerated" / "example";
+  // (append, not an operator+ chain: GCC 12 reports a false -Wrestrict on those)
+  std::string cmd = "'";
+  cmd.append((kSource / "scripts" / "make-example-map.sh").string()).append("' '").append(kBuild.string());
+  cmd.append("' '").append(out.string()).append("' > '").append((tmp_ / "script.log").string()).append("' 2>&1");
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << read_bytes(tmp_ / "script.log");
+  EXPECT_EQ(graph_without_times(out), graph_without_times(kMap));
+  std::size_t payloads = 0;
+  for (const auto& e : fs::directory_iterator(kMap / "edges")) {
+    ++payloads;
+    EXPECT_TRUE(read_bytes(e.path()) == read_bytes(out / "edges" / e.path().filename()))
+        << e.path().filename() << " differs from what the script writes: run scripts/make-example-map.sh";
+  }
+  EXPECT_EQ(payloads, 4u);
 }
 
 TEST_F(ExampleMap, ReplaysToSuccess) {

@@ -176,6 +176,27 @@ TEST_F(ValidateTest, ListsEveryProblemAndRunRefusesTheSame) {
   for (const auto& p : problems) EXPECT_NE(r.reason.find(p.message), std::string::npos) << r.reason;
 }
 
+// A route script written in the tree is opened and parsed before the first tick too.
+TEST_F(ValidateTest, RouteFileLiteralIsOpenedAndParsed) {
+  const std::string missing = tree("<ScriptedOperator route_file=\"" + (dir_ / "no_route.yaml").string() + "\"/>");
+  auto problems = check(config(), missing);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::not_found);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{missing, 3, "Main/ScriptedOperator[0]"}));
+
+  const std::string route = write("route.yaml", "route: {name: r, waypoints: [ {at: [0, 0]\n");
+  const std::string broken = tree("<ScriptedOperator route_file=\"" + route + "\"/>");
+  problems = check(config(), broken);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::parse_error);
+  EXPECT_EQ(problems[0].where.line, 3);
+
+  const std::string good = tree("<ScriptedOperator route_file=\"" +
+                                (fs::path(VISNAV_TEST_SOURCE_DIR) / "config/routes/curve20m_polygon.yaml").string() + "\"/>");
+  problems = check(config(), good);
+  EXPECT_TRUE(problems.empty()) << dump(problems);
+}
+
 TEST_F(ValidateTest, MissingMapFolderIsNotFound) {
   const std::string missing = (dir_ / "no_map").string();
   const auto problems = check(config(), {}, missing);

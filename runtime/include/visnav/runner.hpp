@@ -313,6 +313,9 @@ struct SetupCheck {
   std::string config_file;
   std::vector<std::string> overrides;        ///< `--set` key.path=value
   std::string tree_file;                     ///< empty: no tree
+  /// `--bb key=value`: each value is checked by every port of the tree that reads {key}, as a
+  /// literal would be (type and check).
+  std::vector<std::string> blackboard_values;
   std::string map_path;                      ///< empty: no map; else as resolve_map_path
   bool create_map = false;                   ///< a missing map folder is fine (run --create)
   std::vector<std::string> extra_plugin_dirs;
@@ -328,7 +331,7 @@ struct SetupCheck {
 ///    params name (a simulated `world:` is opened and parsed),
 ///  * the nodes plugins register, and the tree against the registered node types: structure,
 ///    ports, and every literal port value against its type and its check (range); built-in
-///    nodes included (`<Sleep msec="-5"/>`),
+///    nodes included (`<Sleep msec="-5"/>`); so are the `blackboard_values` the ports read,
 ///  * with a map: that it opens (graph file) and that every edge payload reads and passes its
 ///    primitive's payload check.
 /// Returns every problem found (not just the first), each with a code and a location

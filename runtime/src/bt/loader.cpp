@@ -723,6 +723,29 @@ class Loader {
     return e.type == p.type ? nullptr : &e;
   }
 
+  // A port that reads `{key}` where the host set `key` to a text before loading: that text must
+  // parse as the port's type and pass its check, as a literal would. Returns true when it
+  // reported a problem.
+  bool check_host_value(const TreeDef& def, const XMLElement* el, const std::string& path, const PortInfo& p,
+                        const std::string& key, const Blackboard& bb) {
+    if (p.direction == PortDirection::output || p.parse == nullptr) return false;
+    const Blackboard::Entry* e = bb.find_entry(key);
+    const auto* text = e != nullptr ? std::any_cast<std::string>(&e->value) : nullptr;
+    if (text == nullptr) return false;
+    const std::string what = "port '" + p.name + "' reads {" + key + "} = '" + *text + "' from the blackboard";
+    auto parsed = p.parse(*text, registry_.enums().get());
+    if (!parsed) {
+      add(def.file, el->GetLineNum(), path, what + ": bad value for type " + p.type_name + ": " + parsed.error().message);
+      return true;
+    }
+    if (!p.check) return false;
+    auto st = p.check(*text);
+    if (st) return false;
+    add(st.error().with_default_code(ErrorCode::out_of_range).code, def.file, el->GetLineNum(), path,
+        what + ": " + st.error().message);
+    return true;
+  }
+
   // Walks the expanded main tree (bounded by check_limits) with scratch blackboards and reports
   // every blackboard key used with two different port types, as BehaviorTree.CPP does at load.
   void check_types() {
@@ -736,7 +759,13 @@ class Loader {
     std::map<const Blackboard::Entry*, std::string> first;  // where each entry was declared
     std::set<std::pair<const XMLElement*, std::string>> reported;
     const TreeDef& main = trees_.at(main_tree_);
-    std::vector<Item> stack{Item{&main, main.element->FirstChildElement(), NodePath::make(nullptr, main.id), 0, Blackboard::create()}};
+    Blackboard::Ptr root = Blackboard::create();
+    // Text values the host put on the root blackboard before loading (`--bb key=value`) are
+    // checked like literals by every port that reads them (check_host_value).
+    if (options_.blackboard)
+      for (const std::string& k : options_.blackboard->keys())
+        if (const auto* text = std::any_cast<std::string>(options_.blackboard->get_any(k))) root->set(k, *text);
+    std::vector<Item> stack{Item{&main, main.element->FirstChildElement(), NodePath::make(nullptr, main.id), 0, root}};
     while (!stack.empty()) {
       Item it = std::move(stack.back());
       stack.pop_back();
@@ -759,6 +788,8 @@ class Loader {
             add(it.def->file, it.el->GetLineNum(), path->str(),
                 "port '" + p.name + "' uses blackboard key '" + *key + "' as " + p.type_name + ", but it was declared " +
                     e->type_name + " by " + first[e]);
+          } else if (reported.count({it.el, p.name}) == 0 && check_host_value(*it.def, it.el, path->str(), p, *key, *it.bb)) {
+            reported.insert({it.el, p.name});
           } else if (p.strongly_typed) {
             Blackboard::Entry* declared = it.bb->find_entry(*key);
             if (declared != nullptr && first.find(declared) == first.end())

@@ -44,6 +44,7 @@ Result<PreparedMission> prepare_mission(const MissionOptions& options) {
   setup.config_file = options.config_file;
   setup.overrides = options.overrides;
   setup.tree_file = options.tree_file;
+  setup.blackboard_values = options.blackboard_values;
   setup.map_path = map_path;
   setup.create_map = options.create_map;
   setup.extra_plugin_dirs = options.extra_plugin_dirs;

@@ -154,6 +154,16 @@ class SetupChecker {
     if (auto st = register_all_nodes(registry, loader, host, nodes_); !st) add(st.error(), ErrorCode::plugin);
     if (setup_.tree_file.empty()) return;
     bt::LoadOptions limits;
+    limits.blackboard = bt::Blackboard::create();
+    for (const auto& a : setup_.blackboard_values) {
+      const auto eq = a.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        add(Error{"--bb " + a + ": not of the form key=value", ErrorCode::invalid_value, {"--bb", 0, a}},
+            ErrorCode::invalid_value);
+        continue;
+      }
+      limits.blackboard->set(std::string_view(a).substr(0, eq), a.substr(eq + 1));
+    }
     if (config_) {
       limits.max_subtree_depth = config_->run.bt_max_subtree_depth;
       limits.max_nodes = static_cast<std::size_t>(config_->run.bt_max_nodes);

@@ -62,11 +62,12 @@ class ValidateTest : public ::testing::Test {
   }
 
   static std::vector<Error> check(const std::string& config_file, const std::string& tree_file = {},
-                                  const std::string& map = {}) {
+                                  const std::string& map = {}, const std::vector<std::string>& bb = {}) {
     visnav::SetupCheck s;
     s.config_file = config_file;
     s.tree_file = tree_file;
     s.map_path = map;
+    s.blackboard_values = bb;
     return visnav::check_setup(s);
   }
 
@@ -195,6 +196,45 @@ TEST_F(ValidateTest, RouteFileLiteralIsOpenedAndParsed) {
                                 (fs::path(VISNAV_TEST_SOURCE_DIR) / "config/routes/curve20m_polygon.yaml").string() + "\"/>");
   problems = check(config(), good);
   EXPECT_TRUE(problems.empty()) << dump(problems);
+}
+
+// `--bb key=value` values are checked by every port that reads {key}, as literals are: the
+// common way to give a speed or a route file.
+TEST_F(ValidateTest, BlackboardValuesAreCheckedByThePortsThatReadThem) {
+  const std::string t = write("tree.xml",
+                              "<root BTCPP_format=\"4\">\n"
+                              "  <BehaviorTree ID=\"Main\">\n"
+                              "    <Sequence>\n"
+                              "      <ScriptedOperator route_file=\"{route_file}\"/>\n"
+                              "      <ReplayFeatureEdge edge=\"e1\" speed_mps=\"{v}\"/>\n"
+                              "    </Sequence>\n"
+                              "  </BehaviorTree>\n"
+                              "</root>\n");
+  const std::string route = (fs::path(VISNAV_TEST_SOURCE_DIR) / "config/routes/curve20m_polygon.yaml").string();
+  EXPECT_TRUE(check(config(), t, {}, {"route_file=" + route, "v=0.4"}).empty());
+  EXPECT_TRUE(check(config(), t).empty());  // unset keys are the nodes' to check when they run
+
+  auto problems = check(config(), t, {}, {"route_file=" + (dir_ / "none.yaml").string(), "v=9"});
+  ASSERT_EQ(problems.size(), 2u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::not_found);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{t, 4, "Main/Sequence[0]/ScriptedOperator[0]"}));
+  EXPECT_EQ(problems[1].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[1].where, (ErrorLocation{t, 5, "Main/Sequence[0]/ReplayFeatureEdge[1]"}));
+
+  problems = check(config(), t, {}, {"v=fast", "novalue"});
+  ASSERT_EQ(problems.size(), 2u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::invalid_value);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{"--bb", 0, "novalue"}));
+  EXPECT_EQ(problems[1].code, ErrorCode::invalid_value);
+  EXPECT_EQ(problems[1].where.line, 5);
+
+  visnav::MissionOptions m;
+  m.config_file = config();
+  m.tree_file = t;
+  m.blackboard_values = {"route_file=" + route, "v=9"};
+  const visnav::RunReport r = visnav::run_mission(m);
+  EXPECT_EQ(r.outcome, visnav::RunOutcome::error);
+  EXPECT_EQ(r.ticks, 0u);
 }
 
 TEST_F(ValidateTest, MissingMapFolderIsNotFound) {

@@ -125,6 +125,17 @@ TEST_F(ValidateTest, BuiltInNodeAttributeIsChecked) {
   EXPECT_EQ(problems[0].where, (ErrorLocation{t, 3, "Main/Sleep[0]"}));
 }
 
+// A built-in count below -1 made Repeat fail at its first tick without a reason; now the literal
+// is refused before, with the range.
+TEST_F(ValidateTest, BuiltInCountBelowMinusOneIsOutOfRange) {
+  const std::string t = tree("<Repeat num_cycles=\"-5\"><AlwaysSuccess/></Repeat>");
+  const auto problems = check(config(), t);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{t, 3, "Main/Repeat[0]"}));
+  EXPECT_TRUE(check(config(), tree("<Repeat num_cycles=\"-1\"><AlwaysSuccess/></Repeat>")).empty());
+}
+
 TEST_F(ValidateTest, MissingWorldFileIsNotFoundAtItsKey) {
   const std::string c = config("{world: " + (dir_ / "no_such_world.yaml").string() + "}");
   const auto problems = check(c);

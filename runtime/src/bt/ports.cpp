@@ -184,6 +184,7 @@ namespace visnav::bt {
 
 PortInfo with_range(PortInfo port, double min_value, double max_value) {
   std::ostringstream os;
+  os.precision(15);  // integer bounds print in full ("2147483647", not "2.14748e+09")
   os << "[" << min_value << ", " << max_value << "]";
   port.constraint = os.str();
   port.check = [min_value, max_value, c = port.constraint](std::string_view text) -> Status {

@@ -181,7 +181,7 @@ class Session {
   [[nodiscard]] int reloads_rejected() const;
 
  private:
-  Session();  // out of line: Links and ReloadState are complete only in session.cpp
+  Session();  // out of line: Links and LiveReload are complete only in the .cpp files
   // Build steps, in this order (see the file comment); each is one job.
   Status build(const SessionOptions& options);
   Status build_logger(const SessionOptions& options);
@@ -189,11 +189,6 @@ class Session {
   Status build_devices();
   Status open_map(const SessionOptions& options);
   Status build_links();
-  // Live reload steps (session_reload.cpp).
-  [[nodiscard]] Error reject_reload(const std::string& why);
-  [[nodiscard]] Result<PluginPtr<Detector>> detector_for(const RunConfig& next, bool& changed);
-  bool apply_device_params(RunConfig& next);
-  void install_detector(PluginPtr<Detector> detector);
 
   RunConfig config_;
   std::unique_ptr<StderrLogger> own_logger_;
@@ -210,12 +205,13 @@ class Session {
   PluginPtr<Robot> robot_;
   std::unique_ptr<GuardedRobot> guard_;
   PluginPtr<Camera> camera_;
-  PluginPtr<Detector> detector_;  // changed only by install_detector (swap, reload)
+  PluginPtr<Detector> detector_;  // changed only through install_detector (swap, reload)
   std::unique_ptr<bt::NodeRegistry> registry_;
   bool lockstep_ = false;
-  /// Live reload: the overrides, the file stamp, the poll deadline and the counters.
-  struct ReloadState;
-  std::unique_ptr<ReloadState> reload_;
+  /// Live reload (session_reload.cpp): re-reads the file and applies it to the parts above,
+  /// which it borrows; made last, destroyed first.
+  class LiveReload;
+  std::unique_ptr<LiveReload> reload_;
 };
 
 enum class RunOutcome { success, failure, safety_stop, interrupted, stopped, error };

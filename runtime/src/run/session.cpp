@@ -86,18 +86,17 @@ Status register_all_nodes(bt::NodeRegistry& registry, PluginLoader& loader, Host
 
 // --- Session ----------------------------------------------------------------------------------
 
-Session::Session() : links_(std::make_unique<Links>()), reload_(std::make_unique<ReloadState>()) {}
+Session::Session() : links_(std::make_unique<Links>()) {}
 
 Result<std::unique_ptr<Session>> Session::create(RunConfig config, const SessionOptions& options) {
   std::unique_ptr<Session> s(new Session());
   s->config_ = std::move(config);
-  s->reload_->overrides = options.overrides;
   VISNAV_TRY(s->build(options));
   return s;
 }
 
 Session::~Session() {
-  // Members go in reverse order: reload state, registry, detector, camera, guard, robot, map,
+  // Members go in reverse order: live reload, registry, detector, camera, guard, robot, map,
   // links, host, ..., loader.
   if (guard_) (void)guard_->stop();
 }
@@ -105,8 +104,10 @@ Session::~Session() {
 std::uint64_t Session::telemetry_published() const { return links_->fan_out.published(); }
 dds::DdsTelemetry* Session::dds_telemetry() { return links_->dds.get(); }
 dds::ControlSubscriber* Session::control() { return links_->control.get(); }
-int Session::reloads_applied() const { return reload_->applied; }
-int Session::reloads_rejected() const { return reload_->rejected; }
+int Session::reloads_applied() const { return reload_ ? reload_->applied() : 0; }
+int Session::reloads_rejected() const { return reload_ ? reload_->rejected() : 0; }
+bool Session::poll_config_reload(bool force) { return reload_->poll(force); }
+Result<bool> Session::reload_config() { return reload_->reload(); }
 
 Status Session::build(const SessionOptions& options) {
   VISNAV_TRY(build_logger(options));
@@ -119,8 +120,9 @@ Status Session::build(const SessionOptions& options) {
   registry_ = std::make_unique<bt::NodeRegistry>();
   VISNAV_TRY(register_all_nodes(*registry_, loader_, *host_, config_.nodes));
 
-  (void)reload_->restamp(config_.file);
-  reload_->next_poll_wall_s = wall_clock_.now_s() + config_.run.reload_poll_s;
+  reload_ = std::make_unique<LiveReload>(
+      LiveReload::Parts{config_, *logger_, own_logger_.get(), loader_, *host_, *robot_, *camera_, detector_, wall_clock_},
+      options.overrides);
   logger_->info("run", "robot '" + config_.robot.type + "', camera '" + config_.camera.type + "'" +
                            (config_.detector ? ", detector '" + config_.detector->type + "'" : std::string()) +
                            (lockstep_ ? ", lock-step simulation" : ", real time") + ", " +
@@ -198,7 +200,7 @@ Status Session::build_devices() {
   if (config_.detector) {
     auto made = loader_.create<Detector>(config_.detector->type, config_.detector->params, *host_, config_.detector->plugin);
     if (!made) return made.error().with_context(spec_label("detector", *config_.detector));
-    install_detector(std::move(made).value());
+    install_detector(*host_, detector_, std::move(made).value());
   }
   return ok();
 }
@@ -268,11 +270,6 @@ Result<bt::Tree> Session::load_tree(const std::string& tree_file) {
 
 // --- detector swap ----------------------------------------------------------------------------
 
-void Session::install_detector(PluginPtr<Detector> detector) {
-  host_->set_active_detector(detector.get());
-  detector_ = std::move(detector);  // the old detector is destroyed here, between ticks
-}
-
 Status Session::swap_detector(const std::string& type) {
   if (type.empty()) return fail("swap_detector: no detector type given");
   if (config_.detector && config_.detector->type == type && detector_) {
@@ -286,7 +283,7 @@ Status Session::swap_detector(const std::string& type) {
   auto made = loader_.create<Detector>(spec.type, spec.params, *host_);
   if (!made) return made.error().with_context("swap_detector '" + type + "'");
   const std::string old_type = config_.detector ? config_.detector->type : std::string("none");
-  install_detector(std::move(made).value());
+  install_detector(*host_, detector_, std::move(made).value());
   config_.detector = std::move(spec);
   logger_->info("run", "active detector is now '" + type + "' (was '" + old_type + "'), swapped by the control topic");
   return ok();

@@ -47,124 +47,134 @@ bool run_settings_changed(const RunSettings& a, const RunSettings& b) {
 
 }  // namespace
 
-bool Session::ReloadState::restamp(const std::string& file) {
+Session::LiveReload::LiveReload(Parts parts, std::vector<std::string> overrides)
+    : p_(parts), overrides_(std::move(overrides)) {
+  (void)restamp();
+  next_poll_wall_s_ = p_.wall_clock.now_s() + p_.config.run.reload_poll_s;
+}
+
+bool Session::LiveReload::restamp() {
+  const std::string& file = p_.config.file;
   if (file.empty()) return false;
   std::error_code ec;
   const auto t = fs::last_write_time(file, ec);
-  if (ec) return false;
+  if (ec) return false;  // e.g. mid-rename by an editor; try again next poll
   const auto size = fs::file_size(file, ec);
   if (ec) return false;
   const auto mtime_ns =
       static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count());
-  if (mtime_ns == file_mtime_ns && size == file_size) return false;
-  file_mtime_ns = mtime_ns;
-  file_size = size;
+  if (mtime_ns == file_mtime_ns_ && size == file_size_) return false;
+  file_mtime_ns_ = mtime_ns;
+  file_size_ = size;
   return true;
 }
 
-bool Session::poll_config_reload(bool force) {
-  if (config_.file.empty()) return false;
+bool Session::LiveReload::poll(bool force) {
+  if (p_.config.file.empty()) return false;
   if (!force) {
-    if (config_.run.reload_poll_s <= 0.0) return false;
-    const double now = wall_clock_.now_s();
-    if (now < reload_->next_poll_wall_s) return false;
-    reload_->next_poll_wall_s = now + config_.run.reload_poll_s;
+    if (p_.config.run.reload_poll_s <= 0.0) return false;
+    const double now = p_.wall_clock.now_s();
+    if (now < next_poll_wall_s_) return false;
+    next_poll_wall_s_ = now + p_.config.run.reload_poll_s;
   }
-  if (!reload_->restamp(config_.file)) return false;
-  auto applied = reload_config();
+  if (!restamp()) return false;
+  auto applied = reload();
   return applied && *applied;
 }
 
-Error Session::reject_reload(const std::string& why) {
-  ++reload_->rejected;
-  logger_->error("config", "reload of " + config_.file + " rejected, keeping the running config: " + why);
+Error Session::LiveReload::reject(const std::string& why) {
+  ++rejected_;
+  p_.logger.error("config", "reload of " + p_.config.file + " rejected, keeping the running config: " + why);
   return fail(why);
 }
 
-Result<bool> Session::reload_config() {
-  auto loaded = load_run_config(config_.file, reload_->overrides);
-  if (!loaded) return reject_reload(loaded.error().message);
+Result<bool> Session::LiveReload::reload() {
+  RunConfig& config = p_.config;
+  auto loaded = load_run_config(config.file, overrides_);
+  if (!loaded) return reject(loaded.error().message);
   RunConfig next = std::move(loaded).value();
-  if (const std::string keys = restart_keys(next, config_); !keys.empty())
-    return reject_reload("changing " + keys + " needs a restart");
+  if (const std::string keys = restart_keys(next, config); !keys.empty())
+    return reject("changing " + keys + " needs a restart");
 
   // A new detector is created before anything is applied, so a failing factory rejects the
   // whole reload.
   bool detector_changed = false;
   auto new_detector = detector_for(next, detector_changed);
-  if (!new_detector) return reject_reload(new_detector.error().message);
+  if (!new_detector) return reject(new_detector.error().message);
 
   bool changed = apply_device_params(next);
   if (detector_changed) {
-    install_detector(std::move(new_detector).value());
-    logger_->info("config", next.detector ? "active detector is now '" + next.detector->type + "'" : "detector removed");
+    install_detector(p_.host, p_.detector, std::move(new_detector).value());
+    p_.logger.info("config", next.detector ? "active detector is now '" + next.detector->type + "'" : "detector removed");
     changed = true;
-  } else if (next.detector && !same_config(next.detector->params, config_.detector->params)) {
-    changed = true;
-  }
-
-  if (next.run.log_level != config_.run.log_level && own_logger_) {
-    if (auto level = parse_log_level(next.run.log_level)) own_logger_->set_level(*level);
-  }
-  if (run_settings_changed(next.run, config_.run)) {
-    logger_->info("config", "run settings updated");
+  } else if (next.detector && !same_config(next.detector->params, config.detector->params)) {
     changed = true;
   }
 
-  config_ = std::move(next);
-  (void)reload_->restamp(config_.file);
-  ++reload_->applied;
-  if (!changed) logger_->info("config", config_.file + " changed but the effective config is the same");
+  if (next.run.log_level != config.run.log_level && p_.own_logger != nullptr) {
+    if (auto level = parse_log_level(next.run.log_level)) p_.own_logger->set_level(*level);
+  }
+  if (run_settings_changed(next.run, config.run)) {
+    p_.logger.info("config", "run settings updated");
+    changed = true;
+  }
+
+  config = std::move(next);
+  (void)restamp();
+  ++applied_;
+  if (!changed) p_.logger.info("config", config.file + " changed but the effective config is the same");
   return changed;
 }
 
 // The detector `next` asks for: a new one when its type/plugin changed (or it appeared), or
 // when the active one cannot take the new params in place; nullptr with `changed` false when
 // the active one stays (its params, if changed, already applied).
-Result<PluginPtr<Detector>> Session::detector_for(const RunConfig& next, bool& changed) {
+Result<PluginPtr<Detector>> Session::LiveReload::detector_for(const RunConfig& next, bool& changed) {
+  const RunConfig& config = p_.config;
   changed = false;
-  if (next.detector.has_value() != config_.detector.has_value() ||
-      (next.detector && !same_identity(*next.detector, *config_.detector))) {
+  if (next.detector.has_value() != config.detector.has_value() ||
+      (next.detector && !same_identity(*next.detector, *config.detector))) {
     changed = true;
     if (!next.detector) return PluginPtr<Detector>{};
-    auto made = loader_.create<Detector>(next.detector->type, next.detector->params, *host_, next.detector->plugin);
+    auto made = p_.loader.create<Detector>(next.detector->type, next.detector->params, p_.host, next.detector->plugin);
     if (!made) return made.error().with_context(spec_label("detector", *next.detector));
     return std::move(made).value();
   }
-  if (!next.detector || same_config(next.detector->params, config_.detector->params)) return PluginPtr<Detector>{};
+  if (!next.detector || same_config(next.detector->params, config.detector->params)) return PluginPtr<Detector>{};
   PluginPtr<Detector> replacement;
-  if (auto st = detector_->reconfigure(next.detector->params); !st) {
+  if (auto st = p_.detector->reconfigure(next.detector->params); !st) {
     // Cannot reconfigure in place: build a fresh one with the new params and swap.
-    auto made = loader_.create<Detector>(next.detector->type, next.detector->params, *host_, next.detector->plugin);
+    auto made = p_.loader.create<Detector>(next.detector->type, next.detector->params, p_.host, next.detector->plugin);
     if (!made)
       return fail("detector '" + next.detector->type + "': reconfigure failed (" + st.error().message +
                   ") and a new one could not be created (" + made.error().message + ")");
     replacement = std::move(made).value();
     changed = true;
   }
-  logger_->info("config", "detector '" + next.detector->type + "' params updated");
+  p_.logger.info("config", "detector '" + next.detector->type + "' params updated");
   return replacement;
 }
 
 // Robot and camera params: reconfigured in place; one that refuses keeps its old params (logged)
-// and the rest still applies. `next` is left holding what was actually applied.
-bool Session::apply_device_params(RunConfig& next) {
+// and the rest still applies.
+bool Session::LiveReload::apply_device_params(RunConfig& next) {
+  RunConfig& config = p_.config;
   bool changed = false;
   auto reconfigure = [&](const char* section, PluginObject& object, PluginSpec& current, const PluginSpec& wanted) {
     if (same_config(current.params, wanted.params)) return;
     auto st = object.reconfigure(wanted.params);
     if (!st) {
-      logger_->error("config", std::string(section) + " '" + current.type + "' kept its old params: " + st.error().message);
+      p_.logger.error("config", std::string(section) + " '" + current.type + "' kept its old params: " + st.error().message);
       return;
     }
-    logger_->info("config", std::string(section) + " '" + current.type + "' params updated");
+    p_.logger.info("config", std::string(section) + " '" + current.type + "' params updated");
     current = wanted;
     changed = true;
   };
-  reconfigure("robot", *robot_, config_.robot, next.robot);
-  reconfigure("camera", *camera_, config_.camera, next.camera);
-  next.robot = config_.robot;
-  next.camera = config_.camera;
+  reconfigure("robot", p_.robot, config.robot, next.robot);
+  reconfigure("camera", p_.camera, config.camera, next.camera);
+  next.robot = config.robot;
+  next.camera = config.camera;
   return changed;
 }
 

@@ -108,6 +108,7 @@ int run(const std::vector<std::string>& args) {
       *out << "    " << direction_name(p.direction) << " " << p.name << " : " << p.type_name;
       if (p.default_value) *out << " = " << *p.default_value;
       else if (p.required()) *out << " (required)";
+      if (!p.constraint.empty()) *out << "  " << p.constraint;  // what a literal must satisfy
       if (!p.description.empty()) *out << "  — " << p.description;
       *out << "\n";
     }

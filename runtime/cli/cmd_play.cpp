@@ -37,7 +37,7 @@ constexpr const char* kUsage =
     "  --tree T          mission tree\n"
     "  --bb key=value    blackboard entry before the first tick (after the recorded ones in run.yaml)\n"
     "  --config C        configuration to take detector/nodes/run settings from\n"
-    "  --map M           map folder (as `visnav run --map`: must exist unless --create)\n"
+    "  --map M           map folder (as `visnav run --map`: a bare name is maps/M; must exist unless --create)\n"
     "  --create          with --map: create M as an empty map if missing\n"
     "  --set k=v         config override (repeatable), applied after the recorded ones\n"
     "  --commands-out F  write this run's decisions as F (same columns as RUN/commands.csv)\n"
@@ -147,7 +147,7 @@ int play(const std::vector<std::string>& raw_args) {
   }
   visnav::SessionOptions so;
   so.extra_plugin_dirs = a.all("--plugin-path");
-  so.map_path = a.get("--map");
+  so.map_path = visnav::resolve_map_path(a.get("--map"));  // a bare name is maps/NAME
   so.create_map = a.has("--create");
   so.overrides = overrides;
   auto session_made = visnav::Session::create(std::move(*config), so);

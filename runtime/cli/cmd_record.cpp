@@ -46,7 +46,8 @@ constexpr const char* kUsage =
     "  --tree T             mission tree to run while recording\n"
     "  --bb key=value       blackboard entry before the first tick (as `visnav run --bb`; kept in run.yaml)\n"
     "  --duration-s S       stop after S s of run time (0 = until the tree ends / Ctrl-C)\n"
-    "  --map M              map folder for the tree (as `visnav run --map`: must exist unless --create)\n"
+    "  --map M              map folder for the tree (as `visnav run --map`: a bare name is maps/M; must exist\n"
+    "                       unless --create)\n"
     "  --create             with --map: create M as an empty map if missing\n"
     "  --set k=v            config override (repeatable)\n"
     "  --image-format F     png (default, lossless: bit-exact playback) or jpg\n"
@@ -335,7 +336,7 @@ int record(const std::vector<std::string>& args) {
 
   visnav::SessionOptions so;
   so.extra_plugin_dirs = a.all("--plugin-path");
-  so.map_path = a.get("--map");
+  so.map_path = visnav::resolve_map_path(a.get("--map"));  // a bare name is maps/NAME
   so.create_map = a.has("--create");
   so.overrides = overrides;
   auto session_made = visnav::Session::create(std::move(*config), so);

@@ -17,12 +17,14 @@ constexpr const char* kUsage =
     "                  [--plugin-path DIR]... [--log-level debug|info|warn|error]\n"
     "\n"
     "Builds the robot, camera and detector named in the YAML config C, registers the built-in\n"
-    "and plugin behaviour-tree nodes, validates the tree T (nothing runs if it is invalid) and\n"
-    "ticks it until it finishes. Simulated robots run in lock-step, as fast as possible.\n"
+    "and plugin behaviour-tree nodes, validates the tree T and ticks it until it finishes. First it\n"
+    "makes every check of `visnav validate` (nothing runs when one fails; all problems are listed).\n"
+    "Simulated robots run in lock-step, as fast as possible.\n"
     "\n"
     "  --config C         run configuration (docs/config.md)\n"
     "  --tree T           mission tree, BehaviorTree.CPP v4 XML\n"
-    "  --map M            map folder (opened; a missing folder is an error unless --create)\n"
+    "  --map M            map folder (opened; a missing folder is an error unless --create). A bare\n"
+    "                     name (no '/') is maps/M ($VISNAV_MAPS_DIR/M when set); a path is used as given\n"
     "  --create           with --map: create M as an empty map if it does not exist (teaching)\n"
     "  --set k=v          override a config value, e.g. --set detector.params.target_keypoints=300\n"
     "  --bb key=value     set a blackboard entry before the first tick, e.g. --bb start=dock\n"
@@ -42,7 +44,7 @@ constexpr const char* kUsage =
     "3 safety stop (stale data, sensor failure), 130 interrupted (SIGINT or an abort request:\n"
     "tree halted, robot stopped).\n";
 
-/// run_mission with the live view attached (same steps: config, session, tree, run).
+/// run_mission with the live view attached (same steps: prepare_mission, then run).
 visnav::RunReport run_with_view(const visnav::MissionOptions& m, const std::string& port_text,
                                 const std::string& speed_text) {
   visnav::RunReport r;
@@ -66,45 +68,28 @@ visnav::RunReport run_with_view(const visnav::MissionOptions& m, const std::stri
     r.reason = "--view-speed: '" + speed_text + "' is not a number in [0, 1000]";
     return r;
   }
-  auto config = visnav::load_run_config(m.config_file, m.overrides);
-  if (!config) {
-    r.reason = config.error().message;
+  auto prepared = visnav::prepare_mission(m);  // the checks of `visnav validate`, then session and tree
+  if (!prepared) {
+    r.reason = prepared.error().message;
     return r;
   }
-  if (m.log_level) config->run.log_level = visnav::to_string(*m.log_level);
-  visnav::SessionOptions so;
-  so.extra_plugin_dirs = m.extra_plugin_dirs;
-  so.map_path = m.map_path;
-  so.overrides = m.overrides;
-  auto session = visnav::Session::create(std::move(*config), so);
-  if (!session) {
-    r.reason = session.error().message;
-    return r;
-  }
+  visnav::Session& session = *prepared->session;
+  visnav::bt::Tree& tree = *prepared->tree;
   const char* all = std::getenv("VISNAV_VIEW_ALL_INTERFACES");
-  auto view = visnav::view::LiveView::create(port, **session, all != nullptr && std::string(all) == "1");
+  auto view = visnav::view::LiveView::create(port, session, all != nullptr && std::string(all) == "1");
   if (!view) {
     r.reason = view.error().message;
     return r;
   }
   std::cerr << "visnav run: live view on ws://localhost:" << (*view)->port() << " (Foxglove: Open connection)\n";
-  auto tree = (*session)->load_tree(m.tree_file);
-  if (!tree) {
-    r.reason = m.tree_file + ": tree is not valid, nothing was run:\n" + tree.error().message;
-    return r;
-  }
-  if (auto st = visnav::set_blackboard_values(*tree, m.blackboard_values); !st) {
-    r.reason = st.error().message;
-    return r;
-  }
   visnav::RunOptions ro;
   ro.trace_file = m.trace_file;
   // Lock-step runs as fast as it can; to be watched it is paced to `speed` x real time.
-  const bool pace = (*session)->lockstep() && speed > 0.0;
+  const bool pace = session.lockstep() && speed > 0.0;
   const auto wall0 = std::chrono::steady_clock::now();
   double sim0 = -1.0;
   ro.after_tick = [&](const visnav::TickInfo& t) {
-    (*view)->after_tick(t, *tree);
+    (*view)->after_tick(t, tree);
     if (pace) {
       if (sim0 < 0.0) sim0 = t.t_s;
       std::this_thread::sleep_until(wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -112,7 +97,7 @@ visnav::RunReport run_with_view(const visnav::MissionOptions& m, const std::stri
     }
     return true;
   };
-  return visnav::run_tree(**session, *tree, ro);  // tree, then view, then session are destroyed
+  return visnav::run_tree(session, tree, ro);  // view, then tree, then session are destroyed
 }
 
 int run(const std::vector<std::string>& args) {

@@ -88,8 +88,9 @@ TEST(ViewInterop, FoxgloveWsProtocolClientReceivesEveryChannelDuringARun) {
   std::ofstream(dir / "route.yaml")
       << "route:\n  name: s\n  world: straight6m\n  start: [0, 0, 0]\n"
          "  waypoints:\n    - {at: [0, 0], kind: feature}\n    - {at: [5, 0]}\n";
+  // --create: a new map folder is made only when asked, with --view as without it (one code path).
   const std::vector<std::string> args{VISNAV_TEST_CLI, "run", "--config", (dir / "config.yaml").string(), "--map",
-                                      (dir / "map").string(), "--tree", src + "/trees/teach_feature_edge.xml",
+                                      (dir / "map").string(), "--create", "--tree", src + "/trees/teach_feature_edge.xml",
                                       "--bb", "route_file=" + (dir / "route.yaml").string(), "--bb", "style=segment",
                                       "--bb", "force_kind=feature_segment", "--bb", "close_loop=false", "--view", "0",
                                       "--view-speed", "2"};

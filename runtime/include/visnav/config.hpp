@@ -105,6 +105,12 @@ struct RunConfig {
 /// parse_dds_settings()). Plugin params are checked by the plugins.
 [[nodiscard]] Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file = {});
 
+/// parse_run_config with every problem as its own Error (code, location {file, line, key
+/// path}); empty: the config is valid. `config` (optional) receives what parsed, complete only
+/// when there is no problem (the sections that did parse are filled even then).
+[[nodiscard]] std::vector<Error> run_config_problems(const ConfigNode& root, const std::string& file,
+                                                     RunConfig* config = nullptr);
+
 /// Reads `path`, applies `overrides` (`key.path=value` each) and parses the run config.
 [[nodiscard]] Result<RunConfig> load_run_config(const std::string& path, const std::vector<std::string>& overrides = {});
 

@@ -138,6 +138,10 @@ class PluginLoader {
   /// Parameter docs of a type (empty when the plugin declares none).
   [[nodiscard]] Result<std::vector<ParamDoc>> param_docs(PluginKind kind, std::string_view type_name,
                                                          std::string_view library = {}) const;
+  /// The descriptor entry of a type (e.g. for its check_params, which creates nothing); valid
+  /// while the loader lives. Errors as find_type.
+  [[nodiscard]] Result<const TypeEntry*> type_entry(PluginKind kind, std::string_view type_name,
+                                                    std::string_view library = {}) const;
   /// The library providing (kind, type_name); with `library` non-empty, only that library
   /// (name, file name or path) is considered. Errors list the search path and the types known.
   [[nodiscard]] Result<PluginTypeInfo> find_type(PluginKind kind, std::string_view type_name,

@@ -214,7 +214,8 @@ class ParamSchema {
       // included field's is the one an error names.
       auto check = [&](const std::string& text) -> Status {
         auto v = detail::parse_double(text);
-        if (v && (*v < min_value || *v > max_value)) return fail("value " + text + " is out of range " + c);
+        if (v && (*v < min_value || *v > max_value))
+          return Error{"value " + text + " is out of range " + c, ErrorCode::out_of_range};
         return ok();
       };
       if (node.is_scalar() && node.scalar().find(';') == std::string::npos) {
@@ -229,7 +230,8 @@ class ParamSchema {
     f.check = [values = f.values, min_value, max_value, c = f.doc.constraint](const P& p) -> Status {
       for (const std::string& text : values(p)) {
         auto v = detail::parse_double(text);
-        if (!v || *v < min_value || *v > max_value) return fail("value " + text + " is out of range " + c);
+        if (!v || *v < min_value || *v > max_value)
+          return Error{"value " + text + " is out of range " + c, ErrorCode::out_of_range};
       }
       return ok();
     };
@@ -246,13 +248,14 @@ class ParamSchema {
     f.assign = [previous, allowed, c](P& p, const ConfigNode& node) -> Status {
       VISNAV_TRY(previous(p, node));
       for (const auto& a : allowed) if (node.is_scalar() && node.scalar() == a) return ok();
-      return fail("value '" + (node.is_scalar() ? node.scalar() : std::string("?")) + "' is not " + c);
+      return Error{"value '" + (node.is_scalar() ? node.scalar() : std::string("?")) + "' is not " + c,
+                   ErrorCode::out_of_range};
     };
     f.check = [values = f.values, allowed, c](const P& p) -> Status {
       for (const std::string& text : values(p)) {
         bool found = false;
         for (const auto& a : allowed) found = found || text == a;
-        if (!found) return fail("value '" + text + "' is not " + c);
+        if (!found) return Error{"value '" + text + "' is not " + c, ErrorCode::out_of_range};
       }
       return ok();
     };
@@ -278,27 +281,23 @@ class ParamSchema {
   }
 
   /// Parses `node` (a map, or null for all defaults) on top of `base` (defaults when omitted).
-  /// Errors name the location and key: "robot.yaml:14: key 'max_speed_mps': value 9 is out of range [0, 3]".
+  /// Errors name the location and key: "robot.yaml:14: key 'max_speed_mps': value 9 is out of range [0, 3]",
+  /// with a code (unknown_key, invalid_value, out_of_range; inconsistent when validate() fails
+  /// without a code of its own) and a location {file, line, key}. The first of problems().
   [[nodiscard]] Result<P> parse(const ConfigNode& node, P base = P{}) const {
-    if (node.is_null()) {
-      auto valid = base.validate();
-      if (!valid) return valid.error().with_context(node.where().str());
-      return base;
-    }
-    if (!node.is_map()) return fail(node.where().str() + ": expected a map of parameters");
-    for (const auto& [key, value] : node.entries()) {
-      const Field* f = find(key);
-      if (f == nullptr) {
-        std::string known;
-        for (const auto& ff : fields_) known += (known.empty() ? "" : ", ") + ff.doc.name;
-        return fail(value.where().str() + ": unknown key '" + key + "' (known keys: " + known + ")");
-      }
-      auto st = f->assign(base, value);
-      if (!st) return fail(value.where().str() + ": key '" + key + "': " + st.error().message);
-    }
-    auto valid = base.validate();
-    if (!valid) return valid.error().with_context(node.where().str());
+    std::vector<Error> all;
+    parse_into(node, base, all, /*first_only=*/true);
+    if (!all.empty()) return std::move(all.front());
     return base;
+  }
+
+  /// Every problem parse() would find in `node`, not just the first: each unknown key and bad
+  /// value, then validate()'s verdict when all keys were fine. Empty: parse() succeeds. This is
+  /// what `visnav validate` and the check before `visnav run` report for a params block.
+  [[nodiscard]] std::vector<Error> problems(const ConfigNode& node, P base = P{}) const {
+    std::vector<Error> all;
+    parse_into(node, base, all, /*first_only=*/false);
+    return all;
   }
 
   [[nodiscard]] std::vector<ParamDoc> docs() const {
@@ -321,6 +320,35 @@ class ParamSchema {
     std::function<std::vector<std::string>(const P&)> values;         ///< the value(s) as text
     std::function<Status(const P&)> check = [](const P&) { return ok(); };  ///< constraint on a value
   };
+  void parse_into(const ConfigNode& node, P& out, std::vector<Error>& errors, bool first_only) const {
+    const SourceLocation& at = node.where();
+    if (!node.is_null() && !node.is_map()) {
+      errors.push_back(Error{at.str() + ": expected a map of parameters", ErrorCode::invalid_value, {at.file, at.line, {}}});
+      return;
+    }
+    if (node.is_map()) {
+      for (const auto& [key, value] : node.entries()) {
+        const SourceLocation& vat = value.where();
+        const Field* f = find(key);
+        if (f == nullptr) {
+          std::string known;
+          for (const auto& ff : fields_) known += (known.empty() ? "" : ", ") + ff.doc.name;
+          errors.push_back(Error{vat.str() + ": unknown key '" + key + "' (known keys: " + known + ")",
+                                 ErrorCode::unknown_key, {vat.file, vat.line, key}});
+        } else if (auto st = f->assign(out, value); !st) {
+          errors.push_back(Error{vat.str() + ": key '" + key + "': " + st.error().message,
+                                 st.error().with_default_code(ErrorCode::invalid_value).code, {vat.file, vat.line, key}});
+        }
+        if (first_only && !errors.empty()) return;
+      }
+    }
+    if (!errors.empty()) return;  // validate() assumes every field parsed
+    if (auto valid = out.validate(); !valid) {
+      const Error& e = valid.error();
+      errors.push_back(Error{at.str() + ": " + e.message, e.with_default_code(ErrorCode::inconsistent).code,
+                             e.where.empty() ? ErrorLocation{at.file, at.line, {}} : e.where});
+    }
+  }
   const Field* find(std::string_view key) const {
     for (const auto& f : fields_) if (f.doc.name == key) return &f;
     return nullptr;

@@ -45,8 +45,9 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 
 /// Bumped whenever the descriptor or any SDK class layout changes.
 /// 2: PluginDescriptor gained payload_checks (issue 17).
-/// 3: bt::PortInfo gained check/constraint; navigation primitives are SDK types (primitive.hpp, issue 14;
-///    the lost-policy ports of bt/nav_health_ports.hpp are the primitive adapter's now).
+/// 3: TypeEntry gained check_params; Error gained a code and a location; bt::PortInfo gained
+///    check/constraint; navigation primitives are SDK types (primitive.hpp; the lost-policy ports
+///    of bt/nav_health_ports.hpp are the primitive adapter's now) (issue 14).
 inline constexpr std::uint32_t kPluginAbiVersion = 3;
 
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };
@@ -63,6 +64,11 @@ enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nod
 
 using ObjectFactory = Result<std::unique_ptr<PluginObject>> (*)(const ConfigNode& params, HostServices& host);
 using ParamDocsFn = std::vector<ParamDoc> (*)();
+/// Every problem of a `params:` block, found exactly as the factory would find it before it
+/// builds anything: the schema (unknown keys, types, ranges), the struct's validate(), and the
+/// files the params name (e.g. a simulated world, opened and parsed). Creates no device, opens
+/// no connection. Each Error has a code and a location. Never throws (make_type wraps it).
+using ParamCheckFn = std::vector<Error> (*)(const ConfigNode& params);
 
 /// One object type a robot/camera/detector plugin provides.
 struct TypeEntry {
@@ -70,6 +76,9 @@ struct TypeEntry {
   const char* description;  ///< one line
   ObjectFactory create;
   ParamDocsFn param_docs;   ///< may be nullptr
+  /// `visnav validate` and the check before `visnav run` call this; nullptr: params unchecked
+  /// there (the factory still checks them). make_type fills it (see plugin_check_params).
+  ParamCheckFn check_params = nullptr;
 };
 
 /// Registers behaviour-tree node types (kind == nodes).
@@ -129,9 +138,29 @@ std::vector<ParamDoc> plugin_param_docs() {
   return Impl::Params::schema().docs();
 }
 
+/// Checks a params block for `Impl`: `Impl::check_params(params)` when Impl declares one (a
+/// type whose params name files adds those checks there, and its factory calls it too), else
+/// `Impl::Params::schema().problems(params)`. No exception escapes.
+template <typename Impl>
+std::vector<Error> plugin_check_params(const ConfigNode& params) noexcept {
+  try {
+    if constexpr (requires { Impl::check_params(params); })
+      return Impl::check_params(params);
+    else
+      return Impl::Params::schema().problems(params);
+  } catch (const std::exception& e) {
+    return {Error{params.where().str() + ": checking params threw an exception: " + e.what(), ErrorCode::plugin,
+                  {params.where().file, params.where().line, {}}}};
+  } catch (...) {
+    return {Error{params.where().str() + ": checking params threw a non-standard exception", ErrorCode::plugin,
+                  {params.where().file, params.where().line, {}}}};
+  }
+}
+
 template <typename Impl>
 constexpr TypeEntry make_type(const char* type_name, const char* description) {
-  return TypeEntry{type_name, description, &plugin_factory<Impl>, &plugin_param_docs<Impl>};
+  return TypeEntry{type_name, description, &plugin_factory<Impl>, &plugin_param_docs<Impl>,
+                   &plugin_check_params<Impl>};
 }
 
 }  // namespace visnav

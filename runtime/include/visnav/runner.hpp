@@ -144,12 +144,12 @@ class Session {
   [[nodiscard]] bool lockstep() const { return lockstep_; }
   /// Number of NavStatus published through host().telemetry() (0 without a telemetry sink:
   /// no `run.telemetry_file` and no DDS telemetry).
-  [[nodiscard]] std::uint64_t telemetry_published() const { return telemetry_.published(); }
+  [[nodiscard]] std::uint64_t telemetry_published() const;
   /// DDS telemetry publisher (nullptr unless the `dds:` block enables telemetry).
-  [[nodiscard]] dds::DdsTelemetry* dds_telemetry() { return dds_telemetry_.get(); }
+  [[nodiscard]] dds::DdsTelemetry* dds_telemetry();
   /// DDS mission-control subscriber (nullptr unless the `dds:` block enables control); the run
   /// loop drains it between ticks.
-  [[nodiscard]] dds::ControlSubscriber* control() { return control_.get(); }
+  [[nodiscard]] dds::ControlSubscriber* control();
 
   /// Replaces the active detector with a new one of `type` (default params, any library that
   /// provides it), between ticks (tick thread only). The new detector is created first: an
@@ -177,16 +177,20 @@ class Session {
   /// applied.
   bool poll_config_reload(bool force = false);
   /// Number of reloads applied / rejected so far.
-  [[nodiscard]] int reloads_applied() const { return reloads_applied_; }
-  [[nodiscard]] int reloads_rejected() const { return reloads_rejected_; }
+  [[nodiscard]] int reloads_applied() const;
+  [[nodiscard]] int reloads_rejected() const;
 
  private:
-  Session() = default;
+  Session();  // out of line: Links and LiveReload are complete only in the .cpp files
+  // Build steps, in this order (see the file comment); each is one job.
   Status build(const SessionOptions& options);
-  void remember_file_stamp();
+  Status build_logger(const SessionOptions& options);
+  Status build_loader(const SessionOptions& options);
+  Status build_devices();
+  Status open_map(const SessionOptions& options);
+  Status build_links();
 
   RunConfig config_;
-  std::vector<std::string> overrides_;
   std::unique_ptr<StderrLogger> own_logger_;
   Logger* logger_ = nullptr;
   PluginLoader loader_{std::vector<std::string>{}};
@@ -194,23 +198,20 @@ class Session {
   std::unique_ptr<SimulationClock> sim_clock_;
   FrameBus frame_bus_;
   std::unique_ptr<RuntimeHost> host_;
-  std::unique_ptr<JsonLinesTelemetry> telemetry_file_;
-  std::unique_ptr<dds::DdsTelemetry> dds_telemetry_;
-  FanOutTelemetry telemetry_;  // the host's telemetry when it has a sink
-  std::unique_ptr<dds::ControlSubscriber> control_;
+  /// Telemetry sinks (run.telemetry_file, DDS) behind one fan-out, and the DDS control subscriber.
+  struct Links;
+  std::unique_ptr<Links> links_;
   std::optional<MapStore> map_;
   PluginPtr<Robot> robot_;
   std::unique_ptr<GuardedRobot> guard_;
   PluginPtr<Camera> camera_;
-  PluginPtr<Detector> detector_;
+  PluginPtr<Detector> detector_;  // changed only through install_detector (swap, reload)
   std::unique_ptr<bt::NodeRegistry> registry_;
   bool lockstep_ = false;
-  // live reload
-  double next_poll_wall_s_ = 0.0;
-  std::int64_t file_mtime_ns_ = 0;
-  std::uintmax_t file_size_ = 0;
-  int reloads_applied_ = 0;
-  int reloads_rejected_ = 0;
+  /// Live reload (session_reload.cpp): re-reads the file and applies it to the parts above,
+  /// which it borrows; made last, destroyed first.
+  class LiveReload;
+  std::unique_ptr<LiveReload> reload_;
 };
 
 enum class RunOutcome { success, failure, safety_stop, interrupted, stopped, error };
@@ -259,12 +260,14 @@ void install_signal_handlers();
 /// The process-wide stop flag: 0, or the number of the signal received.
 [[nodiscard]] std::atomic<int>& signal_flag();
 
-/// Everything `visnav run` does: load config (+overrides), create the session, load the tree,
-/// run, print nothing (logs go to the logger). Errors before the first tick → outcome error.
+/// Everything `visnav run` does: check the setup (check_setup, the very checks of `visnav
+/// validate`), load config (+overrides), create the session, load the tree, run, print nothing
+/// (logs go to the logger). Errors before the first tick → outcome error, every problem listed.
 struct MissionOptions {
   std::string config_file;
   std::vector<std::string> overrides;
   std::string tree_file;
+  /// `--map`: a folder path, or a bare name resolved by resolve_map_path (maps/NAME).
   std::string map_path;
   bool create_map = true;  ///< SessionOptions::create_map (`visnav run` sets it from --create)
   std::string trace_file;
@@ -278,14 +281,61 @@ struct MissionOptions {
 };
 [[nodiscard]] RunReport run_mission(const MissionOptions& options);
 
+/// A mission ready for its first tick. Members are declared so that the tree is destroyed
+/// before the session (its nodes use the session's host).
+struct PreparedMission {
+  std::unique_ptr<Session> session;
+  std::optional<bt::Tree> tree;
+};
+/// The part of run_mission before the first tick, shared with `visnav run --view`:
+/// check_setup (nothing is built when it finds a problem; the error's message lists every
+/// problem, one per line, and its code and location are the first one's), then the session,
+/// the tree and the blackboard values.
+[[nodiscard]] Result<PreparedMission> prepare_mission(const MissionOptions& options);
+
 /// Writes "key=value" assignments (values as strings) to the tree's root blackboard.
 /// Error names a malformed entry.
 [[nodiscard]] Status set_blackboard_values(bt::Tree& tree, const std::vector<std::string>& assignments);
 
-/// Everything `visnav validate` checks, without building robot/camera/detector: config
-/// structure, every plugin type exists, params against each type's ParamDocs (unknown keys,
-/// types, ranges), nodes plugins register, the tree validates against the registry. Returns
-/// every problem (file:line first); empty = valid.
+/// The folder bare map names live in: $VISNAV_MAPS_DIR when set and not empty, else `maps`
+/// (relative to the current directory, i.e. the repository's top-level maps/ when run there).
+[[nodiscard]] std::string maps_dir();
+/// `--map` rule: a bare name (no '/', not "." or "..") is the folder maps_dir()/NAME; anything
+/// else is a path used as given. "demo" → "maps/demo"; "./demo", "/tmp/m", "a/b" unchanged.
+[[nodiscard]] std::string resolve_map_path(const std::string& name_or_path);
+
+/// What the checks before the first tick look at (`visnav validate` and `visnav run`).
+struct SetupCheck {
+  std::string config_file;
+  std::vector<std::string> overrides;        ///< `--set` key.path=value
+  std::string tree_file;                     ///< empty: no tree
+  /// `--bb key=value`: each value is checked by every port of the tree that reads {key}, as a
+  /// literal would be (type and check).
+  std::vector<std::string> blackboard_values;
+  std::string map_path;                      ///< empty: no map; else as resolve_map_path
+  bool create_map = false;                   ///< a missing map folder is fine (run --create)
+  std::vector<std::string> extra_plugin_dirs;
+  bool use_default_plugin_path = true;
+};
+
+/// Every check `visnav run` makes before its first tick, without building a robot, camera or
+/// detector and without running plugin code beyond loading the declared plugins and calling
+/// their parameter checks (TypeEntry::check_params) and node registrars:
+///  * the YAML syntax and structure of the config (unknown keys, the run: and dds: blocks),
+///  * that a plugin provides each robot/camera/detector type, and each `params:` block through
+///    the type's schema and validate() (ranges, cross-field rules), including the files the
+///    params name (a simulated `world:` is opened and parsed),
+///  * the nodes plugins register, and the tree against the registered node types: structure,
+///    ports, and every literal port value against its type and its check (range); built-in
+///    nodes included (`<Sleep msec="-5"/>`); so are the `blackboard_values` the ports read,
+///  * with a map: that it opens (graph file) and that every edge payload reads and passes its
+///    primitive's payload check.
+/// Returns every problem found (not just the first), each with a code and a location
+/// (file:line, key); empty: valid. Warnings (plugin_path libraries being loaded) go to `log`
+/// (nullptr: stderr at warn level).
+[[nodiscard]] std::vector<Error> check_setup(const SetupCheck& setup, Logger* log = nullptr);
+
+/// check_setup with each problem as its message text (the form `visnav validate` prints).
 [[nodiscard]] std::vector<std::string> validate_setup(const std::string& config_file,
                                                       const std::vector<std::string>& overrides,
                                                       const std::string& tree_file,

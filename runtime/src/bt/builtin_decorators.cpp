@@ -1,4 +1,6 @@
 // Built-in decorators (BehaviorTree.CPP v4 semantics). Timed decorators read the tree's Clock.
+#include <limits>
+
 #include "builtin_internal.hpp"
 
 namespace visnav::bt::detail {
@@ -41,7 +43,11 @@ template <typename Traits>
 class CountedLoop final : public DecoratorNode {
  public:
   using DecoratorNode::DecoratorNode;
-  static PortsList provided_ports() { return {input_port<int>(Traits::port, Traits::port_description)}; }
+  // A literal count below -1 fails validation (out_of_range) instead of the node's first tick.
+  static PortsList provided_ports() {
+    return {with_range(input_port<int>(Traits::port, Traits::port_description), -1,
+                       static_cast<double>(std::numeric_limits<int>::max()))};
+  }
 
  protected:
   NodeStatus tick() override {

@@ -202,15 +202,20 @@ class Loader {
     return ec ? p.lexically_normal() : abs;
   }
 
+  // Records a diagnostic; `code` says what kind of problem it is (invalid_value when not given).
+  void add(ErrorCode code, const ParsedFile* file, int line, std::string path, std::string message) {
+    diags_.push_back(
+        Diagnostic{file != nullptr ? file->display : std::string(), line, std::move(path), std::move(message), code});
+  }
   void add(const ParsedFile* file, int line, std::string path, std::string message) {
-    diags_.push_back(Diagnostic{file != nullptr ? file->display : std::string(), line, std::move(path), std::move(message)});
+    add(ErrorCode::invalid_value, file, line, std::move(path), std::move(message));
   }
 
   void report_xml_error(const ParsedFile& pf) {
     const tinyxml2::XMLError err = pf.doc.ErrorID();
     if (err == tinyxml2::XML_ERROR_FILE_NOT_FOUND || err == tinyxml2::XML_ERROR_FILE_COULD_NOT_BE_OPENED ||
         err == tinyxml2::XML_ERROR_FILE_READ_ERROR) {
-      add(&pf, 0, {}, "cannot read file");
+      add(ErrorCode::io, &pf, 0, {}, "cannot read file");
       return;
     }
     std::string msg = "malformed XML: ";
@@ -220,7 +225,7 @@ class Loader {
       msg += s;
       msg += ")";
     }
-    add(&pf, pf.doc.ErrorLineNum(), {}, msg);
+    add(ErrorCode::parse_error, &pf, pf.doc.ErrorLineNum(), {}, msg);
   }
 
   // Checks <root>, registers its BehaviorTrees and follows includes.
@@ -229,18 +234,18 @@ class Loader {
     files_.push_back(std::move(owned));
     const XMLElement* root = pf->doc.RootElement();
     if (root == nullptr) {
-      add(pf, 1, {}, "no root element");
+      add(ErrorCode::parse_error, pf, 1, {}, "no root element");
       return;
     }
     if (std::string_view(root->Name()) != "root") {
-      add(pf, root->GetLineNum(), {}, "root element must be <root BTCPP_format=\"4\">, found <" + std::string(root->Name()) + ">");
+      add(ErrorCode::parse_error, pf, root->GetLineNum(), {}, "root element must be <root BTCPP_format=\"4\">, found <" + std::string(root->Name()) + ">");
       return;
     }
     if (is_main) root_ok_ = true;
     const char* format = root->Attribute("BTCPP_format");
     // A missing BTCPP_format is accepted (BehaviorTree.CPP only warns); a wrong one is an error.
     if (format != nullptr && std::string_view(format) != "4") {
-      add(pf, root->GetLineNum(), {}, "unsupported BTCPP_format \"" + std::string(format) + "\" (expected \"4\")");
+      add(ErrorCode::parse_error, pf, root->GetLineNum(), {}, "unsupported BTCPP_format \"" + std::string(format) + "\" (expected \"4\")");
     }
     for (const tinyxml2::XMLAttribute* a = root->FirstAttribute(); a != nullptr; a = a->Next()) {
       const std::string_view name = a->Name();
@@ -252,7 +257,7 @@ class Loader {
         }
         continue;
       }
-      add(pf, root->GetLineNum(), {}, "unknown attribute '" + std::string(name) + "' on <root>");
+      add(ErrorCode::unknown_key, pf, root->GetLineNum(), {}, "unknown attribute '" + std::string(name) + "' on <root>");
     }
     if (is_main) root_line_ = root->GetLineNum();
 
@@ -265,7 +270,7 @@ class Loader {
       } else if (name == "TreeNodesModel") {
         continue;  // editor metadata
       } else {
-        add(pf, el->GetLineNum(), {}, "unexpected element <" + std::string(name) + "> in <root> (expected <BehaviorTree>, <include> or <TreeNodesModel>)");
+        add(ErrorCode::parse_error, pf, el->GetLineNum(), {}, "unexpected element <" + std::string(name) + "> in <root> (expected <BehaviorTree>, <include> or <TreeNodesModel>)");
       }
     }
   }
@@ -273,13 +278,13 @@ class Loader {
   void register_tree(const ParsedFile* pf, const XMLElement* el, bool is_main) {
     const char* id = el->Attribute("ID");
     if (id == nullptr || *id == '\0') {
-      add(pf, el->GetLineNum(), {}, "<BehaviorTree> is missing the attribute ID");
+      add(ErrorCode::missing, pf, el->GetLineNum(), {}, "<BehaviorTree> is missing the attribute ID");
       return;
     }
     for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
       const std::string_view name = a->Name();
       if (name != "ID" && name.front() != '_')
-        add(pf, el->GetLineNum(), id, "unknown attribute '" + std::string(name) + "' on <BehaviorTree>");
+        add(ErrorCode::unknown_key, pf, el->GetLineNum(), id, "unknown attribute '" + std::string(name) + "' on <BehaviorTree>");
     }
     if (auto it = trees_.find(id); it != trees_.end()) {
       add(pf, el->GetLineNum(), id,
@@ -295,10 +300,10 @@ class Loader {
     const char* path = el->Attribute("path");
     for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
       if (std::string_view(a->Name()) != "path")
-        add(pf, el->GetLineNum(), {}, "unsupported attribute '" + std::string(a->Name()) + "' on <include>");
+        add(ErrorCode::unknown_key, pf, el->GetLineNum(), {}, "unsupported attribute '" + std::string(a->Name()) + "' on <include>");
     }
     if (path == nullptr || *path == '\0') {
-      add(pf, el->GetLineNum(), {}, "<include> is missing the attribute path");
+      add(ErrorCode::missing, pf, el->GetLineNum(), {}, "<include> is missing the attribute path");
       return;
     }
     if (!valid_utf8(path)) {
@@ -307,7 +312,7 @@ class Loader {
     }
     std::filesystem::path target(path);
     if (!target.is_relative() || target.has_root_name()) {
-      add(pf, el->GetLineNum(), {}, "<include path=\"" + std::string(path) + "\">: absolute paths are not allowed (give a path relative to the including file)");
+      add(ErrorCode::invalid_value, pf, el->GetLineNum(), {}, "<include path=\"" + std::string(path) + "\">: absolute paths are not allowed (give a path relative to the including file)");
       return;
     }
     target = pf->dir / target;
@@ -318,7 +323,7 @@ class Loader {
       return;
     }
     if (std::find(include_stack_.begin(), include_stack_.end(), key) != include_stack_.end()) {
-      add(pf, el->GetLineNum(), {}, "cyclic <include> of '" + std::string(path) + "'");
+      add(ErrorCode::invalid_value, pf, el->GetLineNum(), {}, "cyclic <include> of '" + std::string(path) + "'");
       return;
     }
     for (const auto& f : files_)
@@ -332,7 +337,7 @@ class Loader {
       const tinyxml2::XMLError err = inc->doc.ErrorID();
       if (err == tinyxml2::XML_ERROR_FILE_NOT_FOUND || err == tinyxml2::XML_ERROR_FILE_COULD_NOT_BE_OPENED ||
           err == tinyxml2::XML_ERROR_FILE_READ_ERROR) {
-        add(pf, el->GetLineNum(), {}, "cannot read included file '" + inc->display + "'");
+        add(ErrorCode::io, pf, el->GetLineNum(), {}, "cannot read included file '" + inc->display + "'");
       } else {
         report_xml_error(*inc);
       }
@@ -405,7 +410,7 @@ class Loader {
       check_script(def, line, path, *slot, el, value);
       return;
     }
-    add(def.file, line, path,
+    add(ErrorCode::unknown_key, def.file, line, path,
         "unknown attribute '" + std::string(name) +
             "' (pre/post conditions: _skipIf _successIf _failureIf _while _onSuccess _onFailure _onHalted _post; "
             "metadata: _description _uid _fullpath)");
@@ -433,7 +438,9 @@ class Loader {
     if (!parsed) {
       add(def.file, line, path, what + ": bad value for type " + port.type_name + ": " + parsed.error().message);
     } else if (port.check) {
-      if (auto st = port.check(value); !st) add(def.file, line, path, what + ": " + st.error().message);
+      if (auto st = port.check(value); !st)
+        add(st.error().with_default_code(ErrorCode::out_of_range).code, def.file, line, path,
+            what + ": " + st.error().message);
     }
   }
 
@@ -447,7 +454,7 @@ class Loader {
     if (is_generic_element(id)) {
       const char* attr = el->Attribute("ID");
       if (attr == nullptr) {
-        add(def.file, line, NodePath::make(parent, component(el, id, index))->str(), "<" + id + "> is missing the attribute ID");
+        add(ErrorCode::missing, def.file, line, NodePath::make(parent, component(el, id, index))->str(), "<" + id + "> is missing the attribute ID");
         return nullptr;
       }
       id = attr;
@@ -462,7 +469,7 @@ class Loader {
     const NodeManifest* m = registry_.find(id);
     const std::size_t n_children = element_children_count(el);
     if (m == nullptr) {
-      add(def.file, line, path, "unknown node ID '" + id + "'");
+      add(ErrorCode::not_found, def.file, line, path, "unknown node ID '" + id + "'");
     } else {
       for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
         const std::string_view name = a->Name();
@@ -476,7 +483,7 @@ class Loader {
         if (p == nullptr) {
           std::string known;
           for (const PortInfo& q : m->ports) known += (known.empty() ? "" : ", ") + q.name;
-          add(def.file, line, path, "unknown port '" + std::string(name) + "' for " + id +
+          add(ErrorCode::unknown_key, def.file, line, path, "unknown port '" + std::string(name) + "' for " + id +
                                         (known.empty() ? " (it has no ports)" : " (ports: " + known + ")"));
           continue;
         }
@@ -485,7 +492,7 @@ class Loader {
       for (const PortInfo& p : m->ports) {
         if (el->Attribute(p.name.c_str()) != nullptr) continue;
         if (p.required()) {
-          add(def.file, line, path, "missing required port '" + p.name + "' (" + p.type_name + ")");
+          add(ErrorCode::missing, def.file, line, path, "missing required port '" + p.name + "' (" + p.type_name + ")");
         } else if (p.default_value) {
           validate_port_value(def, line, path, p, *p.default_value, true);
         }
@@ -506,9 +513,9 @@ class Loader {
     const std::string path = NodePath::make(parent, component(el, target != nullptr ? target : "SubTree", index))->str();
     if (!check_utf8(def, el, path)) return;
     if (target == nullptr || *target == '\0') {
-      add(def.file, line, path, "<SubTree> is missing the attribute ID");
+      add(ErrorCode::missing, def.file, line, path, "<SubTree> is missing the attribute ID");
     } else if (trees_.find(target) == trees_.end()) {
-      add(def.file, line, path, "undefined SubTree '" + std::string(target) + "'");
+      add(ErrorCode::not_found, def.file, line, path, "undefined SubTree '" + std::string(target) + "'");
     } else {
       refs_.push_back(SubTreeRef{def.id, target, def.file, line, path, depth});
     }
@@ -629,18 +636,18 @@ class Loader {
     };
     if (m.subtree_depth > options_.max_subtree_depth) {
       const SubTreeRef* r = m.deepest_subtree;
-      add(r->file, r->line, r->path,
+      add(ErrorCode::limit, r->file, r->line, r->path,
           "SubTrees nest " + std::to_string(m.subtree_depth) + " deep, more than the limit " +
               std::to_string(options_.max_subtree_depth) + " (run.bt_max_subtree_depth): " + chain(&ExpandedStats::deepest_subtree));
     }
     if (m.nodes > options_.max_nodes) {
-      add(def.file, def.element->GetLineNum(), main_tree_,
+      add(ErrorCode::limit, def.file, def.element->GetLineNum(), main_tree_,
           "the expanded tree would have " + (m.nodes >= cap ? std::string("more than 4e18") : std::to_string(m.nodes)) +
               " nodes, more than the limit " + std::to_string(options_.max_nodes) + " (run.bt_max_nodes)");
     }
     if (m.depth > options_.max_tree_depth) {
       const SubTreeRef* r = m.deepest_node;
-      add(r != nullptr ? r->file : def.file, r != nullptr ? r->line : def.element->GetLineNum(), r != nullptr ? r->path : main_tree_,
+      add(ErrorCode::limit, r != nullptr ? r->file : def.file, r != nullptr ? r->line : def.element->GetLineNum(), r != nullptr ? r->path : main_tree_,
           "the expanded tree is " + std::to_string(m.depth) + " nodes deep, more than the limit " +
               std::to_string(options_.max_tree_depth) + " (run.bt_max_tree_depth): " + chain(&ExpandedStats::deepest_node));
     }
@@ -651,13 +658,13 @@ class Loader {
     if (!options_.main_tree.empty()) {
       main_tree_ = options_.main_tree;
       if (trees_.find(main_tree_) == trees_.end())
-        add(main_file, root_line_, {}, "main tree '" + main_tree_ + "' (from the load options) is not defined");
+        add(ErrorCode::not_found, main_file, root_line_, {}, "main tree '" + main_tree_ + "' (from the load options) is not defined");
       return;
     }
     if (!main_tree_attr_.empty()) {
       main_tree_ = main_tree_attr_;
       if (trees_.find(main_tree_) == trees_.end())
-        add(main_file, main_tree_line_, {}, "main_tree_to_execute '" + main_tree_ + "' is not defined");
+        add(ErrorCode::not_found, main_file, main_tree_line_, {}, "main_tree_to_execute '" + main_tree_ + "' is not defined");
       return;
     }
     if (main_file_trees_.size() == 1) {
@@ -665,7 +672,7 @@ class Loader {
       return;
     }
     if (main_file_trees_.empty()) {
-      add(main_file, root_line_, {}, "no <BehaviorTree> in the file");
+      add(ErrorCode::not_found, main_file, root_line_, {}, "no <BehaviorTree> in the file");
     } else {
       add(main_file, root_line_, {}, "several <BehaviorTree> and no main_tree_to_execute attribute on <root>");
     }
@@ -716,6 +723,29 @@ class Loader {
     return e.type == p.type ? nullptr : &e;
   }
 
+  // A port that reads `{key}` where the host set `key` to a text before loading: that text must
+  // parse as the port's type and pass its check, as a literal would. Returns true when it
+  // reported a problem.
+  bool check_host_value(const TreeDef& def, const XMLElement* el, const std::string& path, const PortInfo& p,
+                        const std::string& key, const Blackboard& bb) {
+    if (p.direction == PortDirection::output || p.parse == nullptr) return false;
+    const Blackboard::Entry* e = bb.find_entry(key);
+    const auto* text = e != nullptr ? std::any_cast<std::string>(&e->value) : nullptr;
+    if (text == nullptr) return false;
+    const std::string what = "port '" + p.name + "' reads {" + key + "} = '" + *text + "' from the blackboard";
+    auto parsed = p.parse(*text, registry_.enums().get());
+    if (!parsed) {
+      add(def.file, el->GetLineNum(), path, what + ": bad value for type " + p.type_name + ": " + parsed.error().message);
+      return true;
+    }
+    if (!p.check) return false;
+    auto st = p.check(*text);
+    if (st) return false;
+    add(st.error().with_default_code(ErrorCode::out_of_range).code, def.file, el->GetLineNum(), path,
+        what + ": " + st.error().message);
+    return true;
+  }
+
   // Walks the expanded main tree (bounded by check_limits) with scratch blackboards and reports
   // every blackboard key used with two different port types, as BehaviorTree.CPP does at load.
   void check_types() {
@@ -729,7 +759,13 @@ class Loader {
     std::map<const Blackboard::Entry*, std::string> first;  // where each entry was declared
     std::set<std::pair<const XMLElement*, std::string>> reported;
     const TreeDef& main = trees_.at(main_tree_);
-    std::vector<Item> stack{Item{&main, main.element->FirstChildElement(), NodePath::make(nullptr, main.id), 0, Blackboard::create()}};
+    Blackboard::Ptr root = Blackboard::create();
+    // Text values the host put on the root blackboard before loading (`--bb key=value`) are
+    // checked like literals by every port that reads them (check_host_value).
+    if (options_.blackboard)
+      for (const std::string& k : options_.blackboard->keys())
+        if (const auto* text = std::any_cast<std::string>(options_.blackboard->get_any(k))) root->set(k, *text);
+    std::vector<Item> stack{Item{&main, main.element->FirstChildElement(), NodePath::make(nullptr, main.id), 0, root}};
     while (!stack.empty()) {
       Item it = std::move(stack.back());
       stack.pop_back();
@@ -752,6 +788,8 @@ class Loader {
             add(it.def->file, it.el->GetLineNum(), path->str(),
                 "port '" + p.name + "' uses blackboard key '" + *key + "' as " + p.type_name + ", but it was declared " +
                     e->type_name + " by " + first[e]);
+          } else if (reported.count({it.el, p.name}) == 0 && check_host_value(*it.def, it.el, path->str(), p, *key, *it.bb)) {
+            reported.insert({it.el, p.name});
           } else if (p.strongly_typed) {
             Blackboard::Entry* declared = it.bb->find_entry(*key);
             if (declared != nullptr && first.find(declared) == first.end())

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <sstream>
 
 namespace visnav::bt {
 
@@ -175,6 +176,25 @@ std::optional<std::string_view> blackboard_key(std::string_view text) noexcept {
   const std::string_view key = detail::trim(t.substr(1, t.size() - 2));
   if (key.empty() || key == "@") return std::nullopt;
   return key;
+}
+
+}  // namespace visnav::bt
+
+namespace visnav::bt {
+
+PortInfo with_range(PortInfo port, double min_value, double max_value) {
+  std::ostringstream os;
+  os.precision(15);  // integer bounds print in full ("2147483647", not "2.14748e+09")
+  os << "[" << min_value << ", " << max_value << "]";
+  port.constraint = os.str();
+  port.check = [min_value, max_value, c = port.constraint](std::string_view text) -> Status {
+    auto v = convert_from_string<double>(text);
+    if (!v) return Error{v.error().message, ErrorCode::invalid_value};
+    if (*v < min_value || *v > max_value)
+      return Error{"value " + std::string(detail::trim(text)) + " is out of range " + c, ErrorCode::out_of_range};
+    return ok();
+  };
+  return port;
 }
 
 }  // namespace visnav::bt

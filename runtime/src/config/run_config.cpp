@@ -19,6 +19,23 @@ std::string join_lines(const std::vector<std::string>& lines) {
   return out;
 }
 
+std::string join_lines(const std::vector<Error>& errors) {
+  std::string out;
+  for (const auto& e : errors) out += (out.empty() ? "" : "\n") + e.message;
+  return out;
+}
+
+/// One run-config problem: the message starts with the location, as every config error does.
+Error problem(ErrorCode code, const SourceLocation& at, std::string key, const std::string& text) {
+  return Error{at.str() + ": " + text, code, {at.file, at.line, std::move(key)}};
+}
+
+/// A nested parser's error (possibly several lines) as one problem of `section`.
+Error nested(const Error& e, const SourceLocation& at, const std::string& section) {
+  return Error{e.message, e.with_default_code(ErrorCode::invalid_value).code,
+               e.where.empty() ? ErrorLocation{at.file, at.line, section} : e.where};
+}
+
 std::string key_list(std::initializer_list<const char*> keys) {
   std::string out;
   for (const char* k : keys) out += (out.empty() ? "" : ", ") + std::string(k);
@@ -26,9 +43,10 @@ std::string key_list(std::initializer_list<const char*> keys) {
 }
 
 /// Parses `robot: {type: ..., plugin: ..., params: {...}}`, appending problems to `errors`.
-std::optional<PluginSpec> parse_spec(const ConfigNode& node, const std::string& section, std::vector<std::string>& errors) {
+std::optional<PluginSpec> parse_spec(const ConfigNode& node, const std::string& section, std::vector<Error>& errors) {
   if (!node.is_map()) {
-    errors.push_back(node.where().str() + ": '" + section + "' must be a map with 'type' (and optional 'plugin', 'params')");
+    errors.push_back(problem(ErrorCode::invalid_value, node.where(), section,
+                             "'" + section + "' must be a map with 'type' (and optional 'plugin', 'params')"));
     return std::nullopt;
   }
   PluginSpec spec;
@@ -37,33 +55,36 @@ std::optional<PluginSpec> parse_spec(const ConfigNode& node, const std::string& 
   for (const auto& [key, value] : node.entries()) {
     if (key == "type") {
       if (!value.is_scalar() || value.scalar().empty()) {
-        errors.push_back(value.where().str() + ": " + section + ".type must be a type name, e.g. 'sim'");
+        errors.push_back(problem(ErrorCode::invalid_value, value.where(), section + ".type",
+                                 section + ".type must be a type name, e.g. 'sim'"));
         good = false;
       } else {
         spec.type = value.scalar();
       }
     } else if (key == "plugin") {
       if (!value.is_scalar() || value.scalar().empty()) {
-        errors.push_back(value.where().str() + ": " + section + ".plugin must be a library name or path");
+        errors.push_back(problem(ErrorCode::invalid_value, value.where(), section + ".plugin",
+                                 section + ".plugin must be a library name or path"));
         good = false;
       } else {
         spec.plugin = value.scalar();
       }
     } else if (key == "params") {
       if (!value.is_map() && !value.is_null()) {
-        errors.push_back(value.where().str() + ": " + section + ".params must be a map");
+        errors.push_back(problem(ErrorCode::invalid_value, value.where(), section + ".params", section + ".params must be a map"));
         good = false;
       } else {
         spec.params = value;
       }
     } else {
-      errors.push_back(value.where().str() + ": unknown key '" + key + "' in '" + section +
-                       "' (known keys: " + key_list({"type", "plugin", "params"}) + ")");
+      errors.push_back(problem(ErrorCode::unknown_key, value.where(), section + "." + key,
+                               "unknown key '" + key + "' in '" + section + "' (known keys: " +
+                                   key_list({"type", "plugin", "params"}) + ")"));
       good = false;
     }
   }
   if (spec.type.empty() && node.find("type") == nullptr) {
-    errors.push_back(node.where().str() + ": '" + section + "' has no 'type'");
+    errors.push_back(problem(ErrorCode::missing, node.where(), section + ".type", "'" + section + "' has no 'type'"));
     good = false;
   }
   if (spec.params.is_null()) spec.params.set_where(node.where());
@@ -71,7 +92,7 @@ std::optional<PluginSpec> parse_spec(const ConfigNode& node, const std::string& 
   return spec;
 }
 
-std::vector<std::string> string_list(const ConfigNode& node, const std::string& key, std::vector<std::string>& errors) {
+std::vector<std::string> string_list(const ConfigNode& node, const std::string& key, std::vector<Error>& errors) {
   std::vector<std::string> out;
   if (node.is_null()) return out;
   if (node.is_scalar()) {
@@ -79,12 +100,12 @@ std::vector<std::string> string_list(const ConfigNode& node, const std::string& 
     return out;
   }
   if (!node.is_sequence()) {
-    errors.push_back(node.where().str() + ": '" + key + "' must be a list of names");
+    errors.push_back(problem(ErrorCode::invalid_value, node.where(), key, "'" + key + "' must be a list of names"));
     return out;
   }
   for (const auto& item : node.items()) {
     if (!item.is_scalar() || item.scalar().empty()) {
-      errors.push_back(item.where().str() + ": '" + key + "' entries must be non-empty names");
+      errors.push_back(problem(ErrorCode::invalid_value, item.where(), key, "'" + key + "' entries must be non-empty names"));
       continue;
     }
     out.push_back(item.scalar());
@@ -237,15 +258,20 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
   return settings;
 }
 
-Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file) {
+namespace {
+
+/// parse_run_config, collecting every problem in `errors`.
+RunConfig parse_run_config_into(const ConfigNode& root, const std::string& file, std::vector<Error>& errors) {
   RunConfig config;
   config.file = file;
   config.root = root;
-  std::vector<std::string> errors;
   const std::string where_file = file.empty() ? root.where().str() : file;
 
   if (!root.is_map()) {
-    return fail(where_file + ": a run config must be a map with the sections robot, camera, detector, nodes, run, plugin_path, dds");
+    errors.push_back(Error{where_file + ": a run config must be a map with the sections robot, camera, detector, nodes, run, "
+                           "plugin_path, dds",
+                           ErrorCode::invalid_value, {file, root.where().line, {}}});
+    return config;
   }
 
   bool have_robot = false;
@@ -269,7 +295,7 @@ Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& fi
       }
     } else if (key == "run") {
       if (!value.is_map() && !value.is_null()) {
-        errors.push_back(value.where().str() + ": 'run' must be a map");
+        errors.push_back(problem(ErrorCode::invalid_value, value.where(), "run", "'run' must be a map"));
         continue;
       }
       // Parse entry by entry so every bad key is reported, not just the first.
@@ -278,30 +304,56 @@ Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& fi
         single.set(run_key, run_value);
         auto parsed = RunSettings::schema().parse(single, config.run);
         if (!parsed) {
-          errors.push_back(parsed.error().message + " (in 'run')");
+          Error e = parsed.error();
+          e.message += " (in 'run')";
+          if (!e.where.key.empty()) e.where.key = "run." + e.where.key;
+          errors.push_back(std::move(e));
           continue;
         }
         config.run = std::move(parsed).value();
       }
       auto valid = config.run.validate();
-      if (!valid) errors.push_back(value.where().str() + ": " + valid.error().message);
+      if (!valid)
+        errors.push_back(problem(valid.error().with_default_code(ErrorCode::inconsistent).code, value.where(), "run",
+                                 valid.error().message));
     } else if (key == "dds") {
       auto parsed = parse_dds_settings(value);
       if (!parsed) {
-        errors.push_back(parsed.error().message);
+        errors.push_back(nested(parsed.error(), value.where(), "dds"));
         continue;
       }
       config.dds = std::move(parsed).value();
     } else {
-      errors.push_back(value.where().str() + ": unknown top-level key '" + key + "' (known keys: " +
-                       key_list({"robot", "camera", "detector", "nodes", "run", "plugin_path", "dds"}) + ")");
+      errors.push_back(problem(ErrorCode::unknown_key, value.where(), key,
+                               "unknown top-level key '" + key + "' (known keys: " +
+                                   key_list({"robot", "camera", "detector", "nodes", "run", "plugin_path", "dds"}) + ")"));
     }
   }
-  if (!have_robot) errors.push_back(where_file + ": missing section 'robot' (e.g. robot: {type: sim})");
-  if (!have_camera) errors.push_back(where_file + ": missing section 'camera' (e.g. camera: {type: sim})");
-  if (!errors.empty()) return fail(join_lines(errors));
+  if (!have_robot)
+    errors.push_back(Error{where_file + ": missing section 'robot' (e.g. robot: {type: sim})", ErrorCode::missing,
+                           {file, 0, "robot"}});
+  if (!have_camera)
+    errors.push_back(Error{where_file + ": missing section 'camera' (e.g. camera: {type: sim})", ErrorCode::missing,
+                           {file, 0, "camera"}});
   return config;
 }
+
+}  // namespace
+
+Result<RunConfig> parse_run_config(const ConfigNode& root, const std::string& file) {
+  std::vector<Error> errors;
+  RunConfig config = parse_run_config_into(root, file, errors);
+  if (!errors.empty()) return Error{join_lines(errors), errors.front().code, errors.front().where};
+  return config;
+}
+
+std::vector<Error> run_config_problems(const ConfigNode& root, const std::string& file, RunConfig* config) {
+  std::vector<Error> errors;
+  RunConfig parsed = parse_run_config_into(root, file, errors);
+  if (config != nullptr) *config = std::move(parsed);
+  return errors;
+}
+
 
 Result<RunConfig> load_run_config(const std::string& path, const std::vector<std::string>& overrides) {
   VISNAV_ASSIGN(ConfigNode root, parse_yaml_file(path));

@@ -58,9 +58,13 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, cons
       std::set<std::string> seen;
       for (const auto& entry : node) {
         const SourceLocation key_where = location_of(entry.first.Mark(), file, where);
-        if (!entry.first.IsScalar()) return fail(key_where.str() + ": map keys must be plain scalars");
+        if (!entry.first.IsScalar())
+          return Error{key_where.str() + ": map keys must be plain scalars", ErrorCode::parse_error,
+                       {key_where.file, key_where.line, {}}};
         const std::string key = entry.first.Scalar();
-        if (!seen.insert(key).second) return fail(key_where.str() + ": duplicate key '" + key + "'");
+        if (!seen.insert(key).second)
+          return Error{key_where.str() + ": duplicate key '" + key + "'", ErrorCode::parse_error,
+                       {key_where.file, key_where.line, key}};
         VISNAV_ASSIGN(ConfigNode child, convert(entry.second, file, key_where, budget, depth + 1));
         if (child.is_null() || child.where().line == 0) child.set_where(key_where);
         n.set(key, std::move(child));
@@ -109,16 +113,16 @@ Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& f
     SourceLocation where{file_label, e.mark.line >= 0 ? e.mark.line + 1 : 0};
     std::string detail = e.msg;
     if (e.mark.column >= 0) detail += " (column " + std::to_string(e.mark.column + 1) + ")";
-    return fail(where.str() + ": YAML syntax error: " + detail);
+    return Error{where.str() + ": YAML syntax error: " + detail, ErrorCode::parse_error, {where.file, where.line, {}}};
   }
 }
 
 Result<ConfigNode> parse_yaml_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(path + ": cannot open config file");
+  if (!in) return Error{path + ": cannot open config file", ErrorCode::not_found, {path, 0, {}}};
   std::ostringstream buffer;
   buffer << in.rdbuf();
-  if (in.bad()) return fail(path + ": cannot read config file");
+  if (in.bad()) return Error{path + ": cannot read config file", ErrorCode::io, {path, 0, {}}};
   return parse_yaml_string(buffer.str(), path);
 }
 

@@ -405,6 +405,15 @@ Result<std::vector<ParamDoc>> PluginLoader::param_docs(PluginKind kind, std::str
   return fail("internal: type '" + std::string(type_name) + "' vanished from " + info.library_path);
 }
 
+Result<const TypeEntry*> PluginLoader::type_entry(PluginKind kind, std::string_view type_name,
+                                                  std::string_view library) const {
+  VISNAV_ASSIGN(PluginTypeInfo info, find_type(kind, type_name, library));
+  const Loaded* l = find_loaded(info.library_path);
+  for (std::size_t i = 0; l != nullptr && i < l->descriptor->type_count; ++i)
+    if (type_name == l->descriptor->types[i].type_name) return &l->descriptor->types[i];
+  return fail("internal: type '" + std::string(type_name) + "' vanished from " + info.library_path);
+}
+
 Result<PluginPtr<PluginObject>> PluginLoader::create_object(PluginKind kind, std::string_view type_name,
                                                             const ConfigNode& params, HostServices& host,
                                                             std::string_view library) {

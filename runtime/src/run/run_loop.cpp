@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -65,298 +66,371 @@ void install_signal_handlers() {
   sigaction(SIGTERM, &action, nullptr);
 }
 
-RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) {
-  RunReport report;
-  Logger& log = session.logger();
-  GuardedRobot& robot = session.robot();
-  Camera& camera = session.camera();
-  FrameBus& bus = session.frame_bus();
-  const Clock& clock = session.clock();
-  const std::atomic<int>& stop = options.stop_requested != nullptr ? *options.stop_requested : signal_flag();
-  const bool lockstep = session.lockstep();
-  SimulationControl* sim = robot.simulation();
-  WallClock wall;
+namespace {
 
-  std::unique_ptr<bt::TraceWriter> trace;
-  const std::string trace_file = options.trace_file.empty() ? session.config().run.trace_file : options.trace_file;
-  if (!trace_file.empty()) {
-    auto attached = bt::TraceWriter::attach(tree, trace_file);
-    if (!attached) {
-      report.outcome = RunOutcome::error;
-      report.reason = attached.error().message;
-      return report;
-    }
-    trace = std::move(attached).value();
-  }
+/// One run of a tree (see runner.hpp): each method is one step of a loop iteration. `finish`
+/// is the only way out; it halts the tree, stops the robot and fills the report.
+class TickLoop {
+ public:
+  TickLoop(Session& session, bt::Tree& tree, const RunOptions& options)
+      : session_(session),
+        tree_(tree),
+        options_(options),
+        log_(session.logger()),
+        robot_(session.robot()),
+        clock_(session.clock()),
+        stop_(options.stop_requested != nullptr ? *options.stop_requested : signal_flag()),
+        lockstep_(session.lockstep()),
+        control_(session.control()) {}
 
-  // Remember the last leaf that failed, so a FAILURE outcome can say where.
-  const bt::TreeNode* last_failed = nullptr;
-  const std::uint64_t observer = tree.add_observer(
-      [&last_failed](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-        if (to == bt::NodeStatus::failure && node.children().empty()) last_failed = &node;
-      });
+  RunReport run();
 
-  const std::string error_at_start = tree.last_error();
-  const double start_s = clock.now_s();
-  std::optional<double> last_frame_s;
-  std::optional<double> last_odometry_s;
-  std::optional<OdometryPlausibility> plausibility;  // (re)made when its limits change (live reload)
-  OdometryLimits plausibility_limits{-1.0, -1.0};
-  std::uint64_t late_odometry = 0;
-  auto next_deadline = std::chrono::steady_clock::now();
+ private:
+  RunReport finish(RunOutcome outcome, std::string reason);
+  void halt_everything();
+  /// Applies the pending control requests; an abort ends the run (returned).
+  std::optional<RunReport> handle_control();
+  /// Waits for this iteration's deadline (fixed rate in real time; paused lock-step).
+  void pace(double period_s);
+  /// Steps the simulation, grabs a frame and reads odometry onto the frame bus; a failure ends
+  /// the run (returned).
+  std::optional<RunReport> acquire(double period_s);
+  std::optional<RunReport> read_odometry();
+  /// Safety: the data problem that holds the tree ("" when none; `starting_up` when there is no
+  /// data yet and nothing holds the tree: skip this iteration), or the end of the run.
+  std::optional<RunReport> check_data(double now_s, std::string& data_problem, bool& starting_up);
+  void publish_paused();
+  /// Ticks once; the end of the run when the tree finished, threw or the caller stopped it.
+  std::optional<RunReport> tick(double now_s, double period_s);
 
+  Session& session_;
+  bt::Tree& tree_;
+  const RunOptions& options_;
+  Logger& log_;
+  GuardedRobot& robot_;
+  const Clock& clock_;
+  const std::atomic<int>& stop_;
+  const bool lockstep_;
+  dds::ControlSubscriber* control_;
+  WallClock wall_;
+  RunReport report_;
+
+  std::unique_ptr<bt::TraceWriter> trace_;
+  const bt::TreeNode* last_failed_ = nullptr;  // the last leaf that failed, for a FAILURE's reason
+  std::uint64_t observer_ = 0;
+  std::string error_at_start_;
+  double start_s_ = 0.0;
+  std::optional<double> last_frame_s_;
+  std::optional<double> last_odometry_s_;
+  bool new_frame_ = false;
+  std::optional<OdometryPlausibility> plausibility_;  // (re)made when its limits change (live reload)
+  OdometryLimits plausibility_limits_{-1.0, -1.0};
+  std::uint64_t late_odometry_ = 0;
+  std::chrono::steady_clock::time_point next_deadline_ = std::chrono::steady_clock::now();
   // Mission control (see runner.hpp): paused = robot held at zero, tree not ticked.
-  dds::ControlSubscriber* control = session.control();
-  const std::uint64_t control_rejected_at_start = control != nullptr ? control->rejected() : 0;
-  bool paused = false;
-  double paused_since_s = 0.0;
-  bool after_resume = false;  // data must be fresh again within startup_timeout_s of resumed_at_s
-  double resumed_at_s = 0.0;
-  bool hold_logged = false;   // "stale data while holding" logged once per hold
+  std::uint64_t control_rejected_at_start_ = 0;
+  bool paused_ = false;
+  double paused_since_s_ = 0.0;
+  bool after_resume_ = false;  // data must be fresh again within startup_timeout_s of resumed_at_s_
+  double resumed_at_s_ = 0.0;
+  bool hold_logged_ = false;   // "stale data while holding" logged once per hold
+};
 
-  auto finish = [&](RunOutcome outcome, std::string reason) -> RunReport {
-    try {
-      if (tree.status() == bt::NodeStatus::running) tree.halt();
-      // After an exception the root may not be RUNNING while nodes below it are: halt those
-      // too, deepest first, so every RUNNING node gets its halt callback.
-      std::vector<bt::TreeNode*> running;
-      tree.visit([&running](bt::TreeNode& n) {
-        if (n.status() == bt::NodeStatus::running) running.push_back(&n);
-      });
-      for (auto it = running.rbegin(); it != running.rend(); ++it) (*it)->halt_node();
-    } catch (const std::exception& e) {
-      log.error("run", std::string("halting the tree threw: ") + e.what());
-    } catch (...) {
-      log.error("run", "halting the tree threw");
+RunReport TickLoop::run() {
+  const std::string trace_file = options_.trace_file.empty() ? session_.config().run.trace_file : options_.trace_file;
+  if (!trace_file.empty()) {
+    auto attached = bt::TraceWriter::attach(tree_, trace_file);
+    if (!attached) {
+      report_.outcome = RunOutcome::error;
+      report_.reason = attached.error().message;
+      return report_;
     }
-    tree.remove_observer(observer);
-    if (paused) report.paused_s += clock.now_s() - paused_since_s;
-    if (control != nullptr) report.control_rejected += control->rejected() - control_rejected_at_start;
-    if (outcome == RunOutcome::safety_stop) robot.latch(reason);
-    if (auto st = robot.stop(); !st) log.error("run", "could not stop the robot: " + st.error().message);
-    report.outcome = outcome;
-    report.reason = std::move(reason);
-    switch (outcome) {
-      case RunOutcome::success: report.exit_code = 0; break;
-      case RunOutcome::stopped: report.exit_code = 0; break;
-      case RunOutcome::failure: report.exit_code = 1; break;
-      case RunOutcome::error: report.exit_code = 1; break;
-      case RunOutcome::safety_stop: report.exit_code = 3; break;
-      case RunOutcome::interrupted: report.exit_code = 128 + (stop.load() != 0 ? stop.load() : SIGINT); break;
-    }
-    report.run_time_s = clock.now_s() - start_s;
-    report.wall_time_s = wall.now_s();
-    if (trace) trace->flush();
-    const std::string summary = std::string("run ended: ") + to_string(outcome) + " after " +
-                                std::to_string(report.ticks) + " ticks, " + fmt_s(report.run_time_s) + " s" +
-                                (report.overruns > 0 ? ", " + std::to_string(report.overruns) + " overruns" : "") +
-                                (report.reason.empty() ? "" : ": " + report.reason);
-    if (outcome == RunOutcome::success || outcome == RunOutcome::stopped)
-      log.info("run", summary);
-    else
-      log.error("run", summary);
-    return report;
-  };
+    trace_ = std::move(attached).value();
+  }
+  observer_ = tree_.add_observer([this](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+    if (to == bt::NodeStatus::failure && node.children().empty()) last_failed_ = &node;
+  });
+  error_at_start_ = tree_.last_error();
+  start_s_ = clock_.now_s();
+  control_rejected_at_start_ = control_ != nullptr ? control_->rejected() : 0;
 
   for (;;) {
-    if (stop.load() != 0) {
-      log.warn("run", std::string("stop requested (signal ") + std::to_string(stop.load()) + "), halting the tree");
-      return finish(RunOutcome::interrupted, "interrupted by signal " + std::to_string(stop.load()));
+    if (stop_.load() != 0) {
+      log_.warn("run", std::string("stop requested (signal ") + std::to_string(stop_.load()) + "), halting the tree");
+      return finish(RunOutcome::interrupted, "interrupted by signal " + std::to_string(stop_.load()));
     }
-    if (control != nullptr) {
-      for (dds::ControlRequest& request : control->take_pending()) {
-        switch (request.command) {
-          case dds::msg::ControlCommand::pause:
-            if (paused) {
-              log.info("run", "control: pause while paused, ignored");
-              break;
-            }
-            paused = true;
-            paused_since_s = clock.now_s();
-            hold_logged = false;
-            ++report.pauses;
-            ++report.control_applied;
-            if (auto st = robot.stop(); !st) log.error("run", "could not stop the robot: " + st.error().message);
-            log.warn("run", "paused by the control topic: robot stopped, tree not ticked (resume to continue)");
-            break;
-          case dds::msg::ControlCommand::resume:
-            if (!paused) {
-              log.info("run", "control: resume while not paused, ignored");
-              break;
-            }
-            paused = false;
-            report.paused_s += clock.now_s() - paused_since_s;
-            after_resume = true;
-            resumed_at_s = clock.now_s();
-            hold_logged = false;
-            ++report.control_applied;
-            log.info("run", "resumed by the control topic after " + fmt_s(clock.now_s() - paused_since_s) + " s paused");
-            break;
-          case dds::msg::ControlCommand::abort:
-            ++report.control_applied;
-            log.warn("run", "abort requested on the control topic, halting the tree");
-            return finish(RunOutcome::interrupted, "aborted by control topic");
-          case dds::msg::ControlCommand::swap_detector: {
-            const std::string old_type = session.config().detector ? session.config().detector->type : "none";
-            if (auto st = session.swap_detector(request.argument); st) {
-              ++report.control_applied;
-            } else {
-              ++report.control_rejected;
-              log.warn("run", "control: swap_detector rejected, keeping detector '" + old_type + "': " + st.error().message);
-            }
-            break;
-          }
-        }
-      }
-    }
-    session.poll_config_reload();
-    const RunSettings& rs = session.config().run;
+    if (auto end = handle_control()) return std::move(*end);
+    session_.poll_config_reload();
+    const RunSettings& rs = session_.config().run;
     const double period_s = 1.0 / rs.rate_hz;
-
-    // --- pace (fixed rate, real time; and a paused lock-step simulation): wait for this
-    // tick's deadline, in short slices so a stop request is seen quickly even at low rates ---
-    if ((!lockstep && rs.tick == "rate") || (lockstep && paused)) {
-      const auto now = std::chrono::steady_clock::now();
-      if (next_deadline < now) next_deadline = now;  // behind: do not try to catch up
-      while (std::chrono::steady_clock::now() < next_deadline && stop.load() == 0)
-        std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(
-            next_deadline - std::chrono::steady_clock::now(), std::chrono::milliseconds(50)));
-      if (stop.load() != 0) continue;
-      next_deadline += std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(period_s));
+    if ((!lockstep_ && rs.tick == "rate") || (lockstep_ && paused_)) {
+      pace(period_s);
+      if (stop_.load() != 0) continue;
     }
-
-    // --- acquire ---
-    bool new_frame = false;
-    if (lockstep) {
-      if (auto st = sim->step(period_s); !st) return finish(RunOutcome::safety_stop, "simulation step failed: " + st.error().message);
-    }
-    {
-      double wait_s = 0.0;
-      if (!lockstep && rs.tick == "frame") wait_s = std::min(0.05, rs.max_frame_age_s);
-      auto grabbed = camera.grab(wait_s);
-      if (!grabbed) return finish(RunOutcome::safety_stop, "camera failed: " + grabbed.error().message);
-      if (grabbed->has_value()) {  // grab() only returns frames newer than the previous one
-        last_frame_s = (**grabbed).timestamp_s;
-        bus.publish_frame(std::move(**grabbed));
-        new_frame = true;
-      }
-    }
-    if (auto odo = robot.latest_odometry()) {
-      if (rs.odometry_max_speed_mps != plausibility_limits.max_speed_mps ||
-          rs.odometry_jump_slack_m != plausibility_limits.slack_m) {
-        plausibility_limits = OdometryLimits{rs.odometry_max_speed_mps, rs.odometry_jump_slack_m};
-        plausibility.emplace(plausibility_limits);  // restarts from this reading
-      }
-      // An implausible reading never reaches the tree (issue 17: spoofed odometry). A late
-      // (reordered) one is dropped: the stale-odometry check stops the robot if nothing newer comes.
-      if (auto why = plausibility->check(*odo)) {
-        if (!plausibility->last_was_late()) return finish(RunOutcome::safety_stop, "implausible odometry: " + *why);
-        if (++late_odometry <= 3 || late_odometry % 100 == 0)
-          log.warn("run", "dropped a late odometry reading (" + *why + "); " + std::to_string(late_odometry) + " so far");
-      } else {
-        last_odometry_s = odo->timestamp_s;
-        bus.publish_odometry(*odo);
-      }
-    }
-
-    // --- safety ---
-    // While paused (robot held at zero) and within startup_timeout_s after a resume, stale or
-    // missing data holds the tree instead of ending the run.
-    const double now_s = clock.now_s();
-    if (after_resume && now_s - resumed_at_s > rs.startup_timeout_s) after_resume = false;
-    const bool holding = paused || after_resume;
+    if (auto end = acquire(period_s)) return std::move(*end);
+    const double now_s = clock_.now_s();
     std::string data_problem;
-    if (!last_frame_s || !last_odometry_s) {
-      if (now_s - start_s > rs.startup_timeout_s && !holding) {
-        return finish(RunOutcome::safety_stop, std::string("no ") + (!last_frame_s ? "camera frame" : "odometry") +
-                                                   " within startup_timeout_s = " + fmt_s(rs.startup_timeout_s) + " s");
-      }
-      data_problem = std::string("no ") + (!last_frame_s ? "camera frame" : "odometry") + " yet";
-    } else if (now_s - *last_frame_s > rs.max_frame_age_s) {
-      data_problem = "stale camera data: newest frame is " + fmt_s(now_s - *last_frame_s) +
-                     " s old (max_frame_age_s = " + fmt_s(rs.max_frame_age_s) + ")";
-    } else if (now_s - *last_odometry_s > rs.max_odometry_age_s) {
-      data_problem = "stale odometry: newest reading is " + fmt_s(now_s - *last_odometry_s) +
-                     " s old (max_odometry_age_s = " + fmt_s(rs.max_odometry_age_s) + ")";
-    }
-    if (!data_problem.empty() && !holding) {
-      if (!last_frame_s || !last_odometry_s) continue;  // still starting up
-      return finish(RunOutcome::safety_stop, data_problem);
-    }
-    if (!data_problem.empty() && !hold_logged) {
-      log.warn("run", data_problem + (paused ? " while paused" : " after resume") +
-                          "; the tree is ticked again only with fresh data");
-      hold_logged = true;
-    }
-    if (data_problem.empty() && after_resume && !paused) {
-      after_resume = false;  // fresh data after a resume: normal checks from now on
-      hold_logged = false;
-    }
-    if (rs.max_duration_s > 0.0 && now_s - start_s >= rs.max_duration_s)
+    bool starting_up = false;
+    if (auto end = check_data(now_s, data_problem, starting_up)) return std::move(*end);
+    if (starting_up) continue;
+    if (rs.max_duration_s > 0.0 && now_s - start_s_ >= rs.max_duration_s)
       return finish(RunOutcome::failure, "max_duration_s = " + fmt_s(rs.max_duration_s) + " s reached");
-    if (paused) {
-      // Keep-alive zero (robots with a cmd_vel timeout) and a "paused" status for monitors.
-      if (auto st = robot.stop(); !st) log.error("run", "could not stop the robot: " + st.error().message);
-      if (Telemetry* t = session.host().telemetry(); t != nullptr) {
-        NavStatus s;
-        s.node_path = active_path(tree);
-        s.status = "paused";
-        t->publish(s);
-      }
+    if (paused_) {
+      publish_paused();
       continue;
     }
     if (!data_problem.empty()) continue;  // holding after a resume until the data is fresh
-    if (!lockstep && rs.tick == "frame" && !new_frame) continue;
+    if (!lockstep_ && rs.tick == "frame" && !new_frame_) continue;
+    if (auto end = tick(now_s, period_s)) return std::move(*end);
+  }
+}
 
-    // --- tick ---
-    const std::uint64_t published_before = session.telemetry_published();
-    const double tick_start = wall.now_s();
-    bt::NodeStatus status = bt::NodeStatus::idle;
-    try {
-      status = tree.tick_once();
-    } catch (const std::exception& e) {
-      // A node broke the no-exceptions rule: stop the robot rather than let it drive on.
-      return finish(RunOutcome::error, std::string("a node threw an exception during tick ") +
-                                           std::to_string(report.ticks + 1) + ": " + e.what());
-    } catch (...) {
-      return finish(RunOutcome::error, "a node threw a non-standard exception during tick " +
-                                           std::to_string(report.ticks + 1));
-    }
-    const double tick_s = wall.now_s() - tick_start;
-    ++report.ticks;
-    if (tick_s > period_s) {
-      ++report.overruns;
-      const std::string msg = "tick " + std::to_string(report.ticks) + " took " + fmt_s(tick_s * 1e3) +
-                              " ms, over its period of " + fmt_s(period_s * 1e3) + " ms";
-      if (!lockstep && (report.overruns <= 10 || report.overruns % 100 == 0))
-        log.warn("run", msg + (report.overruns == 10 ? " (logging every 100th from now)" : ""));
-      else
-        log.log(LogLevel::debug, "run", msg);
-    }
-    if (Telemetry* t = session.host().telemetry(); t != nullptr && session.telemetry_published() == published_before) {
-      NavStatus s;
-      s.node_path = active_path(tree);
-      s.command = robot.last_command();
-      s.status = bt::to_string(status);
-      t->publish(s);
-    }
-    if (options.after_tick) {
-      TickInfo info{report.ticks, now_s, status, tick_s};
-      if (!options.after_tick(info)) return finish(RunOutcome::stopped, "stopped by the caller");
-    }
-    if (status == bt::NodeStatus::success) return finish(RunOutcome::success, "");
-    if (status == bt::NodeStatus::failure) {
-      if (!tree.last_error().empty() && tree.last_error() != error_at_start) {
-        // tick_once() caught an exception from a node and already halted the tree.
-        return finish(RunOutcome::error, "a node threw during tick " + std::to_string(report.ticks) + ": " +
-                                             tree.last_error());
+void TickLoop::halt_everything() {
+  try {
+    if (tree_.status() == bt::NodeStatus::running) tree_.halt();
+    // After an exception the root may not be RUNNING while nodes below it are: halt those
+    // too, deepest first, so every RUNNING node gets its halt callback.
+    std::vector<bt::TreeNode*> running;
+    tree_.visit([&running](bt::TreeNode& n) {
+      if (n.status() == bt::NodeStatus::running) running.push_back(&n);
+    });
+    for (auto it = running.rbegin(); it != running.rend(); ++it) (*it)->halt_node();
+  } catch (const std::exception& e) {
+    log_.error("run", std::string("halting the tree threw: ") + e.what());
+  } catch (...) {
+    log_.error("run", "halting the tree threw");
+  }
+}
+
+RunReport TickLoop::finish(RunOutcome outcome, std::string reason) {
+  halt_everything();
+  tree_.remove_observer(observer_);
+  if (paused_) report_.paused_s += clock_.now_s() - paused_since_s_;
+  if (control_ != nullptr) report_.control_rejected += control_->rejected() - control_rejected_at_start_;
+  if (outcome == RunOutcome::safety_stop) robot_.latch(reason);
+  if (auto st = robot_.stop(); !st) log_.error("run", "could not stop the robot: " + st.error().message);
+  report_.outcome = outcome;
+  report_.reason = std::move(reason);
+  switch (outcome) {
+    case RunOutcome::success: report_.exit_code = 0; break;
+    case RunOutcome::stopped: report_.exit_code = 0; break;
+    case RunOutcome::failure: report_.exit_code = 1; break;
+    case RunOutcome::error: report_.exit_code = 1; break;
+    case RunOutcome::safety_stop: report_.exit_code = 3; break;
+    case RunOutcome::interrupted: report_.exit_code = 128 + (stop_.load() != 0 ? stop_.load() : SIGINT); break;
+  }
+  report_.run_time_s = clock_.now_s() - start_s_;
+  report_.wall_time_s = wall_.now_s();
+  if (trace_) trace_->flush();
+  const std::string summary = std::string("run ended: ") + to_string(outcome) + " after " +
+                              std::to_string(report_.ticks) + " ticks, " + fmt_s(report_.run_time_s) + " s" +
+                              (report_.overruns > 0 ? ", " + std::to_string(report_.overruns) + " overruns" : "") +
+                              (report_.reason.empty() ? "" : ": " + report_.reason);
+  if (outcome == RunOutcome::success || outcome == RunOutcome::stopped)
+    log_.info("run", summary);
+  else
+    log_.error("run", summary);
+  return report_;
+}
+
+std::optional<RunReport> TickLoop::handle_control() {
+  if (control_ == nullptr) return std::nullopt;
+  for (dds::ControlRequest& request : control_->take_pending()) {
+    switch (request.command) {
+      case dds::msg::ControlCommand::pause:
+        if (paused_) {
+          log_.info("run", "control: pause while paused, ignored");
+          break;
+        }
+        paused_ = true;
+        paused_since_s_ = clock_.now_s();
+        hold_logged_ = false;
+        ++report_.pauses;
+        ++report_.control_applied;
+        if (auto st = robot_.stop(); !st) log_.error("run", "could not stop the robot: " + st.error().message);
+        log_.warn("run", "paused by the control topic: robot stopped, tree not ticked (resume to continue)");
+        break;
+      case dds::msg::ControlCommand::resume:
+        if (!paused_) {
+          log_.info("run", "control: resume while not paused, ignored");
+          break;
+        }
+        paused_ = false;
+        report_.paused_s += clock_.now_s() - paused_since_s_;
+        after_resume_ = true;
+        resumed_at_s_ = clock_.now_s();
+        hold_logged_ = false;
+        ++report_.control_applied;
+        log_.info("run", "resumed by the control topic after " + fmt_s(clock_.now_s() - paused_since_s_) + " s paused");
+        break;
+      case dds::msg::ControlCommand::abort:
+        ++report_.control_applied;
+        log_.warn("run", "abort requested on the control topic, halting the tree");
+        return finish(RunOutcome::interrupted, "aborted by control topic");
+      case dds::msg::ControlCommand::swap_detector: {
+        const std::string old_type = session_.config().detector ? session_.config().detector->type : "none";
+        if (auto st = session_.swap_detector(request.argument); st) {
+          ++report_.control_applied;
+        } else {
+          ++report_.control_rejected;
+          log_.warn("run", "control: swap_detector rejected, keeping detector '" + old_type + "': " + st.error().message);
+        }
+        break;
       }
-      std::string why = "the tree returned FAILURE";
-      if (last_failed != nullptr)
-        why += " (last failed leaf: " + last_failed->path() + " at " + last_failed->where().str() + ")";
-      return finish(RunOutcome::failure, why);
     }
   }
+  return std::nullopt;
+}
+
+// In short slices, so a stop request is seen quickly even at low rates.
+void TickLoop::pace(double period_s) {
+  const auto now = std::chrono::steady_clock::now();
+  if (next_deadline_ < now) next_deadline_ = now;  // behind: do not try to catch up
+  while (std::chrono::steady_clock::now() < next_deadline_ && stop_.load() == 0)
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(
+        next_deadline_ - std::chrono::steady_clock::now(), std::chrono::milliseconds(50)));
+  if (stop_.load() != 0) return;
+  next_deadline_ += std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(period_s));
+}
+
+std::optional<RunReport> TickLoop::acquire(double period_s) {
+  const RunSettings& rs = session_.config().run;
+  new_frame_ = false;
+  if (lockstep_) {
+    if (auto st = robot_.simulation()->step(period_s); !st)
+      return finish(RunOutcome::safety_stop, "simulation step failed: " + st.error().message);
+  }
+  double wait_s = 0.0;
+  if (!lockstep_ && rs.tick == "frame") wait_s = std::min(0.05, rs.max_frame_age_s);
+  auto grabbed = session_.camera().grab(wait_s);
+  if (!grabbed) return finish(RunOutcome::safety_stop, "camera failed: " + grabbed.error().message);
+  if (grabbed->has_value()) {  // grab() only returns frames newer than the previous one
+    last_frame_s_ = (**grabbed).timestamp_s;
+    session_.frame_bus().publish_frame(std::move(**grabbed));
+    new_frame_ = true;
+  }
+  return read_odometry();
+}
+
+std::optional<RunReport> TickLoop::read_odometry() {
+  auto odo = robot_.latest_odometry();
+  if (!odo) return std::nullopt;
+  const RunSettings& rs = session_.config().run;
+  if (rs.odometry_max_speed_mps != plausibility_limits_.max_speed_mps ||
+      rs.odometry_jump_slack_m != plausibility_limits_.slack_m) {
+    plausibility_limits_ = OdometryLimits{rs.odometry_max_speed_mps, rs.odometry_jump_slack_m};
+    plausibility_.emplace(plausibility_limits_);  // restarts from this reading
+  }
+  // An implausible reading never reaches the tree (issue 17: spoofed odometry). A late
+  // (reordered) one is dropped: the stale-odometry check stops the robot if nothing newer comes.
+  if (auto why = plausibility_->check(*odo)) {
+    if (!plausibility_->last_was_late()) return finish(RunOutcome::safety_stop, "implausible odometry: " + *why);
+    if (++late_odometry_ <= 3 || late_odometry_ % 100 == 0)
+      log_.warn("run", "dropped a late odometry reading (" + *why + "); " + std::to_string(late_odometry_) + " so far");
+    return std::nullopt;
+  }
+  last_odometry_s_ = odo->timestamp_s;
+  session_.frame_bus().publish_odometry(*odo);
+  return std::nullopt;
+}
+
+// While paused (robot held at zero) and within startup_timeout_s after a resume, stale or
+// missing data holds the tree instead of ending the run.
+std::optional<RunReport> TickLoop::check_data(double now_s, std::string& data_problem, bool& starting_up) {
+  const RunSettings& rs = session_.config().run;
+  if (after_resume_ && now_s - resumed_at_s_ > rs.startup_timeout_s) after_resume_ = false;
+  const bool holding = paused_ || after_resume_;
+  const bool starting = !last_frame_s_ || !last_odometry_s_;
+  if (starting) {
+    const std::string missing = !last_frame_s_ ? "camera frame" : "odometry";
+    if (now_s - start_s_ > rs.startup_timeout_s && !holding)
+      return finish(RunOutcome::safety_stop,
+                    "no " + missing + " within startup_timeout_s = " + fmt_s(rs.startup_timeout_s) + " s");
+    data_problem = "no " + missing + " yet";
+  } else if (now_s - *last_frame_s_ > rs.max_frame_age_s) {
+    data_problem = "stale camera data: newest frame is " + fmt_s(now_s - *last_frame_s_) +
+                   " s old (max_frame_age_s = " + fmt_s(rs.max_frame_age_s) + ")";
+  } else if (now_s - *last_odometry_s_ > rs.max_odometry_age_s) {
+    data_problem = "stale odometry: newest reading is " + fmt_s(now_s - *last_odometry_s_) +
+                   " s old (max_odometry_age_s = " + fmt_s(rs.max_odometry_age_s) + ")";
+  }
+  if (!data_problem.empty() && !holding) {
+    starting_up = starting;
+    if (starting) return std::nullopt;
+    return finish(RunOutcome::safety_stop, data_problem);
+  }
+  if (!data_problem.empty() && !hold_logged_) {
+    log_.warn("run", data_problem + (paused_ ? " while paused" : " after resume") +
+                         "; the tree is ticked again only with fresh data");
+    hold_logged_ = true;
+  }
+  if (data_problem.empty() && after_resume_ && !paused_) {
+    after_resume_ = false;  // fresh data after a resume: normal checks from now on
+    hold_logged_ = false;
+  }
+  return std::nullopt;
+}
+
+// Keep-alive zero (robots with a cmd_vel timeout) and a "paused" status for monitors.
+void TickLoop::publish_paused() {
+  if (auto st = robot_.stop(); !st) log_.error("run", "could not stop the robot: " + st.error().message);
+  if (Telemetry* t = session_.host().telemetry(); t != nullptr) {
+    NavStatus s;
+    s.node_path = active_path(tree_);
+    s.status = "paused";
+    t->publish(s);
+  }
+}
+
+std::optional<RunReport> TickLoop::tick(double now_s, double period_s) {
+  const std::uint64_t published_before = session_.telemetry_published();
+  const double tick_start = wall_.now_s();
+  bt::NodeStatus status = bt::NodeStatus::idle;
+  try {
+    status = tree_.tick_once();
+  } catch (const std::exception& e) {
+    // A node broke the no-exceptions rule: stop the robot rather than let it drive on.
+    return finish(RunOutcome::error, std::string("a node threw an exception during tick ") +
+                                         std::to_string(report_.ticks + 1) + ": " + e.what());
+  } catch (...) {
+    return finish(RunOutcome::error, "a node threw a non-standard exception during tick " + std::to_string(report_.ticks + 1));
+  }
+  const double tick_s = wall_.now_s() - tick_start;
+  ++report_.ticks;
+  if (tick_s > period_s) {
+    ++report_.overruns;
+    const std::string msg = "tick " + std::to_string(report_.ticks) + " took " + fmt_s(tick_s * 1e3) +
+                            " ms, over its period of " + fmt_s(period_s * 1e3) + " ms";
+    if (!lockstep_ && (report_.overruns <= 10 || report_.overruns % 100 == 0))
+      log_.warn("run", msg + (report_.overruns == 10 ? " (logging every 100th from now)" : ""));
+    else
+      log_.log(LogLevel::debug, "run", msg);
+  }
+  if (Telemetry* t = session_.host().telemetry(); t != nullptr && session_.telemetry_published() == published_before) {
+    NavStatus s;
+    s.node_path = active_path(tree_);
+    s.command = robot_.last_command();
+    s.status = bt::to_string(status);
+    t->publish(s);
+  }
+  if (options_.after_tick && !options_.after_tick(TickInfo{report_.ticks, now_s, status, tick_s}))
+    return finish(RunOutcome::stopped, "stopped by the caller");
+  if (status == bt::NodeStatus::success) return finish(RunOutcome::success, "");
+  if (status != bt::NodeStatus::failure) return std::nullopt;
+  if (!tree_.last_error().empty() && tree_.last_error() != error_at_start_) {
+    // tick_once() caught an exception from a node and already halted the tree.
+    return finish(RunOutcome::error, "a node threw during tick " + std::to_string(report_.ticks) + ": " + tree_.last_error());
+  }
+  std::string why = "the tree returned FAILURE";
+  if (last_failed_ != nullptr)
+    why += " (last failed leaf: " + last_failed_->path() + " at " + last_failed_->where().str() + ")";
+  return finish(RunOutcome::failure, why);
+}
+
+}  // namespace
+
+RunReport run_tree(Session& session, bt::Tree& tree, const RunOptions& options) {
+  return TickLoop(session, tree, options).run();
 }
 
 }  // namespace visnav

@@ -1,7 +1,7 @@
 // Every `visnav ...` example in the README, docs/*.md (shell code blocks), trees/**/*.xml comments
 // and config/**/*.yaml comments runs as written, from the source folder:
 //  * `visnav run` examples: the config and tree validate together (`visnav validate` with the
-//    example's --set overrides), every --bb key is a {key} of the tree or its includes, and
+//    example's --set overrides and --bb values), every --bb key is a {key} of the tree or its includes, and
 //    every file named in a --bb value exists. A full run would take minutes; validation covers
 //    what goes wrong when a file, node, port or parameter is renamed.
 //  * other commands: `visnav <command> --help` succeeds and knows every --option the example uses.
@@ -206,6 +206,8 @@ TEST(Examples, RunExamplesValidateAsWritten) {
         validate.push_back(e.args[++i]);
       } else if (a == "--bb" && has_value) {
         bb.push_back(e.args[++i]);
+        validate.push_back("--bb");  // checked by the ports that read it, as `visnav run` does
+        validate.push_back(bb.back());
       } else if ((a == "--map" || a == "--trace" || a == "--log-level" || a == "--view") && has_value) {
         ++i;
       } else {

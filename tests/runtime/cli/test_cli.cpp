@@ -295,6 +295,9 @@ TEST_F(CliTest, NodesListsPluginNodesWithPortsAndWritesTheModel) {
   EXPECT_TRUE(contains(o.out, "in distance_m : double (required)")) << o.out;
   EXPECT_TRUE(contains(o.out, "in speed_mps : double = 0.5")) << o.out;
   EXPECT_FALSE(contains(o.out, "Sequence")) << o.out;
+  // A port's check beyond its type is listed with it (the range a literal must lie in).
+  auto b = run({"nodes"}, {fixture_env()});
+  EXPECT_TRUE(contains(b.out, "in num_cycles : int (required)  [-1, 2147483647]")) << b.out;
   auto x = run({"nodes", "--xml", "--output", path("model.xml")}, {fixture_env()});
   EXPECT_EQ(x.exit_code, 0) << x.err;
   const std::string model = read_file(path("model.xml"));

@@ -1,5 +1,6 @@
 // `sim_operator` nodes plugin: ScriptedOperator, the unattended "person" who teaches a route
 // in the simulator (see operator_core.hpp).
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,13 +20,36 @@ namespace {
 
 using bt::NodeStatus;
 
+/// The route a ScriptedOperator drives: the port's literal check (so `visnav validate` and the
+/// check before `visnav run` open and parse a route_file written in the tree) and the node's
+/// start both read it through this.
+Result<sim::Route> read_waypoint_route(const std::string& file) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) return Error{file + ": no such route file", ErrorCode::not_found};
+  auto route = sim::load_route(file);
+  if (!route) return route.error().with_default_code(ErrorCode::parse_error);
+  if (route->waypoints.empty())
+    return Error{file + ": ScriptedOperator needs a waypoint route", ErrorCode::invalid_value};
+  return route;
+}
+
+bt::PortInfo route_file_port() {
+  bt::PortInfo port = bt::input_port<std::string>("route_file", "route script (config/routes/*.yaml) with waypoints");
+  port.constraint = "a waypoint route file";
+  port.check = [](std::string_view text) -> Status {
+    VISNAV_TRY(read_waypoint_route(std::string(text)));
+    return ok();
+  };
+  return port;
+}
+
 class ScriptedOperator final : public bt::StatefulActionNode {
  public:
   ScriptedOperator(const std::string& name, const bt::NodeConfig& config, HostServices& host)
       : StatefulActionNode(name, config), host_(host) {}
 
   static bt::PortsList provided_ports() {
-    return {bt::input_port<std::string>("route_file", "route script (config/routes/*.yaml) with waypoints"),
+    return {route_file_port(),
             bt::input_port<std::vector<std::string>>("kinds", "feature=feature_segment;path=path_following",
                                                       "route leg kind -> map edge kind"),
             bt::input_port<std::string>("force_kind", "", "teach every leg with this edge kind (e.g. a feature-only map)"),
@@ -46,9 +70,8 @@ class ScriptedOperator final : public bt::StatefulActionNode {
     auto force = get_input<std::string>("force_kind");
     auto speed = get_input<double>("speed_mps");
     if (!file || !kinds || !force || !speed) return failed("bad ports");
-    auto route = sim::load_route(*file);
+    auto route = read_waypoint_route(*file);
     if (!route) return failed(route.error().message);
-    if (route->waypoints.empty()) return failed(*file + ": ScriptedOperator needs a waypoint route");
     auto kind_map = nav::parse_kind_map(*kinds);
     if (!kind_map) return failed("kinds: " + kind_map.error().message);
     std::vector<cv::Point2d> points;

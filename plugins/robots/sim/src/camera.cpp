@@ -208,7 +208,17 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(const CameraParams& params,
   return cam;
 }
 
+std::vector<Error> SimCamera::check_params(const ConfigNode& params) {
+  std::vector<Error> problems = CameraParams::schema().problems(params);
+  if (!problems.empty()) return problems;
+  auto p = CameraParams::schema().parse(params);
+  if (p && !p->world.empty())
+    if (auto st = check_world_file(p->world, params); !st) problems.push_back(std::move(st).error());
+  return problems;
+}
+
 Result<std::unique_ptr<SimCamera>> SimCamera::create(const ConfigNode& params, HostServices& host) {
+  if (auto problems = check_params(params); !problems.empty()) return std::move(problems.front());
   VISNAV_ASSIGN(CameraParams p, CameraParams::schema().parse(params));
   auto made = create(p, params.where().file);
   if (!made) return made.error().with_context(params.where().str());

@@ -370,7 +370,17 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const RobotParams& params, co
   return std::unique_ptr<SimRobot>(new SimRobot(std::move(core)));
 }
 
+std::vector<Error> SimRobot::check_params(const ConfigNode& params) {
+  std::vector<Error> problems = RobotParams::schema().problems(params);
+  if (!problems.empty()) return problems;
+  auto p = RobotParams::schema().parse(params);
+  if (p && !p->world.empty())
+    if (auto st = check_world_file(p->world, params); !st) problems.push_back(std::move(st).error());
+  return problems;
+}
+
 Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, HostServices& host) {
+  if (auto problems = check_params(params); !problems.empty()) return std::move(problems.front());
   VISNAV_ASSIGN(RobotParams p, RobotParams::schema().parse(params));
   auto made = create(p, params.where().file);
   if (!made) return made.error().with_context(params.where().str());

@@ -507,6 +507,17 @@ Result<std::string> resolve_world_path(const std::string& name_or_path, const st
   return resolve_data_path(name_or_path, relative_to, "worlds");
 }
 
+Status check_world_file(const std::string& name_or_path, const ConfigNode& params) {
+  const ConfigNode* key = params.is_map() ? params.find("world") : nullptr;
+  const SourceLocation& at = key != nullptr ? key->where() : params.where();
+  const ErrorLocation where{at.file, at.line, "world"};
+  const std::string prefix = params.where().str() + ": key 'world': ";
+  auto path = resolve_world_path(name_or_path, params.where().file);
+  if (!path) return Error{prefix + path.error().message, ErrorCode::not_found, where};
+  if (auto world = load_world_cached(*path); !world) return Error{prefix + world.error().message, ErrorCode::parse_error, where};
+  return ok();
+}
+
 Result<std::string> resolve_route_path(const std::string& name_or_path, const std::string& relative_to) {
   return resolve_data_path(name_or_path, relative_to, "routes");
 }

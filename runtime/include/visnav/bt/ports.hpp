@@ -251,6 +251,12 @@ PortInfo inout_port(std::string name, std::string default_value, std::string des
   return detail::make_port<T>(PortDirection::inout, std::move(name), std::move(default_value), std::move(description));
 }
 
+/// Gives `port` an inclusive numeric range (its `check` and `constraint`), for a port whose
+/// type parses as a number: `with_range(input_port<double>("speed_mps", "0.3", "..."), 0.0, 1.5)`.
+/// A literal outside it fails validation with ErrorCode::out_of_range ("value 9 is out of
+/// range [0, 1.5]"); values read from the blackboard are the node's to check.
+[[nodiscard]] PortInfo with_range(PortInfo port, double min_value, double max_value);
+
 /// If `text` is a blackboard reference `{key}` returns the key (with a leading '@' kept for
 /// root references, "=" for `{=}`); otherwise nullopt.
 [[nodiscard]] std::optional<std::string_view> blackboard_key(std::string_view text) noexcept;

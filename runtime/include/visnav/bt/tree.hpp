@@ -63,6 +63,9 @@ struct Diagnostic {
   int line = 0;           ///< 1-based, 0 when unknown
   std::string node_path;  ///< empty for file-level errors
   std::string message;
+  /// What is wrong (parse_error, not_found for an unknown node type, unknown_key for an
+  /// undeclared port, missing, invalid_value, out_of_range, limit, ...).
+  ErrorCode code = ErrorCode::unspecified;
 
   /// "file:line: node_path: message" (omitting empty parts).
   [[nodiscard]] std::string str() const;

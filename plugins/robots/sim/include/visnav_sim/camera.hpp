@@ -114,6 +114,10 @@ class CameraCore {
 class SimCamera final : public Camera {
  public:
   using Params = CameraParams;
+  /// Every problem create() would find in a params block, without building anything: the
+  /// schema, validate() and the `world` file (resolved against the block's file, opened and
+  /// parsed; errors at the key 'world'). create() runs the same checks first.
+  static std::vector<Error> check_params(const ConfigNode& params);
   static Result<std::unique_ptr<SimCamera>> create(const ConfigNode& params, HostServices& host);
   static Result<std::unique_ptr<SimCamera>> create(const CameraParams& params, const std::string& relative_to = {});
   Result<std::optional<Frame>> grab(double timeout_s) override;

@@ -195,6 +195,10 @@ class SimRobot final : public Robot, public SimulationControl {
  public:
   using Params = RobotParams;
   /// `params` is the `params:` block; relative `world` paths resolve against its file.
+  /// Every problem create() would find in a params block, without building anything: the
+  /// schema, validate() and the `world` file (resolved against the block's file, opened and
+  /// parsed; errors at the key 'world'). create() runs the same checks first.
+  static std::vector<Error> check_params(const ConfigNode& params);
   static Result<std::unique_ptr<SimRobot>> create(const ConfigNode& params, HostServices& host);
   static Result<std::unique_ptr<SimRobot>> create(const RobotParams& params, const std::string& relative_to = {});
   ~SimRobot() override;

@@ -134,6 +134,11 @@ struct World {
 /// in the source tree's and the install tree's config/worlds. Error lists every path tried.
 [[nodiscard]] Result<std::string> resolve_world_path(const std::string& name_or_path,
                                                      const std::string& relative_to = {});
+/// What the robot and the camera check of a `world` param before building anything: resolves
+/// `name_or_path` against the file of the `params:` block and loads it (load_world_cached).
+/// Error at the location of the 'world' key: ErrorCode::not_found (no such world; every path
+/// tried is listed) or parse_error (the file does not open or parse).
+[[nodiscard]] Status check_world_file(const std::string& name_or_path, const ConfigNode& params);
 /// Same for route scripts (config/routes).
 [[nodiscard]] Result<std::string> resolve_route_path(const std::string& name_or_path,
                                                      const std::string& relative_to = {});

@@ -1,0 +1,318 @@
+// check_setup — what `visnav validate` reports and `visnav run` stops on before its first tick —
+// catches each case of issue 14 with a code and a location, lists all of them, and run_mission
+// refuses the same setup without ticking. Uses the real sim robot/camera, star_brief detector
+// and feature_replay nodes from the build's plugin folder.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "visnav/params.hpp"
+#include "visnav/runner.hpp"
+
+namespace fs = std::filesystem;
+using visnav::Error;
+using visnav::ErrorCode;
+using visnav::ErrorLocation;
+
+namespace {
+
+class ValidateTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("visnav_validate_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string write(const std::string& name, const std::string& text) {
+    const fs::path p = dir_ / name;
+    std::ofstream(p) << text;
+    return p.string();
+  }
+
+  /// A valid sim setup; `robot_params` and `detector_params` are spliced into lines 3 and 7.
+  std::string config(const std::string& robot_params = "{world: straight6m}",
+                     const std::string& detector_params = "{target_keypoints: 200}") {
+    return write("config.yaml",
+                 "robot:\n"                                                  // 1
+                 "  type: sim\n"                                             // 2
+                 "  params: " + robot_params + "\n"                          // 3
+                 "camera: {type: sim, params: {width_px: 160, height_px: 120}}\n"  // 4
+                 "detector:\n"                                               // 5
+                 "  type: star_brief\n"                                      // 6
+                 "  params: " + detector_params + "\n"                       // 7
+                 "nodes: [feature_replay, navigation, sim_operator]\n"       // 8
+                 "run: {tick: frame, rate_hz: 10, lockstep: on, reload_poll_s: 0, max_duration_s: 2}\n");
+  }
+
+  /// A tree whose line 3 is `leaf`.
+  std::string tree(const std::string& leaf) {
+    return write("tree.xml",
+                 "<root BTCPP_format=\"4\">\n"   // 1
+                 "  <BehaviorTree ID=\"Main\">\n"  // 2
+                 "    " + leaf + "\n"            // 3
+                 "  </BehaviorTree>\n"
+                 "</root>\n");
+  }
+
+  static std::vector<Error> check(const std::string& config_file, const std::string& tree_file = {},
+                                  const std::string& map = {}, const std::vector<std::string>& bb = {}) {
+    visnav::SetupCheck s;
+    s.config_file = config_file;
+    s.tree_file = tree_file;
+    s.map_path = map;
+    s.blackboard_values = bb;
+    return visnav::check_setup(s);
+  }
+
+  static std::string dump(const std::vector<Error>& errors) {
+    std::string out;
+    for (const auto& e : errors) out += std::string(visnav::to_string(e.code)) + " @ " + e.where.str() + ": " + e.message + "\n";
+    return out;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(ValidateTest, AGoodSetupHasNoProblems) {
+  const auto problems = check(config(), tree("<Sleep msec=\"5\"/>"));
+  EXPECT_TRUE(problems.empty()) << dump(problems);
+}
+
+// min_threshold: 50, max_threshold: 10 — each value is in range, the struct's validate() refuses
+// the pair. Before, validate accepted it and the run failed when it built the detector.
+TEST_F(ValidateTest, DetectorCrossFieldRuleIsChecked) {
+  const std::string c = config("{world: straight6m}", "{min_threshold: 50, max_threshold: 10, threshold: 20}");
+  const auto problems = check(c);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::inconsistent);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{c, 7, "detector.params"}));
+}
+
+TEST_F(ValidateTest, OutOfRangeDetectorParamNamesItsKey) {
+  const std::string c = config("{world: straight6m}", "\n    target_keypoints: 0");
+  const auto problems = check(c);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{c, 8, "detector.params.target_keypoints"}));
+}
+
+// speed_mps="9" on a primitive's port: before, it failed only when the robot reached that edge.
+TEST_F(ValidateTest, PrimitivePortLiteralOutOfRange) {
+  const std::string t = tree("<ReplayFeatureEdge edge=\"e1\" speed_mps=\"9\"/>");
+  const auto problems = check(config(), t);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[0].where.file, t);
+  EXPECT_EQ(problems[0].where.line, 3);
+  EXPECT_EQ(problems[0].where.key, "Main/ReplayFeatureEdge[0]");
+  // A value inside (0, 3] passes, and a blackboard reference is the node's to check.
+  EXPECT_TRUE(check(config(), tree("<ReplayFeatureEdge edge=\"e1\" speed_mps=\"3\"/>")).empty());
+  EXPECT_TRUE(check(config(), tree("<ReplayFeatureEdge edge=\"e1\" speed_mps=\"{v}\"/>")).empty());
+}
+
+TEST_F(ValidateTest, BuiltInNodeAttributeIsChecked) {
+  const std::string t = tree("<Sleep msec=\"-5\"/>");
+  const auto problems = check(config(), t);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::invalid_value);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{t, 3, "Main/Sleep[0]"}));
+}
+
+// A built-in count below -1 made Repeat fail at its first tick without a reason; now the literal
+// is refused before, with the range.
+TEST_F(ValidateTest, BuiltInCountBelowMinusOneIsOutOfRange) {
+  const std::string t = tree("<Repeat num_cycles=\"-5\"><AlwaysSuccess/></Repeat>");
+  const auto problems = check(config(), t);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{t, 3, "Main/Repeat[0]"}));
+  EXPECT_TRUE(check(config(), tree("<Repeat num_cycles=\"-1\"><AlwaysSuccess/></Repeat>")).empty());
+}
+
+TEST_F(ValidateTest, MissingWorldFileIsNotFoundAtItsKey) {
+  const std::string c = config("{world: " + (dir_ / "no_such_world.yaml").string() + "}");
+  const auto problems = check(c);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::not_found);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{c, 3, "robot.params.world"}));
+}
+
+TEST_F(ValidateTest, CorruptWorldFileIsAParseError) {
+  const std::string w = write("broken_world.yaml", "walls: [ {from: [0, 0], to: \n");
+  const std::string c = config("{world: " + w + "}");
+  const auto problems = check(c);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::parse_error);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{c, 3, "robot.params.world"}));
+}
+
+// All problems are listed, not just the first; and `visnav run` (run_mission) stops on the very
+// same list before it builds anything or ticks.
+TEST_F(ValidateTest, ListsEveryProblemAndRunRefusesTheSame) {
+  const std::string c = config("{world: " + (dir_ / "missing.yaml").string() + "}",
+                               "{min_threshold: 50, max_threshold: 10, threshold: 20}");
+  const std::string t = write("tree.xml",
+                              "<root BTCPP_format=\"4\">\n"
+                              "  <BehaviorTree ID=\"Main\">\n"
+                              "    <Sequence>\n"
+                              "      <Sleep msec=\"-5\"/>\n"
+                              "      <ReplayFeatureEdge edge=\"e1\" speed_mps=\"9\"/>\n"
+                              "    </Sequence>\n"
+                              "  </BehaviorTree>\n"
+                              "</root>\n");
+  const auto problems = check(c, t);
+  ASSERT_EQ(problems.size(), 4u) << dump(problems);
+  std::vector<std::pair<ErrorCode, int>> got;
+  for (const auto& p : problems) got.emplace_back(p.code, p.where.line);
+  const std::vector<std::pair<ErrorCode, int>> want = {
+      {ErrorCode::not_found, 3}, {ErrorCode::inconsistent, 7}, {ErrorCode::invalid_value, 4}, {ErrorCode::out_of_range, 5}};
+  EXPECT_EQ(got, want) << dump(problems);
+
+  visnav::MissionOptions m;
+  m.config_file = c;
+  m.tree_file = t;
+  auto prepared = visnav::prepare_mission(m);
+  ASSERT_FALSE(prepared.ok());
+  EXPECT_EQ(prepared.error().code, ErrorCode::not_found);
+  EXPECT_EQ(prepared.error().where, problems.front().where);
+  const visnav::RunReport r = visnav::run_mission(m);
+  EXPECT_EQ(r.outcome, visnav::RunOutcome::error);
+  EXPECT_EQ(r.ticks, 0u);
+  for (const auto& p : problems) EXPECT_NE(r.reason.find(p.message), std::string::npos) << r.reason;
+}
+
+// A route script written in the tree is opened and parsed before the first tick too.
+TEST_F(ValidateTest, RouteFileLiteralIsOpenedAndParsed) {
+  const std::string missing = tree("<ScriptedOperator route_file=\"" + (dir_ / "no_route.yaml").string() + "\"/>");
+  auto problems = check(config(), missing);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::not_found);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{missing, 3, "Main/ScriptedOperator[0]"}));
+
+  const std::string route = write("route.yaml", "route: {name: r, waypoints: [ {at: [0, 0]\n");
+  const std::string broken = tree("<ScriptedOperator route_file=\"" + route + "\"/>");
+  problems = check(config(), broken);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::parse_error);
+  EXPECT_EQ(problems[0].where.line, 3);
+
+  const std::string good = tree("<ScriptedOperator route_file=\"" +
+                                (fs::path(VISNAV_TEST_SOURCE_DIR) / "config/routes/curve20m_polygon.yaml").string() + "\"/>");
+  problems = check(config(), good);
+  EXPECT_TRUE(problems.empty()) << dump(problems);
+}
+
+// `--bb key=value` values are checked by every port that reads {key}, as literals are: the
+// common way to give a speed or a route file.
+TEST_F(ValidateTest, BlackboardValuesAreCheckedByThePortsThatReadThem) {
+  const std::string t = write("tree.xml",
+                              "<root BTCPP_format=\"4\">\n"
+                              "  <BehaviorTree ID=\"Main\">\n"
+                              "    <Sequence>\n"
+                              "      <ScriptedOperator route_file=\"{route_file}\"/>\n"
+                              "      <ReplayFeatureEdge edge=\"e1\" speed_mps=\"{v}\"/>\n"
+                              "    </Sequence>\n"
+                              "  </BehaviorTree>\n"
+                              "</root>\n");
+  const std::string route = (fs::path(VISNAV_TEST_SOURCE_DIR) / "config/routes/curve20m_polygon.yaml").string();
+  EXPECT_TRUE(check(config(), t, {}, {"route_file=" + route, "v=0.4"}).empty());
+  EXPECT_TRUE(check(config(), t).empty());  // unset keys are the nodes' to check when they run
+
+  auto problems = check(config(), t, {}, {"route_file=" + (dir_ / "none.yaml").string(), "v=9"});
+  ASSERT_EQ(problems.size(), 2u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::not_found);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{t, 4, "Main/Sequence[0]/ScriptedOperator[0]"}));
+  EXPECT_EQ(problems[1].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[1].where, (ErrorLocation{t, 5, "Main/Sequence[0]/ReplayFeatureEdge[1]"}));
+
+  problems = check(config(), t, {}, {"v=fast", "novalue"});
+  ASSERT_EQ(problems.size(), 2u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::invalid_value);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{"--bb", 0, "novalue"}));
+  EXPECT_EQ(problems[1].code, ErrorCode::invalid_value);
+  EXPECT_EQ(problems[1].where.line, 5);
+
+  visnav::MissionOptions m;
+  m.config_file = config();
+  m.tree_file = t;
+  m.blackboard_values = {"route_file=" + route, "v=9"};
+  const visnav::RunReport r = visnav::run_mission(m);
+  EXPECT_EQ(r.outcome, visnav::RunOutcome::error);
+  EXPECT_EQ(r.ticks, 0u);
+}
+
+TEST_F(ValidateTest, MissingMapFolderIsNotFound) {
+  const std::string missing = (dir_ / "no_map").string();
+  const auto problems = check(config(), {}, missing);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::not_found);
+  EXPECT_EQ(problems[0].where.file, missing);
+}
+
+TEST(MapPath, BareNamesLiveInMaps) {
+  ::unsetenv("VISNAV_MAPS_DIR");
+  EXPECT_EQ(visnav::resolve_map_path("demo"), "maps/demo");
+  EXPECT_EQ(visnav::resolve_map_path("./demo"), "./demo");
+  EXPECT_EQ(visnav::resolve_map_path("/tmp/m"), "/tmp/m");
+  EXPECT_EQ(visnav::resolve_map_path("a/b"), "a/b");
+  EXPECT_EQ(visnav::resolve_map_path(".."), "..");
+  ::setenv("VISNAV_MAPS_DIR", "/srv/maps", 1);
+  EXPECT_EQ(visnav::resolve_map_path("demo"), "/srv/maps/demo");
+  ::unsetenv("VISNAV_MAPS_DIR");
+}
+
+// The Error model: codes and locations survive context, and the text stays complete.
+TEST(ErrorCodes, CodeAndLocationTravelWithContext) {
+  const Error e = visnav::fail(ErrorCode::out_of_range, {"c.yaml", 12, "speed_mps"}, "value 9 is out of range [0, 3]");
+  EXPECT_EQ(e.message, "c.yaml:12: speed_mps: value 9 is out of range [0, 3]");
+  const Error outer = e.with_context("robot 'sim'");
+  EXPECT_EQ(outer.code, ErrorCode::out_of_range);
+  EXPECT_EQ(outer.where, e.where);
+  EXPECT_EQ(visnav::fail("plain").code, ErrorCode::unspecified);
+  EXPECT_EQ(visnav::fail("plain").with_default_code(ErrorCode::io).code, ErrorCode::io);
+  EXPECT_EQ(e.with_default_code(ErrorCode::io).code, ErrorCode::out_of_range);
+  EXPECT_STREQ(visnav::to_string(ErrorCode::parse_error), "parse_error");
+}
+
+struct Pair {
+  int lo = 1;
+  int hi = 2;
+  [[nodiscard]] visnav::Status validate() const { return lo <= hi ? visnav::ok() : visnav::fail("lo > hi"); }
+  static const visnav::ParamSchema<Pair>& schema() {
+    static const auto s = visnav::ParamSchema<Pair>{}.field("lo", &Pair::lo, "low").range(0, 10).field("hi", &Pair::hi, "high").range(0, 10);
+    return s;
+  }
+};
+
+TEST(ErrorCodes, ParamSchemaListsEveryKeyProblemWithItsCode) {
+  visnav::ConfigNode node = visnav::ConfigNode::make_map({"p.yaml", 4});
+  node.set("lo", visnav::ConfigNode::make_scalar("11", {"p.yaml", 5}));
+  node.set("nope", visnav::ConfigNode::make_scalar("1", {"p.yaml", 6}));
+  node.set("hi", visnav::ConfigNode::make_scalar("x", {"p.yaml", 7}));
+  const auto problems = Pair::schema().problems(node);
+  ASSERT_EQ(problems.size(), 3u);
+  EXPECT_EQ(problems[0].code, ErrorCode::out_of_range);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{"p.yaml", 5, "lo"}));
+  EXPECT_EQ(problems[1].code, ErrorCode::unknown_key);
+  EXPECT_EQ(problems[1].where, (ErrorLocation{"p.yaml", 6, "nope"}));
+  EXPECT_EQ(problems[2].code, ErrorCode::invalid_value);
+  EXPECT_EQ(problems[2].where, (ErrorLocation{"p.yaml", 7, "hi"}));
+  // parse() reports the first of them; with the keys fine, validate()'s verdict is `inconsistent`.
+  EXPECT_EQ(Pair::schema().parse(node).error().where, problems[0].where);
+  visnav::ConfigNode crossed = visnav::ConfigNode::make_map({"p.yaml", 4});
+  crossed.set("lo", visnav::ConfigNode::make_scalar("5", {"p.yaml", 5}));
+  crossed.set("hi", visnav::ConfigNode::make_scalar("3", {"p.yaml", 6}));
+  const auto c = Pair::schema().problems(crossed);
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].code, ErrorCode::inconsistent);
+  EXPECT_EQ(c[0].where, (ErrorLocation{"p.yaml", 4, ""}));
+}
+
+}  // namespace

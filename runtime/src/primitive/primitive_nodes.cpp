@@ -192,8 +192,9 @@ class FrameGate {
     return frame;
   }
   /// Checks size and runs the detector; returns the problem or nullptr. Warns once per edge.
+  /// `node` names the warnings (its path is built only when one is logged, not per frame).
   const char* inspect(const Frame& frame, Detector* detector, int width_px, int height_px, Logger& logger,
-                      const std::string& path) {
+                      const bt::TreeNode& node) {
     const cv::Mat& image = frame.image;
     const char* problem = nullptr;
     if (image.empty()) {
@@ -203,12 +204,12 @@ class FrameGate {
     } else if (detector != nullptr) {
       if (auto st = detector->detect(image, features_); !st) {
         problem = "detector failed on the frame";
-        if (!warned_) logger.warn(path, "detector: " + st.error().message);
+        if (!warned_) logger.warn(node.path(), "detector: " + st.error().message);
       }
     }
     if (problem != nullptr) {
       features_.clear();
-      if (!warned_) logger.warn(path, std::string(problem) + ": no use of this frame");
+      if (!warned_) logger.warn(node.path(), std::string(problem) + ": no use of this frame");
       warned_ = true;
     }
     return problem;
@@ -269,7 +270,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     last_frame_odom_m_ = odom->distance_m;
 
     const char* problem = frames_.inspect(*frame, type_->uses_detector ? host_.active_detector() : nullptr,
-                                          expected_width_px_, expected_height_px_, host_.logger(), path());
+                                          expected_width_px_, expected_height_px_, host_.logger(), *this);
     const ReplayInput input{*odom, odom->distance_m - origin_m_, *frame,
                             type_->uses_detector ? &frames_.features() : nullptr, problem};
     ReplayStep step = replayer_->step(input);
@@ -346,7 +347,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     // The edge counts as started `carried_m` before here (FollowRoute; an unset entry counts as 0).
     const auto carried = get_input<double>("carried_m");
     origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
-    const ReplayStart start{*edge, *body, *odom, origin_m_, health_.policy(), host_.logger(), path()};
+    // ReplayStart holds a view of the node path: keep the string alive past begin().
+    const std::string node_path = path();
+    const ReplayStart start{*edge, *body, *odom, origin_m_, health_.policy(), host_.logger(), node_path};
     if (auto st = replayer_->begin(start); !st) return fail("edge " + edge_id_ + " payload: " + st.error().message);
 
     std::optional<TaughtHeading> taught;
@@ -485,7 +488,7 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
     const char* problem = nullptr;
     if (frame) {
       problem = frames_.inspect(*frame, type_->uses_detector ? host_.active_detector() : nullptr, width_px_, height_px_,
-                                host_.logger(), path());
+                                host_.logger(), *this);
     }
     const TeachInput input{odom, d, frame ? &*frame : nullptr, type_->uses_detector ? &frames_.features() : nullptr,
                            problem};

@@ -119,7 +119,7 @@ TEST(OutOfTreePlugin, ExamplePrimitiveTeachesAndReplaysAnEdgeOnTheSimulatedRobot
     <FollowRoute primitives="brightness=ReplayBrightnessEdge"><ReplayBrightnessEdge speed_mps="0.3"/></FollowRoute>
   </Sequence>
 </BehaviorTree></root>)";
-  const std::string run = "cd '" + dir.string() + "' && '" + oot.visnav() + "' run --config sim.yaml --map map --tree ";
+  const std::string run = "cd '" + dir.string() + "' && '" + oot.visnav() + "' run --config sim.yaml --map ./map --tree ";
   const fs::path out = dir / "run.txt";
   ASSERT_EQ(sh(run + "teach.xml --create >'" + out.string() + "'", oot.log), 0) << read_file(oot.log) << read_file(out);
   const std::string graph = read_file(dir / "map/graph.yaml");

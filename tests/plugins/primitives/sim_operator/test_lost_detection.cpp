@@ -175,8 +175,11 @@ TEST(LostDetection, RouteReplayedInTheWrongWorldStops) {
   ExperimentOptions o = rectangle("wrong_world");
   o.replay_overrides = {"camera.params.world=straight6m"};
   const ExperimentRun r = run_single(o);
-  // spurious matches in the wrong world may count as seeing for a moment: 5 m blind + a margin
-  expect_stopped(r, "lost", 8.0);
+  // Spurious matches in the wrong world may count as seeing for a moment, and the start-view
+  // scan turns the robot to wherever they are best: measured with seed 1, the first 6 m edge was
+  // driven on such glimpses and the second stopped after 5 m blind (9.9 m). The bound: one edge
+  // plus the blind distance, well short of the 20 m loop.
+  expect_stopped(r, "lost", 6.2 + 5.0);
 }
 
 TEST(HonestExperiment, ACollisionFailsTheLoopAndSaysWhere) {

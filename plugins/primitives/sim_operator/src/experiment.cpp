@@ -649,6 +649,7 @@ cv::Mat draw_errors(const std::vector<ExperimentRun>& runs, const std::vector<st
   cv::putText(img, "end-of-loop position error [m] vs loop, every run (x: failed loop)", {left, 22},
               cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   const cv::Scalar colours[] = {cv::Scalar(200, 80, 0), cv::Scalar(0, 140, 0), cv::Scalar(0, 0, 200)};
+  int legend_x = left + 10;
   for (std::size_t si = 0; si < styles.size(); ++si) {
     const cv::Scalar c = colours[si % 3];
     const int dx = static_cast<int>(si) * 6 - 3;
@@ -672,8 +673,11 @@ cv::Mat draw_errors(const std::vector<ExperimentRun>& runs, const std::vector<st
     const Spread s = spread(acc);
     std::ostringstream label;
     label << styles[si] << ": eps_acc " << std::fixed << std::setprecision(3) << s.mean << " +- " << s.sd << " m";
-    cv::putText(img, label.str(), {left + 10 + static_cast<int>(si) * 260, 44}, cv::FONT_HERSHEY_SIMPLEX, 0.45, c, 1,
-                cv::LINE_AA);
+    // one label after the other, each as wide as its text
+    int baseline = 0;
+    const int width_px = cv::getTextSize(label.str(), cv::FONT_HERSHEY_SIMPLEX, 0.45, 1, &baseline).width;
+    cv::putText(img, label.str(), {legend_x, 44}, cv::FONT_HERSHEY_SIMPLEX, 0.45, c, 1, cv::LINE_AA);
+    legend_x += width_px + 24;
   }
   return img;
 }

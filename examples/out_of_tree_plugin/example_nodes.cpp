@@ -65,5 +65,7 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "example_nodes", "1.0", "example out-of-tree nodes plugin", nullptr, 0,
-              &register_nodes, nullptr, 0)
+VISNAV_PLUGIN({.name = "example_nodes",
+               .version = "1.0",
+               .description = "example out-of-tree nodes plugin",
+               .register_nodes = &register_nodes})

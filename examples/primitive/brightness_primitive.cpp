@@ -140,5 +140,7 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "brightness_primitive", "1.0", "example out-of-tree navigation primitive",
-              nullptr, 0, &register_nodes, nullptr, 0)
+VISNAV_PLUGIN({.name = "brightness_primitive",
+               .version = "1.0",
+               .description = "example out-of-tree navigation primitive",
+               .register_nodes = &register_nodes})

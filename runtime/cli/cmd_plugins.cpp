@@ -47,16 +47,18 @@ int run(const std::vector<std::string>& args) {
   const auto libraries = loader.libraries();
   std::cout << "\n" << libraries.size() << (libraries.size() == 1 ? " plugin" : " plugins") << ":\n";
   for (const auto* lib : libraries) {
-    std::cout << "  " << visnav::to_string(lib->kind) << "  " << lib->name << " " << lib->version << "  (ABI "
+    std::cout << "  " << lib->kinds_text() << "  " << lib->name << " " << lib->version << "  (ABI "
               << lib->abi_version << ")  " << lib->path << "\n";
     if (!lib->description.empty()) std::cout << "      " << lib->description << "\n";
-    for (const auto& t : lib->type_names) {
+    for (const auto& t : lib->types) {
       std::string description;
       for (const auto& info : loader.types())
-        if (info.library_path == lib->path && info.type_name == t) description = info.description;
-      std::cout << "      type " << t << (description.empty() ? "" : "  — " + description) << "\n";
+        if (info.library_path == lib->path && info.kind == t.kind && info.type_name == t.name)
+          description = info.description;
+      std::cout << "      " << visnav::to_string(t.kind) << " type " << t.name
+                << (description.empty() ? "" : "  — " + description) << "\n";
       if (a.has("--params")) {
-        auto docs = loader.param_docs(lib->kind, t, lib->path);
+        auto docs = loader.param_docs(t.kind, t.name, lib->path);
         if (!docs) {
           std::cout << "        (params unavailable: " << docs.error().message << ")\n";
           continue;
@@ -70,7 +72,7 @@ int run(const std::vector<std::string>& args) {
         }
       }
     }
-    if (lib->kind == visnav::PluginKind::nodes) {
+    if (lib->provides(visnav::PluginKind::nodes)) {
       // Register into a scratch registry to list the node IDs this library provides.
       for (const auto& np : loader.nodes_plugins()) {
         if (np.library != lib) continue;

@@ -149,5 +149,7 @@ const TypeEntry kTypes[] = {
 }  // namespace
 }  // namespace visnav::camera_dds
 
-VISNAV_PLUGIN(::visnav::PluginKind::camera, "camera_dds", "1.0", "Cyclone DDS camera (ROS 2 Image / CompressedImage)",
-              ::visnav::camera_dds::kTypes, 1, nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "camera_dds",
+               .version = "1.0",
+               .description = "Cyclone DDS camera (ROS 2 Image / CompressedImage)",
+               .types = ::visnav::camera_dds::kTypes})

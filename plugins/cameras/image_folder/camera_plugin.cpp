@@ -62,5 +62,7 @@ const TypeEntry kTypes[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::camera, "camera_image_folder", "0.1.0", "images of a folder as a camera", kTypes, 1,
-              nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "camera_image_folder",
+               .version = "0.1.0",
+               .description = "images of a folder as a camera",
+               .types = kTypes})

@@ -55,5 +55,7 @@ const TypeEntry kTypes[] = {make_type<RecordedCamera>("recorded", "frames of a r
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::camera, "camera_recorded", "0.1.0", "recorded-run frames as a camera", kTypes, 1,
-              nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "camera_recorded",
+               .version = "0.1.0",
+               .description = "recorded-run frames as a camera",
+               .types = kTypes})

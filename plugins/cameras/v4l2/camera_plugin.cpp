@@ -302,4 +302,7 @@ const TypeEntry kTypes[] = {make_type<V4l2Camera>("v4l2", "V4L2 (USB) camera by 
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::camera, "camera_v4l2", "0.1.0", "V4L2 camera", kTypes, 1, nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "camera_v4l2",
+               .version = "0.1.0",
+               .description = "V4L2 camera",
+               .types = kTypes})

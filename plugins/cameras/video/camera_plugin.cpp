@@ -190,4 +190,7 @@ const TypeEntry kTypes[] = {make_type<VideoCamera>("video", "frames of a video f
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::camera, "camera_video", "0.1.0", "video file as a camera", kTypes, 1, nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "camera_video",
+               .version = "0.1.0",
+               .description = "video file as a camera",
+               .types = kTypes})

@@ -20,6 +20,7 @@ const visnav::TypeEntry kTypes[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::detector, "detectors_opencv", "1.0",
-              "OpenCV detectors (ORB, SIFT, AKAZE, BRISK, AGAST/FAST/GFTT + BRIEF)", kTypes,
-              sizeof(kTypes) / sizeof(kTypes[0]), nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "detectors_opencv",
+               .version = "1.0",
+               .description = "OpenCV detectors (ORB, SIFT, AKAZE, BRISK, AGAST/FAST/GFTT + BRIEF)",
+               .types = kTypes})

@@ -15,6 +15,7 @@ const visnav::TypeEntry kTypes[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::detector, "detector_star_brief", "1.0",
-              "CenSurE/STAR + BRIEF detector written in visnav", kTypes, sizeof(kTypes) / sizeof(kTypes[0]), nullptr,
-              nullptr, 0)
+VISNAV_PLUGIN({.name = "detector_star_brief",
+               .version = "1.0",
+               .description = "CenSurE/STAR + BRIEF detector written in visnav",
+               .types = kTypes})

@@ -154,5 +154,7 @@ const TypeEntry kTypes[] = {
 }  // namespace
 }  // namespace visnav::robot_dds
 
-VISNAV_PLUGIN(::visnav::PluginKind::robot, "robot_dds", "1.0", "Cyclone DDS robot (ROS 2 cmd_vel/odom)",
-              ::visnav::robot_dds::kTypes, 1, nullptr, nullptr, 0)
+VISNAV_PLUGIN({.name = "robot_dds",
+               .version = "1.0",
+               .description = "Cyclone DDS robot (ROS 2 cmd_vel/odom)",
+               .types = ::visnav::robot_dds::kTypes})

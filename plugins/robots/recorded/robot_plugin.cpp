@@ -207,5 +207,7 @@ const TypeEntry kTypes[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::robot, "robot_recorded", "0.1.0", "recorded run as a robot", kTypes, 1, nullptr,
-              nullptr, 0)
+VISNAV_PLUGIN({.name = "robot_recorded",
+               .version = "0.1.0",
+               .description = "recorded run as a robot",
+               .types = kTypes})

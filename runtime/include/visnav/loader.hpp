@@ -60,18 +60,44 @@ struct PluginCommandInfo {
   int (*run)(int argc, char** argv, HostServices& host) = nullptr;
 };
 
+/// One (kind, name) a library provides.
+struct PluginTypeKey {
+  PluginKind kind = PluginKind::robot;
+  std::string name;
+  bool operator==(const PluginTypeKey&) const = default;
+};
+
 /// A successfully loaded library.
 struct PluginLibraryInfo {
   std::string path;          ///< absolute path of the .so
-  std::string file_name;     ///< e.g. "libvisnav_robot_sim.so"
-  std::string library_name;  ///< file name without "libvisnav_" and ".so", e.g. "robot_sim"
-  PluginKind kind = PluginKind::robot;
+  std::string file_name;     ///< e.g. "libvisnav_sim.so"
+  std::string library_name;  ///< file name without "libvisnav_" and ".so", e.g. "sim"
+  std::vector<PluginKind> kinds;  ///< what it provides (descriptor_kinds), e.g. robot, camera
   std::string name;          ///< descriptor name
   std::string version;
   std::string description;
   std::uint32_t abi_version = 0;
-  std::vector<std::string> type_names;     ///< robot/camera/detector kinds
+  std::vector<PluginTypeKey> types;        ///< robot/camera/detector types, descriptor order
   std::vector<std::string> command_names;
+
+  [[nodiscard]] bool provides(PluginKind kind) const {
+    for (PluginKind k : kinds)
+      if (k == kind) return true;
+    return false;
+  }
+  /// Names of the types of one kind.
+  [[nodiscard]] std::vector<std::string> type_names(PluginKind kind) const {
+    std::vector<std::string> out;
+    for (const auto& t : types)
+      if (t.kind == kind) out.push_back(t.name);
+    return out;
+  }
+  /// "robot, camera, nodes" (or "commands only").
+  [[nodiscard]] std::string kinds_text() const {
+    std::string out;
+    for (PluginKind k : kinds) out += (out.empty() ? "" : ", ") + std::string(to_string(k));
+    return out.empty() ? std::string("commands only") : out;
+  }
 };
 
 /// A plugin-provided reader of one edge kind's payload bodies (PayloadCheckEntry).
@@ -123,7 +149,7 @@ class PluginLoader {
   /// filesystem cannot be read. Returns the number of libraries loaded by this call.
   Result<std::size_t> scan();
 
-  /// Loads one library by path, or by name ("robot_sim", "libvisnav_robot_sim.so") looked up
+  /// Loads one library by path, or by name ("simulator", "libvisnav_simulator.so") looked up
   /// on the search path. Errors: not found (lists every path tried), dlopen failure (dlerror
   /// text), missing entry symbol, ABI mismatch, bad descriptor. Loading the same file twice
   /// returns the first load.

@@ -20,8 +20,14 @@
 //     visnav::Result<std::optional<visnav::Frame>> grab(double timeout_s) override;
 //   };
 //   static const visnav::TypeEntry kTypes[] = {visnav::make_type<MyCamera>("mycam", "What it is")};
-//   VISNAV_PLUGIN(visnav::PluginKind::camera, "mycam", "1.0", "My camera", kTypes, 1,
-//                 /*register_nodes=*/nullptr, /*commands=*/nullptr, 0)
+//   VISNAV_PLUGIN({.name = "mycam", .version = "1.0", .description = "My camera", .types = kTypes})
+//
+// One plugin may carry several kinds: robot, camera and detector types in `types` (each entry
+// names its kind, derived by make_type from the interface the class implements), behaviour-tree
+// nodes through `register_nodes`, `visnav` subcommands in `commands` and edge payload readers in
+// `payload_checks`. Objects of one plugin that must cooperate (a simulated robot and the camera
+// that renders its world) find each other through HostServices, never through process-wide
+// state (see HostServices::robot()).
 #pragma once
 
 #include <cstddef>
@@ -30,6 +36,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "visnav/config_node.hpp"
@@ -48,8 +55,11 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 /// 3: TypeEntry gained check_params; Error gained a code and a location; bt::PortInfo gained
 ///    check/constraint; navigation primitives are SDK types (primitive.hpp; the lost-policy ports
 ///    of bt/nav_health_ports.hpp are the primitive adapter's now) (issue 14).
-inline constexpr std::uint32_t kPluginAbiVersion = 3;
+/// 4: a descriptor carries several kinds (TypeEntry::kind; PluginDescriptor lost its single
+///    `kind`); VISNAV_PLUGIN takes a PluginInfo with named fields (issue 14).
+inline constexpr std::uint32_t kPluginAbiVersion = 4;
 
+/// What a plugin contributes. A library may contribute several kinds at once.
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };
 
 [[nodiscard]] inline const char* to_string(PluginKind kind) {
@@ -70,8 +80,9 @@ using ParamDocsFn = std::vector<ParamDoc> (*)();
 /// no connection. Each Error has a code and a location. Never throws (make_type wraps it).
 using ParamCheckFn = std::vector<Error> (*)(const ConfigNode& params);
 
-/// One object type a robot/camera/detector plugin provides.
+/// One object type (a robot, camera or detector) a plugin provides.
 struct TypeEntry {
+  PluginKind kind;          ///< robot, camera or detector (make_type derives it)
   const char* type_name;    ///< name used in config, e.g. "orb"
   const char* description;  ///< one line
   ObjectFactory create;
@@ -81,7 +92,7 @@ struct TypeEntry {
   ParamCheckFn check_params = nullptr;
 };
 
-/// Registers behaviour-tree node types (kind == nodes).
+/// Registers behaviour-tree node types (the plugin's `nodes` kind).
 using NodesRegistrar = Status (*)(bt::NodeRegistry& registry, HostServices& host);
 
 /// A `visnav <name> ...` subcommand contributed by a plugin (e.g. `visnav sim`).
@@ -101,21 +112,55 @@ struct PayloadCheckEntry {
   PayloadBodyCheck check;    ///< noexcept, pure, thread-safe
 };
 
+/// The descriptor a plugin's entry symbol returns. Plugins do not fill it by hand: they write a
+/// PluginInfo in VISNAV_PLUGIN, which builds it. Only `abi_version` is read before it matches.
 struct PluginDescriptor {
   std::uint32_t abi_version;      ///< must be first; == kPluginAbiVersion
   std::uint32_t descriptor_size;  ///< sizeof(PluginDescriptor) as compiled into the plugin
-  PluginKind kind;
   const char* name;               ///< plugin name, e.g. "detectors_opencv"
   const char* version;
   const char* description;
-  const TypeEntry* types;         ///< robot/camera/detector types
+  const TypeEntry* types;         ///< robot/camera/detector types (any mix of kinds)
   std::size_t type_count;
-  NodesRegistrar register_nodes;  ///< nodes kind; nullptr otherwise
+  NodesRegistrar register_nodes;  ///< nullptr: the plugin provides no behaviour-tree nodes
   const CommandEntry* commands;   ///< optional CLI subcommands
   std::size_t command_count;
-  const PayloadCheckEntry* payload_checks;  ///< optional (nodes plugins providing primitives)
+  const PayloadCheckEntry* payload_checks;  ///< optional (plugins providing primitives)
   std::size_t payload_check_count;
 };
+
+/// What a plugin declares, by name (designated initialisers; every field but `name` optional):
+///   VISNAV_PLUGIN({.name = "sim", .version = "0.1.0", .description = "...", .types = kTypes,
+///                  .commands = kCommands})
+/// Arrays are static tables of the plugin; a std::span views them without copying.
+struct PluginInfo {
+  const char* name = nullptr;
+  const char* version = "0.0.0";
+  const char* description = "";
+  std::span<const TypeEntry> types = {};
+  NodesRegistrar register_nodes = nullptr;
+  std::span<const CommandEntry> commands = {};
+  std::span<const PayloadCheckEntry> payload_checks = {};
+};
+
+[[nodiscard]] constexpr PluginDescriptor make_descriptor(const PluginInfo& info) {
+  return PluginDescriptor{kPluginAbiVersion,      sizeof(PluginDescriptor),  info.name,
+                          info.version,           info.description,          info.types.data(),
+                          info.types.size(),      info.register_nodes,       info.commands.data(),
+                          info.commands.size(),   info.payload_checks.data(), info.payload_checks.size()};
+}
+
+/// The kinds a descriptor provides (types' kinds in order of first appearance, then nodes).
+[[nodiscard]] inline std::vector<PluginKind> descriptor_kinds(const PluginDescriptor& d) {
+  std::vector<PluginKind> kinds;
+  for (std::size_t i = 0; i < d.type_count; ++i) {
+    bool seen = false;
+    for (PluginKind k : kinds) seen = seen || k == d.types[i].kind;
+    if (!seen) kinds.push_back(d.types[i].kind);
+  }
+  if (d.register_nodes != nullptr) kinds.push_back(PluginKind::nodes);
+  return kinds;
+}
 
 /// Wraps `Impl::create(params, host)` (returning Result<std::unique_ptr<Impl>>) so that
 /// no exception escapes into the host.
@@ -157,9 +202,20 @@ std::vector<Error> plugin_check_params(const ConfigNode& params) noexcept {
   }
 }
 
+/// The kind of an object class, from the SDK interface it implements.
+template <typename Impl>
+constexpr PluginKind kind_of() {
+  if constexpr (std::is_base_of_v<Robot, Impl>) return PluginKind::robot;
+  else if constexpr (std::is_base_of_v<Camera, Impl>) return PluginKind::camera;
+  else {
+    static_assert(std::is_base_of_v<Detector, Impl>, "make_type: Impl must derive from Robot, Camera or Detector");
+    return PluginKind::detector;
+  }
+}
+
 template <typename Impl>
 constexpr TypeEntry make_type(const char* type_name, const char* description) {
-  return TypeEntry{type_name, description, &plugin_factory<Impl>, &plugin_param_docs<Impl>,
+  return TypeEntry{kind_of<Impl>(), type_name, description, &plugin_factory<Impl>, &plugin_param_docs<Impl>,
                    &plugin_check_params<Impl>};
 }
 
@@ -167,17 +223,10 @@ constexpr TypeEntry make_type(const char* type_name, const char* description) {
 
 #define VISNAV_PLUGIN_ENTRY_SYMBOL "visnav_plugin_entry"
 
-/// Defines the entry symbol. TYPES and COMMANDS are arrays (or use VISNAV_NO_ITEMS).
-#define VISNAV_PLUGIN(KIND, NAME, VERSION, DESCRIPTION, TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, COMMAND_COUNT) \
-  VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(KIND, NAME, VERSION, DESCRIPTION, TYPES, TYPE_COUNT, REGISTRAR, COMMANDS,  \
-                                    COMMAND_COUNT, nullptr, 0)
-
-/// As VISNAV_PLUGIN, plus a table of PayloadCheckEntry (the plugin's edge payload readers).
-#define VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(KIND, NAME, VERSION, DESCRIPTION, TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, \
-                                          COMMAND_COUNT, CHECKS, CHECK_COUNT)                                     \
-  extern "C" __attribute__((visibility("default"))) const ::visnav::PluginDescriptor* visnav_plugin_entry() {    \
-    static const ::visnav::PluginDescriptor descriptor{                                                       \
-        ::visnav::kPluginAbiVersion, sizeof(::visnav::PluginDescriptor), KIND, NAME, VERSION, DESCRIPTION,    \
-        TYPES, TYPE_COUNT, REGISTRAR, COMMANDS, COMMAND_COUNT, CHECKS, CHECK_COUNT};                          \
-    return &descriptor;                                                                                       \
+/// Defines the entry symbol from a PluginInfo written with designated initialisers, e.g.
+///   VISNAV_PLUGIN({.name = "camera_dds", .version = "1.0", .description = "...", .types = kTypes})
+#define VISNAV_PLUGIN(...)                                                                                  \
+  extern "C" __attribute__((visibility("default"))) const ::visnav::PluginDescriptor* visnav_plugin_entry() { \
+    static const ::visnav::PluginDescriptor descriptor = ::visnav::make_descriptor(::visnav::PluginInfo __VA_ARGS__); \
+    return &descriptor;                                                                                     \
   }

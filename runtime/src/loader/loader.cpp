@@ -242,11 +242,6 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
     return fail(path + ": descriptor size " + std::to_string(descriptor->descriptor_size) + " does not match " +
                 std::to_string(sizeof(PluginDescriptor)) + " (plugin built against different SDK headers)");
   }
-  const auto kind_value = static_cast<std::uint32_t>(descriptor->kind);
-  if (kind_value < static_cast<std::uint32_t>(PluginKind::robot) ||
-      kind_value > static_cast<std::uint32_t>(PluginKind::nodes)) {
-    return fail(path + ": unknown plugin kind " + std::to_string(kind_value));
-  }
   if (descriptor->name == nullptr || descriptor->name[0] == '\0') return fail(path + ": descriptor has no name");
 
   auto loaded = std::make_unique<Loaded>();
@@ -256,27 +251,30 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
   info.path = path;
   info.file_name = fs::path(path).filename().string();
   info.library_name = library_name_of(info.file_name);
-  info.kind = descriptor->kind;
   info.name = descriptor->name;
   info.version = descriptor->version != nullptr ? descriptor->version : "";
   info.description = descriptor->description != nullptr ? descriptor->description : "";
   info.abi_version = abi;
 
-  if (descriptor->kind == PluginKind::nodes) {
-    if (descriptor->register_nodes == nullptr)
-      return fail(path + ": nodes plugin '" + info.name + "' has no register_nodes function");
-  } else {
-    if (descriptor->type_count > 0 && descriptor->types == nullptr)
-      return fail(path + ": descriptor declares " + std::to_string(descriptor->type_count) + " types but no table");
-    for (std::size_t i = 0; i < descriptor->type_count; ++i) {
-      const TypeEntry& t = descriptor->types[i];
-      if (t.type_name == nullptr || t.type_name[0] == '\0') return fail(path + ": type #" + std::to_string(i) + " has no name");
-      if (t.create == nullptr) return fail(path + ": type '" + std::string(t.type_name) + "' has no factory");
-      if (std::find(info.type_names.begin(), info.type_names.end(), t.type_name) != info.type_names.end())
-        return fail(path + ": type '" + std::string(t.type_name) + "' is listed twice in the descriptor");
-      info.type_names.emplace_back(t.type_name);
-    }
+  if (descriptor->type_count > 0 && descriptor->types == nullptr)
+    return fail(path + ": descriptor declares " + std::to_string(descriptor->type_count) + " types but no table");
+  for (std::size_t i = 0; i < descriptor->type_count; ++i) {
+    const TypeEntry& t = descriptor->types[i];
+    if (t.type_name == nullptr || t.type_name[0] == '\0') return fail(path + ": type #" + std::to_string(i) + " has no name");
+    const auto kind_value = static_cast<std::uint32_t>(t.kind);
+    if (t.kind != PluginKind::robot && t.kind != PluginKind::camera && t.kind != PluginKind::detector)
+      return fail(path + ": type '" + std::string(t.type_name) + "' has kind " + std::to_string(kind_value) +
+                  " (robot, camera or detector expected)");
+    if (t.create == nullptr) return fail(path + ": type '" + std::string(t.type_name) + "' has no factory");
+    for (std::size_t j = 0; j < i; ++j)
+      if (descriptor->types[j].kind == t.kind && std::string_view(descriptor->types[j].type_name) == t.type_name)
+        return fail(path + ": " + to_string(t.kind) + " type '" + std::string(t.type_name) +
+                    "' is listed twice in the descriptor");
+    info.types.push_back({t.kind, t.type_name});
   }
+  info.kinds = descriptor_kinds(*descriptor);
+  if (info.kinds.empty() && descriptor->command_count == 0)
+    return fail(path + ": plugin '" + info.name + "' provides nothing (no types, no nodes, no commands)");
   if (descriptor->command_count > 0 && descriptor->commands == nullptr)
     return fail(path + ": descriptor declares commands but no table");
   for (std::size_t i = 0; i < descriptor->command_count; ++i) {
@@ -295,12 +293,10 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
   }
 
   // Report type clashes with libraries loaded earlier (both stay loaded; see find_type).
-  for (const auto& type_name : info.type_names) {
+  for (const auto& type : info.types) {
     for (const auto& other : loaded_) {
-      if (other->info.kind != info.kind) continue;
-      if (std::find(other->info.type_names.begin(), other->info.type_names.end(), type_name) !=
-          other->info.type_names.end()) {
-        problems_.push_back({path, std::string("duplicate ") + to_string(info.kind) + " type '" + type_name +
+      if (std::find(other->info.types.begin(), other->info.types.end(), type) != other->info.types.end()) {
+        problems_.push_back({path, std::string("duplicate ") + to_string(type.kind) + " type '" + type.name +
                                        "': provided by both " + other->info.path + " and " + path});
       }
     }
@@ -335,7 +331,7 @@ std::vector<PluginTypeInfo> PluginLoader::types() const {
   for (const auto& l : loaded_) {
     for (std::size_t i = 0; i < l->descriptor->type_count; ++i) {
       const TypeEntry& t = l->descriptor->types[i];
-      out.push_back({l->info.kind, t.type_name, t.description != nullptr ? t.description : "", l->info.path});
+      out.push_back({t.kind, t.type_name, t.description != nullptr ? t.description : "", l->info.path});
     }
   }
   return out;
@@ -349,16 +345,16 @@ Result<PluginTypeInfo> PluginLoader::find_type(PluginKind kind, std::string_view
     if (l == nullptr)
       return fail("plugin library '" + std::string(library) + "' is not loaded (search path: " +
                   describe_search_path(search_dirs_) + ")");
-    if (l->info.kind != kind)
-      return fail("plugin library " + l->info.path + " is a " + to_string(l->info.kind) + " plugin, not a " + kind_name +
-                  " plugin");
+    if (!l->info.provides(kind))
+      return fail("plugin library " + l->info.path + " provides no " + kind_name + " types (it provides: " +
+                  l->info.kinds_text() + ")");
     for (std::size_t i = 0; i < l->descriptor->type_count; ++i) {
       const TypeEntry& t = l->descriptor->types[i];
-      if (type_name == t.type_name)
+      if (t.kind == kind && type_name == t.type_name)
         return PluginTypeInfo{kind, t.type_name, t.description != nullptr ? t.description : "", l->info.path};
     }
     return fail("plugin library " + l->info.path + " provides no " + kind_name + " type '" + std::string(type_name) +
-                "' (it provides: " + join(l->info.type_names, ", ") + ")");
+                "' (its " + kind_name + " types: " + join(l->info.type_names(kind), ", ") + ")");
   }
 
   std::vector<PluginTypeInfo> matches;
@@ -389,29 +385,27 @@ Result<PluginTypeInfo> PluginLoader::find_type(PluginKind kind, std::string_view
 Result<std::vector<ParamDoc>> PluginLoader::param_docs(PluginKind kind, std::string_view type_name,
                                                        std::string_view library) const {
   VISNAV_ASSIGN(PluginTypeInfo info, find_type(kind, type_name, library));
-  const Loaded* l = find_loaded(info.library_path);
-  for (std::size_t i = 0; l != nullptr && i < l->descriptor->type_count; ++i) {
-    const TypeEntry& t = l->descriptor->types[i];
-    if (type_name != t.type_name) continue;
-    if (t.param_docs == nullptr) return std::vector<ParamDoc>{};
-    try {
-      return t.param_docs();
-    } catch (const std::exception& e) {
-      return fail(info.library_path + ": param docs of '" + std::string(type_name) + "' threw: " + e.what());
-    } catch (...) {
-      return fail(info.library_path + ": param docs of '" + std::string(type_name) + "' threw");
-    }
+  VISNAV_ASSIGN(const TypeEntry* t, type_entry(kind, type_name, info.library_path));
+  if (t->param_docs == nullptr) return std::vector<ParamDoc>{};
+  try {
+    return t->param_docs();
+  } catch (const std::exception& e) {
+    return fail(info.library_path + ": param docs of '" + std::string(type_name) + "' threw: " + e.what());
+  } catch (...) {
+    return fail(info.library_path + ": param docs of '" + std::string(type_name) + "' threw");
   }
-  return fail("internal: type '" + std::string(type_name) + "' vanished from " + info.library_path);
 }
 
 Result<const TypeEntry*> PluginLoader::type_entry(PluginKind kind, std::string_view type_name,
                                                   std::string_view library) const {
   VISNAV_ASSIGN(PluginTypeInfo info, find_type(kind, type_name, library));
   const Loaded* l = find_loaded(info.library_path);
-  for (std::size_t i = 0; l != nullptr && i < l->descriptor->type_count; ++i)
-    if (type_name == l->descriptor->types[i].type_name) return &l->descriptor->types[i];
-  return fail("internal: type '" + std::string(type_name) + "' vanished from " + info.library_path);
+  for (std::size_t i = 0; l != nullptr && i < l->descriptor->type_count; ++i) {
+    const TypeEntry& t = l->descriptor->types[i];
+    if (t.kind == kind && type_name == t.type_name) return &t;
+  }
+  return fail("internal: " + std::string(to_string(kind)) + " type '" + std::string(type_name) + "' vanished from " +
+              info.library_path);
 }
 
 Result<PluginPtr<PluginObject>> PluginLoader::create_object(PluginKind kind, std::string_view type_name,
@@ -422,11 +416,8 @@ Result<PluginPtr<PluginObject>> PluginLoader::create_object(PluginKind kind, std
     if (!loaded) return std::move(loaded).error();
   }
   VISNAV_ASSIGN(PluginTypeInfo info, find_type(kind, type_name, library));
+  VISNAV_ASSIGN(const TypeEntry* entry, type_entry(kind, type_name, info.library_path));
   const Loaded* l = find_loaded(info.library_path);
-  const TypeEntry* entry = nullptr;
-  for (std::size_t i = 0; l != nullptr && i < l->descriptor->type_count; ++i)
-    if (type_name == l->descriptor->types[i].type_name) entry = &l->descriptor->types[i];
-  if (entry == nullptr) return fail("internal: type '" + std::string(type_name) + "' vanished from " + info.library_path);
 
   const std::string who = std::string(to_string(kind)) + " '" + std::string(type_name) + "' (" +
                           fs::path(info.library_path).filename().string() + ")";
@@ -447,7 +438,7 @@ Result<PluginPtr<PluginObject>> PluginLoader::create_object(PluginKind kind, std
 std::vector<PluginLoader::NodesPlugin> PluginLoader::nodes_plugins() const {
   std::vector<NodesPlugin> out;
   for (const auto& l : loaded_)
-    if (l->info.kind == PluginKind::nodes) out.push_back({&l->info, l->descriptor->register_nodes});
+    if (l->descriptor->register_nodes != nullptr) out.push_back({&l->info, l->descriptor->register_nodes});
   return out;
 }
 

@@ -58,9 +58,9 @@ Status register_all_nodes(bt::NodeRegistry& registry, PluginLoader& loader, Host
       if (found == nullptr) {
         auto loaded = loader.load_library(name);
         if (!loaded) return loaded.error().with_context("nodes plugin '" + name + "'");
-        if ((*loaded)->kind != PluginKind::nodes)
-          return fail("nodes plugin '" + name + "': " + (*loaded)->path + " is a " + to_string((*loaded)->kind) +
-                      " plugin");
+        if (!(*loaded)->provides(PluginKind::nodes))
+          return fail("nodes plugin '" + name + "': " + (*loaded)->path + " provides no behaviour-tree nodes (it provides: " +
+                      (*loaded)->kinds_text() + ")");
         for (const auto& p : loader.nodes_plugins())
           if (p.library == *loaded) selected.push_back(p);
       } else {

@@ -95,5 +95,7 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "fixture_recorded_nodes", "1.0", "recorded-run test nodes", nullptr, 0,
-              &register_nodes, nullptr, 0)
+VISNAV_PLUGIN({.name = "fixture_recorded_nodes",
+               .version = "1.0",
+               .description = "recorded-run test nodes",
+               .register_nodes = &register_nodes})

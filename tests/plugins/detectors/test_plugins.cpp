@@ -46,7 +46,7 @@ TEST(DetectorPlugins, BothLibrariesLoadAndProvideAllTypes) {
   for (const char* name : {"detector_star_brief", "detectors_opencv"}) {
     auto lib = h.loader.load_library(name);
     ASSERT_TRUE(lib.ok()) << lib.error().message;
-    EXPECT_EQ((*lib)->kind, PluginKind::detector);
+    EXPECT_EQ((*lib)->kinds, std::vector<PluginKind>{PluginKind::detector});
     EXPECT_EQ((*lib)->abi_version, visnav::kPluginAbiVersion);
   }
   for (const auto& [type, library] : kTypes) {

@@ -215,7 +215,7 @@ TEST(Loader, PinnedLibraryOfWrongKindIsRefused) {
   PluginLoader loader({kFixtures});
   auto r = loader.create<visnav::Robot>("fixture", visnav::ConfigNode{}, h.host, "fixture_camera");
   ASSERT_FALSE(r);
-  EXPECT_TRUE(contains(r.error().message, "is a camera plugin, not a robot plugin")) << r.error().message;
+  EXPECT_TRUE(contains(r.error().message, "provides no robot types (it provides: camera)")) << r.error().message;
 }
 
 TEST(Loader, PinnedLibraryIsLoadedOnDemandByName) {

@@ -167,14 +167,13 @@ int evaluate_entry(int argc, char** argv, HostServices& host) {
   }
 }
 
-Status register_nodes(bt::NodeRegistry&, HostServices&) { return ok(); }
-
 const CommandEntry kCommands[] = {
     {"evaluate", "compare a recorded run with a taught map frame by frame (offsets, inliers -> CSV, PNG)", &evaluate_entry},
 };
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "evaluation", "0.1.0",
-              "evaluation tools for recorded runs: `visnav evaluate` (map-vs-view offsets)", nullptr, 0, &register_nodes,
-              kCommands, 1)
+VISNAV_PLUGIN({.name = "evaluation",
+               .version = "0.1.0",
+               .description = "evaluation tools for recorded runs: `visnav evaluate` (map-vs-view offsets)",
+               .commands = kCommands})

@@ -82,7 +82,10 @@ const visnav::CommandEntry kCommands[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(visnav::PluginKind::nodes, "feature_replay", "0.1.0",
-              "Feature-based teach and replay: histogram-voting heading, segment landmarks (seed 000) and "
-              "local maps + recorded commands (seed 002)",
-              nullptr, 0, &register_nodes, kCommands, sizeof(kCommands) / sizeof(kCommands[0]), kPayloadChecks, 2)
+VISNAV_PLUGIN({.name = "feature_replay",
+               .version = "0.1.0",
+               .description = "Feature-based teach and replay: histogram-voting heading, segment landmarks (seed "
+                              "000) and local maps + recorded commands (seed 002)",
+               .register_nodes = &register_nodes,
+               .commands = kCommands,
+               .payload_checks = kPayloadChecks})

@@ -31,6 +31,8 @@ visnav::Status register_navigation_nodes(visnav::bt::NodeRegistry& registry, vis
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "navigation", "0.1.0",
-              "Route nodes over the hybrid topological map: PlanRoute, FollowRoute, TurnToAzimuth, TeachRoute, AtNode",
-              nullptr, 0, &register_navigation_nodes, nullptr, 0)
+VISNAV_PLUGIN({.name = "navigation",
+               .version = "0.1.0",
+               .description = "Route nodes over the hybrid topological map: PlanRoute, FollowRoute, "
+                              "TurnToAzimuth, TeachRoute, AtNode",
+               .register_nodes = &register_navigation_nodes})

@@ -36,7 +36,9 @@ const visnav::PayloadCheckEntry kPayloadChecks[] = {
 };
 }  // namespace
 
-VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(visnav::PluginKind::nodes, "path_following", "0.1.0",
-                                  "Segmentation-based path following (superpixels + Gaussian path models, seed 000 "
-                                  "Sec. 4)",
-                                  nullptr, 0, &register_nodes, kCommands, 1, kPayloadChecks, 1)
+VISNAV_PLUGIN({.name = "path_following",
+               .version = "0.1.0",
+               .description = "Segmentation-based path following (superpixels + Gaussian path models, seed 000 Sec. 4)",
+               .register_nodes = &register_nodes,
+               .commands = kCommands,
+               .payload_checks = kPayloadChecks})

@@ -346,11 +346,10 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   fs::create_directories(dir, ec);
   RunLogger logger(dir / "run.log");
 
-  // Overrides: placement and naming, then the ideal switch, then the user's; per phase the seeds
-  // (one draw of every error model per run) and the appearance.
-  const std::string robot_name = "sim_" + style + "_" + std::to_string(seed);
-  std::vector<std::string> base = {"robot.params.world=" + o.world, "robot.params.name=" + robot_name,
-                                   "camera.params.robot=" + robot_name};
+  // Overrides: placement, then the ideal switch, then the user's; per phase the seeds (one draw
+  // of every error model per run) and the appearance. Parallel jobs need no robot names: each
+  // session's camera rides on that session's robot.
+  std::vector<std::string> base = {"robot.params.world=" + o.world};
   if (route.start) {
     std::ostringstream start;
     start << std::setprecision(17) << route.start->x_m << ";" << route.start->y_m << ";"

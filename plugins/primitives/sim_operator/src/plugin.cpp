@@ -148,7 +148,8 @@ const CommandEntry kCommands[] = {
 }  // namespace
 }  // namespace visnav::simop
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "sim_operator", "0.1.0",
-              "Scripted teaching operator and the `experiment` and `convergence` commands for the simulator",
-              nullptr, 0, &visnav::simop::register_sim_operator_nodes, visnav::simop::kCommands,
-              sizeof(visnav::simop::kCommands) / sizeof(visnav::simop::kCommands[0]))
+VISNAV_PLUGIN({.name = "sim_operator",
+               .version = "0.1.0",
+               .description = "Scripted teaching operator and the `experiment` and `convergence` commands for the simulator",
+               .register_nodes = &visnav::simop::register_sim_operator_nodes,
+               .commands = visnav::simop::kCommands})

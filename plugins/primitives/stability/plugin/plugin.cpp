@@ -21,6 +21,8 @@ const visnav::CommandEntry kCommands[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "stability", "0.1.0",
-              "Convergence analysis (seed 000 Sec. 5, seed 002 Sec. 2.5/3.8) and parameter tuning", nullptr, 0,
-              &register_nodes, kCommands, sizeof(kCommands) / sizeof(kCommands[0]))
+VISNAV_PLUGIN({.name = "stability",
+               .version = "0.1.0",
+               .description = "Convergence analysis (seed 000 Sec. 5, seed 002 Sec. 2.5/3.8) and parameter tuning",
+               .register_nodes = &register_nodes,
+               .commands = kCommands})

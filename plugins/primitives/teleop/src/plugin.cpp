@@ -297,6 +297,7 @@ Status register_teleop_nodes(bt::NodeRegistry& registry, HostServices& host) {
 }  // namespace
 }  // namespace visnav::teleop
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "teleop", "0.1.0",
-              "Operator nodes: Teleop (teaching from keyboard, joystick or ROS 2 Joy/Twist) and TeleopOverride",
-              nullptr, 0, &visnav::teleop::register_teleop_nodes, nullptr, 0)
+VISNAV_PLUGIN({.name = "teleop",
+               .version = "0.1.0",
+               .description = "Operator nodes: Teleop (teaching from keyboard, joystick or ROS 2 Joy/Twist) and TeleopOverride",
+               .register_nodes = &visnav::teleop::register_teleop_nodes})

@@ -7,7 +7,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "visnav_sim/registry.hpp"
 
 namespace visnav::sim {
 
@@ -24,7 +23,6 @@ Status CameraParams::validate() const {
 const ParamSchema<CameraParams>& CameraParams::schema() {
   static const auto s =
       ParamSchema<CameraParams>{}
-          .field("robot", &CameraParams::robot, "name of the sim robot to ride on; empty = the first one")
           .field("world", &CameraParams::world, "world file or name; empty = the robot's world")
           .field("width_px", &CameraParams::width_px, "image width, px").range(8, 8192)
           .field("height_px", &CameraParams::height_px, "image height, px").range(8, 8192)
@@ -183,29 +181,46 @@ void CameraCore::last_labels(cv::Mat& labels) {
 
 Status SimCamera::bind() {
   if (core_) return ok();
-  VISNAV_ASSIGN(auto robot, find_robot(params_.robot));
+  std::shared_ptr<RobotCore> robot = robot_;
+  if (!robot) {
+    Robot* run_robot = host_ != nullptr ? host_->robot() : nullptr;
+    if (run_robot == nullptr) return fail("sim camera: the run has no robot yet (the sim camera renders a `sim` robot's world)");
+    // The host's robot may wrap the plugin's (the run's command guard); its simulation interface
+    // is the sim robot itself.
+    auto* sim_robot = dynamic_cast<SimRobot*>(run_robot->simulation());
+    if (sim_robot == nullptr)
+      return fail("sim camera: the run's robot is not a `sim` robot (the sim camera can only ride on one)");
+    robot = sim_robot->core();
+  }
   std::shared_ptr<const World> world = robot->world();
   if (!params_.world.empty()) {
     auto path = resolve_world_path(params_.world, relative_to_);
     if (!path) return path.error().with_context("sim camera: key 'world'");
     VISNAV_ASSIGN(world, load_world_cached(*path));
   }
-  if (world == nullptr)
-    return fail("sim camera: neither the camera nor robot '" + robot->params().name + "' names a world (set 'world')");
+  if (world == nullptr) return fail("sim camera: neither the camera nor the robot names a world (set 'world')");
+  robot_ = robot;
   core_ = std::make_unique<CameraCore>(params_, std::move(robot), std::move(world));
   return ok();
 }
 
-Result<std::unique_ptr<SimCamera>> SimCamera::create(const CameraParams& params, const std::string& relative_to) {
+Result<std::unique_ptr<SimCamera>> SimCamera::make(const CameraParams& params, std::shared_ptr<RobotCore> robot,
+                                                   HostServices* host, const std::string& relative_to) {
   VISNAV_TRY(params.validate());
-  std::unique_ptr<SimCamera> cam(new SimCamera(params, relative_to));
+  std::unique_ptr<SimCamera> cam(new SimCamera(params, relative_to, std::move(robot), host));
   if (!params.world.empty()) {  // report a bad world now rather than at the first grab
     auto path = resolve_world_path(params.world, relative_to);
     if (!path) return path.error().with_context("key 'world'");
     VISNAV_TRY(load_world_cached(*path));
   }
-  if (find_robot(params.robot)) VISNAV_TRY(cam->bind());
+  if (cam->robot_ || (host != nullptr && host->robot() != nullptr)) VISNAV_TRY(cam->bind());
   return cam;
+}
+
+Result<std::unique_ptr<SimCamera>> SimCamera::create(const CameraParams& params, std::shared_ptr<RobotCore> robot,
+                                                     const std::string& relative_to) {
+  if (!robot) return fail("sim camera: no robot to ride on");
+  return make(params, std::move(robot), nullptr, relative_to);
 }
 
 std::vector<Error> SimCamera::check_params(const ConfigNode& params) {
@@ -220,9 +235,9 @@ std::vector<Error> SimCamera::check_params(const ConfigNode& params) {
 Result<std::unique_ptr<SimCamera>> SimCamera::create(const ConfigNode& params, HostServices& host) {
   if (auto problems = check_params(params); !problems.empty()) return std::move(problems.front());
   VISNAV_ASSIGN(CameraParams p, CameraParams::schema().parse(params));
-  auto made = create(p, params.where().file);
+  auto made = make(p, nullptr, &host, params.where().file);
   if (!made) return made.error().with_context(params.where().str());
-  host.logger().info("camera_sim", std::to_string(p.width_px) + "x" + std::to_string(p.height_px) + " hfov " +
+  host.logger().info("sim camera", std::to_string(p.width_px) + "x" + std::to_string(p.height_px) + " hfov " +
                                        std::to_string(p.hfov_deg) + " deg" +
                                        ((*made)->core_ ? "" : " (robot not created yet; bound at the first grab)"));
   return made;
@@ -237,7 +252,6 @@ Result<std::optional<Frame>> SimCamera::grab(double timeout_s) {
 Status SimCamera::reconfigure(const ConfigNode& params) {
   VISNAV_ASSIGN(CameraParams p, CameraParams::schema().parse(params));
   VISNAV_TRY(p.validate());
-  if (p.robot != params_.robot) return fail("sim camera: 'robot' cannot change while running");
   // Another world may be shown from now on (a replay in a changed or a wrong world); the robot
   // keeps driving (and colliding) in its own.
   std::shared_ptr<const World> world;
@@ -249,11 +263,9 @@ Status SimCamera::reconfigure(const ConfigNode& params) {
   const bool back_to_robot_world = p.world.empty() && !params_.world.empty();
   params_ = p;
   if (core_) {
-    auto robot = find_robot(params_.robot);
-    if (!robot) return robot.error();
-    if (!world) world = back_to_robot_world ? (*robot)->world() : core_->renderer().world_ptr();
+    if (!world) world = back_to_robot_world ? robot_->world() : core_->renderer().world_ptr();
     if (world == nullptr) return fail("sim camera: no world to render");
-    core_ = std::make_unique<CameraCore>(params_, *robot, world);
+    core_ = std::make_unique<CameraCore>(params_, robot_, world);
   }
   return ok();
 }

@@ -285,7 +285,6 @@ int cmd_teleop(const std::vector<std::string>& args, std::ostream& out, std::ost
     if (isatty(STDIN_FILENO) == 0) return fail("teleop needs an interactive terminal on stdin");
     VISNAV_ASSIGN(RobotParams params, robot_params_from(*a));
     VISNAV_ASSIGN(params.world, resolve_world_path(*a->get("--world")));
-    params.name = "teleop";
     VISNAV_ASSIGN(const double rate, number(*a, "--rate", 20.0));
     if (!(rate > 0.0 && rate <= 200.0)) return fail("--rate must be in (0, 200]");
     VISNAV_ASSIGN(auto robot, SimRobot::create(params));
@@ -377,7 +376,6 @@ Result<std::vector<DriveSample>> drive_route(const Route& route, RobotParams rob
       robot_params.start_pose = {a.x, a.y, std::atan2(b.y - a.y, b.x - a.x) / kDeg};
     }
   }
-  robot_params.name = "drive:" + route.name;
   VISNAV_ASSIGN(auto robot, SimRobot::create(robot_params));
   RouteFollower follower(route);
   std::vector<DriveSample> samples;

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include "visnav_sim/registry.hpp"
 
 namespace visnav::sim {
 namespace {
@@ -26,7 +25,6 @@ double approach(double current, double target, double max_delta) {
 }  // namespace
 
 Status RobotParams::validate() const {
-  if (name.empty()) return fail("key 'name': must not be empty");
   if (!start_pose.empty() && start_pose.size() != 3)
     return fail("key 'start_pose': expected 3 values x_m;y_m;heading_deg, got " + std::to_string(start_pose.size()));
   if (kinematics == "car_like" && !(min_turning_radius_m > 0))
@@ -37,7 +35,6 @@ Status RobotParams::validate() const {
 const ParamSchema<RobotParams>& RobotParams::schema() {
   static const auto s =
       ParamSchema<RobotParams>{}
-          .field("name", &RobotParams::name, "registry name; the sim camera's `robot` refers to it")
           .field("world", &RobotParams::world, "world file or name (config/worlds/<name>.yaml); empty = none")
           .field("kinematics", &RobotParams::kinematics, "drive model").one_of({"diff_drive", "car_like", "tracked"})
           .field("max_linear_mps", &RobotParams::max_linear_mps, "forward speed limit, m/s").range(0.01, 20)
@@ -149,7 +146,6 @@ RobotParams RobotCore::params() const {
 void RobotCore::set_params(const RobotParams& params) {
   std::lock_guard lock(mutex_);
   RobotParams p = params;
-  p.name = params_.name;
   p.world = params_.world;
   p.kinematics = params_.kinematics;
   p.start_pose = params_.start_pose;
@@ -355,7 +351,7 @@ double RobotCore::true_distance_m() const {
 
 SimRobot::SimRobot(std::shared_ptr<RobotCore> core) : core_(std::move(core)) {}
 
-SimRobot::~SimRobot() { unregister_robot(core_->params().name, core_.get()); }
+SimRobot::~SimRobot() = default;
 
 Result<std::unique_ptr<SimRobot>> SimRobot::create(const RobotParams& params, const std::string& relative_to) {
   VISNAV_TRY(params.validate());
@@ -366,7 +362,6 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const RobotParams& params, co
     VISNAV_ASSIGN(world, load_world_cached(*path));
   }
   auto core = std::make_shared<RobotCore>(params, resolve_start(params, world.get()), world);
-  VISNAV_TRY(register_robot(params.name, core));
   return std::unique_ptr<SimRobot>(new SimRobot(std::move(core)));
 }
 
@@ -386,7 +381,7 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, Hos
   if (!made) return made.error().with_context(params.where().str());
   const Pose2D s = (*made)->core_->ground_truth();
   const RunErrors e = (*made)->core_->run_errors();
-  host.logger().info("robot_sim", "robot '" + p.name + "' (" + p.kinematics + ") starts at x=" + std::to_string(s.x_m) +
+  host.logger().info("sim robot", "(" + p.kinematics + ") starts at x=" + std::to_string(s.x_m) +
                                       " y=" + std::to_string(s.y_m) + " heading=" + std::to_string(s.heading_rad / kDeg) + " deg" +
                                       (p.world.empty() ? std::string() : " in world '" + p.world + "'") +
                                       "; run errors: scale " + std::to_string(e.scale_error_pct) + " %, wheel asymmetry " +
@@ -398,10 +393,10 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, Hos
 Status SimRobot::reconfigure(const ConfigNode& params) {
   VISNAV_ASSIGN(RobotParams p, RobotParams::schema().parse(params));
   const RobotParams cur = core_->params();
-  if (p.name != cur.name || p.world != cur.world || p.kinematics != cur.kinematics || p.start_pose != cur.start_pose ||
+  if (p.world != cur.world || p.kinematics != cur.kinematics || p.start_pose != cur.start_pose ||
       p.displacement_lateral_m != cur.displacement_lateral_m || p.displacement_longitudinal_m != cur.displacement_longitudinal_m ||
       p.displacement_heading_deg != cur.displacement_heading_deg)
-    return fail("sim robot: name, world, kinematics, start_pose and displacement_* cannot change while running");
+    return fail("sim robot: world, kinematics, start_pose and displacement_* cannot change while running");
   core_->set_params(p);
   return ok();
 }

@@ -6,7 +6,9 @@
 #include <opencv2/core.hpp>
 
 #include "visnav_sim/camera.hpp"
-#include "visnav_sim/registry.hpp"
+#include "visnav/config.hpp"
+#include "visnav/host.hpp"
+#include "visnav_sim/robot.hpp"
 
 namespace vs = visnav::sim;
 using visnav::Pose2D;
@@ -32,6 +34,34 @@ vs::CameraParams small() {
   c.height_px = 72;
   return c;
 }
+
+/// A host with nothing but a robot slot, as the run's host is when it makes the camera.
+class RobotSlotHost final : public visnav::HostServices {
+ public:
+  visnav::Logger& logger() override { return logger_; }
+  const visnav::Clock& clock() override { return clock_; }
+  visnav::Result<std::unique_ptr<visnav::Detector>> create_detector(std::string_view, const visnav::ConfigNode&) override {
+    return visnav::fail("no detectors here");
+  }
+  visnav::Robot* robot() override { return robot_; }
+  void set_robot(visnav::Robot* robot) { robot_ = robot; }
+
+ private:
+  struct Quiet final : visnav::Logger {
+    void log(visnav::LogLevel, std::string_view, std::string_view) override {}
+  } logger_;
+  struct Zero final : visnav::Clock {
+    [[nodiscard]] double now_s() const override { return 0.0; }
+  } clock_;
+  visnav::Robot* robot_ = nullptr;
+};
+
+/// A robot that is not simulated.
+class WheelRobot final : public visnav::Robot {
+ public:
+  visnav::Status send_command(const visnav::Twist&) override { return visnav::ok(); }
+  std::optional<visnav::Odometry> latest_odometry() override { return std::nullopt; }
+};
 
 bool same(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0;
@@ -152,23 +182,53 @@ TEST(SimCamera, AppearanceChangesAltersTheImage) {
   }
 }
 
-TEST(SimCamera, PluginObjectFindsItsRobotLazily) {
-  vs::CameraParams c = small();
-  c.robot = "lazy_robot";
-  auto cam = vs::SimCamera::create(c);
+TEST(SimCamera, PluginObjectRidesTheRunsRobotFoundThroughTheHost) {
+  // No process-wide registry: the camera finds its robot through HostServices::robot(), which
+  // the run sets before it makes the camera; made earlier (or in another order), the camera
+  // binds at its first grab.
+  RobotSlotHost host;
+  auto params = visnav::parse_yaml_string("{width_px: 96, height_px: 64}", "camera.yaml");
+  ASSERT_TRUE(params.ok()) << params.error().message;
+  auto cam = vs::SimCamera::create(*params, host);
   ASSERT_TRUE(cam.ok()) << cam.error().message;
   auto missing = (*cam)->grab(0.1);
   ASSERT_FALSE(missing.ok());
-  EXPECT_NE(missing.error().message.find("lazy_robot"), std::string::npos);
+  EXPECT_NE(missing.error().message.find("no robot"), std::string::npos) << missing.error().message;
+
   vs::RobotParams p;
-  p.name = "lazy_robot";
   p.world = "straight6m";
   auto bot = vs::SimRobot::create(p);
   ASSERT_TRUE(bot.ok()) << bot.error().message;
+  host.set_robot(bot->get());
   ASSERT_TRUE((*bot)->step(0.05).ok());
   auto frame = (*cam)->grab(0.1);
   ASSERT_TRUE(frame.ok()) << frame.error().message;
   ASSERT_TRUE(frame->has_value());
   EXPECT_EQ((*frame)->image.cols, 96);
   EXPECT_NEAR((*frame)->timestamp_s, 0.05, 1e-9);
+
+  // Two robots in one process: each camera renders its own (a registry keyed by name could not).
+  p.start_pose = std::vector<double>{0.0, 0.0, 180.0};
+  auto other = vs::SimRobot::create(p);
+  ASSERT_TRUE(other.ok()) << other.error().message;
+  vs::CameraParams c;
+  c.width_px = 96;
+  c.height_px = 64;
+  auto other_cam = vs::SimCamera::create(c, (*other)->core());
+  ASSERT_TRUE(other_cam.ok()) << other_cam.error().message;
+  ASSERT_TRUE((*other)->step(0.05).ok());
+  auto other_frame = (*other_cam)->grab(0.1);
+  ASSERT_TRUE(other_frame.ok() && other_frame->has_value());
+  EXPECT_GT(cv::norm((*frame)->image, (*other_frame)->image, cv::NORM_L1), 0.0) << "both cameras rendered one robot";
+}
+
+TEST(SimCamera, RefusesARobotThatIsNotSimulated) {
+  RobotSlotHost host;
+  WheelRobot real;
+  host.set_robot(&real);
+  auto params = visnav::parse_yaml_string("{width_px: 96, height_px: 64}", "camera.yaml");
+  ASSERT_TRUE(params.ok());
+  auto cam = vs::SimCamera::create(*params, host);
+  ASSERT_FALSE(cam.ok());
+  EXPECT_NE(cam.error().message.find("not a `sim` robot"), std::string::npos) << cam.error().message;
 }

@@ -49,7 +49,7 @@ struct PluginFixture : ::testing::Test {
 }  // namespace
 
 TEST_F(PluginFixture, DescriptorIsANodesPluginWithThePathsegCommand) {
-  EXPECT_EQ(info->kind, visnav::PluginKind::nodes);
+  EXPECT_EQ(info->kinds, std::vector<visnav::PluginKind>{visnav::PluginKind::nodes});
   EXPECT_EQ(info->library_name, "path_following");
   EXPECT_NE(std::find(info->command_names.begin(), info->command_names.end(), "pathseg"), info->command_names.end());
   ASSERT_NE(pathseg.run, nullptr);

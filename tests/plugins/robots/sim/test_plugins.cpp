@@ -1,5 +1,5 @@
-// The robot_sim and camera_sim plugins through the real plugin loader: types, params,
-// lock-step step → grab, the `sim` command entry.
+// The simulator plugin through the real plugin loader: one descriptor carrying a robot type, a
+// camera type and a command; params; lock-step step → grab; the `sim` command entry.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -28,8 +28,11 @@ class TestHost final : public visnav::HostServices {
   visnav::Result<std::unique_ptr<visnav::Detector>> create_detector(std::string_view, const visnav::ConfigNode&) override {
     return visnav::fail("no detectors in this test");
   }
+  visnav::Robot* robot() override { return robot_; }
+  void set_robot(visnav::Robot* robot) { robot_ = robot; }
 
  private:
+  visnav::Robot* robot_ = nullptr;
   QuietLogger logger_;
   ZeroClock clock_;
 };
@@ -46,10 +49,11 @@ visnav::ConfigNode params(std::initializer_list<std::pair<const char*, const cha
 TEST(SimPlugins, LoadCreateStepGrab) {
   visnav::PluginLoader loader({VISNAV_TEST_PLUGIN_DIR});
   TestHost host;
-  auto robot_lib = loader.load_library("robot_sim");
-  ASSERT_TRUE(robot_lib.ok()) << robot_lib.error().message;
-  auto camera_lib = loader.load_library("camera_sim");
-  ASSERT_TRUE(camera_lib.ok()) << camera_lib.error().message;
+  auto lib = loader.load_library("simulator");
+  ASSERT_TRUE(lib.ok()) << lib.error().message;
+  EXPECT_EQ((*lib)->kinds, (std::vector<visnav::PluginKind>{visnav::PluginKind::robot, visnav::PluginKind::camera}));
+  EXPECT_EQ((*lib)->type_names(visnav::PluginKind::robot), std::vector<std::string>{"sim"});
+  EXPECT_EQ((*lib)->type_names(visnav::PluginKind::camera), std::vector<std::string>{"sim"});
 
   bool has_sim_command = false;
   for (const auto& c : loader.commands()) has_sim_command = has_sim_command || c.name == "sim";
@@ -59,8 +63,9 @@ TEST(SimPlugins, LoadCreateStepGrab) {
   EXPECT_GT(docs->size(), 15u);
 
   auto robot = loader.create<visnav::Robot>(
-      "sim", params({{"name", "loader_robot"}, {"world", "straight6m"}, {"odom_rate_hz", "10"}}), host);
+      "sim", params({{"world", "straight6m"}, {"odom_rate_hz", "10"}}), host);
   ASSERT_TRUE(robot.ok()) << robot.error().message;
+  host.set_robot(robot->get());  // as the run does before it makes the camera
   auto camera = loader.create<visnav::Camera>("sim", params({{"width_px", "160"}, {"height_px", "120"}}), host);
   ASSERT_TRUE(camera.ok()) << camera.error().message;
 
@@ -86,10 +91,10 @@ TEST(SimPlugins, LoadCreateStepGrab) {
 TEST(SimPlugins, BadParamsAreRejectedWithLocation) {
   visnav::PluginLoader loader({VISNAV_TEST_PLUGIN_DIR});
   TestHost host;
-  auto robot = loader.create<visnav::Robot>("sim", params({{"max_linear_mps", "fast"}}), host, "robot_sim");
+  auto robot = loader.create<visnav::Robot>("sim", params({{"max_linear_mps", "fast"}}), host, "simulator");
   ASSERT_FALSE(robot.ok());
   EXPECT_NE(robot.error().message.find("test.yaml:2"), std::string::npos) << robot.error().message;
-  auto robot2 = loader.create<visnav::Robot>("sim", params({{"kinematics", "hovercraft"}}), host, "robot_sim");
+  auto robot2 = loader.create<visnav::Robot>("sim", params({{"kinematics", "hovercraft"}}), host, "simulator");
   ASSERT_FALSE(robot2.ok());
   EXPECT_NE(robot2.error().message.find("hovercraft"), std::string::npos) << robot2.error().message;
 }

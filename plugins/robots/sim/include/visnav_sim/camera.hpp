@@ -38,7 +38,6 @@
 namespace visnav::sim {
 
 struct CameraParams {
-  std::string robot;   ///< registry name of the sim robot; "" = the first one
   std::string world;   ///< world file/name; "" = the robot's world
   int width_px = 320;
   int height_px = 240;
@@ -109,8 +108,11 @@ class CameraCore {
   bool have_last_ = false;
 };
 
-/// The `sim` camera plugin object. The robot is looked up in the registry at creation; if it
-/// does not exist yet, at the first grab (so config order does not matter).
+/// The `sim` camera plugin object. It rides on the run's robot, which must be a `sim` robot:
+/// created through the plugin it finds that robot through HostServices::robot() (at creation
+/// when the host already has it, else at the first grab, so config order does not matter); made
+/// in-process it is given the robot's core. No process-wide state: two runs in one process each
+/// render their own robot.
 class SimCamera final : public Camera {
  public:
   using Params = CameraParams;
@@ -118,18 +120,27 @@ class SimCamera final : public Camera {
   /// schema, validate() and the `world` file (resolved against the block's file, opened and
   /// parsed; errors at the key 'world'). create() runs the same checks first.
   static std::vector<Error> check_params(const ConfigNode& params);
+  /// The plugin factory: rides on `host.robot()`. `host` must outlive the camera (HostServices
+  /// contract).
   static Result<std::unique_ptr<SimCamera>> create(const ConfigNode& params, HostServices& host);
-  static Result<std::unique_ptr<SimCamera>> create(const CameraParams& params, const std::string& relative_to = {});
+  /// In-process use (tools, tests): rides on `robot` (shared; kept alive by the camera).
+  static Result<std::unique_ptr<SimCamera>> create(const CameraParams& params, std::shared_ptr<RobotCore> robot,
+                                                   const std::string& relative_to = {});
   Result<std::optional<Frame>> grab(double timeout_s) override;
   Status reconfigure(const ConfigNode& params) override;
   /// The bound core, or nullptr before the robot was found.
   [[nodiscard]] CameraCore* core() { return core_.get(); }
 
  private:
-  SimCamera(CameraParams params, std::string relative_to) : params_(std::move(params)), relative_to_(std::move(relative_to)) {}
+  SimCamera(CameraParams params, std::string relative_to, std::shared_ptr<RobotCore> robot, HostServices* host)
+      : params_(std::move(params)), relative_to_(std::move(relative_to)), robot_(std::move(robot)), host_(host) {}
+  static Result<std::unique_ptr<SimCamera>> make(const CameraParams& params, std::shared_ptr<RobotCore> robot,
+                                                 HostServices* host, const std::string& relative_to);
   Status bind();
   CameraParams params_;
   std::string relative_to_;
+  std::shared_ptr<RobotCore> robot_;  // set at bind() (or given)
+  HostServices* host_ = nullptr;      // plugin-made cameras only; outlives the camera
   std::unique_ptr<CameraCore> core_;
 };
 

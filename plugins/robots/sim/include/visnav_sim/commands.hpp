@@ -1,4 +1,4 @@
-// visnav simulator — the `visnav sim ...` subcommands (contributed by the robot_sim plugin
+// visnav simulator — the `visnav sim ...` subcommands (contributed by the simulator plugin
 // through its CommandEntry; callable directly from tests).
 //
 //   visnav sim snapshot --world W --pose x,y,theta_deg -o view.png [--width N --height N

@@ -63,7 +63,6 @@
 namespace visnav::sim {
 
 struct RobotParams {
-  std::string name = "sim";  ///< registry name the camera refers to
   std::string world;         ///< world file or name (config/worlds/<name>.yaml); "" = none (camera brings its own)
   std::string kinematics = "diff_drive";
   double max_linear_mps = 1.0;
@@ -189,8 +188,8 @@ class RobotCore {
 /// displacement applied in the start pose's frame.
 [[nodiscard]] Pose2D resolve_start(const RobotParams& params, const World* world);
 
-/// The `sim` robot plugin object. Registers its core in the process-wide registry under
-/// params.name for its lifetime (a second live robot of the same name is an error).
+/// The `sim` robot plugin object. The `sim` camera of the same run finds it through
+/// HostServices::robot() and shares its core.
 class SimRobot final : public Robot, public SimulationControl {
  public:
   using Params = RobotParams;

@@ -51,7 +51,7 @@ function(visnav_add_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT;LSAN_OPTIONS" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   visnav_target_settings(${name})
-  target_link_libraries(${name} PRIVATE visnav::sdk GTest::gtest GTest::gtest_main ${ARG_LIBS})
+  target_link_libraries(${name} PRIVATE visnav::runtime GTest::gtest GTest::gtest_main ${ARG_LIBS})
   target_compile_definitions(${name} PRIVATE
     VISNAV_TEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     VISNAV_TEST_BINARY_DIR="${PROJECT_BINARY_DIR}"
@@ -87,7 +87,7 @@ function(visnav_add_benchmark name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   visnav_target_settings(${name})
-  target_link_libraries(${name} PRIVATE visnav::sdk benchmark::benchmark ${ARG_LIBS})
+  target_link_libraries(${name} PRIVATE visnav::runtime benchmark::benchmark ${ARG_LIBS})
   target_compile_definitions(${name} PRIVATE
     VISNAV_TEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     VISNAV_TEST_PLUGIN_DIR="${VISNAV_BUILD_PLUGIN_DIR}")

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -80,5 +81,12 @@ class ConfigNode {
   std::vector<ConfigNode> items_;
   SourceLocation where_;
 };
+
+/// Parses YAML text. `file_label` is used in locations ("setup.yaml:3"). Scalars keep their
+/// text; YAML null (`~`, `null`, empty value) becomes a null node. Duplicate map keys and
+/// syntax errors are errors with file:line.
+[[nodiscard]] Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& file_label);
+/// Reads and parses a YAML file (missing/unreadable file is an error naming the path).
+[[nodiscard]] Result<ConfigNode> parse_yaml_file(const std::string& path);
 
 }  // namespace visnav

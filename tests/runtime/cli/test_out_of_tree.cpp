@@ -1,7 +1,8 @@
 // The core is closed for modification: an out-of-tree plugin project builds against the
 // installed SDK (find_package(visnav)) and is loaded by the installed CLI through config only.
-// Two examples: a plain nodes plugin (examples/out_of_tree_plugin) and a navigation primitive
-// (examples/primitive), which teaches and replays an edge on the simulated robot.
+// Three examples: a plain nodes plugin (examples/out_of_tree_plugin), a navigation primitive
+// (examples/primitive), which teaches and replays an edge on the simulated robot, and a plugin
+// carrying a robot driver and a detector in one descriptor (examples/devices).
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
@@ -10,7 +11,11 @@
 #include <fstream>
 #include <string>
 
+#include <opencv2/imgproc.hpp>
+
+#include "visnav/loader.hpp"
 #include "visnav/plugin.hpp"
+#include "visnav/runtime_host.hpp"
 
 namespace fs = std::filesystem;
 
@@ -133,4 +138,72 @@ TEST(OutOfTreePlugin, ExamplePrimitiveTeachesAndReplaysAnEdgeOnTheSimulatedRobot
   // Not recognising the taught brightness for 2 m of the 3 m edge would show as "| slowing".
   EXPECT_EQ(telemetry.find("slowing"), std::string::npos) << "the taught brightness was not recognised";
   EXPECT_NE(telemetry.find("\"distance_m\":2.9"), std::string::npos) << telemetry.substr(telemetry.size() > 2000 ? telemetry.size() - 2000 : 0);
+}
+
+// examples/devices: one library, two kinds. The loader indexes both; the robot writes its
+// command protocol and parses odometry lines (skipping a malformed one); the detector finds
+// and describes corners; bad params name the key.
+TEST(OutOfTreePlugin, ExampleDevicesPluginCarriesARobotAndADetector) {
+  const OutOfTreeBuild oot("devices");
+  ASSERT_TRUE(oot.ok) << read_file(oot.log);
+  ASSERT_TRUE(fs::exists(oot.build / "libvisnav_line_devices.so")) << read_file(oot.log);
+  const fs::path out = oot.dir / "plugins.txt";
+  ASSERT_EQ(sh("VISNAV_PLUGIN_PATH='" + oot.build.string() + "' '" + oot.visnav() + "' plugins >'" + out.string() + "'",
+               oot.log),
+            0)
+      << read_file(oot.log);
+  EXPECT_NE(read_file(out).find("robot, detector  line_devices 1.0"), std::string::npos) << read_file(out);
+
+  visnav::PluginLoader loader({oot.build.string()});
+  ASSERT_TRUE(loader.scan());
+  visnav::StderrLogger logger(visnav::LogLevel::error);
+  visnav::ManualClock clock;
+  visnav::RuntimeHost host(loader, logger, clock);
+
+  const fs::path commands = oot.dir / "commands.txt", odometry = oot.dir / "odometry.txt";
+  std::ofstream(commands).flush();
+  std::ofstream(odometry) << "ODOM 0.1 0.05 0 0 0.05\nODOM garbage\nODOM 0.2 0.10 0.01 0.02 0.10\n";
+  auto node = visnav::parse_yaml_string("{command_path: '" + commands.string() + "', odometry_path: '" +
+                                            odometry.string() + "', max_linear_mps: 0.4}",
+                                        "robot.yaml");
+  ASSERT_TRUE(node.ok()) << node.error().message;
+  {
+    auto robot = loader.create<visnav::Robot>("line_robot", *node, host);
+    ASSERT_TRUE(robot.ok()) << robot.error().message;
+    auto odo = (*robot)->latest_odometry();
+    ASSERT_TRUE(odo.has_value());
+    EXPECT_DOUBLE_EQ(odo->timestamp_s, 0.2);
+    EXPECT_DOUBLE_EQ(odo->distance_m, 0.10);
+    EXPECT_DOUBLE_EQ(odo->pose.heading_rad, 0.02);
+    ASSERT_TRUE((*robot)->send_command({0.9, 0.1}).ok());  // clamped to max_linear_mps
+    ASSERT_TRUE((*robot)->stop().ok());
+  }
+  EXPECT_EQ(read_file(commands), "CMD 0.4000 0.1000\nCMD 0.0000 0.0000\n");
+
+  auto missing = visnav::parse_yaml_string("{command_path: /nonexistent/tty, odometry_path: /nonexistent/tty}", "r.yaml");
+  ASSERT_TRUE(missing.ok());
+  auto refused = loader.create<visnav::Robot>("line_robot", *missing, host);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("/nonexistent/tty"), std::string::npos) << refused.error().message;
+
+  auto detector_node = visnav::parse_yaml_string("{threshold: 20, max_keypoints: 50}", "detector.yaml");
+  ASSERT_TRUE(detector_node.ok());
+  auto detector = loader.create<visnav::Detector>("fast_orb", *detector_node, host);
+  ASSERT_TRUE(detector.ok()) << detector.error().message;
+  cv::Mat image(240, 320, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(image, image, cv::Size(5, 5), 1.5);  // textured: FAST finds hundreds of corners
+  visnav::Features features;
+  ASSERT_TRUE((*detector)->detect(image, features).ok());
+  EXPECT_GT(features.keypoints.size(), 20u);  // ORB drops the ones too near the border
+  EXPECT_LE(features.keypoints.size(), 50u);
+  EXPECT_EQ(features.descriptors.rows, static_cast<int>(features.keypoints.size()));
+  EXPECT_FALSE((*detector)->detect(cv::Mat(), features).ok());
+
+  auto bad = visnav::parse_yaml_string("{threshold: 0}", "detector.yaml");
+  ASSERT_TRUE(bad.ok());
+  auto rejected = loader.create<visnav::Detector>("fast_orb", *bad, host);
+  ASSERT_FALSE(rejected.ok());
+  EXPECT_NE(rejected.error().message.find("threshold"), std::string::npos) << rejected.error().message;
 }

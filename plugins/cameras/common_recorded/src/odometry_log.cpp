@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <numbers>
 
-#include "visnav/config.hpp"
+#include "visnav/config_node.hpp"
 #include "visnav/recorded/csv.hpp"
 
 namespace visnav::recorded {

@@ -9,7 +9,7 @@
 #include <map>
 #include <sstream>
 
-#include "visnav/config.hpp"
+#include "visnav/config_node.hpp"
 #include "visnav/recorded/csv.hpp"
 
 namespace visnav::recorded {

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <system_error>
 
-#include "visnav/config.hpp"
+#include "visnav/config_node.hpp"
 
 namespace visnav::detectors {
 

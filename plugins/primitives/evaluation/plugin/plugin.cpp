@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "visnav/bt/registry.hpp"
-#include "visnav/config.hpp"
+#include "visnav/config_node.hpp"
 #include "visnav/evaluation/evaluate.hpp"
 #include "visnav/mcap.hpp"
 #include "visnav/plugin.hpp"

@@ -6,7 +6,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "visnav/config.hpp"
+#include "visnav/config_node.hpp"
 
 namespace visnav::teleop {
 

@@ -18,13 +18,6 @@
 
 namespace visnav {
 
-/// Parses YAML text. `file_label` is used in locations ("setup.yaml:3"). Scalars keep their
-/// text; YAML null (`~`, `null`, empty value) becomes a null node. Duplicate map keys and
-/// syntax errors are errors with file:line.
-[[nodiscard]] Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& file_label);
-/// Reads and parses a YAML file (missing/unreadable file is an error naming the path).
-[[nodiscard]] Result<ConfigNode> parse_yaml_file(const std::string& path);
-
 /// Applies one `key.path=value` override to `root` (a map). Intermediate maps are created
 /// when missing; the value is parsed as YAML (so `a=[1, 2]` gives a sequence). The new node's
 /// location is `--set key.path=value`. Errors: no '=', empty key, a path through a scalar.

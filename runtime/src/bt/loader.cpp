@@ -287,7 +287,7 @@ class Loader {
         add(ErrorCode::unknown_key, pf, el->GetLineNum(), id, "unknown attribute '" + std::string(name) + "' on <BehaviorTree>");
     }
     if (auto it = trees_.find(id); it != trees_.end()) {
-      add(pf, el->GetLineNum(), id,
+      add(ErrorCode::inconsistent, pf, el->GetLineNum(), id,
           "BehaviorTree '" + std::string(id) + "' is defined twice (first at " + it->second.file->display + ":" +
               std::to_string(it->second.element->GetLineNum()) + ")");
       return;
@@ -674,7 +674,7 @@ class Loader {
     if (main_file_trees_.empty()) {
       add(ErrorCode::not_found, main_file, root_line_, {}, "no <BehaviorTree> in the file");
     } else {
-      add(main_file, root_line_, {}, "several <BehaviorTree> and no main_tree_to_execute attribute on <root>");
+      add(ErrorCode::missing, main_file, root_line_, {}, "several <BehaviorTree> and no main_tree_to_execute attribute on <root>");
     }
   }
 

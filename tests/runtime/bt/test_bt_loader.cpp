@@ -13,6 +13,8 @@ using visnav::bt::NodeStatus;
 using Loader = BtTest;
 using Validation = BtTest;
 
+using visnav::ErrorCode;
+
 std::string all(const std::vector<Diagnostic>& d) { return visnav::bt::to_string(d); }
 
 // ---- SubTree -----------------------------------------------------------------------------------
@@ -167,7 +169,9 @@ TEST_F(Loader, CyclicIncludeIsAnError) {
   dir.write("b.xml", R"(<root BTCPP_format="4"><include path="a.xml"/></root>)");
   const auto d = visnav::bt::validate_tree_file(dir.path() / "a.xml", registry, options);
   ASSERT_EQ(d.size(), 1u) << all(d);
-  EXPECT_NE(d[0].message.find("cyclic <include>"), std::string::npos);
+  EXPECT_EQ(d[0].code, ErrorCode::invalid_value) << all(d);
+  EXPECT_EQ(d[0].file, (dir.path() / "b.xml").string()) << all(d);
+  EXPECT_EQ(d[0].line, 1) << all(d);
 }
 
 TEST_F(Loader, MissingFileIsAnError) {
@@ -192,7 +196,7 @@ TEST_F(Validation, MalformedXmlReportsLine) {
   ASSERT_EQ(d.size(), 1u) << all(d);
   EXPECT_EQ(d[0].file, "<string>");
   EXPECT_GE(d[0].line, 3);
-  EXPECT_NE(d[0].message.find("malformed XML"), std::string::npos);
+  EXPECT_EQ(d[0].code, ErrorCode::parse_error) << all(d);
 }
 
 TEST_F(Validation, UnknownNodeId) {
@@ -216,7 +220,9 @@ TEST_F(Validation, UnknownPortAttribute) {
 TEST_F(Validation, UnknownUnderscoreAttributesAreErrorsNamingTheAttribute) {
   const auto d = validate(main_tree(R"(<Act _skipIf="x == 1" _frobnicate="1"/>)"));
   ASSERT_EQ(d.size(), 1u) << all(d);
-  EXPECT_NE(d[0].message.find("unknown attribute '_frobnicate'"), std::string::npos) << all(d);
+  EXPECT_EQ(d[0].code, ErrorCode::unknown_key) << all(d);
+  EXPECT_EQ(d[0].line, 3) << all(d);
+  EXPECT_EQ(d[0].node_path, "MainTree/Act[0]") << all(d);
 }
 
 TEST_F(Validation, MetadataAttributesWrittenByGroot2AreIgnored) {
@@ -233,7 +239,8 @@ TEST_F(Validation, BadLiteralForPortType) {
   // msec is unsigned, as in BehaviorTree.CPP: a negative literal is rejected at validation.
   const auto neg = validate(main_tree(R"(<Sleep msec="-5"/>)"));
   ASSERT_EQ(neg.size(), 1u) << all(neg);
-  EXPECT_NE(neg[0].message.find("'-5' is negative (the port is unsigned)"), std::string::npos) << all(neg);
+  EXPECT_EQ(neg[0].code, ErrorCode::invalid_value) << all(neg);
+  EXPECT_EQ(neg[0].line, 3) << all(neg);
 }
 
 TEST_F(Validation, UndefinedSubTree) {
@@ -255,7 +262,8 @@ TEST_F(Validation, CyclicSubTree) {
 TEST_F(Validation, SelfRecursiveSubTree) {
   const auto d = validate(main_tree(R"(<Fallback><Act/><SubTree ID="MainTree"/></Fallback>)"));
   ASSERT_EQ(d.size(), 1u) << all(d);
-  EXPECT_NE(d[0].message.find("cyclic SubTree: MainTree -> MainTree"), std::string::npos);
+  EXPECT_EQ(d[0].code, ErrorCode::invalid_value) << all(d);
+  EXPECT_EQ(d[0].line, 3) << all(d);
 }
 
 TEST_F(Validation, DecoratorWithTwoChildren) {
@@ -267,7 +275,8 @@ TEST_F(Validation, DecoratorWithTwoChildren) {
 TEST_F(Validation, DecoratorWithoutChild) {
   const auto d = validate(main_tree(R"(<ForceSuccess/>)"));
   ASSERT_EQ(d.size(), 1u) << all(d);
-  EXPECT_NE(d[0].message.find("needs exactly 1 child, has 0"), std::string::npos);
+  EXPECT_EQ(d[0].code, ErrorCode::invalid_value) << all(d);
+  EXPECT_EQ(d[0].node_path, "MainTree/ForceSuccess[0]") << all(d);
 }
 
 TEST_F(Validation, LeafWithChildren) {
@@ -288,8 +297,10 @@ TEST_F(Validation, ChildCountRulesOfIfThenElseAndSwitch) {
 <Switch2 variable="a" case_1="a" case_2="b"><Act/><Act/></Switch2>
 </Sequence>)"));
   ASSERT_EQ(d.size(), 2u) << all(d);
-  EXPECT_NE(d[0].message.find("IfThenElse needs 2 to 3 children, has 1"), std::string::npos);
-  EXPECT_NE(d[1].message.find("Switch2 needs exactly 3 children, has 2"), std::string::npos);
+  EXPECT_EQ(d[0].line, 4) << all(d);
+  EXPECT_EQ(d[1].line, 5) << all(d);
+  EXPECT_EQ(d[0].code, ErrorCode::invalid_value);
+  EXPECT_EQ(d[1].code, ErrorCode::invalid_value);
 }
 
 TEST_F(Validation, MissingAndExtraRootAttributes) {
@@ -298,25 +309,27 @@ TEST_F(Validation, MissingAndExtraRootAttributes) {
   EXPECT_TRUE(d1.empty()) << all(d1);
   const auto d2 = validate(R"(<root BTCPP_format="3" colour="blue"><BehaviorTree ID="M"><Act/></BehaviorTree></root>)");
   ASSERT_EQ(d2.size(), 2u) << all(d2);
-  EXPECT_NE(d2[0].message.find("unsupported BTCPP_format \"3\""), std::string::npos);
-  EXPECT_NE(d2[1].message.find("unknown attribute 'colour' on <root>"), std::string::npos);
+  EXPECT_EQ(d2[0].code, ErrorCode::parse_error) << all(d2);
+  EXPECT_EQ(d2[1].code, ErrorCode::unknown_key) << all(d2);
 }
 
 TEST_F(Validation, WrongRootElement) {
   const auto d = validate(R"(<tree BTCPP_format="4"/>)");
   ASSERT_EQ(d.size(), 1u) << all(d);
-  EXPECT_NE(d[0].message.find("found <tree>"), std::string::npos);
+  EXPECT_EQ(d[0].code, ErrorCode::parse_error) << all(d);
+  EXPECT_EQ(d[0].line, 1) << all(d);
 }
 
 TEST_F(Validation, MainTreeSelectionErrors) {
   const auto d1 = validate(R"(<root BTCPP_format="4" main_tree_to_execute="Nope"><BehaviorTree ID="M"><Act/></BehaviorTree></root>)");
   ASSERT_EQ(d1.size(), 1u) << all(d1);
-  EXPECT_NE(d1[0].message.find("main_tree_to_execute 'Nope' is not defined"), std::string::npos);
+  EXPECT_EQ(d1[0].code, ErrorCode::not_found) << all(d1);
   const auto d2 = validate(R"(<root BTCPP_format="4">
 <BehaviorTree ID="A"><Act/></BehaviorTree>
 <BehaviorTree ID="B"><Act/></BehaviorTree></root>)");
   ASSERT_EQ(d2.size(), 1u) << all(d2);
-  EXPECT_NE(d2[0].message.find("several <BehaviorTree> and no main_tree_to_execute"), std::string::npos);
+  EXPECT_EQ(d2[0].code, ErrorCode::missing) << all(d2);
+  EXPECT_EQ(d2[0].line, 1) << all(d2);
 }
 
 TEST_F(Validation, BehaviorTreeStructureErrors) {
@@ -328,10 +341,13 @@ TEST_F(Validation, BehaviorTreeStructureErrors) {
 </root>)");
   ASSERT_EQ(d.size(), 4u) << all(d);
   EXPECT_EQ(d[0].line, 3);
-  EXPECT_NE(d[0].message.find("defined twice (first at <string>:2)"), std::string::npos);
-  EXPECT_NE(d[1].message.find("missing the attribute ID"), std::string::npos);
-  EXPECT_NE(d[2].message.find("unexpected element <Sequence>"), std::string::npos);
-  EXPECT_NE(d[3].message.find("must have exactly one root node, has 2"), std::string::npos);
+  EXPECT_EQ(d[0].code, ErrorCode::inconsistent) << all(d);
+  EXPECT_EQ(d[1].code, ErrorCode::missing) << all(d);
+  EXPECT_EQ(d[1].line, 4) << all(d);
+  EXPECT_EQ(d[2].code, ErrorCode::parse_error) << all(d);
+  EXPECT_EQ(d[2].line, 5) << all(d);
+  EXPECT_EQ(d[3].code, ErrorCode::invalid_value) << all(d);
+  EXPECT_EQ(d[3].line, 2) << all(d);
 }
 
 TEST_F(Validation, AllErrorsAreCollectedAndNothingIsInstantiated) {

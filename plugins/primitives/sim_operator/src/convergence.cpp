@@ -317,7 +317,7 @@ Result<ConvergenceReport> run_convergence(const ConvergenceOptions& o) {
   fs::remove_all(map_dir, ec);
   fs::create_directories(tree_dir, ec);
   if (ec) return fail("cannot create " + tree_dir.string() + ": " + ec.message());
-  ProgressLine progress;
+  ProgressLine progress{30};
   VISNAV_ASSIGN(Taught taught, teach(o, map_dir, tree_dir, progress));
   ConvergenceReport report;
   report.world = o.world;
@@ -444,7 +444,7 @@ Status write_convergence_outputs(const ConvergenceReport& report, const Converge
 int convergence_command(int argc, char** argv, HostServices& /*host*/) {
   if (print_help_if_asked(argc, argv, kUsage)) return 0;
   auto options = parse(argc, argv);
-  if (!options) return usage_error("visnav convergence", options.error(), kUsage);
+  if (!options) return usage_error("visnav convergence", options.error().message, kUsage);
   const ConvergenceOptions& o = *options;
   std::cout << "visnav convergence: world " << o.world << ", segment " << fixed(o.length_m, 2) << " m, "
             << o.replays << " replays from +-" << fixed(o.displacement_m, 2) << " m, primitives "

@@ -233,7 +233,7 @@ class RunProgress {
   double work_per_run_m_;
   bool enabled_;
   int finished_ = 0;
-  ProgressLine line_;
+  ProgressLine line_{30};
 };
 
 /// The run's log: warnings and errors go to run.log; the first lost/frozen stop is remembered.
@@ -876,7 +876,7 @@ Result<std::vector<ExperimentRun>> run_experiment(const ExperimentOptions& o) {
 int experiment_command(int argc, char** argv, HostServices& /*host*/) {
   if (print_help_if_asked(argc, argv, kUsage)) return 0;
   auto options = parse(argc, argv);
-  if (!options) return usage_error("visnav experiment", options.error(), kUsage);
+  if (!options) return usage_error("visnav experiment", options.error().message, kUsage);
   const ExperimentOptions& o = *options;
   std::cout << "visnav experiment: world " << o.world << ", route " << o.route << ", " << o.seeds << " seeds x "
             << o.loops << " loops per map style, initial error " << o.displace_m << " m + " << o.displace_heading_deg

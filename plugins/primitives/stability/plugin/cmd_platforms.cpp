@@ -61,7 +61,7 @@ std::string pm(double mean, double sd) {
 }
 
 int run(int argc, char** argv) {
-  if (cli::help_asked(argc, argv, kUsage)) return 0;
+  if (cli::print_help_if_asked(argc, argv, kUsage)) return 0;
   std::string world = "campus", route = "campus", maps = "feature", out = "out/platforms", child;
   int seeds = 5, loops = 5;
   double timeout_s = 7200.0, converged_below_m = 0.5;
@@ -69,7 +69,7 @@ int run(int argc, char** argv) {
   std::vector<Row> rows = default_rows();
   bool list = false;
   auto parse = [&]() -> Status {
-    for (cli::Options in(argc, argv); in.next();) {
+    for (cli::OptionReader in(argc, argv); in.next();) {
       const std::string& a = in.arg();
       if (a == "--world") { VISNAV_ASSIGN(world, in.value()); }
       else if (a == "--route") { VISNAV_ASSIGN(route, in.value()); }

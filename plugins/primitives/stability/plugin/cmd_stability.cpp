@@ -41,13 +41,13 @@ std::string complex_text(std::complex<double> z) {
 }
 
 int run(int argc, char** argv) {
-  if (cli::help_asked(argc, argv, kUsage)) return 0;
+  if (cli::print_help_if_asked(argc, argv, kUsage)) return 0;
   std::string map_dir;
   std::vector<std::string> edges;
   ConvergenceModels models = ConvergenceModels::defaults();
   StabilityParams params;
   auto parse = [&]() -> Status {
-    for (cli::Options in(argc, argv); in.next();) {
+    for (cli::OptionReader in(argc, argv); in.next();) {
       const std::string& a = in.arg();
       if (a == "--edges") {
         VISNAV_ASSIGN(std::string list, in.value());

@@ -63,7 +63,7 @@ int print_one(const ScenarioRanges& ranges, const SimParams& params, std::uint64
 }
 
 int run(int argc, char** argv) {
-  if (cli::help_asked(argc, argv, kUsage)) return 0;
+  if (cli::print_help_if_asked(argc, argv, kUsage)) return 0;
   ScenarioRanges ranges;
   SimParams params;
   std::uint64_t scenarios = 1000000, first_seed = 1;
@@ -71,7 +71,7 @@ int run(int argc, char** argv) {
   std::optional<std::uint64_t> only;
   std::string json;
   auto parse = [&]() -> Status {
-    for (cli::Options in(argc, argv); in.next();) {
+    for (cli::OptionReader in(argc, argv); in.next();) {
       const std::string& a = in.arg();
       if (a == "--scenarios") { VISNAV_ASSIGN(double v, in.number(1, 1e9)); scenarios = static_cast<std::uint64_t>(v); }
       else if (a == "--threads") { VISNAV_ASSIGN(double v, in.number(1, 256)); threads = static_cast<int>(v); }
@@ -99,9 +99,9 @@ int run(int argc, char** argv) {
 
   std::cout << "stability-sim: " << scenarios << " scenarios (seeds " << first_seed << ".." << first_seed + scenarios - 1
             << "), " << params.loops << " loops each, " << threads << " threads\n";
-  cli::Progress bar("scenarios");
+  cli::ProgressLine bar;
   auto sum = run_batch(ranges, params, first_seed, scenarios, threads, [&](std::uint64_t done) {
-    bar.show(static_cast<double>(done), static_cast<double>(scenarios), "scenarios");
+    bar.show("scenarios", static_cast<double>(done), static_cast<double>(scenarios), "scenarios");
   });
   bar.end();
   if (!sum) {

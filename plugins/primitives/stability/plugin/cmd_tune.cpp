@@ -163,7 +163,7 @@ std::string config_block(const std::vector<TuneParam>& params, const std::vector
 
 Status parse(int argc, char** argv, TuneCommandOptions& o) {
   bool have_params = false;
-  for (cli::Options in(argc, argv); in.next();) {
+  for (cli::OptionReader in(argc, argv); in.next();) {
     const std::string& a = in.arg();
     if (a == "--world") { VISNAV_ASSIGN(o.world, in.value()); }
     else if (a == "--route") { VISNAV_ASSIGN(o.route, in.value()); }
@@ -202,7 +202,7 @@ Status parse(int argc, char** argv, TuneCommandOptions& o) {
 }
 
 int run(int argc, char** argv) {
-  if (cli::help_asked(argc, argv, kUsage)) return 0;
+  if (cli::print_help_if_asked(argc, argv, kUsage)) return 0;
   TuneCommandOptions o;
   if (auto st = parse(argc, argv, o); !st) return cli::usage_error("tune", st.error().message, kUsage);
   std::error_code ec;
@@ -271,9 +271,9 @@ int run(int argc, char** argv) {
     return b.objective;
   };
 
-  cli::Progress bar("evaluations");
+  cli::ProgressLine bar;
   auto result = tune(o.params, o.tune, objective, &*cache, [&](const Evaluation& e) {
-    bar.show(e.index, o.tune.max_evals, "evaluations");
+    bar.show("evaluations", e.index, o.tune.max_evals, "evaluations");
   });
   bar.end();
   if (!result) {

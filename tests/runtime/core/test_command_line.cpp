@@ -1,0 +1,63 @@
+// The SDK's command-line helpers (visnav/command_line.hpp) that plugin commands share.
+#include <gtest/gtest.h>
+
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "visnav/command_line.hpp"
+
+namespace cli = visnav::cli;
+using visnav::ErrorCode;
+
+TEST(CommandLine, NumbersAreWholeFiniteAndInRangeWithErrorsNamingTheOption) {
+  EXPECT_DOUBLE_EQ(*cli::parse_number("2.5", 0, 10, "--x"), 2.5);
+  const auto junk = cli::parse_number("2.5m", 0, 10, "--x");
+  ASSERT_FALSE(junk.ok());
+  EXPECT_EQ(junk.error().code, ErrorCode::invalid_value);
+  EXPECT_EQ(junk.error().message, "--x: '2.5m' is not a number in [0, 10]");
+  const auto far = cli::parse_number("11", 0, 10, "--x");
+  ASSERT_FALSE(far.ok());
+  EXPECT_EQ(far.error().code, ErrorCode::out_of_range);
+  EXPECT_FALSE(cli::parse_number("nan", 0, 10, "--x").ok());
+  EXPECT_FALSE(cli::parse_number("", 0, 10, "--x").ok());
+}
+
+TEST(CommandLine, OptionReaderWalksOptionsAndNamesTheOneWithoutAValue) {
+  std::vector<std::string> words = {"cmd", "--seeds", "5", "--out", "dir", "--rate"};
+  std::vector<char*> argv;
+  for (auto& w : words) argv.push_back(w.data());
+  cli::OptionReader r(static_cast<int>(argv.size()), argv.data());
+  ASSERT_TRUE(r.next());
+  EXPECT_EQ(r.arg(), "--seeds");
+  EXPECT_DOUBLE_EQ(*r.number(1, 100), 5.0);
+  ASSERT_TRUE(r.next());
+  EXPECT_EQ(*r.value(), "dir");
+  ASSERT_TRUE(r.next());
+  const auto missing = r.number(1, 100);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().code, ErrorCode::missing);
+  EXPECT_EQ(missing.error().message, "--rate needs a value");
+  EXPECT_FALSE(r.next());
+}
+
+TEST(CommandLine, ProgressInALogWritesALinePerTenthAndRestartsPerPhase) {
+  // ctest's stderr is not a terminal: the log mode is what CI sees.
+  std::ostringstream captured;
+  std::streambuf* old = std::cerr.rdbuf(captured.rdbuf());
+  {
+    cli::ProgressLine progress(8);
+    for (int i = 0; i <= 1000; ++i) progress.show("loops", i, 1000, "scenarios");
+    progress.show("replay", 1, 4, "loops");
+    progress.end();
+  }
+  std::cerr.rdbuf(old);
+  std::vector<std::string> lines;
+  std::istringstream in(captured.str());
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  ASSERT_EQ(lines.size(), 12u) << captured.str();  // 0 %, 10 %, ..., 100 % and the next phase
+  EXPECT_EQ(lines[0].rfind("  loops    [..............................]   0 % 0/1000 scenarios", 0), 0u) << lines[0];
+  EXPECT_NE(lines[10].find("[##############################] 100 % 1000/1000 scenarios"), std::string::npos) << lines[10];
+  EXPECT_EQ(lines[11].rfind("  replay   [#######.......................]  25 % 1/4 loops", 0), 0u) << lines[11];
+}

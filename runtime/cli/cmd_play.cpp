@@ -11,6 +11,7 @@
 #include "args.hpp"
 #include "command.hpp"
 #include "mcap_input.hpp"
+#include "session_args.hpp"
 #include "visnav/runner.hpp"
 
 namespace {
@@ -135,22 +136,10 @@ int play(const std::vector<std::string>& raw_args) {
   overrides.push_back("camera={type: recorded, params: {run_dir: " + yaml_quote(abs_run) + "}}");
   overrides.push_back("run.lockstep=on");
 
-  auto config = visnav::load_run_config(config_file, overrides);
-  if (!config) {
-    std::cerr << "visnav play: " << config.error().message << "\n";
-    return 1;
-  }
-  if (a.has("--log-level")) {
-    auto level = visnav::parse_log_level(a.get("--log-level"));
-    if (!level) return visnav::cli::usage_error("play", level.error().message);
-    config->run.log_level = a.get("--log-level");
-  }
-  visnav::SessionOptions so;
-  so.extra_plugin_dirs = a.all("--plugin-path");
-  so.map_path = visnav::resolve_map_path(a.get("--map"));  // a bare name is maps/NAME
-  so.create_map = a.has("--create");
-  so.overrides = overrides;
-  auto session_made = visnav::Session::create(std::move(*config), so);
+  if (a.has("--log-level"))
+    if (auto level = visnav::parse_log_level(a.get("--log-level")); !level)
+      return visnav::cli::usage_error("play", level.error().message);
+  auto session_made = visnav::cli::open_session(a, config_file, overrides);
   if (!session_made) {
     std::cerr << "visnav play: " << session_made.error().message << "\n";
     return 1;

@@ -17,6 +17,7 @@
 
 #include "args.hpp"
 #include "command.hpp"
+#include "session_args.hpp"
 #include "visnav/mcap.hpp"
 #include "visnav/runner.hpp"
 
@@ -322,24 +323,11 @@ int record(const std::vector<std::string>& args) {
 
   const std::string config_file = a.get("--config");
   const std::vector<std::string> overrides = a.all("--set");
-  auto config = visnav::load_run_config(config_file, overrides);
-  if (!config) {
-    std::cerr << "visnav record: " << config.error().message << "\n";
-    return 1;
-  }
-  if (a.has("--log-level")) {
-    auto level = visnav::parse_log_level(a.get("--log-level"));
-    if (!level) return visnav::cli::usage_error("record", level.error().message);
-    config->run.log_level = a.get("--log-level");
-  }
+  if (a.has("--log-level"))
+    if (auto level = visnav::parse_log_level(a.get("--log-level")); !level)
+      return visnav::cli::usage_error("record", level.error().message);
   const std::string tree_file = a.get("--tree");
-
-  visnav::SessionOptions so;
-  so.extra_plugin_dirs = a.all("--plugin-path");
-  so.map_path = visnav::resolve_map_path(a.get("--map"));  // a bare name is maps/NAME
-  so.create_map = a.has("--create");
-  so.overrides = overrides;
-  auto session_made = visnav::Session::create(std::move(*config), so);
+  auto session_made = visnav::cli::open_session(a, config_file, overrides);
   if (!session_made) {
     std::cerr << "visnav record: " << session_made.error().message << "\n";
     return 1;

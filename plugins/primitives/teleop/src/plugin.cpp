@@ -78,6 +78,10 @@ class Teleop final : public bt::StatefulActionNode {
     ports.push_back(bt::input_port<std::string>("initial_primitive", "", "edge kind taught from the start ('' = none until the operator picks one)"));
     ports.push_back(bt::output_port<std::string>("primitive", "{primitive}", "edge kind being taught; empty while turning"));
     ports.push_back(bt::output_port<bool>("done", "{teach_done}", "true once the operator ends teaching"));
+    ports.push_back(bt::output_port<bool>(
+        "closing", "{teach_closing}",
+        "true once the operator closed the loop at the start (TeachRoute ends the last edge there and records the "
+        "turn made before done as the closing turn)"));
     return ports;
   }
 
@@ -90,6 +94,8 @@ class Teleop final : public bt::StatefulActionNode {
     if (!initial) return failed(initial.error().message);
     primitive_ = *initial;
     (void)set_output("done", false);
+    (void)set_output("closing", false);
+    closing_ = false;
     (void)set_output("primitive", primitive_);
     host_.logger().info(path(), "operator teaching: " + status_line(TeleopAction{}, primitive_, params_, input_->keyboard()));
     return on_running();
@@ -105,6 +111,11 @@ class Teleop final : public bt::StatefulActionNode {
       primitive_ = *action->primitive;
       (void)set_output("primitive", primitive_);
       host_.logger().info(path(), "teaching " + (primitive_.empty() ? std::string("nothing (turning)") : primitive_));
+    }
+    if (action->closing && !closing_) {
+      closing_ = true;
+      (void)set_output("closing", true);
+      host_.logger().info(path(), "the operator closed the loop at the start; turn to face the first edge, then end");
     }
     if (action->done) {
       (void)host_.robot()->stop();
@@ -140,6 +151,7 @@ class Teleop final : public bt::StatefulActionNode {
   TeleopParams params_;
   std::unique_ptr<OperatorInput> input_;
   std::string primitive_;
+  bool closing_ = false;  // the closing output was set this run
   StatusLine status_;
 };
 

@@ -15,26 +15,32 @@ namespace visnav::teleop {
 Status TeleopParams::validate() const {
   if (axis_linear == axis_angular) return fail("key 'axis_angular': must differ from axis_linear");
   if (deadman_button == done_button) return fail("key 'done_button': must differ from deadman_button");
+  if (close_button == deadman_button || close_button == done_button)
+    return fail("key 'close_button': must differ from deadman_button and done_button");
   VISNAV_ASSIGN(auto buttons, parse_bindings(primitive_buttons, "primitive_buttons"));
   for (const auto& b : buttons) {
     auto n = detail::parse_int(b.trigger);
     if (!n || *n < 0 || *n > 255)
       return fail("key 'primitive_buttons': '" + b.trigger + "' is not a button number 0..255");
-    if (*n == deadman_button || *n == done_button)
-      return fail("key 'primitive_buttons': button " + b.trigger + " is also the deadman or done button");
+    if (*n == deadman_button || *n == done_button || *n == close_button)
+      return fail("key 'primitive_buttons': button " + b.trigger + " is also the deadman, done or close button");
   }
   VISNAV_ASSIGN(auto keys, parse_bindings(primitive_keys, "primitive_keys"));
   const std::string reserved = "wasd q";
   for (const auto& k : keys) {
     if (k.trigger.size() != 1) return fail("key 'primitive_keys': '" + k.trigger + "' is not a single character");
-    if (reserved.find(k.trigger) != std::string::npos || k.trigger == done_key || k.trigger == manual_key)
-      return fail("key 'primitive_keys': '" + k.trigger + "' is a driving, done or manual key");
+    if (reserved.find(k.trigger) != std::string::npos || k.trigger == done_key || k.trigger == manual_key ||
+        k.trigger == close_key)
+      return fail("key 'primitive_keys': '" + k.trigger + "' is a driving, done, close or manual key");
   }
   if (done_key.size() != 1) return fail("key 'done_key': '" + done_key + "' is not a single character");
   if (manual_key.size() != 1 || manual_key == done_key)
     return fail("key 'manual_key': '" + manual_key + "' must be one character other than done_key");
-  if (reserved.find(done_key) != std::string::npos || reserved.find(manual_key) != std::string::npos)
-    return fail("key 'done_key'/'manual_key': w, a, s, d, space and q are driving keys");
+  if (close_key.size() != 1 || close_key == done_key || close_key == manual_key)
+    return fail("key 'close_key': '" + close_key + "' must be one character other than done_key and manual_key");
+  if (reserved.find(done_key) != std::string::npos || reserved.find(manual_key) != std::string::npos ||
+      reserved.find(close_key) != std::string::npos)
+    return fail("key 'done_key'/'manual_key'/'close_key': w, a, s, d, space and q are driving keys");
   return ok();
 }
 
@@ -48,6 +54,7 @@ const ParamSchema<TeleopParams>& TeleopParams::schema() {
           .field("deadzone", &TeleopParams::deadzone, "|axis| below this reads as 0").range(0, 0.9)
           .field("deadman_button", &TeleopParams::deadman_button, "button that must be held for the robot to move").range(0, 255)
           .field("done_button", &TeleopParams::done_button, "button that ends teaching").range(0, 255)
+          .field("close_button", &TeleopParams::close_button, "button that closes the loop back at the start (then turn to face the first edge and press done)").range(0, 255)
           .field("primitive_buttons", &TeleopParams::primitive_buttons, "button=kind: switches the primitive being taught (kind '' = turning)")
           .field("key_linear_step_mps", &TeleopParams::key_linear_step_mps, "keyboard: speed step per up/down key, m/s").range(0.01, 1)
           .field("key_angular_step_radps", &TeleopParams::key_angular_step_radps, "keyboard: turn-rate step per left/right key, rad/s").range(0.01, 2)
@@ -55,6 +62,7 @@ const ParamSchema<TeleopParams>& TeleopParams::schema() {
           .field("max_angular_radps", &TeleopParams::max_angular_radps, "keyboard/Twist turn-rate limit, rad/s").range(0.01, 6)
           .field("primitive_keys", &TeleopParams::primitive_keys, "key=kind: switches the primitive being taught (kind '' = turning)")
           .field("done_key", &TeleopParams::done_key, "keyboard key that ends teaching")
+          .field("close_key", &TeleopParams::close_key, "keyboard key that closes the loop (as close_button)")
           .field("manual_key", &TeleopParams::manual_key, "keyboard key that toggles manual driving (TeleopOverride)")
           .field("input_timeout_s", &TeleopParams::input_timeout_s, "Joy/Twist topic silent this long: stop").range(0.02, 10);
   return s;
@@ -173,10 +181,12 @@ TeleopAction JoyTeleop::update(const JoyState& state, const std::vector<int>& pr
   TeleopAction a;
   for (int b : presses) {
     if (b == params_.done_button) done_ = true;
+    if (b == params_.close_button) closing_ = true;
     for (const auto& [button, kind] : buttons_)
       if (button == b) a.primitive = kind;
   }
   a.done = done_;
+  a.closing = closing_;
   if (!fresh) {
     a.reason = "no joystick input";
   } else if (released_deadman || !state.button(params_.deadman_button)) {
@@ -206,6 +216,7 @@ bool KeyTeleop::apply_key(const std::string& key) {
   else if (key == "\x1b[C" || key == "d" || key == "D") target_.angular_radps -= p.key_angular_step_radps;
   else if (key == " ") target_ = Twist{};
   else if (key == p.done_key) { done_ = true; target_ = Twist{}; }
+  else if (key == p.close_key) { closing_ = true; target_ = Twist{}; }  // stop at the start, then turn
   else if (key == p.manual_key) { manual_ = !manual_; target_ = Twist{}; }
   else {
     for (const auto& [k, kind] : keys_)
@@ -222,6 +233,7 @@ TeleopAction KeyTeleop::update() {
   TeleopAction a;
   a.primitive = std::exchange(switched_, std::nullopt);
   a.done = done_;
+  a.closing = closing_;
   if (!manual_) {
     a.reason = "automatic (press " + params_.manual_key + " to drive)";
   } else if (done_) {
@@ -299,7 +311,7 @@ std::string status_line(const TeleopAction& action, const std::string& primitive
   if (keyboard) {
     s << "  | arrows/WASD drive, space stop";
     for (const auto& e : params.primitive_keys) s << ", " << e;
-    s << ", " << params.done_key << " end";
+    s << ", " << params.close_key << " close loop, " << params.done_key << " end";
   }
   return s.str();
 }

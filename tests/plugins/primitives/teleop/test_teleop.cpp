@@ -131,6 +131,20 @@ TEST(KeyTeleop, StepsClampsStopsAndSwitchesPrimitive) {
   EXPECT_FALSE(a.engaged);
 }
 
+TEST(TeleopParams, CloseKeyAndButtonMustNotClashWithOtherControls) {
+  TeleopParams p;
+  p.close_key = p.done_key;
+  ASSERT_FALSE(p.validate().ok());
+  EXPECT_NE(p.validate().error().message.find("close_key"), std::string::npos);
+  p = TeleopParams{};
+  p.close_button = p.deadman_button;
+  ASSERT_FALSE(p.validate().ok());
+  EXPECT_NE(p.validate().error().message.find("close_button"), std::string::npos);
+  p = TeleopParams{};
+  p.primitive_keys = {"c=feature_segment"};
+  EXPECT_FALSE(p.validate().ok());
+}
+
 TEST(KeyTeleop, OverrideStartsAutomaticUntilTheManualKey) {
   auto k = KeyTeleop::create(TeleopParams{}, false);
   ASSERT_TRUE(k.ok());
@@ -326,6 +340,43 @@ TEST_F(TeleopNodes, KeyboardDrivesSwitchesPrimitiveAndEndsTeaching) {
   write_text("e");
   EXPECT_EQ(tree.tick_once(), NodeStatus::success);
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+// Closing a taught loop by hand: the close key stops the robot at the start and sets
+// {teach_closing} (TeachRoute ends the last edge there); the operator then turns in place to face
+// the first edge (that turn is the closing turn TeachRoute records) and ends teaching.
+TEST_F(TeleopNodes, CloseKeySignalsTheClosingTurnThenTheOperatorTurnsAndEnds) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ +
+                                           "\" initial_primitive=\"feature_segment\"/>",
+                                       registry_, &clock_);
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_FALSE(*tree.blackboard().get<bool>("teach_closing"));
+  write_text("ww");
+  tree.tick_once();
+  EXPECT_NEAR(robot_.command_.linear_mps, 0.2, 1e-9);
+  write_text("c");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_TRUE(*tree.blackboard().get<bool>("teach_closing"));
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);  // stopped at the start
+  EXPECT_FALSE(*tree.blackboard().get<bool>("teach_done"));
+  write_text("aa");  // turn on the spot to face the first edge
+  tree.tick_once();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_NEAR(robot_.command_.angular_radps, 0.30, 1e-9);
+  write_text("e");
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_TRUE(*tree.blackboard().get<bool>("teach_done"));
+  EXPECT_TRUE(*tree.blackboard().get<bool>("teach_closing"));
+}
+
+TEST_F(TeleopNodes, JoystickCloseButtonSetsTheClosingOutput) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"joystick\" device=\"" + fifo_ + "\"/>", registry_, &clock_);
+  write_bytes(js_event(kAxis | kInit, 1, 0));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_FALSE(*tree.blackboard().get<bool>("teach_closing"));
+  write_bytes(js_event(kButton, 6, 1));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_TRUE(*tree.blackboard().get<bool>("teach_closing"));
 }
 
 TEST_F(TeleopNodes, OverridePausesTheMissionWhileTheOperatorDrives) {

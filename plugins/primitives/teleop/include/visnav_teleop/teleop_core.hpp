@@ -36,6 +36,9 @@ struct TeleopParams {
   double deadzone = 0.08;               ///< |axis| below this reads as 0
   int deadman_button = 4;               ///< must be held for the robot to move (LB on Xbox-style pads)
   int done_button = 7;                  ///< ends teaching (Start)
+  /// Closes the loop: the robot is back at the start; the last edge ends at the start node and
+  /// the turn the operator makes before pressing done is recorded as the closing turn (Back).
+  int close_button = 6;
   /// "button=kind": pressing the button switches the primitive being taught; kind "" (e.g. "1=")
   /// means "turning / not recording".
   std::vector<std::string> primitive_buttons{"0=feature_segment", "2=path_following", "1="};
@@ -47,6 +50,7 @@ struct TeleopParams {
   /// "key=kind" for the keyboard (single characters); kind "" = turning / not recording.
   std::vector<std::string> primitive_keys{"f=feature_segment", "p=path_following", "t="};
   std::string done_key = "e";           ///< ends teaching
+  std::string close_key = "c";          ///< closes the loop (as close_button)
   std::string manual_key = "m";         ///< TeleopOverride: toggles manual driving
   // --- topics (sensor_msgs/Joy, geometry_msgs/Twist) ---
   double input_timeout_s = 0.5;         ///< no message for this long: the operator is gone, stop
@@ -119,6 +123,7 @@ struct TeleopAction {
   bool engaged = false;                  ///< the operator is driving (deadman held / manual mode / fresh Twist)
   std::optional<std::string> primitive;  ///< set when the operator switched primitive this tick
   bool done = false;                     ///< the operator ended teaching (sticky)
+  bool closing = false;                  ///< the operator closed the loop at the start (sticky)
   std::string reason;                    ///< why not engaged (for the status line / log), empty if engaged
 };
 
@@ -139,6 +144,7 @@ class JoyTeleop {
   TeleopParams params_;
   std::vector<std::pair<int, std::string>> buttons_;
   bool done_ = false;
+  bool closing_ = false;
 };
 
 /// Keyboard teleop (sticky speeds like a hand throttle): arrows/WASD step the commanded speed
@@ -162,6 +168,7 @@ class KeyTeleop {
   Twist target_;
   bool manual_ = true;
   bool done_ = false;
+  bool closing_ = false;
   std::optional<std::string> switched_;
 };
 

@@ -327,7 +327,7 @@ class PayloadReader {
     if (!n) return n.error();
     if (*n > remaining()) {
       offset_ -= sizeof(std::uint64_t);
-      return fail("payload body: block of " + std::to_string(*n) + " bytes at offset " +
+      return fail(ErrorCode::parse_error, "payload body: block of " + std::to_string(*n) + " bytes at offset " +
                   std::to_string(offset_) + " runs past the end (" + std::to_string(bytes_.size()) + " bytes)");
     }
     auto out = bytes_.subspan(offset_, static_cast<std::size_t>(*n));
@@ -345,7 +345,7 @@ class PayloadReader {
 
  private:
   Error short_read(std::size_t want) const {
-    return fail("payload body: need " + std::to_string(want) + " bytes at offset " + std::to_string(offset_) +
+    return fail(ErrorCode::parse_error, "payload body: need " + std::to_string(want) + " bytes at offset " + std::to_string(offset_) +
                 " but only " + std::to_string(remaining()) + " remain");
   }
   std::span<const std::uint8_t> bytes_;

@@ -95,6 +95,10 @@ struct Error {
 /// Marker used to construct a failed Result: `return fail("bad value");` (code unspecified).
 [[nodiscard]] inline Error fail(std::string message) { return Error{std::move(message)}; }
 
+/// A failed Result with a code; `message` already names where (a file, a key):
+///   return fail(ErrorCode::io, path + ": cannot open: " + reason);
+[[nodiscard]] inline Error fail(ErrorCode code, std::string message) { return Error{std::move(message), code}; }
+
 /// A failed Result with a code and a location; the message becomes "<where.str()>: <text>"
 /// (just `text` when `where` is empty), so it reads complete wherever it is printed:
 ///   return fail(ErrorCode::out_of_range, {file, 12, "speed_mps"}, "value 9 is out of range [0, 3]");

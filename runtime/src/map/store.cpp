@@ -34,11 +34,11 @@ bool is_temp_name(std::string_view name) {
 
 Status fsync_dir(const std::string& dir) {
   const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return fail(dir + ": cannot open folder to sync: " + errno_text(errno));
+  if (fd < 0) return fail(ErrorCode::io, dir + ": cannot open folder to sync: " + errno_text(errno));
   const int rc = ::fsync(fd);
   const int err = errno;
   ::close(fd);
-  if (rc != 0 && err != EINVAL) return fail(dir + ": fsync failed: " + errno_text(err));
+  if (rc != 0 && err != EINVAL) return fail(ErrorCode::io, dir + ": fsync failed: " + errno_text(err));
   return ok();
 }
 
@@ -49,11 +49,11 @@ Status write_file_atomic(const std::string& dir, const std::string& name, std::s
   const std::string target = join(dir, name);
   const std::string temp = join(dir, "." + name + ".tmp." + std::to_string(::getpid()));
   const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return fail(temp + ": cannot create: " + errno_text(errno));
+  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + errno_text(errno));
   auto abort_with = [&](const std::string& what, int err) {
     ::close(fd);
     ::unlink(temp.c_str());
-    return fail(temp + ": " + what + ": " + errno_text(err));
+    return fail(ErrorCode::io, temp + ": " + what + ": " + errno_text(err));
   };
   std::size_t done = 0;
   while (done < bytes.size()) {
@@ -68,12 +68,12 @@ Status write_file_atomic(const std::string& dir, const std::string& name, std::s
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(temp.c_str());
-    return fail(temp + ": close failed: " + errno_text(err));
+    return fail(ErrorCode::io, temp + ": close failed: " + errno_text(err));
   }
   if (::rename(temp.c_str(), target.c_str()) != 0) {
     const int err = errno;
     ::unlink(temp.c_str());
-    return fail(target + ": rename from temporary file failed: " + errno_text(err));
+    return fail(ErrorCode::io, target + ": rename from temporary file failed: " + errno_text(err));
   }
   return sync ? fsync_dir(dir) : ok();
 }
@@ -82,20 +82,20 @@ Status write_file_atomic(const std::string& dir, const std::string& name, std::s
 /// must not exhaust memory).
 Result<std::vector<std::uint8_t>> read_file(const std::string& path, std::uint64_t max_bytes) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return fail(path + ": cannot open: " + errno_text(errno));
+  if (fd < 0) return fail(ErrorCode::io, path + ": cannot open: " + errno_text(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0) {
     const int err = errno;
     ::close(fd);
-    return fail(path + ": cannot stat: " + errno_text(err));
+    return fail(ErrorCode::io, path + ": cannot stat: " + errno_text(err));
   }
   if (!S_ISREG(st.st_mode)) {
     ::close(fd);
-    return fail(path + ": not a regular file");
+    return fail(ErrorCode::invalid_value, path + ": not a regular file");
   }
   if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
     ::close(fd);
-    return fail(path + ": file of " + std::to_string(st.st_size) + " bytes is larger than expected (at most " +
+    return fail(ErrorCode::limit, path + ": file of " + std::to_string(st.st_size) + " bytes is larger than expected (at most " +
                 std::to_string(max_bytes) + ")");
   }
   std::vector<std::uint8_t> data(static_cast<std::size_t>(st.st_size));
@@ -106,7 +106,7 @@ Result<std::vector<std::uint8_t>> read_file(const std::string& path, std::uint64
       if (errno == EINTR) continue;
       const int err = errno;
       ::close(fd);
-      return fail(path + ": read failed: " + errno_text(err));
+      return fail(ErrorCode::io, path + ": read failed: " + errno_text(err));
     }
     if (n == 0) break;  // shrank while reading
     done += static_cast<std::size_t>(n);
@@ -207,16 +207,16 @@ struct MapStore::Impl {
     VISNAV_ASSIGN(auto file, read_file(path, limit));
     VISNAV_ASSIGN(auto view, map_format::parse_payload(file, path));
     if (view.edge_id != e.id) {
-      return fail(path + ": foreign payload: it belongs to edge '" + view.edge_id + "', not '" + e.id + "'");
+      return fail(ErrorCode::inconsistent, path + ": foreign payload: it belongs to edge '" + view.edge_id + "', not '" + e.id + "'");
     }
     if (view.kind != e.kind) {
-      return fail(path + ": payload kind '" + view.kind + "' differs from the graph's kind '" + e.kind + "' for edge '" +
+      return fail(ErrorCode::inconsistent, path + ": payload kind '" + view.kind + "' differs from the graph's kind '" + e.kind + "' for edge '" +
                   e.id + "'");
     }
     // The graph records each payload's size when it was written: a file of another size was
     // replaced or edited since, even if its own checksums were recomputed.
     if (e.payload_bytes != 0 && file.size() != e.payload_bytes) {
-      return fail(path + ": size " + std::to_string(file.size()) + " bytes differs from payload_bytes " +
+      return fail(ErrorCode::inconsistent, path + ": size " + std::to_string(file.size()) + " bytes differs from payload_bytes " +
                   std::to_string(e.payload_bytes) + " recorded for edge '" + e.id + "' in " +
                   join(dir, map_format::kGraphFile));
     }
@@ -234,7 +234,7 @@ struct MapStore::Impl {
     VISNAV_ASSIGN(auto body, load_payload(e, check != body_checks.end()));
     if (check == body_checks.end()) return ok();
     auto st = check->second(body, e);
-    if (!st) return fail(join(dir, e.payload_file) + ": edge '" + e.id + "' (" + e.kind + "): " + st.error().message);
+    if (!st) return st.error().with_context(join(dir, e.payload_file) + ": edge '" + e.id + "' (" + e.kind + ")");
     return ok();
   }
 
@@ -266,16 +266,16 @@ MapStore& MapStore::operator=(MapStore&&) noexcept = default;
 MapStore::~MapStore() = default;
 
 Result<MapStore> MapStore::create(const std::string& dir, const std::string& name) {
-  if (dir.empty()) return fail("map folder name is empty");
-  if (!map_detail::valid_text(name)) return fail(dir + ": map name is not valid UTF-8 text");
+  if (dir.empty()) return fail(ErrorCode::missing, "map folder name is empty");
+  if (!map_detail::valid_text(name)) return fail(ErrorCode::invalid_value, dir + ": map name is not valid UTF-8 text");
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) return fail(dir + ": cannot create map folder: " + ec.message());
+  if (ec) return fail(ErrorCode::io, dir + ": cannot create map folder: " + ec.message());
   const std::string graph = join(dir, map_format::kGraphFile);
-  if (fs::exists(graph, ec)) return fail(graph + ": a map already exists here (open it instead)");
+  if (fs::exists(graph, ec)) return fail(ErrorCode::inconsistent, graph + ": a map already exists here (open it instead)");
   const std::string edges = join(dir, map_format::kEdgeFolder);
   fs::create_directories(edges, ec);
-  if (ec) return fail(edges + ": cannot create folder: " + ec.message());
+  if (ec) return fail(ErrorCode::io, edges + ": cannot create folder: " + ec.message());
   auto impl = std::make_unique<Impl>();
   impl->dir = dir;
   impl->graph.name = name;
@@ -287,9 +287,9 @@ Result<MapStore> MapStore::create(const std::string& dir, const std::string& nam
 
 Result<MapStore> MapStore::open(const std::string& dir) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return fail(dir + ": no such map folder");
+  if (!fs::is_directory(dir, ec)) return fail(ErrorCode::not_found, dir + ": no such map folder");
   const std::string graph_file = join(dir, map_format::kGraphFile);
-  if (!fs::exists(graph_file, ec)) return fail(dir + ": not a visnav map (no " + map_format::kGraphFile + ")");
+  if (!fs::exists(graph_file, ec)) return fail(ErrorCode::not_found, dir + ": not a visnav map (no " + map_format::kGraphFile + ")");
   VISNAV_ASSIGN(auto bytes, read_file(graph_file, kMaxGraphBytes));
   VISNAV_ASSIGN(auto graph, map_detail::parse_graph(std::string(bytes.begin(), bytes.end()), graph_file));
   auto impl = std::make_unique<Impl>();
@@ -310,17 +310,17 @@ std::string MapStore::payload_path(std::string_view edge_id) const {
 Result<std::string> MapStore::add_node(NodeRecord node) {
   auto& m = *impl_;
   if (node.id.empty()) node.id = next_free_id('n', m.graph.nodes.size(), m.node_index);
-  if (!map_format::valid_id(node.id)) return fail(graph_path() + ": node id '" + node.id + "' is not a valid id (1-64 of A-Z a-z 0-9 _ -)");
-  if (m.node_index.count(node.id) != 0) return fail(graph_path() + ": node '" + node.id + "' already exists");
-  if (!map_detail::valid_text(node.name)) return fail(graph_path() + ": node '" + node.id + "': name is not valid UTF-8 text");
+  if (!map_format::valid_id(node.id)) return fail(ErrorCode::invalid_value, graph_path() + ": node id '" + node.id + "' is not a valid id (1-64 of A-Z a-z 0-9 _ -)");
+  if (m.node_index.count(node.id) != 0) return fail(ErrorCode::inconsistent, graph_path() + ": node '" + node.id + "' already exists");
+  if (!map_detail::valid_text(node.name)) return fail(ErrorCode::invalid_value, graph_path() + ": node '" + node.id + "': name is not valid UTF-8 text");
   if (!node.name.empty()) {
     if (const auto it = m.name_index.find(node.name); it != m.name_index.end())
-      return fail(graph_path() + ": node name '" + node.name + "' is already used by node '" + m.graph.nodes[it->second].id +
+      return fail(ErrorCode::inconsistent, graph_path() + ": node name '" + node.name + "' is already used by node '" + m.graph.nodes[it->second].id +
                   "' (node names must be unique)");
   }
   if (node.position_hint && (!std::isfinite(node.position_hint->x_m) || !std::isfinite(node.position_hint->y_m) ||
                              !std::isfinite(node.position_hint->heading_rad))) {
-    return fail(graph_path() + ": node '" + node.id + "': position_hint must be finite");
+    return fail(ErrorCode::invalid_value, graph_path() + ": node '" + node.id + "': position_hint must be finite");
   }
   const std::string id = node.id;
   m.graph.nodes.push_back(std::move(node));
@@ -340,19 +340,19 @@ Result<std::string> MapStore::add_edge(EdgeRecord edge, std::span<const std::uin
   auto& m = *impl_;
   const std::string gp = graph_path();
   if (edge.id.empty()) edge.id = next_free_id('e', m.graph.edges.size(), m.edge_index);
-  if (!map_format::valid_id(edge.id)) return fail(gp + ": edge id '" + edge.id + "' is not a valid id (1-64 of A-Z a-z 0-9 _ -)");
-  if (m.edge_index.count(edge.id) != 0) return fail(gp + ": edge '" + edge.id + "' already exists");
+  if (!map_format::valid_id(edge.id)) return fail(ErrorCode::invalid_value, gp + ": edge id '" + edge.id + "' is not a valid id (1-64 of A-Z a-z 0-9 _ -)");
+  if (m.edge_index.count(edge.id) != 0) return fail(ErrorCode::inconsistent, gp + ": edge '" + edge.id + "' already exists");
   const std::string what = gp + ": edge '" + edge.id + "': ";
-  if (m.node_index.count(edge.from) == 0) return fail(what + "unknown 'from' node '" + edge.from + "'");
-  if (m.node_index.count(edge.to) == 0) return fail(what + "unknown 'to' node '" + edge.to + "'");
-  if (!map_format::valid_kind(edge.kind)) return fail(what + "kind '" + edge.kind + "' is not a valid primitive kind (1-64 of A-Z a-z 0-9 _ - .)");
-  if (!std::isfinite(edge.length_m) || edge.length_m < 0.0) return fail(what + "length_m must be finite and >= 0");
-  if (!std::isfinite(edge.azimuth_rad)) return fail(what + "azimuth_rad must be finite");
+  if (m.node_index.count(edge.from) == 0) return fail(ErrorCode::not_found, what + "unknown 'from' node '" + edge.from + "'");
+  if (m.node_index.count(edge.to) == 0) return fail(ErrorCode::not_found, what + "unknown 'to' node '" + edge.to + "'");
+  if (!map_format::valid_kind(edge.kind)) return fail(ErrorCode::invalid_value, what + "kind '" + edge.kind + "' is not a valid primitive kind (1-64 of A-Z a-z 0-9 _ - .)");
+  if (!std::isfinite(edge.length_m) || edge.length_m < 0.0) return fail(ErrorCode::invalid_value, what + "length_m must be finite and >= 0");
+  if (!std::isfinite(edge.azimuth_rad)) return fail(ErrorCode::invalid_value, what + "azimuth_rad must be finite");
   if (edge.created.empty()) edge.created = map_detail::utc_now();
-  if (!map_detail::valid_utc_timestamp(edge.created)) return fail(what + "created '" + edge.created + "' is not ISO-8601 UTC (YYYY-MM-DDTHH:MM:SSZ)");
+  if (!map_detail::valid_utc_timestamp(edge.created)) return fail(ErrorCode::invalid_value, what + "created '" + edge.created + "' is not ISO-8601 UTC (YYYY-MM-DDTHH:MM:SSZ)");
   for (const auto& [k, v] : edge.statistics) {
-    if (!map_format::valid_kind(k)) return fail(what + "statistic name '" + k + "' is invalid (1-64 of A-Z a-z 0-9 _ - .)");
-    if (!std::isfinite(v)) return fail(what + "statistic '" + k + "' must be finite");
+    if (!map_format::valid_kind(k)) return fail(ErrorCode::invalid_value, what + "statistic name '" + k + "' is invalid (1-64 of A-Z a-z 0-9 _ - .)");
+    if (!std::isfinite(v)) return fail(ErrorCode::invalid_value, what + "statistic '" + k + "' must be finite");
   }
   const auto file = map_format::encode_payload(edge.kind, edge.id, payload);
   edge.payload_file = std::string(map_format::kEdgeFolder) + "/" + edge.id + ".bin";
@@ -376,9 +376,9 @@ Result<std::string> MapStore::add_edge(EdgeRecord edge, std::span<const std::uin
 Status MapStore::set_edge_statistic(std::string_view edge_id, const std::string& key, double value) {
   auto& m = *impl_;
   auto it = m.edge_index.find(edge_id);
-  if (it == m.edge_index.end()) return fail(graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
-  if (!map_format::valid_kind(key)) return fail("statistic name '" + key + "' is invalid (1-64 of A-Z a-z 0-9 _ - .)");
-  if (!std::isfinite(value)) return fail("statistic '" + key + "' must be finite");
+  if (it == m.edge_index.end()) return fail(ErrorCode::not_found, graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
+  if (!map_format::valid_kind(key)) return fail(ErrorCode::invalid_value, "statistic name '" + key + "' is invalid (1-64 of A-Z a-z 0-9 _ - .)");
+  if (!std::isfinite(value)) return fail(ErrorCode::invalid_value, "statistic '" + key + "' must be finite");
   auto& stats = m.graph.edges[it->second].statistics;
   const auto previous = stats.find(key) == stats.end() ? std::optional<double>{} : std::optional<double>{stats[key]};
   stats[key] = value;
@@ -422,7 +422,7 @@ const EdgeRecord* MapStore::find_edge(std::string_view id) const {
 Result<const NodeRecord*> MapStore::resolve_node(std::string_view id_or_name) const {
   if (const auto* n = find_node(id_or_name)) return n;
   if (const auto* n = find_node_by_name(id_or_name)) return n;
-  return fail(impl_->dir + ": no node with id or name '" + std::string(id_or_name) + "'");
+  return fail(ErrorCode::not_found, impl_->dir + ": no node with id or name '" + std::string(id_or_name) + "'");
 }
 
 std::vector<const EdgeRecord*> MapStore::outgoing(std::string_view node_id) const {
@@ -460,13 +460,13 @@ MapStats MapStore::stats() const {
 
 Result<std::vector<std::uint8_t>> MapStore::read_payload(std::string_view edge_id) const {
   const auto* e = find_edge(edge_id);
-  if (e == nullptr) return fail(graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
+  if (e == nullptr) return fail(ErrorCode::not_found, graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
   return impl_->load_payload(*e, true);
 }
 
 Status MapStore::check_payload(std::string_view edge_id) const {
   const auto* e = find_edge(edge_id);
-  if (e == nullptr) return fail(graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
+  if (e == nullptr) return fail(ErrorCode::not_found, graph_path() + ": unknown edge '" + std::string(edge_id) + "'");
   return impl_->check_edge(*e);
 }
 

@@ -12,7 +12,9 @@ namespace visnav::ipt {
 
 const char* const kIptRocUsage =
     "usage: visnav ipt-roc [--world NAME] [--seed N] [--noise-std GREY] [--odom-sd-m M] [--odom-sd-deg DEG]\n"
-    "                      [--beta-m M] [--no-band] [--picture FILE.png]\n"
+    "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
+    "                      [--vertical-run-px N]\n"
+    "                      [--picture FILE.png]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
     "pyramidal Lucas-Kanade, rejects outliers with RANSAC on F and classifies the inliers with the\n"
@@ -62,6 +64,15 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       options.odom_heading_sd_rad = v * CV_PI / 180.0;
     } else if (arg == "--beta-m") {
       if (!value(options.classifier.beta_m)) return 2;
+    } else if (arg == "--edge-sigma-px") {
+      if (!value(options.profiles.sigma_px)) return 2;
+    } else if (arg == "--edge-high") {
+      if (!value(options.profiles.high_threshold)) return 2;
+    } else if (arg == "--vertical-run-px") {
+      if (!value(v)) return 2;
+      options.profiles.min_vertical_run_px = static_cast<int>(v);
+    } else if (arg == "--ground-reach-px") {
+      if (!value(options.profiles.ground_reach_px)) return 2;
     } else if (arg == "--no-band") {
       options.classifier.unclassified_bands_m.clear();
     } else {

@@ -1,9 +1,10 @@
 // libvisnav_ipt_obstacles.so — IPT-based obstacle detection and avoidance (nodes plugin,
-// issue 16): the `visnav ipt-roc` command.
+// issue 16): the ObstacleAhead and AvoidObstacles nodes (nodes.hpp) and `visnav ipt-roc`.
 #include <exception>
 #include <string>
 
 #include "cmd_ipt_roc.hpp"
+#include "nodes.hpp"
 #include "visnav/plugin.hpp"
 
 namespace {
@@ -20,8 +21,8 @@ int ipt_roc_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
   }
 }
 
-visnav::Status register_nodes(visnav::bt::NodeRegistry& /*registry*/, visnav::HostServices& /*host*/) {
-  return visnav::ok();
+visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostServices& host) {
+  return visnav::ipt::register_ipt_nodes(registry, host);
 }
 
 const visnav::CommandEntry kCommands[] = {

@@ -134,6 +134,7 @@ void NavigationFilter::add_points(std::span<const cv::Point2d> points_m) {
 void NavigationFilter::reset() {
   points_.clear();
   tenacity_on_ = false;
+  rotate_side_ = 0;
 }
 
 Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m) {
@@ -305,12 +306,16 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
   if (!chosen) {
     d.situation = Situation::no_candidate;
     d.translate = false;
-    const double side = tenacity_on_ ? tenacity_side_ : (goal.bearing_rad >= 0 ? 1.0 : -1.0);
+    // Rotate towards the tenacity side, else keep the side of the first blocked cycle (the
+    // side of minimum turn then): re-deciding every cycle would swing back and forth.
+    if (!tenacity_on_ && rotate_side_ == 0) rotate_side_ = goal.bearing_rad >= 0 ? 1 : -1;
+    const int side = tenacity_on_ ? tenacity_side_ : rotate_side_;
     d.heading_rad = side * kPi / 2;
     d.reason = "goal direction blocked and no gap of " + std::to_string(params_.gap_width_m) + " m: rotating in place";
     return d;
   }
   tenacity_on_ = true;
+  rotate_side_ = 0;
   d.situation = chosen->situation;
   d.heading_rad = chosen->heading_rad;
   d.translate = true;

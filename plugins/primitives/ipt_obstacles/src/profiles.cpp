@@ -26,6 +26,9 @@ const ParamSchema<ProfileParams>& ProfileParams::schema() {
           .field("ground_reach_px", &P::ground_reach_px, "a ground feature this close stops a trace").range(0.0, 20.0)
           .field("guard_band_px", &P::guard_band_px, "contact points this close below the horizon are dropped")
           .range(0.0, 1000.0)
+          .field("min_vertical_run_px", &P::min_vertical_run_px,
+                 "edge pixels must lie in vertical runs this long (morphological opening; 1 = off)")
+          .range(1, 101)
           .field("max_range_m", &P::max_range_m, "contact points farther than this are dropped").range(0.1, 1000.0);
   return s;
 }
@@ -61,6 +64,9 @@ void reduced_canny(const cv::Mat& grey, const ProfileParams& params, cv::Mat& ed
     const auto* l = scratch.labels.ptr<int>(r);
     for (int c = 0; c < edges.cols; ++c) e[c] = (e[c] != 0 && keep[static_cast<std::size_t>(l[c])] != 0) ? 255 : 0;
   }
+  if (params.min_vertical_run_px > 1)
+    cv::morphologyEx(edges, edges, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(1, params.min_vertical_run_px)));
 }
 
 namespace {

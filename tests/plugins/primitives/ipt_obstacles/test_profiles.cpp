@@ -84,7 +84,8 @@ TEST(IptProfiles, FloorEdgesWithoutObstacleFeaturesGiveNoContact) {
   const Scene s = make_scene();
   cv::Mat edges;
   EdgeScratch scratch;
-  const ProfileParams params;
+  ProfileParams params;
+  params.min_vertical_run_px = 1;  // keep the slanted floor line as an edge: the linking rule alone must drop it
   reduced_canny(s.grey, params, edges, scratch);
   const LensPose lens = lens_pose(s.cam, s.robot);
   const auto on_line = *project_point(s.cam, lens, {0.6, 1.2, 0});
@@ -92,6 +93,24 @@ TEST(IptProfiles, FloorEdgesWithoutObstacleFeaturesGiveNoContact) {
   const std::vector<ClassifiedFeature> features{feature(on_line.x, on_line.y, FeatureClass::ground),
                                                 feature(s.left_col, 90, FeatureClass::unclassified)};
   EXPECT_TRUE(contact_points(edges, features, s.cam, s.robot, params).empty());
+}
+
+TEST(IptProfiles, TheVerticalRunFilterDropsShortTextureEdges) {
+  Scene s = make_scene();
+  // fine staggered bricks (8×4 px, each course shifted 3 px) on the floor left of the box:
+  // strong vertical steps, none longer than one 4-row course
+  for (int v = 130; v < 190; ++v)
+    for (int u = 10; u < 70; ++u) s.grey.at<std::uint8_t>(v, u) = (((u + 3 * (v / 4)) / 8) % 2) != 0 ? 230 : 90;
+  cv::Mat edges;
+  EdgeScratch scratch;
+  ProfileParams params;
+  params.min_vertical_run_px = 1;
+  reduced_canny(s.grey, params, edges, scratch);
+  EXPECT_GT(cv::countNonZero(edges(cv::Rect(12, 132, 56, 56))), 500);
+  params.min_vertical_run_px = 9;
+  reduced_canny(s.grey, params, edges, scratch);
+  EXPECT_EQ(cv::countNonZero(edges(cv::Rect(12, 132, 56, 56))), 0);
+  EXPECT_NE(edges.at<std::uint8_t>(100, s.left_col), 0);  // the box border survives
 }
 
 TEST(IptProfiles, AGroundFeatureOnTheBorderStopsTheTrace) {

@@ -103,6 +103,7 @@ class NavigationFilter {
   std::vector<cv::Point2d> points_;
   bool tenacity_on_ = false;
   int tenacity_side_ = 1;
+  int rotate_side_ = 0;  // side of an ongoing in-place rotation without tenacity (0 = none)
 };
 
 }  // namespace visnav::ipt

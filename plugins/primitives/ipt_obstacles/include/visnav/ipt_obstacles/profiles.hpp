@@ -41,6 +41,7 @@ struct ProfileParams {
   double ground_reach_px = 2.0;     ///< a ground feature this close stops the trace [spec §4.2 I]
   double guard_band_px = 3.0;       ///< contact points this close below the horizon are dropped (as the classifier)
   double max_range_m = 3.0;         ///< contact points farther are dropped
+  int min_vertical_run_px = 9;      ///< keep only edge pixels in vertical runs this long (1 = off) [ours, measured]
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<ProfileParams>& schema();

@@ -1,0 +1,221 @@
+#include "nodes.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace visnav::ipt {
+
+using bt::NodeStatus;
+
+namespace {
+
+void send(HostServices& host, double v_mps, double w_radps) {
+  if (Robot* robot = host.robot()) (void)robot->send_command(Twist{v_mps, w_radps});
+}
+
+void stop(HostServices& host) {
+  if (Robot* robot = host.robot()) (void)robot->stop();
+}
+
+Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
+  IptCamera c;
+  VISNAV_ASSIGN(const double hfov_deg, node.get_input<double>("hfov_deg"));
+  VISNAV_ASSIGN(c.height_m, node.get_input<double>("camera_height_m"));
+  VISNAV_ASSIGN(const double pitch_down_deg, node.get_input<double>("camera_pitch_down_deg"));
+  VISNAV_ASSIGN(c.forward_m, node.get_input<double>("camera_forward_m"));
+  VISNAV_ASSIGN(c.lateral_m, node.get_input<double>("camera_lateral_m"));
+  if (!(hfov_deg > 1.0 && hfov_deg < 179.0))
+    return Error{"hfov_deg must lie in (1, 179) (got " + std::to_string(hfov_deg) + ")", ErrorCode::out_of_range};
+  c.width_px = image.cols;
+  c.height_px = image.rows;
+  c.fx_px = c.fy_px = 0.5 * image.cols / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
+  c.cx_px = 0.5 * (image.cols - 1);
+  c.cy_px = 0.5 * (image.rows - 1);
+  c.pitch_rad = -pitch_down_deg * CV_PI / 180.0;
+  VISNAV_TRY(c.validate());
+  return c;
+}
+
+}  // namespace
+
+bt::PortsList camera_ports() {
+  return {bt::input_port<double>("hfov_deg", "60", "camera horizontal field of view (pinhole, centred principal point)"),
+          bt::input_port<double>("camera_height_m", "0.5", "lens height above the ground"),
+          bt::input_port<double>("camera_pitch_down_deg", "5", "downward tilt of the optical axis"),
+          bt::input_port<double>("camera_forward_m", "0", "lens ahead of the robot origin"),
+          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin")};
+}
+
+std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
+  FrameBus* bus = host.frame_bus();
+  if (bus == nullptr) return std::nullopt;
+  auto odom = bus->latest_odometry();
+  if (!odom) return std::nullopt;
+  return odom->pose;
+}
+
+Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::TreeNode& node, HostServices& host) {
+  FrameBus* bus = host.frame_bus();
+  if (bus == nullptr) return Error{"no frame bus (not running)", ErrorCode::missing};
+  auto frame = bus->latest_frame();
+  auto odom = bus->latest_odometry();
+  if (!frame || !odom || frame->image.empty()) return std::optional<std::vector<cv::Point2d>>{};
+  if (have_sequence_ && frame->sequence == last_sequence_) return std::optional<std::vector<cv::Point2d>>{};
+  have_sequence_ = true;
+  last_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, grey_, cv::COLOR_BGR2GRAY);
+  else grey_ = frame->image;
+  if (!pipeline_) {
+    VISNAV_ASSIGN(IptCamera camera, read_camera(node, grey_));
+    VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, ProfileParams{}));
+    pipeline_.emplace(std::move(p));
+  }
+  VISNAV_ASSIGN(auto pair, pipeline_->process(grey_, odom->pose));
+  if (!pair) return std::optional<std::vector<cv::Point2d>>{};
+  std::vector<cv::Point2d> points;
+  points.reserve(pair->contacts.size());
+  for (const auto& c : pair->contacts) points.push_back(c.ground_m);
+  return std::optional<std::vector<cv::Point2d>>{std::move(points)};
+}
+
+// ------------------------------------------------------------------------------ ObstacleAhead
+
+ObstacleAhead::ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::ConditionNode(name, config), host_(host) {}
+
+bt::PortsList ObstacleAhead::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  ports.push_back(bt::input_port<double>("lookahead_m", "1.5", "contact points up to this far ahead count"));
+  ports.push_back(bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"));
+  ports.push_back(bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"));
+  return ports;
+}
+
+NodeStatus ObstacleAhead::tick() {
+  auto lookahead = get_input<double>("lookahead_m");
+  auto half_width = get_input<double>("corridor_half_width_m");
+  auto memory = get_input<double>("memory_m");
+  if (!lookahead || !half_width || !memory) return NodeStatus::failure;
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) {
+    host_.logger().warn(path(), fresh.error().message);
+    return NodeStatus::failure;
+  }
+  FrameBus* bus = host_.frame_bus();
+  auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
+  if (!odom) return NodeStatus::failure;
+  if (*fresh)
+    for (const auto& p : **fresh) points_.emplace_back(p, odom->distance_m);
+  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom->distance_m - e.second) > *memory; });
+  const Pose2D& r = odom->pose;
+  const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
+  for (const auto& [p, seen] : points_) {
+    const double dx = p.x - r.x_m, dy = p.y - r.y_m;
+    const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
+    if (fwd > 0.0 && fwd <= *lookahead && std::fabs(lat) <= *half_width) return NodeStatus::success;
+  }
+  return NodeStatus::failure;
+}
+
+// ----------------------------------------------------------------------------- AvoidObstacles
+
+AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::StatefulActionNode(name, config), host_(host) {}
+
+bt::PortsList AvoidObstacles::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  ports.push_back(bt::input_port<double>("goal_ahead_m", "4.0", "goal on the current heading line, this far ahead"));
+  ports.push_back(bt::input_port<double>("speed_mps", "0.2", "forward speed"));
+  ports.push_back(bt::input_port<double>("turn_gain_per_s", "1.5", "omega = gain * theta_mot"));
+  ports.push_back(bt::input_port<double>("max_angular_radps", "0.6", "turn-rate limit"));
+  ports.push_back(bt::input_port<int>("max_blocked_cycles", "60", "cycles without any gap before giving up"));
+  ports.push_back(bt::input_port<double>("security_distance_m", "0.95", "S_dist (thesis 0.95 m)"));
+  ports.push_back(bt::input_port<double>("gap_width_m", "0.95", "narrowest permitted gap (thesis experiments 0.95 m)"));
+  ports.push_back(bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation"));
+  return ports;
+}
+
+NodeStatus AvoidObstacles::stop_with(NodeStatus status) {
+  stop(host_);
+  filter_.reset();
+  return status;
+}
+
+NodeStatus AvoidObstacles::on_start() {
+  auto ahead = get_input<double>("goal_ahead_m");
+  auto sdist = get_input<double>("security_distance_m");
+  auto gap = get_input<double>("gap_width_m");
+  if (!ahead || !sdist || !gap) return NodeStatus::failure;
+  auto pose = runner_.pose(host_);
+  if (!pose) {
+    host_.logger().error(path(), "no odometry: cannot place the goal");
+    return stop_with(NodeStatus::failure);
+  }
+  PolarMapParams params;
+  params.security_distance_m = *sdist;
+  params.gap_width_m = *gap;
+  if (auto st = params.validate(); !st) {
+    host_.logger().error(path(), st.error().message);
+    return stop_with(NodeStatus::failure);
+  }
+  filter_.emplace(params);
+  goal_m_ = {pose->x_m + *ahead * std::cos(pose->heading_rad), pose->y_m + *ahead * std::sin(pose->heading_rad)};
+  blocked_cycles_ = 0;
+  runner_.restart();
+  return on_running();
+}
+
+NodeStatus AvoidObstacles::on_running() {
+  if (!filter_) return NodeStatus::failure;
+  auto speed = get_input<double>("speed_mps");
+  auto gain = get_input<double>("turn_gain_per_s");
+  auto max_w = get_input<double>("max_angular_radps");
+  auto max_blocked = get_input<int>("max_blocked_cycles");
+  if (!speed || !gain || !max_w || !max_blocked) return stop_with(NodeStatus::failure);
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) {
+    host_.logger().error(path(), fresh.error().message);
+    return stop_with(NodeStatus::failure);
+  }
+  auto pose = runner_.pose(host_);
+  if (!pose) return NodeStatus::running;
+  if (*fresh) filter_->add_points(**fresh);
+  const Decision d = filter_->decide(*pose, goal_m_);
+  (void)set_output("situation", std::string(to_string(d.situation)));
+  if (d.situation == Situation::goal_reached) return stop_with(NodeStatus::success);
+  if (d.situation == Situation::no_candidate) {
+    if (++blocked_cycles_ >= *max_blocked) {
+      host_.logger().error(path(), "stopped: " + d.reason + " for " + std::to_string(blocked_cycles_) + " cycles");
+      return stop_with(NodeStatus::failure);
+    }
+  } else {
+    blocked_cycles_ = 0;
+  }
+  const double w = std::clamp(*gain * d.heading_rad, -*max_w, *max_w);
+  const double v = d.translate ? *speed * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
+  send(host_, v, d.translate ? w : std::copysign(*max_w, d.heading_rad));
+  return NodeStatus::running;
+}
+
+void AvoidObstacles::on_halted() {
+  stop(host_);
+  filter_.reset();
+}
+
+Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {
+  VISNAV_TRY(registry.register_node<ObstacleAhead>(
+      "ObstacleAhead", "True while the IPT finds an obstacle's ground contact in the corridor ahead",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<ObstacleAhead>(name, config, host);
+      }));
+  VISNAV_TRY(registry.register_node<AvoidObstacles>(
+      "AvoidObstacles", "Goal-directed obstacle avoidance (IPT polar map, thesis Ch. 6) to a point ahead on the heading line",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<AvoidObstacles>(name, config, host);
+      }));
+  return ok();
+}
+
+}  // namespace visnav::ipt

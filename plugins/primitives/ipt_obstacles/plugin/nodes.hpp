@@ -1,0 +1,79 @@
+// Behaviour-tree nodes of the ipt_obstacles plugin. Thin adapters over the core:
+//  * ObstacleAhead (condition): runs the IPT pipeline on the camera stream; success while a
+//    contact point lies in the corridor ahead of the robot (|lateral| ≤ corridor_half_width_m,
+//    0 < forward ≤ lookahead_m). Contact points are kept in the odom frame for memory_m of
+//    travel, so an obstacle that left the field of view still counts until passed.
+//  * AvoidObstacles (stateful action): the thesis's goal-directed strategy (NavigationFilter)
+//    towards a goal goal_ahead_m ahead of where it started, on the line of the robot's heading
+//    then (the taught edge when it interrupts a replay). (v, ω): ω = gain·θ_mot saturated,
+//    v = speed·max(0, cos θ_mot). Success at the goal; failure, with a logged reason, when no
+//    gap exists for max_blocked_cycles cycles in a row or the camera/odometry are missing.
+// Camera ports describe the mounting (the sim camera's defaults); the image size comes from
+// the frames. Both nodes stop the robot when halted or failing.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav/bt/node.hpp"
+#include "visnav/bt/registry.hpp"
+#include "visnav/host.hpp"
+#include "visnav/ipt_obstacles/pipeline.hpp"
+#include "visnav/ipt_obstacles/polar_map.hpp"
+
+namespace visnav::ipt {
+
+/// Pipeline state shared by both node kinds: frames in, contact points (odom frame) out.
+class PipelineRunner {
+ public:
+  /// Reads the camera ports on first use. Returns the contact points of a new pair (may be
+  /// empty), nullopt when no new pair closed this tick. Error: no frame bus / bad camera.
+  Result<std::optional<std::vector<cv::Point2d>>> step(const bt::TreeNode& node, HostServices& host);
+  [[nodiscard]] std::optional<Pose2D> pose(HostServices& host) const;
+  void restart() {
+    if (pipeline_) pipeline_->restart();
+  }
+
+ private:
+  std::optional<ObstaclePipeline> pipeline_;
+  std::uint64_t last_sequence_ = 0;
+  bool have_sequence_ = false;
+  cv::Mat grey_;
+};
+
+bt::PortsList camera_ports();
+
+class ObstacleAhead : public bt::ConditionNode {
+ public:
+  ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus tick() override;
+
+ private:
+  HostServices& host_;
+  PipelineRunner runner_;
+  std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
+};
+
+class AvoidObstacles : public bt::StatefulActionNode {
+ public:
+  AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus on_start() override;
+  bt::NodeStatus on_running() override;
+  void on_halted() override;
+
+ private:
+  bt::NodeStatus stop_with(bt::NodeStatus status);
+  HostServices& host_;
+  PipelineRunner runner_;
+  std::optional<NavigationFilter> filter_;
+  cv::Point2d goal_m_;
+  int blocked_cycles_ = 0;
+};
+
+Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host);
+
+}  // namespace visnav::ipt

@@ -245,4 +245,67 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
   return report;
 }
 
+Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptions& options) {
+  VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(options.world));
+  VISNAV_ASSIGN(auto world, vs::load_world_cached(path));
+  vs::CameraModel model;
+  model.width_px = options.width_px;
+  model.height_px = options.height_px;
+  model.hfov_deg = options.hfov_deg;
+  model.height_m = options.true_height_m;
+  model.pitch_down_deg = options.true_pitch_down_deg;
+  VISNAV_TRY(model.validate());
+  vs::Renderer renderer(world, model);
+  cv::RNG rng(static_cast<std::uint64_t>(options.seed) * 104729u + 3u);
+  cv::Mat bgr, noise, grey_a, grey_b;
+  auto render = [&](const Pose2D& pose, cv::Mat& grey) {
+    renderer.render(pose, bgr);
+    if (options.noise_std > 0.0) {
+      noise.create(bgr.size(), CV_16SC3);
+      rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_std);
+      cv::Mat sum;
+      cv::add(bgr, noise, sum, cv::noArray(), CV_16SC3);
+      sum.convertTo(bgr, CV_8UC3);
+    }
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  };
+  std::vector<CalibrationPair> pairs;
+  for (int k = 0; k < options.pairs; ++k) {
+    CalibrationPair p;
+    p.pose_a = advance(options.start, k * options.spacing_m);
+    p.pose_b = advance(p.pose_a, options.baseline_m);
+    render(p.pose_a, grey_a);
+    render(p.pose_b, grey_b);
+    std::vector<cv::Point2f> c0, c1;
+    std::vector<std::uint8_t> st, in;
+    std::vector<float> err;
+    cv::goodFeaturesToTrack(grey_a, c0, 250, 0.01, 5.0);
+    if (c0.size() < 8) continue;
+    cv::calcOpticalFlowPyrLK(grey_a, grey_b, c0, c1, st, err, cv::Size(15, 15), 3);
+    std::vector<cv::Point2f> a, b;
+    for (std::size_t i = 0; i < c0.size(); ++i)
+      if (st[i] != 0) {
+        a.push_back(c0[i]);
+        b.push_back(c1[i]);
+      }
+    if (a.size() < 8) continue;
+    cv::findFundamentalMat(a, b, cv::FM_RANSAC, 1.0, 0.99, 500, in);
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (in.empty() || in[i] != 0) {
+        p.pixels_a.push_back(a[i]);
+        p.pixels_b.push_back(b[i]);
+      }
+    pairs.push_back(std::move(p));
+  }
+  IptCamera guess;
+  guess.width_px = model.width_px;
+  guess.height_px = model.height_px;
+  guess.fx_px = guess.fy_px = model.fx();
+  guess.cx_px = model.cx();
+  guess.cy_px = model.cy();
+  guess.height_m = options.guess_height_m;
+  guess.pitch_rad = -options.guess_pitch_down_deg * CV_PI / 180.0;
+  return calibrate_height_pitch(guess, pairs);
+}
+
 }  // namespace visnav::ipt

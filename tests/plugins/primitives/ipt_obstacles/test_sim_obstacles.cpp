@@ -84,5 +84,16 @@ TEST(IptOnRenderedFrames, ClassifierPrecisionAndRecallAtTheThesisOperatingPoint)
   EXPECT_GE(report->auc_with_band + 1e-9, report->auc_without_band - 0.02);
 }
 
+TEST(IptOnRenderedFrames, CalibrateIptRecoversTheMount) {
+  CalibrationRunOptions o;  // true 0.43 m / 9°, guess 0.5 m / 5°
+  auto r = calibrate_on_rendered_frames(o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  std::printf("calibrate-ipt: height %.4f m pitch %.3f deg down, RMS D %.4f -> %.4f m\n", r->height_m,
+              -r->pitch_rad * 180 / CV_PI, r->initial_rms_discrepancy_m, r->rms_discrepancy_m);
+  EXPECT_NEAR(r->height_m, 0.43, 0.02);
+  EXPECT_NEAR(-r->pitch_rad * 180 / CV_PI, 9.0, 0.6);
+  EXPECT_LT(r->rms_discrepancy_m, 0.3 * r->initial_rms_discrepancy_m);
+}
+
 }  // namespace
 }  // namespace visnav::ipt

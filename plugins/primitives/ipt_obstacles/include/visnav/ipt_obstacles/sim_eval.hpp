@@ -19,6 +19,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "visnav/ipt_obstacles/calibration.hpp"
 #include "visnav/ipt_obstacles/classifier.hpp"
 #include "visnav/ipt_obstacles/profiles.hpp"
 #include "visnav/result.hpp"
@@ -89,5 +90,27 @@ struct RocReport {
 /// Draws classified features and contact points onto a BGR image (the colours above).
 void draw_classification(cv::Mat& bgr, const std::vector<ClassifiedFeature>& features,
                          const std::vector<ContactPoint>& contacts);
+
+/// `visnav calibrate-ipt` in the simulator: frames of flat ground rendered with a known mount,
+/// Shi-Tomasi + LK tracks between frames baseline_m apart, RANSAC on F, then
+/// calibrate_height_pitch() from a wrong initial guess.
+struct CalibrationRunOptions {
+  std::string world = "obstacle_course";
+  Pose2D start{-5.0, -1.5, -CV_PI / 2};  ///< facing open grass, no wall in view
+  int pairs = 12;
+  double baseline_m = 0.10;
+  double spacing_m = 0.3;               ///< travel between pairs
+  int width_px = 320;
+  int height_px = 240;
+  double hfov_deg = 65.5;
+  double true_height_m = 0.43;
+  double true_pitch_down_deg = 9.0;
+  double guess_height_m = 0.5;
+  double guess_pitch_down_deg = 5.0;
+  double noise_std = 2.0;
+  int seed = 1;
+};
+
+[[nodiscard]] Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptions& options);
 
 }  // namespace visnav::ipt

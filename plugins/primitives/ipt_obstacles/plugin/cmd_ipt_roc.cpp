@@ -13,7 +13,7 @@ namespace visnav::ipt {
 const char* const kIptRocUsage =
     "usage: visnav ipt-roc [--world NAME] [--seed N] [--noise-std GREY] [--odom-sd-m M] [--odom-sd-deg DEG]\n"
     "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
-    "                      [--vertical-run-px N]\n"
+    "                      [--vertical-run-px N] [--support N] [--support-radius-px P]\n"
     "                      [--picture FILE.png]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
@@ -71,6 +71,11 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
     } else if (arg == "--vertical-run-px") {
       if (!value(v)) return 2;
       options.profiles.min_vertical_run_px = static_cast<int>(v);
+    } else if (arg == "--support") {
+      if (!value(v)) return 2;
+      options.profiles.min_supporting_features = static_cast<int>(v);
+    } else if (arg == "--support-radius-px") {
+      if (!value(options.profiles.support_radius_px)) return 2;
     } else if (arg == "--ground-reach-px") {
       if (!value(options.profiles.ground_reach_px)) return 2;
     } else if (arg == "--no-band") {

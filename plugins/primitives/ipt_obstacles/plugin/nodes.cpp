@@ -131,8 +131,14 @@ bt::PortsList AvoidObstacles::provided_ports() {
   ports.push_back(bt::input_port<double>("turn_gain_per_s", "1.5", "omega = gain * theta_mot"));
   ports.push_back(bt::input_port<double>("max_angular_radps", "0.6", "turn-rate limit"));
   ports.push_back(bt::input_port<int>("max_blocked_cycles", "60", "cycles without any gap before giving up"));
+  ports.push_back(bt::input_port<int>("max_stall_cycles", "300",
+                                      "cycles without getting 0.1 m closer to the goal before giving up (a trap, a "
+                                      "potential-field minimum)"));
   ports.push_back(bt::input_port<double>("security_distance_m", "0.95", "S_dist (thesis 0.95 m)"));
   ports.push_back(bt::input_port<double>("gap_width_m", "0.95", "narrowest permitted gap (thesis experiments 0.95 m)"));
+  ports.push_back(bt::input_port<double>("reset_keep_near_m", "1.9",
+                                         "points this close survive the filter resets (0 = the thesis; measured: the "
+                                         "thesis reset forgets a crate beside the robot and drives into it)"));
   ports.push_back(bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation"));
   return ports;
 }
@@ -147,7 +153,8 @@ NodeStatus AvoidObstacles::on_start() {
   auto ahead = get_input<double>("goal_ahead_m");
   auto sdist = get_input<double>("security_distance_m");
   auto gap = get_input<double>("gap_width_m");
-  if (!ahead || !sdist || !gap) return NodeStatus::failure;
+  auto keep = get_input<double>("reset_keep_near_m");
+  if (!ahead || !sdist || !gap || !keep) return NodeStatus::failure;
   auto pose = runner_.pose(host_);
   if (!pose) {
     host_.logger().error(path(), "no odometry: cannot place the goal");
@@ -156,6 +163,7 @@ NodeStatus AvoidObstacles::on_start() {
   PolarMapParams params;
   params.security_distance_m = *sdist;
   params.gap_width_m = *gap;
+  params.reset_keep_near_m = *keep;
   if (auto st = params.validate(); !st) {
     host_.logger().error(path(), st.error().message);
     return stop_with(NodeStatus::failure);
@@ -163,6 +171,8 @@ NodeStatus AvoidObstacles::on_start() {
   filter_.emplace(params);
   goal_m_ = {pose->x_m + *ahead * std::cos(pose->heading_rad), pose->y_m + *ahead * std::sin(pose->heading_rad)};
   blocked_cycles_ = 0;
+  stall_cycles_ = 0;
+  best_distance_m_ = *ahead;
   runner_.restart();
   return on_running();
 }
@@ -173,7 +183,8 @@ NodeStatus AvoidObstacles::on_running() {
   auto gain = get_input<double>("turn_gain_per_s");
   auto max_w = get_input<double>("max_angular_radps");
   auto max_blocked = get_input<int>("max_blocked_cycles");
-  if (!speed || !gain || !max_w || !max_blocked) return stop_with(NodeStatus::failure);
+  auto max_stall = get_input<int>("max_stall_cycles");
+  if (!speed || !gain || !max_w || !max_blocked || !max_stall) return stop_with(NodeStatus::failure);
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
     host_.logger().error(path(), fresh.error().message);
@@ -184,6 +195,11 @@ NodeStatus AvoidObstacles::on_running() {
   if (*fresh) filter_->add_points(**fresh);
   const Decision d = filter_->decide(*pose, goal_m_);
   (void)set_output("situation", std::string(to_string(d.situation)));
+  if (d.situation != last_situation_) {
+    host_.logger().info(path(), std::string(to_string(d.situation)) + " at (" + std::to_string(pose->x_m) + ", " +
+                                    std::to_string(pose->y_m) + "): " + d.reason);
+    last_situation_ = d.situation;
+  }
   if (d.situation == Situation::goal_reached) return stop_with(NodeStatus::success);
   if (d.situation == Situation::no_candidate) {
     if (++blocked_cycles_ >= *max_blocked) {
@@ -192,6 +208,15 @@ NodeStatus AvoidObstacles::on_running() {
     }
   } else {
     blocked_cycles_ = 0;
+  }
+  const double to_goal_m = std::hypot(goal_m_.x - pose->x_m, goal_m_.y - pose->y_m);
+  if (to_goal_m < best_distance_m_ - 0.1) {
+    best_distance_m_ = to_goal_m;
+    stall_cycles_ = 0;
+  } else if (++stall_cycles_ >= *max_stall) {
+    host_.logger().error(path(), "stopped: no progress towards the goal for " + std::to_string(stall_cycles_) +
+                                     " cycles (" + std::to_string(to_goal_m) + " m left; last: " + d.reason + ")");
+    return stop_with(NodeStatus::failure);
   }
   const double w = std::clamp(*gain * d.heading_rad, -*max_w, *max_w);
   const double v = d.translate ? *speed * std::max(0.0, std::cos(d.heading_rad)) : 0.0;

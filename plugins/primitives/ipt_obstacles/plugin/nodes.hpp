@@ -7,7 +7,8 @@
 //    towards a goal goal_ahead_m ahead of where it started, on the line of the robot's heading
 //    then (the taught edge when it interrupts a replay). (v, ω): ω = gain·θ_mot saturated,
 //    v = speed·max(0, cos θ_mot). Success at the goal; failure, with a logged reason, when no
-//    gap exists for max_blocked_cycles cycles in a row or the camera/odometry are missing.
+//    gap exists for max_blocked_cycles cycles in a row, when it gets no 0.1 m closer to the
+//    goal for max_stall_cycles cycles (a trap), or when the camera/odometry are missing.
 // Camera ports describe the mounting (the sim camera's defaults); the image size comes from
 // the frames. Both nodes stop the robot when halted or failing.
 #pragma once
@@ -72,6 +73,9 @@ class AvoidObstacles : public bt::StatefulActionNode {
   std::optional<NavigationFilter> filter_;
   cv::Point2d goal_m_;
   int blocked_cycles_ = 0;
+  int stall_cycles_ = 0;
+  double best_distance_m_ = 0.0;
+  Situation last_situation_ = Situation::blocked;
 };
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host);

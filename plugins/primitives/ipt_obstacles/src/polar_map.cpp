@@ -75,7 +75,9 @@ const ParamSchema<PolarMapParams>& PolarMapParams::schema() {
           .field("goal_tolerance_m", &P::goal_tolerance_m, "goal reached within this distance").range(0.01, 10.0)
           .field("step_m", &P::step_m, "travel per cycle, for candidate validation").range(0.0, 5.0)
           .field("repulsion_gain", &P::repulsion_gain, "potential field repulsion gain").range(0.0, 1e6)
-          .field("attraction_gain", &P::attraction_gain, "potential field attraction gain").range(0.0, 1e6);
+          .field("attraction_gain", &P::attraction_gain, "potential field attraction gain").range(0.0, 1e6)
+          .field("reset_keep_near_m", &P::reset_keep_near_m, "points this close survive a reset (0 = thesis)")
+          .range(0.0, 100.0);
   return s;
 }
 
@@ -129,6 +131,13 @@ int NavigationFilter::sector_of(double bearing_rad) const {
 
 void NavigationFilter::add_points(std::span<const cv::Point2d> points_m) {
   points_.insert(points_.end(), points_m.begin(), points_m.end());
+}
+
+void NavigationFilter::reset(const Pose2D& robot) {
+  const double keep = params_.reset_keep_near_m;
+  std::erase_if(points_, [&](const cv::Point2d& p) { return std::hypot(p.x - robot.x_m, p.y - robot.y_m) > keep; });
+  tenacity_on_ = false;
+  rotate_side_ = 0;
 }
 
 void NavigationFilter::reset() {
@@ -213,7 +222,7 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
                      std::to_string(px->range_m) + " m";
         }
       }
-      reset();
+      reset(robot);
       d.reset = true;
       return d;
     }
@@ -322,7 +331,7 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
   d.reason = chosen->reason + (tenacity_side_ > 0 ? ", left side" : ", right side");
   // S9: the obstacle is passed when nothing stored is ahead any more.
   if (std::none_of(pts.begin(), pts.end(), [](const Polar& q) { return in_front(q.bearing_rad); })) {
-    reset();
+    reset(robot);
     d.reset = true;
   }
   return d;

@@ -29,7 +29,11 @@ const ParamSchema<ProfileParams>& ProfileParams::schema() {
           .field("min_vertical_run_px", &P::min_vertical_run_px,
                  "edge pixels must lie in vertical runs this long (morphological opening; 1 = off)")
           .range(1, 101)
-          .field("max_range_m", &P::max_range_m, "contact points farther than this are dropped").range(0.1, 1000.0);
+          .field("max_range_m", &P::max_range_m, "contact points farther than this are dropped").range(0.1, 1000.0)
+          .field("min_supporting_features", &P::min_supporting_features,
+                 "obstacle features whose traces must end near a contact (1 = off)")
+          .range(1, 100)
+          .field("support_radius_px", &P::support_radius_px, "radius of that support").range(0.0, 50.0);
   return s;
 }
 
@@ -107,9 +111,13 @@ std::vector<ContactPoint> contact_points(const cv::Mat& edges, std::span<const C
     if (f.label == FeatureClass::ground)
       cv::circle(ground_stop, cv::Point(static_cast<int>(std::round(f.pixel.x)), static_cast<int>(std::round(f.pixel.y))),
                  reach, cv::Scalar(255), cv::FILLED);
-  cv::Mat ended = cv::Mat::zeros(edges.size(), CV_8UC1);
-  const LensPose lens = lens_pose(camera, robot);
-  const double min_row = horizon_row_px(camera) + params.guard_band_px;
+  // Trace ends per feature (one entry per distinct end pixel of each feature).
+  struct End {
+    cv::Point px;
+    int feature;
+  };
+  std::vector<End> ends;
+  cv::Mat ended = cv::Mat::zeros(edges.size(), CV_32SC1);  // last feature index + 1 that ended here
   const int half_w = params.window_width_px / 2, half_h = params.window_height_px / 2;
   for (std::size_t i = 0; i < features.size(); ++i) {
     const ClassifiedFeature& f = features[i];
@@ -119,16 +127,36 @@ std::vector<ContactPoint> contact_points(const cv::Mat& edges, std::span<const C
       for (int u = std::max(0, fu - half_w); u <= std::min(edges.cols - 1, fu + half_w); ++u) {
         if (edges.at<std::uint8_t>(v, u) == 0) continue;
         const cv::Point end = trace_down(edges, ground_stop, {u, v}, params.max_gap_rows);
-        if (ended.at<std::uint8_t>(end.y, end.x) != 0) continue;
-        ended.at<std::uint8_t>(end.y, end.x) = 255;
-        if (end.y < min_row) continue;
-        const GroundHit hit = back_project(camera, lens, cv::Point2d(end.x, end.y));
-        if (!hit.valid()) continue;
-        const RangeBearing rb = range_bearing(robot, hit.ground_m);
-        if (rb.range_m > params.max_range_m) continue;
-        out.push_back(ContactPoint{cv::Point2d(end.x, end.y), hit.ground_m, rb.range_m, rb.bearing_rad, static_cast<int>(i)});
+        int& mark = ended.at<int>(end.y, end.x);
+        if (mark == static_cast<int>(i) + 1) continue;
+        mark = static_cast<int>(i) + 1;
+        ends.push_back({end, static_cast<int>(i)});
       }
     }
+  }
+  // Support: traces of min_supporting_features different features end within the radius.
+  const double r2 = params.support_radius_px * params.support_radius_px;
+  const LensPose lens = lens_pose(camera, robot);
+  const double min_row = horizon_row_px(camera) + params.guard_band_px;
+  cv::Mat emitted = cv::Mat::zeros(edges.size(), CV_8UC1);
+  for (const End& e : ends) {
+    if (emitted.at<std::uint8_t>(e.px.y, e.px.x) != 0) continue;
+    if (params.min_supporting_features > 1) {
+      std::vector<int> support{e.feature};
+      for (const End& o : ends) {
+        const cv::Point d = o.px - e.px;
+        if (d.dot(d) <= r2 && std::find(support.begin(), support.end(), o.feature) == support.end())
+          support.push_back(o.feature);
+      }
+      if (static_cast<int>(support.size()) < params.min_supporting_features) continue;
+    }
+    emitted.at<std::uint8_t>(e.px.y, e.px.x) = 255;
+    if (e.px.y < min_row) continue;
+    const GroundHit hit = back_project(camera, lens, cv::Point2d(e.px.x, e.px.y));
+    if (!hit.valid()) continue;
+    const RangeBearing rb = range_bearing(robot, hit.ground_m);
+    if (rb.range_m > params.max_range_m) continue;
+    out.push_back(ContactPoint{cv::Point2d(e.px.x, e.px.y), hit.ground_m, rb.range_m, rb.bearing_rad, e.feature});
   }
   return out;
 }

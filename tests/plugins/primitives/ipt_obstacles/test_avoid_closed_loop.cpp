@@ -61,7 +61,9 @@ Outcome drive(const Pose2D& start, const cv::Point2d& goal) {
   auto pipeline = ObstaclePipeline::create(cam, PipelineParams{}, ClassifierParams{}, ProfileParams{});
   EXPECT_TRUE(pipeline.ok());
   const auto shapes = vs::collision_shapes(**world, 0.6, 0.25);
-  NavigationFilter filter{PolarMapParams{}};
+  PolarMapParams map_params;
+  map_params.reset_keep_near_m = 2.0 * map_params.security_distance_m;  // spec §7.5 [I] reset_keep_near
+  NavigationFilter filter{map_params};
   Pose2D pose = start;
   cv::Mat bgr, grey;
   Outcome out;

@@ -143,6 +143,17 @@ TEST(NavigationFilter, TenacityKeepsTheFirstSideUntilReset) {
   EXPECT_LT(third.heading_rad, 0.0);
 }
 
+TEST(NavigationFilterGO, AVanAcrossThePathIsPassedAtAnEnd) {
+  NavigationFilter f{PolarMapParams{}};
+  std::vector<cv::Point2d> rear;  // the van's rear, 2 m ahead, from 0.75 m right to 1.15 m left
+  for (double y = -0.75; y <= 1.15 + 1e-9; y += 0.1) rear.push_back({2.0, y});
+  f.add_points(rear);
+  const Decision d = f.decide({0, 0, 0}, {9.0, 0.0});
+  EXPECT_EQ(d.situation, Situation::gap_end_behind) << d.reason;
+  EXPECT_TRUE(d.translate);
+  EXPECT_LT(d.heading_rad, 0.0);  // the right end is nearer the goal line
+}
+
 TEST(NavigationFilter, GoalReachedResets) {
   NavigationFilter f{PolarMapParams{}};
   f.add_points(std::vector<cv::Point2d>{at(2.0, 0)});

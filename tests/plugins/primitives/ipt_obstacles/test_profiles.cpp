@@ -65,7 +65,8 @@ TEST(IptProfiles, ContactPointAtTheBaseOfTheBorderAndItsDistance) {
   const Scene s = make_scene();
   cv::Mat edges;
   EdgeScratch scratch;
-  const ProfileParams params;
+  ProfileParams params;
+  params.min_supporting_features = 1;  // one feature: the tracing rule alone
   reduced_canny(s.grey, params, edges, scratch);
   const std::vector<ClassifiedFeature> features{feature(s.left_col, 90, FeatureClass::obstacle)};
   const auto contacts = contact_points(edges, features, s.cam, s.robot, params);
@@ -78,6 +79,22 @@ TEST(IptProfiles, ContactPointAtTheBaseOfTheBorderAndItsDistance) {
     EXPECT_GT(c.bearing_rad, 0.0);  // left of the heading
     EXPECT_EQ(c.feature, 0);
   }
+}
+
+TEST(IptProfiles, AContactNeedsTracesFromTwoObstacleFeatures) {
+  const Scene s = make_scene();
+  cv::Mat edges;
+  EdgeScratch scratch;
+  const ProfileParams params;  // default: 2 supporting features within 10 px
+  ASSERT_EQ(params.min_supporting_features, 2);
+  reduced_canny(s.grey, params, edges, scratch);
+  const std::vector<ClassifiedFeature> one{feature(s.left_col, 90, FeatureClass::obstacle)};
+  EXPECT_TRUE(contact_points(edges, one, s.cam, s.robot, params).empty());
+  const std::vector<ClassifiedFeature> two{feature(s.left_col, 90, FeatureClass::obstacle),
+                                           feature(s.left_col + 1, 70, FeatureClass::obstacle)};
+  const auto contacts = contact_points(edges, two, s.cam, s.robot, params);
+  ASSERT_FALSE(contacts.empty());
+  for (const auto& c : contacts) EXPECT_NEAR(c.pixel.y, s.base_row, 2.0);
 }
 
 TEST(IptProfiles, FloorEdgesWithoutObstacleFeaturesGiveNoContact) {
@@ -117,7 +134,8 @@ TEST(IptProfiles, AGroundFeatureOnTheBorderStopsTheTrace) {
   const Scene s = make_scene();
   cv::Mat edges;
   EdgeScratch scratch;
-  const ProfileParams params;
+  ProfileParams params;
+  params.min_supporting_features = 1;
   reduced_canny(s.grey, params, edges, scratch);
   const std::vector<ClassifiedFeature> features{feature(s.left_col, 90, FeatureClass::obstacle),
                                                 feature(s.left_col, 105, FeatureClass::ground)};
@@ -136,7 +154,8 @@ TEST(IptProfiles, ABrokenBorderIsBridged) {
   s.grey(cv::Rect(0, gap_row, s.grey.cols, 3)).setTo(cv::Scalar(200));
   cv::Mat edges;
   EdgeScratch scratch;
-  const ProfileParams params;
+  ProfileParams params;
+  params.min_supporting_features = 1;
   reduced_canny(s.grey, params, edges, scratch);
   // a feature just above the gap: the 15-row window reaches below it
   const std::vector<ClassifiedFeature> features{feature(s.left_col, gap_row - 2, FeatureClass::obstacle)};

@@ -51,6 +51,8 @@ struct PolarMapParams {
   double step_m = 0.02;               ///< travel per cycle, for candidate validation [spec I]
   double repulsion_gain = 1.0;        ///< potential field [spec I]: Σ gain·(1/d − 1/S_dist)/d² away from points
   double attraction_gain = 1.0;       ///< potential field: gain · unit vector to the goal
+  double reset_keep_near_m = 0.0;     ///< on a reset keep the points this close (spec §7.5 [I]
+                                      ///< reset_keep_near; 0 = the thesis: forget everything)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<PolarMapParams>& schema();
@@ -89,6 +91,8 @@ class NavigationFilter {
   void add_points(std::span<const cv::Point2d> points_m);
   /// One decision (spec §7.5) for the robot at `robot` heading to `goal_m`.
   [[nodiscard]] Decision decide(const Pose2D& robot, const cv::Point2d& goal_m);
+  /// Clears the points (but those within reset_keep_near_m of `robot`) and tenacity.
+  void reset(const Pose2D& robot);
   void reset();
 
   [[nodiscard]] const std::vector<cv::Point2d>& points() const { return points_; }

@@ -42,6 +42,9 @@ struct ProfileParams {
   double guard_band_px = 3.0;       ///< contact points this close below the horizon are dropped (as the classifier)
   double max_range_m = 3.0;         ///< contact points farther are dropped
   int min_vertical_run_px = 9;      ///< keep only edge pixels in vertical runs this long (1 = off) [ours, measured]
+  int min_supporting_features = 2;  ///< a contact needs traces from this many obstacle features ending within
+                                    ///< support_radius_px (1 = off) [ours, measured]
+  double support_radius_px = 10.0;
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<ProfileParams>& schema();
@@ -65,7 +68,9 @@ struct ContactPoint {
 };
 
 /// Contact points of the obstacle features in `features` over `edges`. One per distinct end
-/// pixel (several seeds of one edge end at one pixel). `robot` and `lens` are frame k's poses.
+/// pixel (several seeds of one edge end at one pixel). `robot` is frame k's pose. With
+/// min_supporting_features > 1 a contact is kept only when traces started from that many
+/// different obstacle features end within support_radius_px of it.
 [[nodiscard]] std::vector<ContactPoint> contact_points(const cv::Mat& edges,
                                                        std::span<const ClassifiedFeature> features,
                                                        const IptCamera& camera, const Pose2D& robot,

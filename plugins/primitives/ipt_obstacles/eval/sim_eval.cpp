@@ -138,7 +138,9 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
   std::vector<Sample> samples;
   std::vector<double> d_ground, d_obstacle;  // D of features below the guard band, for the β sweep
   long above_horizon_pos = 0, above_horizon_neg = 0;
+  int run_index = -1;
   for (const RocRun& run : options.runs) {
+    ++run_index;
     for (double s = 0.0; s + options.step_m <= run.length_m + 1e-9; s += options.pair_every_m) {
       const Pose2D p0 = advance(run.start, s), p1 = advance(p0, options.step_m);
       render_grey(p0, bgr0, grey0, labels0);
@@ -184,11 +186,15 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
         }
         ++report.features;
         const bool obstacle = truth == 1;
-        switch (f.label) {
-          case FeatureClass::obstacle: (obstacle ? c.tp : c.fp)++; break;
-          case FeatureClass::ground: (obstacle ? c.fn : c.tn)++; break;
-          case FeatureClass::unclassified: (obstacle ? c.unclassified_obstacle : c.unclassified_ground)++; break;
-        }
+        auto count = [&](Counts& k) {
+          switch (f.label) {
+            case FeatureClass::obstacle: (obstacle ? k.tp : k.fp)++; break;
+            case FeatureClass::ground: (obstacle ? k.fn : k.tn)++; break;
+            case FeatureClass::unclassified: (obstacle ? k.unclassified_obstacle : k.unclassified_ground)++; break;
+          }
+        };
+        count(c);
+        if (f.reason != ClassReason::above_horizon && f.reason != ClassReason::guard_band) count(report.below_horizon);
         if (f.reason == ClassReason::above_horizon) {
           samples.push_back({truth, std::numeric_limits<double>::infinity()});
           (obstacle ? above_horizon_pos : above_horizon_neg)++;
@@ -213,7 +219,7 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
           }
         if (near_obstacle) ++report.contact_points_on_obstacle_base;
       }
-      if (picture != nullptr) {
+      if (picture != nullptr && (options.picture_run < 0 || options.picture_run == run_index)) {
         *picture = bgr1.clone();
         draw_classification(*picture, classified, contacts);
       }

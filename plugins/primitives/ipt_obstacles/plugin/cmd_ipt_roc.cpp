@@ -14,7 +14,7 @@ const char* const kIptRocUsage =
     "usage: visnav ipt-roc [--world NAME] [--seed N] [--noise-std GREY] [--odom-sd-m M] [--odom-sd-deg DEG]\n"
     "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
     "                      [--vertical-run-px N] [--support N] [--support-radius-px P]\n"
-    "                      [--picture FILE.png]\n"
+    "                      [--picture FILE.png] [--picture-run K]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
     "pyramidal Lucas-Kanade, rejects outliers with RANSAC on F and classifies the inliers with the\n"
@@ -52,6 +52,9 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       options.world = argv[++i];
     } else if (arg == "--picture" && i + 1 < argc) {
       picture_path = argv[++i];
+    } else if (arg == "--picture-run") {
+      if (!value(v)) return 2;
+      options.picture_run = static_cast<int>(v);
     } else if (arg == "--seed") {
       if (!value(v)) return 2;
       options.seed = static_cast<int>(v);
@@ -98,6 +101,11 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
               options.classifier.beta_m, c.tp, c.fp, c.tn, c.fn, c.unclassified_obstacle, c.unclassified_ground);
   std::printf("precision %.3f  recall %.3f  recall counting unclassified as missed %.3f  fall-out %.3f\n",
               c.precision(), c.recall(), c.recall_all(), c.fallout());
+  const Counts& b = report->below_horizon;
+  std::printf("below the horizon only (D decides): TP %ld FP %ld TN %ld FN %ld unclassified obstacle %ld ground %ld;"
+              " precision %.3f recall %.3f fall-out %.3f\n",
+              b.tp, b.fp, b.tn, b.fn, b.unclassified_obstacle, b.unclassified_ground, b.precision(), b.recall(),
+              b.fallout());
   std::printf("ROC AUC %.4f without the D band, %.4f with it; beta minimising FP + 0.5 FN: %.3f m\n",
               report->auc_without_band, report->auc_with_band, report->best_beta_m);
   std::printf("contact points %ld, %ld within 3 px of an obstacle pixel\n", report->contact_points,

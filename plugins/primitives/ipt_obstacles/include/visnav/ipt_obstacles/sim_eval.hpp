@@ -51,6 +51,7 @@ struct RocOptions {
   double odom_heading_sd_rad = 0.0;        ///< noise on the pair's relative heading
   int max_features = 250;                  ///< thesis KLT count (Ch. 5)
   int seed = 1;
+  int picture_run = -1;                    ///< the picture shows the last pair of this run (−1: of the last run)
   ClassifierParams classifier;
   ProfileParams profiles;
 };
@@ -73,6 +74,7 @@ struct Counts {
 
 struct RocReport {
   Counts at_operating_point;               ///< the classifier params as given
+  Counts below_horizon;                    ///< the same, only features below the horizon guard band (D decides)
   double auc_without_band = 0.0;           ///< ROC over β, D-interval filter off (thesis 4.16)
   double auc_with_band = 0.0;              ///< ROC over β with the band filter kept
   double best_beta_m = 0.0;                ///< minimiser of FP + 0.5·FN over the sweep (thesis §4.3)

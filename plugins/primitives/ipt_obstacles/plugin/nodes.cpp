@@ -119,92 +119,72 @@ NodeStatus ObstacleAhead::tick() {
   return NodeStatus::failure;
 }
 
-// ----------------------------------------------------------------------------- AvoidObstacles
+// ------------------------------------------------------------------------------- DetourDriver
 
-AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host)
-    : bt::StatefulActionNode(name, config), host_(host) {}
-
-bt::PortsList AvoidObstacles::provided_ports() {
-  bt::PortsList ports = camera_ports();
-  ports.push_back(bt::input_port<double>("goal_ahead_m", "4.0", "goal on the current heading line, this far ahead"));
-  ports.push_back(bt::input_port<double>("speed_mps", "0.2", "forward speed"));
-  ports.push_back(bt::input_port<double>("turn_gain_per_s", "1.5", "omega = gain * theta_mot"));
-  ports.push_back(bt::input_port<double>("max_angular_radps", "0.6", "turn-rate limit"));
-  ports.push_back(bt::input_port<int>("max_blocked_cycles", "60", "cycles without any gap before giving up"));
-  ports.push_back(bt::input_port<int>("max_stall_cycles", "300",
-                                      "cycles without getting 0.1 m closer to the goal before giving up (a trap, a "
-                                      "potential-field minimum)"));
-  ports.push_back(bt::input_port<double>("security_distance_m", "0.95", "S_dist (thesis 0.95 m)"));
-  ports.push_back(bt::input_port<double>("gap_width_m", "0.95", "narrowest permitted gap (thesis experiments 0.95 m)"));
-  ports.push_back(bt::input_port<double>("reset_keep_near_m", "1.9",
-                                         "points this close survive the filter resets (0 = the thesis; measured: the "
-                                         "thesis reset forgets a crate beside the robot and drives into it)"));
-  ports.push_back(bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation"));
-  return ports;
+bt::PortsList avoid_ports() {
+  return {
+      bt::input_port<double>("goal_ahead_m", "4.0", "goal on the current heading line, this far ahead"),
+      bt::input_port<double>("speed_mps", "0.2", "forward speed"),
+      bt::input_port<double>("turn_gain_per_s", "1.5", "omega = gain * theta_mot"),
+      bt::input_port<double>("max_angular_radps", "0.6", "turn-rate limit"),
+      bt::input_port<int>("max_blocked_cycles", "60", "cycles without any gap before giving up"),
+      bt::input_port<int>("max_stall_cycles", "300",
+                          "cycles without getting 0.1 m closer to the goal before giving up (a trap, a potential-field "
+                          "minimum)"),
+      bt::input_port<double>("security_distance_m", "0.95", "S_dist (thesis 0.95 m)"),
+      bt::input_port<double>("gap_width_m", "0.95", "narrowest permitted gap (thesis experiments 0.95 m)"),
+      bt::input_port<double>("reset_keep_near_m", "1.9",
+                             "points this close survive the filter resets (0 = the thesis; measured: the thesis reset "
+                             "forgets a crate beside the robot and drives into it)"),
+      bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation")};
 }
 
-NodeStatus AvoidObstacles::stop_with(NodeStatus status) {
-  stop(host_);
-  filter_.reset();
-  return status;
-}
-
-NodeStatus AvoidObstacles::on_start() {
-  auto ahead = get_input<double>("goal_ahead_m");
-  auto sdist = get_input<double>("security_distance_m");
-  auto gap = get_input<double>("gap_width_m");
-  auto keep = get_input<double>("reset_keep_near_m");
-  if (!ahead || !sdist || !gap || !keep) return NodeStatus::failure;
-  auto pose = runner_.pose(host_);
-  if (!pose) {
-    host_.logger().error(path(), "no odometry: cannot place the goal");
-    return stop_with(NodeStatus::failure);
-  }
+Status DetourDriver::begin(const bt::TreeNode& node, const Pose2D& pose, double goal_ahead_m) {
   PolarMapParams params;
-  params.security_distance_m = *sdist;
-  params.gap_width_m = *gap;
-  params.reset_keep_near_m = *keep;
-  if (auto st = params.validate(); !st) {
-    host_.logger().error(path(), st.error().message);
-    return stop_with(NodeStatus::failure);
-  }
+  VISNAV_ASSIGN(params.security_distance_m, node.get_input<double>("security_distance_m"));
+  VISNAV_ASSIGN(params.gap_width_m, node.get_input<double>("gap_width_m"));
+  VISNAV_ASSIGN(params.reset_keep_near_m, node.get_input<double>("reset_keep_near_m"));
+  VISNAV_ASSIGN(speed_mps_, node.get_input<double>("speed_mps"));
+  VISNAV_ASSIGN(gain_per_s_, node.get_input<double>("turn_gain_per_s"));
+  VISNAV_ASSIGN(max_angular_radps_, node.get_input<double>("max_angular_radps"));
+  VISNAV_ASSIGN(max_blocked_, node.get_input<int>("max_blocked_cycles"));
+  VISNAV_ASSIGN(max_stall_, node.get_input<int>("max_stall_cycles"));
+  VISNAV_TRY(params.validate());
   filter_.emplace(params);
-  goal_m_ = {pose->x_m + *ahead * std::cos(pose->heading_rad), pose->y_m + *ahead * std::sin(pose->heading_rad)};
+  goal_m_ = {pose.x_m + goal_ahead_m * std::cos(pose.heading_rad), pose.y_m + goal_ahead_m * std::sin(pose.heading_rad)};
   blocked_cycles_ = 0;
   stall_cycles_ = 0;
-  best_distance_m_ = *ahead;
-  runner_.restart();
-  return on_running();
+  best_distance_m_ = goal_ahead_m;
+  last_situation_ = Situation::blocked;
+  return ok();
 }
 
-NodeStatus AvoidObstacles::on_running() {
+NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner) {
   if (!filter_) return NodeStatus::failure;
-  auto speed = get_input<double>("speed_mps");
-  auto gain = get_input<double>("turn_gain_per_s");
-  auto max_w = get_input<double>("max_angular_radps");
-  auto max_blocked = get_input<int>("max_blocked_cycles");
-  auto max_stall = get_input<int>("max_stall_cycles");
-  if (!speed || !gain || !max_w || !max_blocked || !max_stall) return stop_with(NodeStatus::failure);
-  auto fresh = runner_.step(*this, host_);
+  auto fresh = runner.step(node, host);
   if (!fresh) {
-    host_.logger().error(path(), fresh.error().message);
-    return stop_with(NodeStatus::failure);
+    host.logger().error(node.path(), fresh.error().message);
+    stop(host);
+    return NodeStatus::failure;
   }
-  auto pose = runner_.pose(host_);
+  auto pose = runner.pose(host);
   if (!pose) return NodeStatus::running;
   if (*fresh) filter_->add_points(**fresh);
   const Decision d = filter_->decide(*pose, goal_m_);
-  (void)set_output("situation", std::string(to_string(d.situation)));
   if (d.situation != last_situation_) {
-    host_.logger().info(path(), std::string(to_string(d.situation)) + " at (" + std::to_string(pose->x_m) + ", " +
-                                    std::to_string(pose->y_m) + "): " + d.reason);
+    host.logger().info(node.path(), std::string(to_string(d.situation)) + " at (" + std::to_string(pose->x_m) + ", " +
+                                        std::to_string(pose->y_m) + "): " + d.reason);
     last_situation_ = d.situation;
   }
-  if (d.situation == Situation::goal_reached) return stop_with(NodeStatus::success);
+  if (d.situation == Situation::goal_reached) {
+    stop(host);
+    return NodeStatus::success;
+  }
   if (d.situation == Situation::no_candidate) {
-    if (++blocked_cycles_ >= *max_blocked) {
-      host_.logger().error(path(), "stopped: " + d.reason + " for " + std::to_string(blocked_cycles_) + " cycles");
-      return stop_with(NodeStatus::failure);
+    if (++blocked_cycles_ >= max_blocked_) {
+      host.logger().error(node.path(), "stopped: " + d.reason + " for " + std::to_string(blocked_cycles_) + " cycles");
+      stop(host);
+      return NodeStatus::failure;
     }
   } else {
     blocked_cycles_ = 0;
@@ -213,20 +193,167 @@ NodeStatus AvoidObstacles::on_running() {
   if (to_goal_m < best_distance_m_ - 0.1) {
     best_distance_m_ = to_goal_m;
     stall_cycles_ = 0;
-  } else if (++stall_cycles_ >= *max_stall) {
-    host_.logger().error(path(), "stopped: no progress towards the goal for " + std::to_string(stall_cycles_) +
-                                     " cycles (" + std::to_string(to_goal_m) + " m left; last: " + d.reason + ")");
-    return stop_with(NodeStatus::failure);
+  } else if (++stall_cycles_ >= max_stall_) {
+    host.logger().error(node.path(), "stopped: no progress towards the goal for " + std::to_string(stall_cycles_) +
+                                         " cycles (" + std::to_string(to_goal_m) + " m left; last: " + d.reason + ")");
+    stop(host);
+    return NodeStatus::failure;
   }
-  const double w = std::clamp(*gain * d.heading_rad, -*max_w, *max_w);
-  const double v = d.translate ? *speed * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
-  send(host_, v, d.translate ? w : std::copysign(*max_w, d.heading_rad));
+  const double w = std::clamp(gain_per_s_ * d.heading_rad, -max_angular_radps_, max_angular_radps_);
+  const double v = d.translate ? speed_mps_ * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
+  send(host, v, d.translate ? w : std::copysign(max_angular_radps_, d.heading_rad));
   return NodeStatus::running;
+}
+
+// ----------------------------------------------------------------------------- AvoidObstacles
+
+AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::StatefulActionNode(name, config), host_(host) {}
+
+bt::PortsList AvoidObstacles::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  for (auto& p : avoid_ports()) ports.push_back(std::move(p));
+  return ports;
+}
+
+NodeStatus AvoidObstacles::on_start() {
+  auto ahead = get_input<double>("goal_ahead_m");
+  auto pose = runner_.pose(host_);
+  if (!ahead || !pose) {
+    host_.logger().error(path(), !ahead ? ahead.error().message : "no odometry: cannot place the goal");
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (auto st = detour_.begin(*this, *pose, *ahead); !st) {
+    host_.logger().error(path(), st.error().message);
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  runner_.restart();
+  return on_running();
+}
+
+NodeStatus AvoidObstacles::on_running() {
+  const NodeStatus st = detour_.step(*this, host_, runner_);
+  (void)set_output("situation", std::string(to_string(detour_.last_situation())));
+  if (st != NodeStatus::running) detour_.end();
+  return st;
 }
 
 void AvoidObstacles::on_halted() {
   stop(host_);
-  filter_.reset();
+  detour_.end();
+}
+
+// ----------------------------------------------------------------------------- ReplayAvoiding
+
+ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::DecoratorNode(name, config), host_(host) {}
+
+bt::PortsList ReplayAvoiding::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  for (auto& p : avoid_ports()) ports.push_back(std::move(p));
+  ports.push_back(bt::input_port<double>("lookahead_m", "1.5", "contact points up to this far ahead trigger a detour"));
+  ports.push_back(bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"));
+  ports.push_back(bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"));
+  ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
+                                         "edge distance already covered when the child starts (FollowRoute writes it; "
+                                         "rewritten after a detour)"));
+  ports.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
+                                         "the replay's last confident odometer reading (lost detection); set to the "
+                                         "odometer when a detour ends: the detour was driven on the IPT, not blind"));
+  ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
+                                         "the replay's frozen-image count, restarted likewise after a detour"));
+  return ports;
+}
+
+bool ReplayAvoiding::obstacle_in_corridor(const Odometry& odom) {
+  auto lookahead = get_input<double>("lookahead_m");
+  auto half_width = get_input<double>("corridor_half_width_m");
+  auto memory = get_input<double>("memory_m");
+  if (!lookahead || !half_width || !memory) return false;
+  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom.distance_m - e.second) > *memory; });
+  const Pose2D& r = odom.pose;
+  const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
+  for (const auto& [p, seen] : points_) {
+    const double dx = p.x - r.x_m, dy = p.y - r.y_m;
+    const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
+    if (fwd > 0.0 && fwd <= *lookahead && std::fabs(lat) <= *half_width) return true;
+  }
+  return false;
+}
+
+NodeStatus ReplayAvoiding::tick() {
+  FrameBus* bus = host_.frame_bus();
+  auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
+  if (!odom) {
+    host_.logger().error(path(), "no odometry");
+    return NodeStatus::failure;
+  }
+  if (detouring_) {
+    const NodeStatus st = detour_.step(*this, host_, runner_);
+    (void)set_output("situation", std::string(to_string(detour_.last_situation())));
+    if (st == NodeStatus::running) return NodeStatus::running;
+    detour_.end();
+    detouring_ = false;
+    if (st == NodeStatus::failure) return NodeStatus::failure;
+    // Back on the line: the edge continues from the along-track distance reached.
+    const double along_m = (odom->pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
+                           (odom->pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
+    const double carried = replay_done_m_ + along_m;
+    (void)set_output("carried_m", carried);
+    (void)set_output("confident_at_m", odom->distance_m);
+    (void)set_output("image_changed_at_m", odom->distance_m);
+    host_.logger().info(path(), "detour done: the edge resumes at " + std::to_string(carried) + " m");
+    points_.clear();
+    runner_.restart();
+    child_started_ = false;
+    return NodeStatus::running;
+  }
+  if (!child_started_) {
+    auto carried = get_input<double>("carried_m");
+    replay_origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
+    child_started_ = true;
+  }
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) {
+    host_.logger().error(path(), fresh.error().message);
+    halt_child();
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*fresh)
+    for (const auto& p : **fresh) points_.emplace_back(p, odom->distance_m);
+  if (obstacle_in_corridor(*odom)) {
+    auto ahead = get_input<double>("goal_ahead_m");
+    if (!ahead) return NodeStatus::failure;
+    halt_child();
+    replay_done_m_ = odom->distance_m - replay_origin_m_;
+    detour_start_ = odom->pose;
+    if (auto st = detour_.begin(*this, odom->pose, *ahead); !st) {
+      host_.logger().error(path(), st.error().message);
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    host_.logger().info(path(), "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: detour");
+    detouring_ = true;
+    return NodeStatus::running;
+  }
+  const NodeStatus st = child()->execute_tick();
+  if (st != NodeStatus::running) {
+    child_started_ = false;
+    points_.clear();
+  }
+  return st;
+}
+
+void ReplayAvoiding::halt() {
+  if (detouring_) stop(host_);
+  detour_.end();
+  detouring_ = false;
+  child_started_ = false;
+  points_.clear();
+  halt_child();
 }
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {
@@ -239,6 +366,11 @@ Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {
       "AvoidObstacles", "Goal-directed obstacle avoidance (IPT polar map, thesis Ch. 6) to a point ahead on the heading line",
       [&host](const std::string& name, const bt::NodeConfig& config) {
         return std::make_unique<AvoidObstacles>(name, config, host);
+      }));
+  VISNAV_TRY(registry.register_node<ReplayAvoiding>(
+      "ReplayAvoiding", "Runs an edge's replay child; detours around obstacles in the corridor ahead and resumes it",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<ReplayAvoiding>(name, config, host);
       }));
   return ok();
 }

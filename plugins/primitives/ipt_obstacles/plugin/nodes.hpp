@@ -9,11 +9,14 @@
 //    v = speed·max(0, cos θ_mot). Success at the goal; failure, with a logged reason, when no
 //    gap exists for max_blocked_cycles cycles in a row, when it gets no 0.1 m closer to the
 //    goal for max_stall_cycles cycles (a trap), or when the camera/odometry are missing.
+//  * ReplayAvoiding (decorator around a replay primitive): the two above inside an edge replay,
+//    see the class comment.
 // Camera ports describe the mounting (the sim camera's defaults); the image size comes from
 // the frames. Both nodes stop the robot when halted or failing.
 #pragma once
 
 #include <memory>
+#include <utility>
 #include <optional>
 #include <string>
 #include <vector>
@@ -58,6 +61,32 @@ class ObstacleAhead : public bt::ConditionNode {
   std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
 };
 
+/// The detour shared by AvoidObstacles and ReplayAvoiding: NavigationFilter decisions to a goal
+/// on the line of the heading where it began, turned into (v, ω) (see the file comment).
+class DetourDriver {
+ public:
+  /// Reads the detour ports (avoid_ports()) and places the goal. Error: bad port values.
+  Status begin(const bt::TreeNode& node, const Pose2D& pose, double goal_ahead_m);
+  /// One cycle: success at the goal, failure (reason logged, robot stopped) when blocked or
+  /// stalled, running otherwise.
+  bt::NodeStatus step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner);
+  void end() { filter_.reset(); }
+  [[nodiscard]] Situation last_situation() const { return last_situation_; }
+
+ private:
+  std::optional<NavigationFilter> filter_;
+  cv::Point2d goal_m_;
+  double speed_mps_ = 0.2, gain_per_s_ = 1.5, max_angular_radps_ = 0.6;
+  int max_blocked_ = 60, max_stall_ = 300;
+  int blocked_cycles_ = 0;
+  int stall_cycles_ = 0;
+  double best_distance_m_ = 0.0;
+  Situation last_situation_ = Situation::blocked;
+};
+
+/// Ports of the detour (both nodes).
+bt::PortsList avoid_ports();
+
 class AvoidObstacles : public bt::StatefulActionNode {
  public:
   AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -67,15 +96,37 @@ class AvoidObstacles : public bt::StatefulActionNode {
   void on_halted() override;
 
  private:
-  bt::NodeStatus stop_with(bt::NodeStatus status);
   HostServices& host_;
   PipelineRunner runner_;
-  std::optional<NavigationFilter> filter_;
-  cv::Point2d goal_m_;
-  int blocked_cycles_ = 0;
-  int stall_cycles_ = 0;
-  double best_distance_m_ = 0.0;
-  Situation last_situation_ = Situation::blocked;
+  DetourDriver detour_;
+};
+
+/// Replay with avoidance (decorator around an edge's replay primitive, e.g. ReplayFeatureEdge):
+/// while an obstacle's ground contact lies in the corridor ahead (as ObstacleAhead), the child
+/// is halted and a detour (as AvoidObstacles) drives to a point goal_ahead_m further along the
+/// line of the heading at that moment — the taught edge — around the obstacle. Then the child
+/// starts again with `carried_m` set to the along-track distance already covered: the replay's
+/// distance before the obstacle plus the detour's progress projected on that line, so the edge
+/// keeps counting and its visual correction resumes. No gap: failure with the reason.
+/// Register the edge kinds to it in FollowRoute's `primitives` port.
+class ReplayAvoiding : public bt::DecoratorNode {
+ public:
+  ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus tick() override;
+  void halt() override;
+
+ private:
+  bool obstacle_in_corridor(const Odometry& odom);
+  HostServices& host_;
+  PipelineRunner runner_;
+  DetourDriver detour_;
+  std::vector<std::pair<cv::Point2d, double>> points_;
+  bool detouring_ = false;
+  bool child_started_ = false;
+  double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
+  double replay_done_m_ = 0.0;     // edge distance covered when the detour began
+  Pose2D detour_start_;
 };
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host);

@@ -85,19 +85,38 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
 ObstacleAhead::ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host)
     : bt::ConditionNode(name, config), host_(host) {}
 
+bt::PortsList corridor_ports(const char* lookahead_default_m) {
+  return {bt::input_port<double>("lookahead_m", lookahead_default_m, "contact points up to this far ahead count"),
+          bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"),
+          bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel")};
+}
+
+void CorridorMemory::add(const std::vector<cv::Point2d>& points, double odom_distance_m) {
+  for (const auto& p : points) points_.emplace_back(p, odom_distance_m);
+}
+
+Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& odom) {
+  VISNAV_ASSIGN(const double lookahead, node.get_input<double>("lookahead_m"));
+  VISNAV_ASSIGN(const double half_width, node.get_input<double>("corridor_half_width_m"));
+  VISNAV_ASSIGN(const double memory, node.get_input<double>("memory_m"));
+  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom.distance_m - e.second) > memory; });
+  const Pose2D& r = odom.pose;
+  const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
+  for (const auto& [p, seen] : points_) {
+    const double dx = p.x - r.x_m, dy = p.y - r.y_m;
+    const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
+    if (fwd > 0.0 && fwd <= lookahead && std::fabs(lat) <= half_width) return true;
+  }
+  return false;
+}
+
 bt::PortsList ObstacleAhead::provided_ports() {
   bt::PortsList ports = camera_ports();
-  ports.push_back(bt::input_port<double>("lookahead_m", "1.5", "contact points up to this far ahead count"));
-  ports.push_back(bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"));
-  ports.push_back(bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"));
+  for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
   return ports;
 }
 
 NodeStatus ObstacleAhead::tick() {
-  auto lookahead = get_input<double>("lookahead_m");
-  auto half_width = get_input<double>("corridor_half_width_m");
-  auto memory = get_input<double>("memory_m");
-  if (!lookahead || !half_width || !memory) return NodeStatus::failure;
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
     host_.logger().warn(path(), fresh.error().message);
@@ -106,17 +125,13 @@ NodeStatus ObstacleAhead::tick() {
   FrameBus* bus = host_.frame_bus();
   auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
   if (!odom) return NodeStatus::failure;
-  if (*fresh)
-    for (const auto& p : **fresh) points_.emplace_back(p, odom->distance_m);
-  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom->distance_m - e.second) > *memory; });
-  const Pose2D& r = odom->pose;
-  const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
-  for (const auto& [p, seen] : points_) {
-    const double dx = p.x - r.x_m, dy = p.y - r.y_m;
-    const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
-    if (fwd > 0.0 && fwd <= *lookahead && std::fabs(lat) <= *half_width) return NodeStatus::success;
+  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  auto blocked = corridor_.blocked(*this, *odom);
+  if (!blocked) {
+    host_.logger().warn(path(), blocked.error().message);
+    return NodeStatus::failure;
   }
-  return NodeStatus::failure;
+  return *blocked ? NodeStatus::success : NodeStatus::failure;
 }
 
 // ------------------------------------------------------------------------------- DetourDriver
@@ -253,9 +268,7 @@ ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& co
 bt::PortsList ReplayAvoiding::provided_ports() {
   bt::PortsList ports = camera_ports();
   for (auto& p : avoid_ports()) ports.push_back(std::move(p));
-  ports.push_back(bt::input_port<double>("lookahead_m", "1.5", "contact points up to this far ahead trigger a detour"));
-  ports.push_back(bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"));
-  ports.push_back(bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"));
+  for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
   ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
                                          "edge distance already covered when the child starts (FollowRoute writes it; "
                                          "rewritten after a detour)"));
@@ -265,22 +278,6 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
                                          "the replay's frozen-image count, restarted likewise after a detour"));
   return ports;
-}
-
-bool ReplayAvoiding::obstacle_in_corridor(const Odometry& odom) {
-  auto lookahead = get_input<double>("lookahead_m");
-  auto half_width = get_input<double>("corridor_half_width_m");
-  auto memory = get_input<double>("memory_m");
-  if (!lookahead || !half_width || !memory) return false;
-  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom.distance_m - e.second) > *memory; });
-  const Pose2D& r = odom.pose;
-  const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
-  for (const auto& [p, seen] : points_) {
-    const double dx = p.x - r.x_m, dy = p.y - r.y_m;
-    const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
-    if (fwd > 0.0 && fwd <= *lookahead && std::fabs(lat) <= *half_width) return true;
-  }
-  return false;
 }
 
 NodeStatus ReplayAvoiding::tick() {
@@ -305,7 +302,7 @@ NodeStatus ReplayAvoiding::tick() {
     (void)set_output("confident_at_m", odom->distance_m);
     (void)set_output("image_changed_at_m", odom->distance_m);
     host_.logger().info(path(), "detour done: the edge resumes at " + std::to_string(carried) + " m");
-    points_.clear();
+    corridor_.clear();
     runner_.restart();
     child_started_ = false;
     return NodeStatus::running;
@@ -322,9 +319,15 @@ NodeStatus ReplayAvoiding::tick() {
     stop(host_);
     return NodeStatus::failure;
   }
-  if (*fresh)
-    for (const auto& p : **fresh) points_.emplace_back(p, odom->distance_m);
-  if (obstacle_in_corridor(*odom)) {
+  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  auto blocked = corridor_.blocked(*this, *odom);
+  if (!blocked) {
+    host_.logger().error(path(), blocked.error().message);
+    halt_child();
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*blocked) {
     auto ahead = get_input<double>("goal_ahead_m");
     if (!ahead) return NodeStatus::failure;
     halt_child();
@@ -342,7 +345,7 @@ NodeStatus ReplayAvoiding::tick() {
   const NodeStatus st = child()->execute_tick();
   if (st != NodeStatus::running) {
     child_started_ = false;
-    points_.clear();
+    corridor_.clear();
   }
   return st;
 }
@@ -352,7 +355,7 @@ void ReplayAvoiding::halt() {
   detour_.end();
   detouring_ = false;
   child_started_ = false;
-  points_.clear();
+  corridor_.clear();
   halt_child();
 }
 

@@ -49,6 +49,22 @@ class PipelineRunner {
 
 bt::PortsList camera_ports();
 
+/// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
+/// ObstacleAhead and ReplayAvoiding (ports corridor_ports()).
+class CorridorMemory {
+ public:
+  void add(const std::vector<cv::Point2d>& points, double odom_distance_m);
+  /// True when a kept point lies 0 < forward ≤ lookahead_m, |lateral| ≤ corridor_half_width_m.
+  /// Error: a port value is missing or bad.
+  Result<bool> blocked(const bt::TreeNode& node, const Odometry& odom);
+  void clear() { points_.clear(); }
+
+ private:
+  std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
+};
+
+bt::PortsList corridor_ports(const char* lookahead_default_m);
+
 class ObstacleAhead : public bt::ConditionNode {
  public:
   ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -58,7 +74,7 @@ class ObstacleAhead : public bt::ConditionNode {
  private:
   HostServices& host_;
   PipelineRunner runner_;
-  std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
+  CorridorMemory corridor_;
 };
 
 /// The detour shared by AvoidObstacles and ReplayAvoiding: NavigationFilter decisions to a goal
@@ -117,11 +133,10 @@ class ReplayAvoiding : public bt::DecoratorNode {
   void halt() override;
 
  private:
-  bool obstacle_in_corridor(const Odometry& odom);
   HostServices& host_;
   PipelineRunner runner_;
   DetourDriver detour_;
-  std::vector<std::pair<cv::Point2d, double>> points_;
+  CorridorMemory corridor_;
   bool detouring_ = false;
   bool child_started_ = false;
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0

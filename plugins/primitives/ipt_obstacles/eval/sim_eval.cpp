@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav_sim/render.hpp"
 #include "visnav_sim/world.hpp"
 
@@ -122,6 +123,7 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
   std::normal_distribution<double> unit(0.0, 1.0);
   cv::Mat bgr0, bgr1, grey0, grey1, labels0, labels1, noise, edges;
   EdgeScratch scratch;
+  TrackScratch tracks;
   auto render_grey = [&](const Pose2D& pose, cv::Mat& bgr, cv::Mat& grey, cv::Mat& labels) {
     renderer.render(pose, bgr, &labels);
     if (options.noise_std > 0.0) {
@@ -145,30 +147,11 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
       const Pose2D p0 = advance(run.start, s), p1 = advance(p0, options.step_m);
       render_grey(p0, bgr0, grey0, labels0);
       render_grey(p1, bgr1, grey1, labels1);
-      std::vector<cv::Point2f> c0, c1;
-      cv::goodFeaturesToTrack(grey0, c0, options.max_features, 0.01, 5.0);
-      if (c0.size() < 8) continue;
-      std::vector<std::uint8_t> status;
-      std::vector<float> err;
-      cv::calcOpticalFlowPyrLK(grey0, grey1, c0, c1, status, err, cv::Size(15, 15), 3);
-      std::vector<cv::Point2f> a, b;
-      for (std::size_t i = 0; i < c0.size(); ++i)
-        if (status[i] != 0) {
-          a.push_back(c0[i]);
-          b.push_back(c1[i]);
-        }
-      if (a.size() < 8) continue;
-      std::vector<std::uint8_t> inlier;
-      cv::findFundamentalMat(a, b, cv::FM_RANSAC, 1.0, 0.99, 500, inlier);
       std::vector<cv::Point2f> ia, ib;
-      for (std::size_t i = 0; i < a.size(); ++i) {
-        if (!inlier.empty() && inlier[i] == 0) {
-          ++report.at_operating_point.ransac_outliers;
-          continue;
-        }
-        ia.push_back(a[i]);
-        ib.push_back(b[i]);
-      }
+      PipelineParams tracking = options.tracking;
+      tracking.max_features = options.max_features;
+      report.at_operating_point.ransac_outliers += track_pair(grey0, grey1, tracking, ia, ib, tracks);
+      if (ia.size() < 8) continue;
       // odometry: the true relative motion plus noise
       Pose2D p1_odo = p1;
       p1_odo.x_m += options.odom_position_sd_m * unit(odo_rng);
@@ -264,6 +247,7 @@ Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptio
   vs::Renderer renderer(world, model);
   cv::RNG rng(static_cast<std::uint64_t>(options.seed) * 104729u + 3u);
   cv::Mat bgr, noise, grey_a, grey_b;
+  TrackScratch tracks;
   auto render = [&](const Pose2D& pose, cv::Mat& grey) {
     renderer.render(pose, bgr);
     if (options.noise_std > 0.0) {
@@ -282,25 +266,8 @@ Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptio
     p.pose_b = advance(p.pose_a, options.baseline_m);
     render(p.pose_a, grey_a);
     render(p.pose_b, grey_b);
-    std::vector<cv::Point2f> c0, c1;
-    std::vector<std::uint8_t> st, in;
-    std::vector<float> err;
-    cv::goodFeaturesToTrack(grey_a, c0, 250, 0.01, 5.0);
-    if (c0.size() < 8) continue;
-    cv::calcOpticalFlowPyrLK(grey_a, grey_b, c0, c1, st, err, cv::Size(15, 15), 3);
-    std::vector<cv::Point2f> a, b;
-    for (std::size_t i = 0; i < c0.size(); ++i)
-      if (st[i] != 0) {
-        a.push_back(c0[i]);
-        b.push_back(c1[i]);
-      }
-    if (a.size() < 8) continue;
-    cv::findFundamentalMat(a, b, cv::FM_RANSAC, 1.0, 0.99, 500, in);
-    for (std::size_t i = 0; i < a.size(); ++i)
-      if (in.empty() || in[i] != 0) {
-        p.pixels_a.push_back(a[i]);
-        p.pixels_b.push_back(b[i]);
-      }
+    (void)track_pair(grey_a, grey_b, PipelineParams{}, p.pixels_a, p.pixels_b, tracks);
+    if (p.pixels_a.size() < 8) continue;
     pairs.push_back(std::move(p));
   }
   IptCamera guess;

@@ -14,6 +14,7 @@ const char* const kIptRocUsage =
     "usage: visnav ipt-roc [--world NAME] [--seed N] [--noise-std GREY] [--odom-sd-m M] [--odom-sd-deg DEG]\n"
     "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
     "                      [--vertical-run-px N] [--support N] [--support-radius-px P]\n"
+    "                      [--forward-backward-px P]\n"
     "                      [--picture FILE.png] [--picture-run K]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
@@ -81,6 +82,8 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       if (!value(options.profiles.support_radius_px)) return 2;
     } else if (arg == "--ground-reach-px") {
       if (!value(options.profiles.ground_reach_px)) return 2;
+    } else if (arg == "--forward-backward-px") {
+      if (!value(options.tracking.forward_backward_px)) return 2;
     } else if (arg == "--no-band") {
       options.classifier.unclassified_bands_m.clear();
     } else {

@@ -31,8 +31,46 @@ const ParamSchema<PipelineParams>& PipelineParams::schema() {
           .range(0.002, 1.0)
           .field("max_pair_distance_m", &P::max_pair_distance_m, "longer gaps restart the pair").range(0.005, 10.0)
           .field("max_pair_rotation_rad", &P::max_pair_rotation_rad, "a larger turn within a pair restarts it")
-          .range(0.001, 3.2);
+          .range(0.001, 3.2)
+          .field("forward_backward_px", &P::forward_backward_px,
+                 "drop tracks whose backward track misses the corner by more (0 = off)")
+          .range(0.0, 100.0);
   return s;
+}
+
+int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams& params, std::vector<cv::Point2f>& a,
+               std::vector<cv::Point2f>& b, TrackScratch& t) {
+  a.clear();
+  b.clear();
+  cv::goodFeaturesToTrack(first, t.corners, params.max_features, params.quality_level, params.min_distance_px);
+  if (t.corners.size() < 8) return 0;
+  const cv::Size window(params.lk_window_px, params.lk_window_px);
+  cv::calcOpticalFlowPyrLK(first, second, t.corners, t.tracked, t.status, t.errors, window, params.lk_levels);
+  const bool fb = params.forward_backward_px > 0.0;
+  if (fb) cv::calcOpticalFlowPyrLK(second, first, t.tracked, t.back, t.back_status, t.errors, window, params.lk_levels);
+  for (std::size_t i = 0; i < t.corners.size(); ++i) {
+    if (t.status[i] == 0) continue;
+    if (fb && (t.back_status[i] == 0 || cv::norm(t.back[i] - t.corners[i]) > params.forward_backward_px)) continue;
+    a.push_back(t.corners[i]);
+    b.push_back(t.tracked[i]);
+  }
+  if (a.size() < 8) return 0;
+  cv::findFundamentalMat(a, b, cv::FM_RANSAC, params.ransac_threshold_px, 0.99, params.ransac_iterations, t.inliers);
+  if (t.inliers.empty()) return 0;
+  std::size_t kept = 0;
+  int outliers = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (t.inliers[i] == 0) {
+      ++outliers;
+      continue;
+    }
+    a[kept] = a[i];
+    b[kept] = b[i];
+    ++kept;
+  }
+  a.resize(kept);
+  b.resize(kept);
+  return outliers;
 }
 
 Result<ObstaclePipeline> ObstaclePipeline::create(IptCamera camera, PipelineParams pipeline, ClassifierParams classifier,
@@ -71,34 +109,7 @@ Result<std::optional<PairResult>> ObstaclePipeline::process(const cv::Mat& grey,
   }
   PairResult out;
   out.pose = odom_pose;
-  cv::goodFeaturesToTrack(first_, corners_, pipeline_.max_features, pipeline_.quality_level, pipeline_.min_distance_px);
-  a_.clear();
-  b_.clear();
-  if (corners_.size() >= 8) {
-    cv::calcOpticalFlowPyrLK(first_, grey, corners_, tracked_, status_, errors_,
-                             cv::Size(pipeline_.lk_window_px, pipeline_.lk_window_px), pipeline_.lk_levels);
-    for (std::size_t i = 0; i < corners_.size(); ++i)
-      if (status_[i] != 0) {
-        a_.push_back(corners_[i]);
-        b_.push_back(tracked_[i]);
-      }
-    if (a_.size() >= 8) {
-      cv::findFundamentalMat(a_, b_, cv::FM_RANSAC, pipeline_.ransac_threshold_px, 0.99, pipeline_.ransac_iterations,
-                             inliers_);
-      std::size_t kept = 0;
-      for (std::size_t i = 0; i < a_.size(); ++i) {
-        if (!inliers_.empty() && inliers_[i] == 0) {
-          ++out.ransac_outliers;
-          continue;
-        }
-        a_[kept] = a_[i];
-        b_[kept] = b_[i];
-        ++kept;
-      }
-      a_.resize(kept);
-      b_.resize(kept);
-    }
-  }
+  out.ransac_outliers = track_pair(first_, grey, pipeline_, a_, b_, tracks_);
   VISNAV_ASSIGN(out.features, classify_features(camera_, first_lens, lens, a_, b_, classifier_));
   reduced_canny(grey, profiles_, edges_, scratch_);
   out.contacts = contact_points(edges_, out.features, camera_, odom_pose, profiles_);

@@ -38,10 +38,24 @@ struct PipelineParams {
   double pair_distance_m = 0.02;     ///< lens travel between the frames of a pair (thesis ≈ 2 cm)
   double max_pair_distance_m = 0.2;  ///< a longer gap (stall, jump) restarts the pair
   double max_pair_rotation_rad = 0.05;  ///< a larger turn within a pair restarts it (KLT needs small motion) [ours]
+  double forward_backward_px = 0.2;  ///< [ours, measured] > 0: drop tracks whose backward LK track misses the corner by more
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<PipelineParams>& schema();
 };
+
+/// Scratch of track_pair() (no allocation once sizes are stable).
+struct TrackScratch {
+  std::vector<cv::Point2f> corners, tracked, back;
+  std::vector<std::uint8_t> status, back_status, inliers;
+  std::vector<float> errors;
+};
+
+/// Steps 2-3 of the cycle for one pair: Shi-Tomasi corners in `first`, pyramidal LK into
+/// `second` (with the forward-backward check when forward_backward_px > 0), RANSAC on F.
+/// Fills the inlier tracks `a` → `b`; returns the number of RANSAC outliers.
+int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams& params, std::vector<cv::Point2f>& a,
+               std::vector<cv::Point2f>& b, TrackScratch& scratch);
 
 struct PairResult {
   std::vector<ClassifiedFeature> features;
@@ -74,9 +88,8 @@ class ObstaclePipeline {
   cv::Mat first_;                    // the pair's first frame
   Pose2D first_pose_;
   bool have_first_ = false;
-  std::vector<cv::Point2f> corners_, tracked_, a_, b_;
-  std::vector<std::uint8_t> status_, inliers_;
-  std::vector<float> errors_;
+  std::vector<cv::Point2f> a_, b_;
+  TrackScratch tracks_;
   cv::Mat edges_;
   EdgeScratch scratch_;
 };

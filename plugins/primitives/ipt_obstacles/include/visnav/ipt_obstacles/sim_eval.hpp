@@ -21,6 +21,7 @@
 
 #include "visnav/ipt_obstacles/calibration.hpp"
 #include "visnav/ipt_obstacles/classifier.hpp"
+#include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav/ipt_obstacles/profiles.hpp"
 #include "visnav/result.hpp"
 #include "visnav/types.hpp"
@@ -50,6 +51,7 @@ struct RocOptions {
   double odom_position_sd_m = 0.0;         ///< noise on the pair's relative translation
   double odom_heading_sd_rad = 0.0;        ///< noise on the pair's relative heading
   int max_features = 250;                  ///< thesis KLT count (Ch. 5)
+  PipelineParams tracking;                 ///< corners, LK and RANSAC settings (max_features above wins)
   int seed = 1;
   int picture_run = -1;                    ///< the picture shows the last pair of this run (−1: of the last run)
   ClassifierParams classifier;

@@ -43,6 +43,9 @@ const visnav::CommandEntry kCommands[] = {
 
 }  // namespace
 
-VISNAV_PLUGIN(visnav::PluginKind::nodes, "ipt_obstacles", "0.1.0",
-              "IPT obstacle detection (Bonin-Font thesis): feature classifier, contact points, polar map",
-              nullptr, 0, &register_nodes, kCommands, sizeof(kCommands) / sizeof(kCommands[0]))
+VISNAV_PLUGIN({.name = "ipt_obstacles",
+               .version = "0.1.0",
+               .description = "IPT obstacle detection (Bonin-Font thesis): feature classifier, contact points, "
+                              "polar map",
+               .register_nodes = &register_nodes,
+               .commands = kCommands})

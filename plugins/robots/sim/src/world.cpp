@@ -215,6 +215,60 @@ Status parse_trees(World& world, const ConfigNode& list) {
   return ok();
 }
 
+// `obstacles:` (issue 16): shorthands that expand into closed rings of walls of class
+// `obstacle` (so they render, label and collide like any wall). Kinds: `box` (size_m: [length
+// along yaw, width]), `van` (a box with a parked van's default size 4.8 x 1.9 x 1.9 m) and
+// `post` (a regular polygon of `sides` faces inscribed in radius_m). Tops are not drawn: an
+// obstacle lower than the camera shows the inside of its far faces from above.
+Status parse_obstacles(World& world, const ConfigNode& list) {
+  if (!list.is_sequence()) return node_error(list, "key 'obstacles': expected a list");
+  int index = 0;
+  for (const auto& o : list.items()) {
+    const std::string what = "obstacle " + std::to_string(index++);
+    VISNAV_TRY(check_keys(o, {"name", "kind", "at", "yaw_deg", "size_m", "radius_m", "sides", "height_m", "texture"}, what));
+    VISNAV_ASSIGN(const std::string name, get_string(o, "name", what));
+    VISNAV_ASSIGN(const std::string kind, get_string(o, "kind", "box"));
+    const ConfigNode* at = o.find("at");
+    if (at == nullptr) return node_error(o, name + ": missing key 'at'");
+    VISNAV_ASSIGN(const auto c, as_point(*at, "at"));
+    VISNAV_ASSIGN(const double yaw_deg, get_double(o, "yaw_deg", 0.0, -360.0, 360.0));
+    VISNAV_ASSIGN(const int texture, get_texture(world, o, name));
+    const double yaw = yaw_deg * CV_PI / 180.0;
+    const cv::Point2d ax(std::cos(yaw), std::sin(yaw)), ay(-std::sin(yaw), std::cos(yaw));
+    std::vector<cv::Point2d> ring;
+    double height_m = 0.0;
+    if (kind == "box" || kind == "van") {
+      const bool van = kind == "van";
+      VISNAV_ASSIGN(height_m, get_double(o, "height_m", van ? 1.9 : 1.0, 0.01, 100.0));
+      std::vector<double> size{van ? 4.8 : 0.5, van ? 1.9 : 0.5};
+      if (const ConfigNode* n = o.find("size_m")) {
+        VISNAV_ASSIGN(size, as_numbers(*n, "size_m", 2));
+        if (size[0] < 0.01 || size[1] < 0.01) return node_error(*n, name + ": size_m must be at least 0.01 m");
+      }
+      if (o.find("radius_m") != nullptr || o.find("sides") != nullptr)
+        return node_error(o, name + ": 'radius_m' and 'sides' are for kind 'post'");
+      const double hl = size[0] / 2, hw = size[1] / 2;
+      ring = {c - hl * ax - hw * ay, c + hl * ax - hw * ay, c + hl * ax + hw * ay, c - hl * ax + hw * ay};
+    } else if (kind == "post") {
+      VISNAV_ASSIGN(height_m, get_double(o, "height_m", 1.2, 0.01, 100.0));
+      VISNAV_ASSIGN(const double radius_m, get_double(o, "radius_m", 0.06, 0.005, 10.0));
+      VISNAV_ASSIGN(const double sides_d, get_double(o, "sides", 8.0, 3.0, 64.0));
+      if (o.find("size_m") != nullptr) return node_error(o, name + ": 'size_m' is for kinds 'box' and 'van'");
+      const int sides = static_cast<int>(std::lround(sides_d));
+      for (int k = 0; k < sides; ++k) {
+        const double a = yaw + 2.0 * CV_PI * k / sides;
+        ring.push_back(c + radius_m * cv::Point2d(std::cos(a), std::sin(a)));
+      }
+    } else {
+      return node_error(*o.find("kind"), name + ": unknown kind '" + kind + "' (known: box, post, van)");
+    }
+    for (std::size_t i = 0; i < ring.size(); ++i)
+      VISNAV_TRY(add_wall(world, ring[i], ring[(i + 1) % ring.size()], 0.0, height_m, texture, LabelClass::obstacle,
+                          name, o));
+  }
+  return ok();
+}
+
 Status parse_regions(World& world, const ConfigNode& list) {
   if (!list.is_sequence()) return node_error(list, "key 'regions': expected a list");
   int index = 0;
@@ -443,7 +497,7 @@ Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text, con
   const ConfigNode& root = *doc.find("world");
   VISNAV_TRY(check_keys(root,
                         {"name", "ground_resolution_m", "sky_zenith", "sky_horizon", "fog_distance_m", "default_ground",
-                         "textures", "regions", "walls", "trees", "start"},
+                         "textures", "regions", "walls", "trees", "obstacles", "start"},
                         "'world'"));
   auto world = std::make_shared<World>();
   world->file = file_label;
@@ -472,6 +526,7 @@ Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text, con
   if (world->regions.size() >= 0x7FFE) return node_error(root, "too many regions (max 32765)");
   if (const ConfigNode* n = root.find("walls")) VISNAV_TRY(parse_walls(*world, *n));
   if (const ConfigNode* n = root.find("trees")) VISNAV_TRY(parse_trees(*world, *n));
+  if (const ConfigNode* n = root.find("obstacles")) VISNAV_TRY(parse_obstacles(*world, *n));
   if (world->walls.size() >= 0x7FFF) return node_error(root, "too many walls (max 32766)");
   if (const ConfigNode* n = root.find("start")) {
     VISNAV_ASSIGN(auto s, as_numbers(*n, "start", 3));

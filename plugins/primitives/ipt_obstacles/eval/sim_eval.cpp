@@ -1,0 +1,284 @@
+#include "visnav/ipt_obstacles/sim_eval.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "visnav/ipt_obstacles/pipeline.hpp"
+#include "visnav_sim/render.hpp"
+#include "visnav_sim/world.hpp"
+
+namespace visnav::ipt {
+
+namespace vs = visnav::sim;
+
+std::vector<RocRun> obstacle_course_runs() {
+  const double deg = CV_PI / 180.0;
+  return {
+      {{0.0, 0.0, 0.0}, 3.0},         // towards crate_1 (x = 4), stops 0.5 m short of it
+      {{4.6, 0.0, 0.0}, 2.6},         // crate_2 on the right, the two posts ahead
+      {{8.5, -1.7, 0.0}, 8.0},        // along the parked van's side, 0.95 m from it
+      {{14.5, 0.5, 0.0}, 6.0},        // the person on the right, the low box ahead left
+      {{16.0, 3.5, -25.0 * deg}, 3.0},  // across the square towards the person
+  };
+}
+
+namespace {
+
+bool is_ground_class(std::uint8_t label) {
+  switch (static_cast<vs::LabelClass>(label)) {
+    case vs::LabelClass::path:
+    case vs::LabelClass::grass:
+    case vs::LabelClass::floor:
+    case vs::LabelClass::pavement:
+    case vs::LabelClass::ground: return true;
+    default: return false;
+  }
+}
+
+/// +1 obstacle, 0 ground, −1 mixed neighbourhood (object border) or outside.
+int truth_at(const cv::Mat& labels, const cv::Point2f& p) {
+  const int u = static_cast<int>(std::lround(p.x)), v = static_cast<int>(std::lround(p.y));
+  if (u < 1 || v < 1 || u >= labels.cols - 1 || v >= labels.rows - 1) return -1;
+  int ground = 0, other = 0;
+  for (int dv = -1; dv <= 1; ++dv)
+    for (int du = -1; du <= 1; ++du) (is_ground_class(labels.at<std::uint8_t>(v + dv, u + du)) ? ground : other)++;
+  if (ground > 0 && other > 0) return -1;
+  return other > 0 ? 1 : 0;
+}
+
+Pose2D advance(const Pose2D& p, double d_m) {
+  return {p.x_m + d_m * std::cos(p.heading_rad), p.y_m + d_m * std::sin(p.heading_rad), p.heading_rad};
+}
+
+struct Sample {
+  int truth;        // 1 obstacle, 0 ground
+  double score;     // D, +inf above the horizon
+};
+
+/// Area under recall(fall-out) as β sweeps: Mann-Whitney with ties counted half.
+double auc(std::vector<Sample> samples) {
+  std::sort(samples.begin(), samples.end(), [](const Sample& a, const Sample& b) { return a.score < b.score; });
+  long pos = 0, neg = 0;
+  for (const auto& s : samples) (s.truth != 0 ? pos : neg)++;
+  if (pos == 0 || neg == 0) return 0.0;
+  double rank_sum = 0.0;
+  for (std::size_t i = 0; i < samples.size();) {
+    std::size_t j = i;
+    while (j < samples.size() && samples[j].score == samples[i].score) ++j;
+    const double mid_rank = 0.5 * static_cast<double>(i + 1 + j);  // 1-based average rank
+    for (std::size_t k = i; k < j; ++k)
+      if (samples[k].truth != 0) rank_sum += mid_rank;
+    i = j;
+  }
+  return (rank_sum - 0.5 * static_cast<double>(pos) * static_cast<double>(pos + 1)) /
+         (static_cast<double>(pos) * static_cast<double>(neg));
+}
+
+}  // namespace
+
+void draw_classification(cv::Mat& bgr, const std::vector<ClassifiedFeature>& features,
+                         const std::vector<ContactPoint>& contacts) {
+  for (const auto& f : features) {
+    const cv::Scalar colour = f.label == FeatureClass::obstacle ? cv::Scalar(0, 0, 255)
+                              : f.label == FeatureClass::ground  ? cv::Scalar(255, 80, 0)
+                                                                 : cv::Scalar(0, 220, 255);
+    cv::circle(bgr, f.pixel, 2, colour, cv::FILLED, cv::LINE_AA);
+  }
+  for (const auto& c : contacts) cv::drawMarker(bgr, c.pixel, cv::Scalar(255, 0, 255), cv::MARKER_CROSS, 7, 1);
+}
+
+Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* picture) {
+  VISNAV_TRY(options.classifier.validate());
+  VISNAV_TRY(options.profiles.validate());
+  if (!(options.step_m > 0.0) || !(options.pair_every_m > 0.0) || options.max_features < 8)
+    return Error{"ipt-roc: step_m and pair_every_m must be > 0 and max_features >= 8", ErrorCode::out_of_range};
+  VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(options.world));
+  VISNAV_ASSIGN(auto world, vs::load_world_cached(path));
+  vs::CameraModel model;
+  model.width_px = options.width_px;
+  model.height_px = options.height_px;
+  model.hfov_deg = options.hfov_deg;
+  model.height_m = options.mount_height_m;
+  model.pitch_down_deg = options.pitch_down_deg;
+  VISNAV_TRY(model.validate());
+  IptCamera cam;
+  cam.width_px = model.width_px;
+  cam.height_px = model.height_px;
+  cam.fx_px = cam.fy_px = model.fx();
+  cam.cx_px = model.cx();
+  cam.cy_px = model.cy();
+  cam.height_m = model.height_m;
+  cam.pitch_rad = -model.pitch_down_deg * CV_PI / 180.0;
+  VISNAV_TRY(cam.validate());
+
+  vs::Renderer renderer(world, model);
+  cv::RNG pixel_rng(static_cast<std::uint64_t>(options.seed) * 7919u + 1u);
+  std::mt19937_64 odo_rng(static_cast<std::uint64_t>(options.seed));
+  std::normal_distribution<double> unit(0.0, 1.0);
+  cv::Mat bgr0, bgr1, grey0, grey1, labels0, labels1, noise, edges;
+  EdgeScratch scratch;
+  TrackScratch tracks;
+  auto render_grey = [&](const Pose2D& pose, cv::Mat& bgr, cv::Mat& grey, cv::Mat& labels) {
+    renderer.render(pose, bgr, &labels);
+    if (options.noise_std > 0.0) {
+      noise.create(bgr.size(), CV_16SC3);
+      pixel_rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_std);
+      cv::Mat sum;
+      cv::add(bgr, noise, sum, cv::noArray(), CV_16SC3);
+      sum.convertTo(bgr, CV_8UC3);
+    }
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  };
+
+  RocReport report;
+  std::vector<Sample> samples;
+  std::vector<double> d_ground, d_obstacle;  // D of features below the guard band, for the β sweep
+  long above_horizon_pos = 0, above_horizon_neg = 0;
+  int run_index = -1;
+  for (const RocRun& run : options.runs) {
+    ++run_index;
+    for (double s = 0.0; s + options.step_m <= run.length_m + 1e-9; s += options.pair_every_m) {
+      const Pose2D p0 = advance(run.start, s), p1 = advance(p0, options.step_m);
+      render_grey(p0, bgr0, grey0, labels0);
+      render_grey(p1, bgr1, grey1, labels1);
+      std::vector<cv::Point2f> ia, ib;
+      PipelineParams tracking = options.tracking;
+      tracking.max_features = options.max_features;
+      report.at_operating_point.ransac_outliers += track_pair(grey0, grey1, tracking, ia, ib, tracks);
+      if (ia.size() < 8) continue;
+      // odometry: the true relative motion plus noise
+      Pose2D p1_odo = p1;
+      p1_odo.x_m += options.odom_position_sd_m * unit(odo_rng);
+      p1_odo.y_m += options.odom_position_sd_m * unit(odo_rng);
+      p1_odo.heading_rad += options.odom_heading_sd_rad * unit(odo_rng);
+      VISNAV_ASSIGN(auto classified, classify_features(cam, lens_pose(cam, p0), lens_pose(cam, p1_odo), ia, ib,
+                                                       options.classifier));
+      ++report.pairs;
+      Counts& c = report.at_operating_point;
+      for (const auto& f : classified) {
+        const int truth = truth_at(labels1, cv::Point2f(static_cast<float>(f.pixel.x), static_cast<float>(f.pixel.y)));
+        if (truth < 0) {
+          ++c.border;
+          continue;
+        }
+        ++report.features;
+        const bool obstacle = truth == 1;
+        auto count = [&](Counts& k) {
+          switch (f.label) {
+            case FeatureClass::obstacle: (obstacle ? k.tp : k.fp)++; break;
+            case FeatureClass::ground: (obstacle ? k.fn : k.tn)++; break;
+            case FeatureClass::unclassified: (obstacle ? k.unclassified_obstacle : k.unclassified_ground)++; break;
+          }
+        };
+        count(c);
+        if (f.reason != ClassReason::above_horizon && f.reason != ClassReason::guard_band) count(report.below_horizon);
+        if (f.reason == ClassReason::above_horizon) {
+          samples.push_back({truth, std::numeric_limits<double>::infinity()});
+          (obstacle ? above_horizon_pos : above_horizon_neg)++;
+        } else if (f.discrepancy_m >= 0.0 && f.reason != ClassReason::beyond_range) {
+          samples.push_back({truth, f.discrepancy_m});
+          (obstacle ? d_obstacle : d_ground).push_back(f.discrepancy_m);
+        }
+      }
+      reduced_canny(grey1, options.profiles, edges, scratch);
+      const auto contacts = contact_points(edges, classified, cam, p1_odo, options.profiles);
+      report.contact_points += static_cast<long>(contacts.size());
+      for (const auto& cp : contacts) {
+        const int u = static_cast<int>(cp.pixel.x), v = static_cast<int>(cp.pixel.y);
+        bool near_obstacle = false;
+        for (int dv = -3; dv <= 3 && !near_obstacle; ++dv)
+          for (int du = -3; du <= 3 && !near_obstacle; ++du) {
+            const int uu = u + du, vv = v + dv;
+            if (uu >= 0 && vv >= 0 && uu < labels1.cols && vv < labels1.rows &&
+                !is_ground_class(labels1.at<std::uint8_t>(vv, uu)) &&
+                static_cast<vs::LabelClass>(labels1.at<std::uint8_t>(vv, uu)) != vs::LabelClass::sky)
+              near_obstacle = true;
+          }
+        if (near_obstacle) ++report.contact_points_on_obstacle_base;
+      }
+      if (picture != nullptr && (options.picture_run < 0 || options.picture_run == run_index)) {
+        *picture = bgr1.clone();
+        draw_classification(*picture, classified, contacts);
+      }
+    }
+  }
+  report.auc_without_band = auc(samples);
+  // With the band filter kept: features whose D falls in a stored band leave the set.
+  std::vector<Sample> kept;
+  for (const auto& s : samples) {
+    bool in_band = false;
+    const auto& bands = options.classifier.unclassified_bands_m;
+    for (std::size_t i = 0; i + 1 < bands.size(); i += 2) in_band |= s.score > bands[i] && s.score <= bands[i + 1];
+    if (!in_band) kept.push_back(s);
+  }
+  report.auc_with_band = auc(kept);
+  // β sweep, f(β) = FP + 0.5·FN (thesis §4.3), band off; above-horizon features are constant.
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (int mm = 0; mm <= 300; ++mm) {
+    const double beta = mm * 1e-3;
+    const double fp = static_cast<double>(above_horizon_neg +
+                                          std::count_if(d_ground.begin(), d_ground.end(), [&](double d) { return d > beta; }));
+    const double fn = static_cast<double>(std::count_if(d_obstacle.begin(), d_obstacle.end(), [&](double d) { return d <= beta; }));
+    const double cost = fp + 0.5 * fn;
+    if (cost < best_cost) {
+      best_cost = cost;
+      report.best_beta_m = beta;
+    }
+  }
+  return report;
+}
+
+Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptions& options) {
+  VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(options.world));
+  VISNAV_ASSIGN(auto world, vs::load_world_cached(path));
+  vs::CameraModel model;
+  model.width_px = options.width_px;
+  model.height_px = options.height_px;
+  model.hfov_deg = options.hfov_deg;
+  model.height_m = options.true_height_m;
+  model.pitch_down_deg = options.true_pitch_down_deg;
+  VISNAV_TRY(model.validate());
+  vs::Renderer renderer(world, model);
+  cv::RNG rng(static_cast<std::uint64_t>(options.seed) * 104729u + 3u);
+  cv::Mat bgr, noise, grey_a, grey_b;
+  TrackScratch tracks;
+  auto render = [&](const Pose2D& pose, cv::Mat& grey) {
+    renderer.render(pose, bgr);
+    if (options.noise_std > 0.0) {
+      noise.create(bgr.size(), CV_16SC3);
+      rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_std);
+      cv::Mat sum;
+      cv::add(bgr, noise, sum, cv::noArray(), CV_16SC3);
+      sum.convertTo(bgr, CV_8UC3);
+    }
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  };
+  std::vector<CalibrationPair> pairs;
+  for (int k = 0; k < options.pairs; ++k) {
+    CalibrationPair p;
+    p.pose_a = advance(options.start, k * options.spacing_m);
+    p.pose_b = advance(p.pose_a, options.baseline_m);
+    render(p.pose_a, grey_a);
+    render(p.pose_b, grey_b);
+    (void)track_pair(grey_a, grey_b, PipelineParams{}, p.pixels_a, p.pixels_b, tracks);
+    if (p.pixels_a.size() < 8) continue;
+    pairs.push_back(std::move(p));
+  }
+  IptCamera guess;
+  guess.width_px = model.width_px;
+  guess.height_px = model.height_px;
+  guess.fx_px = guess.fy_px = model.fx();
+  guess.cx_px = model.cx();
+  guess.cy_px = model.cy();
+  guess.height_m = options.guess_height_m;
+  guess.pitch_rad = -options.guess_pitch_down_deg * CV_PI / 180.0;
+  return calibrate_height_pitch(guess, pairs);
+}
+
+}  // namespace visnav::ipt

@@ -1,0 +1,381 @@
+#include "nodes.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace visnav::ipt {
+
+using bt::NodeStatus;
+
+namespace {
+
+void send(HostServices& host, double v_mps, double w_radps) {
+  if (Robot* robot = host.robot()) (void)robot->send_command(Twist{v_mps, w_radps});
+}
+
+void stop(HostServices& host) {
+  if (Robot* robot = host.robot()) (void)robot->stop();
+}
+
+Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
+  IptCamera c;
+  VISNAV_ASSIGN(const double hfov_deg, node.get_input<double>("hfov_deg"));
+  VISNAV_ASSIGN(c.height_m, node.get_input<double>("camera_height_m"));
+  VISNAV_ASSIGN(const double pitch_down_deg, node.get_input<double>("camera_pitch_down_deg"));
+  VISNAV_ASSIGN(c.forward_m, node.get_input<double>("camera_forward_m"));
+  VISNAV_ASSIGN(c.lateral_m, node.get_input<double>("camera_lateral_m"));
+  if (!(hfov_deg > 1.0 && hfov_deg < 179.0))
+    return Error{"hfov_deg must lie in (1, 179) (got " + std::to_string(hfov_deg) + ")", ErrorCode::out_of_range};
+  c.width_px = image.cols;
+  c.height_px = image.rows;
+  c.fx_px = c.fy_px = 0.5 * image.cols / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
+  c.cx_px = 0.5 * (image.cols - 1);
+  c.cy_px = 0.5 * (image.rows - 1);
+  c.pitch_rad = -pitch_down_deg * CV_PI / 180.0;
+  VISNAV_TRY(c.validate());
+  return c;
+}
+
+}  // namespace
+
+bt::PortsList camera_ports() {
+  return {bt::input_port<double>("hfov_deg", "60", "camera horizontal field of view (pinhole, centred principal point)"),
+          bt::input_port<double>("camera_height_m", "0.5", "lens height above the ground"),
+          bt::input_port<double>("camera_pitch_down_deg", "5", "downward tilt of the optical axis"),
+          bt::input_port<double>("camera_forward_m", "0", "lens ahead of the robot origin"),
+          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin")};
+}
+
+std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
+  FrameBus* bus = host.frame_bus();
+  if (bus == nullptr) return std::nullopt;
+  auto odom = bus->latest_odometry();
+  if (!odom) return std::nullopt;
+  return odom->pose;
+}
+
+Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::TreeNode& node, HostServices& host) {
+  FrameBus* bus = host.frame_bus();
+  if (bus == nullptr) return Error{"no frame bus (not running)", ErrorCode::missing};
+  auto frame = bus->latest_frame();
+  auto odom = bus->latest_odometry();
+  if (!frame || !odom || frame->image.empty()) return std::optional<std::vector<cv::Point2d>>{};
+  if (have_sequence_ && frame->sequence == last_sequence_) return std::optional<std::vector<cv::Point2d>>{};
+  have_sequence_ = true;
+  last_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, grey_, cv::COLOR_BGR2GRAY);
+  else grey_ = frame->image;
+  if (!pipeline_) {
+    VISNAV_ASSIGN(IptCamera camera, read_camera(node, grey_));
+    VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, ProfileParams{}));
+    pipeline_.emplace(std::move(p));
+  }
+  VISNAV_ASSIGN(auto pair, pipeline_->process(grey_, odom->pose));
+  if (!pair) return std::optional<std::vector<cv::Point2d>>{};
+  std::vector<cv::Point2d> points;
+  points.reserve(pair->contacts.size());
+  for (const auto& c : pair->contacts) points.push_back(c.ground_m);
+  return std::optional<std::vector<cv::Point2d>>{std::move(points)};
+}
+
+// ------------------------------------------------------------------------------ ObstacleAhead
+
+ObstacleAhead::ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::ConditionNode(name, config), host_(host) {}
+
+bt::PortsList corridor_ports(const char* lookahead_default_m) {
+  return {bt::input_port<double>("lookahead_m", lookahead_default_m, "contact points up to this far ahead count"),
+          bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"),
+          bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel")};
+}
+
+void CorridorMemory::add(const std::vector<cv::Point2d>& points, double odom_distance_m) {
+  for (const auto& p : points) points_.emplace_back(p, odom_distance_m);
+}
+
+Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& odom) {
+  VISNAV_ASSIGN(const double lookahead, node.get_input<double>("lookahead_m"));
+  VISNAV_ASSIGN(const double half_width, node.get_input<double>("corridor_half_width_m"));
+  VISNAV_ASSIGN(const double memory, node.get_input<double>("memory_m"));
+  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom.distance_m - e.second) > memory; });
+  const Pose2D& r = odom.pose;
+  const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
+  for (const auto& [p, seen] : points_) {
+    const double dx = p.x - r.x_m, dy = p.y - r.y_m;
+    const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
+    if (fwd > 0.0 && fwd <= lookahead && std::fabs(lat) <= half_width) return true;
+  }
+  return false;
+}
+
+bt::PortsList ObstacleAhead::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
+  return ports;
+}
+
+NodeStatus ObstacleAhead::tick() {
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) {
+    host_.logger().warn(path(), fresh.error().message);
+    return NodeStatus::failure;
+  }
+  FrameBus* bus = host_.frame_bus();
+  auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
+  if (!odom) return NodeStatus::failure;
+  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  auto blocked = corridor_.blocked(*this, *odom);
+  if (!blocked) {
+    host_.logger().warn(path(), blocked.error().message);
+    return NodeStatus::failure;
+  }
+  return *blocked ? NodeStatus::success : NodeStatus::failure;
+}
+
+// ------------------------------------------------------------------------------- DetourDriver
+
+bt::PortsList avoid_ports() {
+  return {
+      bt::input_port<double>("goal_ahead_m", "4.0", "goal on the current heading line, this far ahead"),
+      bt::input_port<double>("speed_mps", "0.2", "forward speed"),
+      bt::input_port<double>("turn_gain_per_s", "1.5", "omega = gain * theta_mot"),
+      bt::input_port<double>("max_angular_radps", "0.6", "turn-rate limit"),
+      bt::input_port<int>("max_blocked_cycles", "60", "cycles without any gap before giving up"),
+      bt::input_port<int>("max_stall_cycles", "300",
+                          "cycles without getting 0.1 m closer to the goal before giving up (a trap, a potential-field "
+                          "minimum)"),
+      bt::input_port<double>("security_distance_m", "0.95", "S_dist (thesis 0.95 m)"),
+      bt::input_port<double>("gap_width_m", "0.95", "narrowest permitted gap (thesis experiments 0.95 m)"),
+      bt::input_port<double>("reset_keep_near_m", "1.9",
+                             "points this close survive the filter resets (0 = the thesis; measured: the thesis reset "
+                             "forgets a crate beside the robot and drives into it)"),
+      bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation")};
+}
+
+Status DetourDriver::begin(const bt::TreeNode& node, const Pose2D& pose, double goal_ahead_m) {
+  PolarMapParams params;
+  VISNAV_ASSIGN(params.security_distance_m, node.get_input<double>("security_distance_m"));
+  VISNAV_ASSIGN(params.gap_width_m, node.get_input<double>("gap_width_m"));
+  VISNAV_ASSIGN(params.reset_keep_near_m, node.get_input<double>("reset_keep_near_m"));
+  VISNAV_ASSIGN(speed_mps_, node.get_input<double>("speed_mps"));
+  VISNAV_ASSIGN(gain_per_s_, node.get_input<double>("turn_gain_per_s"));
+  VISNAV_ASSIGN(max_angular_radps_, node.get_input<double>("max_angular_radps"));
+  VISNAV_ASSIGN(max_blocked_, node.get_input<int>("max_blocked_cycles"));
+  VISNAV_ASSIGN(max_stall_, node.get_input<int>("max_stall_cycles"));
+  VISNAV_TRY(params.validate());
+  filter_.emplace(params);
+  goal_m_ = {pose.x_m + goal_ahead_m * std::cos(pose.heading_rad), pose.y_m + goal_ahead_m * std::sin(pose.heading_rad)};
+  blocked_cycles_ = 0;
+  stall_cycles_ = 0;
+  best_distance_m_ = goal_ahead_m;
+  last_situation_ = Situation::blocked;
+  return ok();
+}
+
+NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner) {
+  if (!filter_) return NodeStatus::failure;
+  auto fresh = runner.step(node, host);
+  if (!fresh) {
+    host.logger().error(node.path(), fresh.error().message);
+    stop(host);
+    return NodeStatus::failure;
+  }
+  auto pose = runner.pose(host);
+  if (!pose) return NodeStatus::running;
+  if (*fresh) filter_->add_points(**fresh);
+  const Decision d = filter_->decide(*pose, goal_m_);
+  if (d.situation != last_situation_) {
+    host.logger().info(node.path(), std::string(to_string(d.situation)) + " at (" + std::to_string(pose->x_m) + ", " +
+                                        std::to_string(pose->y_m) + "): " + d.reason);
+    last_situation_ = d.situation;
+  }
+  if (d.situation == Situation::goal_reached) {
+    stop(host);
+    return NodeStatus::success;
+  }
+  if (d.situation == Situation::no_candidate) {
+    if (++blocked_cycles_ >= max_blocked_) {
+      host.logger().error(node.path(), "stopped: " + d.reason + " for " + std::to_string(blocked_cycles_) + " cycles");
+      stop(host);
+      return NodeStatus::failure;
+    }
+  } else {
+    blocked_cycles_ = 0;
+  }
+  const double to_goal_m = std::hypot(goal_m_.x - pose->x_m, goal_m_.y - pose->y_m);
+  if (to_goal_m < best_distance_m_ - 0.1) {
+    best_distance_m_ = to_goal_m;
+    stall_cycles_ = 0;
+  } else if (++stall_cycles_ >= max_stall_) {
+    host.logger().error(node.path(), "stopped: no progress towards the goal for " + std::to_string(stall_cycles_) +
+                                         " cycles (" + std::to_string(to_goal_m) + " m left; last: " + d.reason + ")");
+    stop(host);
+    return NodeStatus::failure;
+  }
+  const double w = std::clamp(gain_per_s_ * d.heading_rad, -max_angular_radps_, max_angular_radps_);
+  const double v = d.translate ? speed_mps_ * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
+  send(host, v, d.translate ? w : std::copysign(max_angular_radps_, d.heading_rad));
+  return NodeStatus::running;
+}
+
+// ----------------------------------------------------------------------------- AvoidObstacles
+
+AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::StatefulActionNode(name, config), host_(host) {}
+
+bt::PortsList AvoidObstacles::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  for (auto& p : avoid_ports()) ports.push_back(std::move(p));
+  return ports;
+}
+
+NodeStatus AvoidObstacles::on_start() {
+  auto ahead = get_input<double>("goal_ahead_m");
+  auto pose = runner_.pose(host_);
+  if (!ahead || !pose) {
+    host_.logger().error(path(), !ahead ? ahead.error().message : "no odometry: cannot place the goal");
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (auto st = detour_.begin(*this, *pose, *ahead); !st) {
+    host_.logger().error(path(), st.error().message);
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  runner_.restart();
+  return on_running();
+}
+
+NodeStatus AvoidObstacles::on_running() {
+  const NodeStatus st = detour_.step(*this, host_, runner_);
+  (void)set_output("situation", std::string(to_string(detour_.last_situation())));
+  if (st != NodeStatus::running) detour_.end();
+  return st;
+}
+
+void AvoidObstacles::on_halted() {
+  stop(host_);
+  detour_.end();
+}
+
+// ----------------------------------------------------------------------------- ReplayAvoiding
+
+ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+    : bt::DecoratorNode(name, config), host_(host) {}
+
+bt::PortsList ReplayAvoiding::provided_ports() {
+  bt::PortsList ports = camera_ports();
+  for (auto& p : avoid_ports()) ports.push_back(std::move(p));
+  for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
+  ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
+                                         "edge distance already covered when the child starts (FollowRoute writes it; "
+                                         "rewritten after a detour)"));
+  ports.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
+                                         "the replay's last confident odometer reading (lost detection); set to the "
+                                         "odometer when a detour ends: the detour was driven on the IPT, not blind"));
+  ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
+                                         "the replay's frozen-image count, restarted likewise after a detour"));
+  return ports;
+}
+
+NodeStatus ReplayAvoiding::tick() {
+  FrameBus* bus = host_.frame_bus();
+  auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
+  if (!odom) {
+    host_.logger().error(path(), "no odometry");
+    return NodeStatus::failure;
+  }
+  if (detouring_) {
+    const NodeStatus st = detour_.step(*this, host_, runner_);
+    (void)set_output("situation", std::string(to_string(detour_.last_situation())));
+    if (st == NodeStatus::running) return NodeStatus::running;
+    detour_.end();
+    detouring_ = false;
+    if (st == NodeStatus::failure) return NodeStatus::failure;
+    // Back on the line: the edge continues from the along-track distance reached.
+    const double along_m = (odom->pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
+                           (odom->pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
+    const double carried = replay_done_m_ + along_m;
+    (void)set_output("carried_m", carried);
+    (void)set_output("confident_at_m", odom->distance_m);
+    (void)set_output("image_changed_at_m", odom->distance_m);
+    host_.logger().info(path(), "detour done: the edge resumes at " + std::to_string(carried) + " m");
+    corridor_.clear();
+    runner_.restart();
+    child_started_ = false;
+    return NodeStatus::running;
+  }
+  if (!child_started_) {
+    auto carried = get_input<double>("carried_m");
+    replay_origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
+    child_started_ = true;
+  }
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) {
+    host_.logger().error(path(), fresh.error().message);
+    halt_child();
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  auto blocked = corridor_.blocked(*this, *odom);
+  if (!blocked) {
+    host_.logger().error(path(), blocked.error().message);
+    halt_child();
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*blocked) {
+    auto ahead = get_input<double>("goal_ahead_m");
+    if (!ahead) return NodeStatus::failure;
+    halt_child();
+    replay_done_m_ = odom->distance_m - replay_origin_m_;
+    detour_start_ = odom->pose;
+    if (auto st = detour_.begin(*this, odom->pose, *ahead); !st) {
+      host_.logger().error(path(), st.error().message);
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    host_.logger().info(path(), "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: detour");
+    detouring_ = true;
+    return NodeStatus::running;
+  }
+  const NodeStatus st = child()->execute_tick();
+  if (st != NodeStatus::running) {
+    child_started_ = false;
+    corridor_.clear();
+  }
+  return st;
+}
+
+void ReplayAvoiding::halt() {
+  if (detouring_) stop(host_);
+  detour_.end();
+  detouring_ = false;
+  child_started_ = false;
+  corridor_.clear();
+  halt_child();
+}
+
+Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {
+  VISNAV_TRY(registry.register_node<ObstacleAhead>(
+      "ObstacleAhead", "True while the IPT finds an obstacle's ground contact in the corridor ahead",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<ObstacleAhead>(name, config, host);
+      }));
+  VISNAV_TRY(registry.register_node<AvoidObstacles>(
+      "AvoidObstacles", "Goal-directed obstacle avoidance (IPT polar map, thesis Ch. 6) to a point ahead on the heading line",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<AvoidObstacles>(name, config, host);
+      }));
+  VISNAV_TRY(registry.register_node<ReplayAvoiding>(
+      "ReplayAvoiding", "Runs an edge's replay child; detours around obstacles in the corridor ahead and resumes it",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<ReplayAvoiding>(name, config, host);
+      }));
+  return ok();
+}
+
+}  // namespace visnav::ipt

@@ -1,0 +1,149 @@
+// Behaviour-tree nodes of the ipt_obstacles plugin. Thin adapters over the core:
+//  * ObstacleAhead (condition): runs the IPT pipeline on the camera stream; success while a
+//    contact point lies in the corridor ahead of the robot (|lateral| ≤ corridor_half_width_m,
+//    0 < forward ≤ lookahead_m). Contact points are kept in the odom frame for memory_m of
+//    travel, so an obstacle that left the field of view still counts until passed.
+//  * AvoidObstacles (stateful action): the thesis's goal-directed strategy (NavigationFilter)
+//    towards a goal goal_ahead_m ahead of where it started, on the line of the robot's heading
+//    then (the taught edge when it interrupts a replay). (v, ω): ω = gain·θ_mot saturated,
+//    v = speed·max(0, cos θ_mot). Success at the goal; failure, with a logged reason, when no
+//    gap exists for max_blocked_cycles cycles in a row, when it gets no 0.1 m closer to the
+//    goal for max_stall_cycles cycles (a trap), or when the camera/odometry are missing.
+//  * ReplayAvoiding (decorator around a replay primitive): the two above inside an edge replay,
+//    see the class comment.
+// Camera ports describe the mounting (the sim camera's defaults); the image size comes from
+// the frames. Both nodes stop the robot when halted or failing.
+#pragma once
+
+#include <memory>
+#include <utility>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav/bt/node.hpp"
+#include "visnav/bt/registry.hpp"
+#include "visnav/host.hpp"
+#include "visnav/ipt_obstacles/pipeline.hpp"
+#include "visnav/ipt_obstacles/polar_map.hpp"
+
+namespace visnav::ipt {
+
+/// Pipeline state shared by both node kinds: frames in, contact points (odom frame) out.
+class PipelineRunner {
+ public:
+  /// Reads the camera ports on first use. Returns the contact points of a new pair (may be
+  /// empty), nullopt when no new pair closed this tick. Error: no frame bus / bad camera.
+  Result<std::optional<std::vector<cv::Point2d>>> step(const bt::TreeNode& node, HostServices& host);
+  [[nodiscard]] std::optional<Pose2D> pose(HostServices& host) const;
+  void restart() {
+    if (pipeline_) pipeline_->restart();
+  }
+
+ private:
+  std::optional<ObstaclePipeline> pipeline_;
+  std::uint64_t last_sequence_ = 0;
+  bool have_sequence_ = false;
+  cv::Mat grey_;
+};
+
+bt::PortsList camera_ports();
+
+/// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
+/// ObstacleAhead and ReplayAvoiding (ports corridor_ports()).
+class CorridorMemory {
+ public:
+  void add(const std::vector<cv::Point2d>& points, double odom_distance_m);
+  /// True when a kept point lies 0 < forward ≤ lookahead_m, |lateral| ≤ corridor_half_width_m.
+  /// Error: a port value is missing or bad.
+  Result<bool> blocked(const bt::TreeNode& node, const Odometry& odom);
+  void clear() { points_.clear(); }
+
+ private:
+  std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
+};
+
+bt::PortsList corridor_ports(const char* lookahead_default_m);
+
+class ObstacleAhead : public bt::ConditionNode {
+ public:
+  ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus tick() override;
+
+ private:
+  HostServices& host_;
+  PipelineRunner runner_;
+  CorridorMemory corridor_;
+};
+
+/// The detour shared by AvoidObstacles and ReplayAvoiding: NavigationFilter decisions to a goal
+/// on the line of the heading where it began, turned into (v, ω) (see the file comment).
+class DetourDriver {
+ public:
+  /// Reads the detour ports (avoid_ports()) and places the goal. Error: bad port values.
+  Status begin(const bt::TreeNode& node, const Pose2D& pose, double goal_ahead_m);
+  /// One cycle: success at the goal, failure (reason logged, robot stopped) when blocked or
+  /// stalled, running otherwise.
+  bt::NodeStatus step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner);
+  void end() { filter_.reset(); }
+  [[nodiscard]] Situation last_situation() const { return last_situation_; }
+
+ private:
+  std::optional<NavigationFilter> filter_;
+  cv::Point2d goal_m_;
+  double speed_mps_ = 0.2, gain_per_s_ = 1.5, max_angular_radps_ = 0.6;
+  int max_blocked_ = 60, max_stall_ = 300;
+  int blocked_cycles_ = 0;
+  int stall_cycles_ = 0;
+  double best_distance_m_ = 0.0;
+  Situation last_situation_ = Situation::blocked;
+};
+
+/// Ports of the detour (both nodes).
+bt::PortsList avoid_ports();
+
+class AvoidObstacles : public bt::StatefulActionNode {
+ public:
+  AvoidObstacles(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus on_start() override;
+  bt::NodeStatus on_running() override;
+  void on_halted() override;
+
+ private:
+  HostServices& host_;
+  PipelineRunner runner_;
+  DetourDriver detour_;
+};
+
+/// Replay with avoidance (decorator around an edge's replay primitive, e.g. ReplayFeatureEdge):
+/// while an obstacle's ground contact lies in the corridor ahead (as ObstacleAhead), the child
+/// is halted and a detour (as AvoidObstacles) drives to a point goal_ahead_m further along the
+/// line of the heading at that moment — the taught edge — around the obstacle. Then the child
+/// starts again with `carried_m` set to the along-track distance already covered: the replay's
+/// distance before the obstacle plus the detour's progress projected on that line, so the edge
+/// keeps counting and its visual correction resumes. No gap: failure with the reason.
+/// Register the edge kinds to it in FollowRoute's `primitives` port.
+class ReplayAvoiding : public bt::DecoratorNode {
+ public:
+  ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  static bt::PortsList provided_ports();
+  bt::NodeStatus tick() override;
+  void halt() override;
+
+ private:
+  HostServices& host_;
+  PipelineRunner runner_;
+  DetourDriver detour_;
+  CorridorMemory corridor_;
+  bool detouring_ = false;
+  bool child_started_ = false;
+  double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
+  double replay_done_m_ = 0.0;     // edge distance covered when the detour began
+  Pose2D detour_start_;
+};
+
+Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host);
+
+}  // namespace visnav::ipt

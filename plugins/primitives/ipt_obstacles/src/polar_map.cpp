@@ -1,0 +1,340 @@
+#include "visnav/ipt_obstacles/polar_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+namespace visnav::ipt {
+
+namespace {
+
+constexpr double kPi = CV_PI;
+constexpr double kDeg = CV_PI / 180.0;
+
+double wrap(double a) {
+  a = std::fmod(a + kPi, 2.0 * kPi);
+  if (a < 0) a += 2.0 * kPi;
+  return a - kPi;
+}
+
+struct Polar {
+  cv::Point2d p;       // ground frame
+  double range_m;
+  double bearing_rad;  // robot frame
+};
+
+Polar polar_of(const Pose2D& robot, const cv::Point2d& p) {
+  const double dx = p.x - robot.x_m, dy = p.y - robot.y_m;
+  return {p, std::hypot(dx, dy), wrap(std::atan2(dy, dx) - robot.heading_rad)};
+}
+
+bool in_front(double bearing_rad) { return std::fabs(bearing_rad) < kPi / 2; }
+
+struct Candidate {
+  double heading_rad;
+  Situation situation;
+  std::string reason;
+};
+
+}  // namespace
+
+const char* to_string(Situation s) {
+  switch (s) {
+    case Situation::goal_reached: return "goal_reached";
+    case Situation::high_risk: return "high_risk";
+    case Situation::goal_free: return "goal_free";
+    case Situation::goal_grazing: return "goal_grazing";
+    case Situation::gap: return "gap";
+    case Situation::gap_end_behind: return "gap_end_behind";
+    case Situation::no_candidate: return "no_candidate";
+    case Situation::roam: return "roam";
+    case Situation::blocked: return "blocked";
+  }
+  return "?";
+}
+
+Status PolarMapParams::validate() const {
+  if (auto st = schema().check(*this); !st) return st.error().with_default_code(ErrorCode::out_of_range);
+  const double n = 360.0 / sector_width_deg;
+  if (std::fabs(n - std::round(n)) > 1e-9)
+    return Error{"sector_width_deg must divide 360 (got " + std::to_string(sector_width_deg) + ")",
+                 ErrorCode::inconsistent};
+  return ok();
+}
+
+const ParamSchema<PolarMapParams>& PolarMapParams::schema() {
+  using P = PolarMapParams;
+  static const auto s =
+      ParamSchema<P>{}
+          .field("sector_width_deg", &P::sector_width_deg, "polar sector width (thesis 12 deg, 30 sectors)").range(1.0, 90.0)
+          .field("security_distance_m", &P::security_distance_m, "S_dist: closer points switch to the potential field")
+          .range(0.05, 10.0)
+          .field("gap_width_m", &P::gap_width_m, "narrower gaps are forbidden (thesis experiments 0.95 m)").range(0.05, 20.0)
+          .field("roi_radius_m", &P::roi_radius_m, "Ch. 4 roaming: semicircle radius").range(0.1, 50.0)
+          .field("goal_tolerance_m", &P::goal_tolerance_m, "goal reached within this distance").range(0.01, 10.0)
+          .field("step_m", &P::step_m, "travel per cycle, for candidate validation").range(0.0, 5.0)
+          .field("repulsion_gain", &P::repulsion_gain, "potential field repulsion gain").range(0.0, 1e6)
+          .field("attraction_gain", &P::attraction_gain, "potential field attraction gain").range(0.0, 1e6)
+          .field("reset_keep_near_m", &P::reset_keep_near_m, "points this close survive a reset (0 = thesis)")
+          .range(0.0, 100.0);
+  return s;
+}
+
+Decision roam_decision(std::span<const cv::Point2d> points_robot, const PolarMapParams& params) {
+  const int n = static_cast<int>(std::lround(180.0 / params.sector_width_deg));
+  const double width = params.sector_width_deg * kDeg;
+  std::vector<int> count(static_cast<std::size_t>(n), 0);
+  for (const auto& p : points_robot) {
+    const double r = std::hypot(p.x, p.y), a = std::atan2(p.y, p.x);
+    if (r > params.roi_radius_m || !in_front(a)) continue;  // outside the semicircle
+    const int k = std::clamp(static_cast<int>(std::floor((a + kPi / 2) / width)), 0, n - 1);
+    ++count[static_cast<std::size_t>(k)];
+  }
+  int best_start = -1, best_len = 0;
+  for (int k = 0; k < n;) {
+    if (count[static_cast<std::size_t>(k)] != 0) {
+      ++k;
+      continue;
+    }
+    int j = k;
+    while (j < n && count[static_cast<std::size_t>(j)] == 0) ++j;
+    const int len = j - k;
+    const double chord = 2.0 * params.roi_radius_m * std::sin(0.5 * len * width);
+    if (chord >= params.gap_width_m && len > best_len) {
+      best_len = len;
+      best_start = k;
+    }
+    k = j;
+  }
+  Decision d;
+  if (best_start < 0) {
+    d.situation = Situation::blocked;
+    d.reason = "no free run ahead is " + std::to_string(params.gap_width_m) + " m wide within " +
+               std::to_string(params.roi_radius_m) + " m";
+    return d;
+  }
+  d.situation = Situation::roam;
+  d.translate = true;
+  d.heading_rad = -kPi / 2 + (best_start + 0.5 * best_len) * width;
+  d.reason = "widest free run: " + std::to_string(best_len) + " sectors";
+  return d;
+}
+
+int NavigationFilter::sector_count() const { return static_cast<int>(std::lround(360.0 / params_.sector_width_deg)); }
+
+int NavigationFilter::sector_of(double bearing_rad) const {
+  const int n = sector_count();
+  const int k = static_cast<int>(std::floor((wrap(bearing_rad) + kPi) / (params_.sector_width_deg * kDeg)));
+  return ((k % n) + n) % n;
+}
+
+void NavigationFilter::add_points(std::span<const cv::Point2d> points_m) {
+  points_.insert(points_.end(), points_m.begin(), points_m.end());
+}
+
+void NavigationFilter::reset(const Pose2D& robot) {
+  const double keep = params_.reset_keep_near_m;
+  std::erase_if(points_, [&](const cv::Point2d& p) { return std::hypot(p.x - robot.x_m, p.y - robot.y_m) > keep; });
+  tenacity_on_ = false;
+  rotate_side_ = 0;
+}
+
+void NavigationFilter::reset() {
+  points_.clear();
+  tenacity_on_ = false;
+  rotate_side_ = 0;
+}
+
+Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m) {
+  Decision d;
+  const Polar goal = polar_of(robot, goal_m);
+  // S0
+  if (goal.range_m < params_.goal_tolerance_m) {
+    reset();
+    d.situation = Situation::goal_reached;
+    d.reset = true;
+    d.reason = "goal reached";
+    return d;
+  }
+  // The filter: only points between the robot and the goal (R_nf = |goal − robot|).
+  std::vector<Polar> pts;
+  for (const auto& p : points_) {
+    const Polar q = polar_of(robot, p);
+    if (q.range_m <= goal.range_m) pts.push_back(q);
+  }
+  const double S = params_.security_distance_m;
+  // S1: the potential field.
+  const bool high_risk = std::any_of(pts.begin(), pts.end(), [&](const Polar& q) { return q.range_m < S; });
+  if (high_risk) {
+    double fx = params_.attraction_gain * std::cos(goal.bearing_rad), fy = params_.attraction_gain * std::sin(goal.bearing_rad);
+    for (const auto& q : pts) {
+      if (q.range_m >= S || q.range_m <= 1e-6) continue;
+      const double mag = params_.repulsion_gain * (1.0 / q.range_m - 1.0 / S) / (q.range_m * q.range_m);
+      fx -= mag * std::cos(q.bearing_rad);
+      fy -= mag * std::sin(q.bearing_rad);
+    }
+    d.situation = Situation::high_risk;
+    d.heading_rad = std::atan2(fy, fx);
+    d.translate = true;
+    d.reason = "obstacle within the security distance: potential field";
+    return d;
+  }
+  const int n = sector_count();
+  std::vector<int> nearest(static_cast<std::size_t>(n), -1);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    int& k = nearest[static_cast<std::size_t>(sector_of(pts[i].bearing_rad))];
+    if (k < 0 || pts[i].range_m < pts[static_cast<std::size_t>(k)].range_m) k = static_cast<int>(i);
+  }
+  const int goal_sector = sector_of(goal.bearing_rad);
+  auto eps_of = [&](double range_m) { return std::asin(std::min(1.0, S / range_m)); };
+
+  // GF: goal sector free.
+  if (nearest[static_cast<std::size_t>(goal_sector)] < 0) {
+    std::optional<Polar> left, right;
+    for (int s = 1; s <= n / 2 && !left; ++s)
+      if (int k = nearest[static_cast<std::size_t>((goal_sector + s) % n)]; k >= 0) left = pts[static_cast<std::size_t>(k)];
+    for (int s = 1; s <= n / 2 && !right; ++s)
+      if (int k = nearest[static_cast<std::size_t>((goal_sector - s + n) % n)]; k >= 0) right = pts[static_cast<std::size_t>(k)];
+    const bool forbidden = left && right && cv::norm(left->p - right->p) < params_.gap_width_m;
+    if (!forbidden) {
+      d.translate = true;
+      d.heading_rad = goal.bearing_rad;
+      d.situation = Situation::goal_free;
+      d.reason = "goal sector free";
+      const Polar* px = nullptr;
+      bool px_is_right = false;
+      if (left && right) {
+        const bool lf = in_front(left->bearing_rad), rf = in_front(right->bearing_rad);
+        if (lf != rf) px_is_right = rf;
+        else px_is_right = right->range_m < left->range_m;
+        px = px_is_right ? &*right : &*left;
+      } else if (left || right) {
+        px_is_right = static_cast<bool>(right);
+        px = right ? &*right : &*left;
+      }
+      if (px != nullptr) {
+        const double eps = eps_of(px->range_m);
+        if (std::fabs(wrap(goal.bearing_rad - px->bearing_rad)) <= eps) {  // (6.3) violated
+          d.heading_rad = wrap(px_is_right ? px->bearing_rad + eps : px->bearing_rad - eps);
+          d.situation = Situation::goal_grazing;
+          d.reason = std::string("goal sector free, passing the ") + (px_is_right ? "right" : "left") + " point at " +
+                     std::to_string(px->range_m) + " m";
+        }
+      }
+      reset(robot);
+      d.reset = true;
+      return d;
+    }
+  }
+
+  // GO: searches over angularly consecutive points from the goal direction.
+  std::vector<Polar> sorted = pts;
+  std::sort(sorted.begin(), sorted.end(), [](const Polar& a, const Polar& b) { return a.bearing_rad < b.bearing_rad; });
+  auto validate = [&](double heading_rad) {
+    const int k = sector_of(heading_rad);
+    return std::none_of(pts.begin(), pts.end(), [&](const Polar& q) {
+      return sector_of(q.bearing_rad) == k && q.range_m < S + params_.step_m;
+    });
+  };
+  // Gap between angularly consecutive points r (right) and l (left: CCW of r), reached by the
+  // search going CCW (side +1) or CW (side −1). Every gap must be wider than W_gap [spec I for
+  // Case 3]. When the free arc from r to l passes behind the robot, or one end is behind
+  // (Case 3), only the end the search came along matters: pass it on the free side.
+  auto gap_candidate = [&](const Polar& r, const Polar& l, int side) -> std::optional<Candidate> {
+    const bool rf = in_front(r.bearing_rad), lf = in_front(l.bearing_rad);
+    if (!rf && !lf) return std::nullopt;
+    if (cv::norm(l.p - r.p) <= params_.gap_width_m) return std::nullopt;
+    double arc = l.bearing_rad - r.bearing_rad;
+    if (arc <= 0) arc += 2 * kPi;
+    const bool through_back = r.bearing_rad + arc > kPi;
+    if (rf != lf || through_back) {
+      const Polar& x = rf != lf ? (rf ? r : l) : (side > 0 ? r : l);
+      const bool x_is_right = &x == &r;
+      const double eps = eps_of(x.range_m);
+      if (x.range_m <= S) return std::nullopt;
+      const double h = wrap(x_is_right ? x.bearing_rad + eps : x.bearing_rad - eps);
+      if (!validate(h)) return std::nullopt;
+      return Candidate{h, Situation::gap_end_behind, std::string("passing the obstacle's ") + (x_is_right ? "left" : "right") + " end"};
+    }
+    const bool x_is_right = r.range_m <= l.range_m;
+    const Polar& x = x_is_right ? r : l;
+    if (x.range_m <= S) return std::nullopt;
+    const double eps = eps_of(x.range_m);
+    const double h = wrap(x_is_right ? x.bearing_rad + eps : x.bearing_rad - eps);
+    if (!validate(h)) return std::nullopt;
+    return Candidate{h, Situation::gap, "gap of " + std::to_string(cv::norm(l.p - r.p)) + " m"};
+  };
+  std::optional<Candidate> ccw, cw;
+  const std::size_t m = sorted.size();
+  if (m >= 1) {
+    // index of the first point CCW of the goal (bearing relative to the goal in (0, 2π])
+    auto rel = [&](const Polar& q) {
+      double a = wrap(q.bearing_rad - goal.bearing_rad);
+      return a <= 0 ? a + 2 * kPi : a;
+    };
+    std::vector<std::size_t> order(m);
+    for (std::size_t i = 0; i < m; ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return rel(sorted[a]) < rel(sorted[b]); });
+    // order[0] is the first point CCW of the goal, order[m−1] the first CW of it.
+    for (std::size_t s = 0; s < m && !ccw; ++s) {
+      const Polar& r = sorted[order[(s + m - 1) % m]];
+      const Polar& l = sorted[order[s]];
+      if (m == 1) break;
+      ccw = gap_candidate(r, l, 1);
+      if (!in_front(l.bearing_rad) && !in_front(r.bearing_rad)) break;
+    }
+    for (std::size_t s = 0; s < m && !cw; ++s) {
+      const Polar& l = sorted[order[(m - s) % m]];
+      const Polar& r = sorted[order[m - 1 - s]];
+      if (m == 1) break;
+      cw = gap_candidate(r, l, -1);
+      if (!in_front(l.bearing_rad) && !in_front(r.bearing_rad)) break;
+    }
+    if (m == 1) {  // one point: pass it on the side nearer the goal
+      const Polar& x = sorted[0];
+      const double eps = eps_of(x.range_m);
+      const double hl = wrap(x.bearing_rad + eps), hr = wrap(x.bearing_rad - eps);
+      if (validate(hl)) ccw = Candidate{hl, Situation::gap_end_behind, "single point, passing it on its left"};
+      if (validate(hr)) cw = Candidate{hr, Situation::gap_end_behind, "single point, passing it on its right"};
+    }
+  }
+  std::optional<Candidate> chosen;
+  if (ccw && cw) {
+    if (tenacity_on_) {
+      chosen = tenacity_side_ > 0 ? ccw : cw;
+    } else {
+      const bool left_smaller = std::fabs(wrap(ccw->heading_rad - goal.bearing_rad)) <= std::fabs(wrap(cw->heading_rad - goal.bearing_rad));
+      chosen = left_smaller ? ccw : cw;
+      tenacity_side_ = left_smaller ? 1 : -1;
+    }
+  } else if (ccw || cw) {
+    chosen = ccw ? ccw : cw;
+    if (!tenacity_on_) tenacity_side_ = ccw ? 1 : -1;
+  }
+  if (!chosen) {
+    d.situation = Situation::no_candidate;
+    d.translate = false;
+    // Rotate towards the tenacity side, else keep the side of the first blocked cycle (the
+    // side of minimum turn then): re-deciding every cycle would swing back and forth.
+    if (!tenacity_on_ && rotate_side_ == 0) rotate_side_ = goal.bearing_rad >= 0 ? 1 : -1;
+    const int side = tenacity_on_ ? tenacity_side_ : rotate_side_;
+    d.heading_rad = side * kPi / 2;
+    d.reason = "goal direction blocked and no gap of " + std::to_string(params_.gap_width_m) + " m: rotating in place";
+    return d;
+  }
+  tenacity_on_ = true;
+  rotate_side_ = 0;
+  d.situation = chosen->situation;
+  d.heading_rad = chosen->heading_rad;
+  d.translate = true;
+  d.reason = chosen->reason + (tenacity_side_ > 0 ? ", left side" : ", right side");
+  // S9: the obstacle is passed when nothing stored is ahead any more.
+  if (std::none_of(pts.begin(), pts.end(), [](const Polar& q) { return in_front(q.bearing_rad); })) {
+    reset(robot);
+    d.reset = true;
+  }
+  return d;
+}
+
+}  // namespace visnav::ipt

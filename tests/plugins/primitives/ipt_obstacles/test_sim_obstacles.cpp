@@ -1,0 +1,99 @@
+// Simulator obstacles from the world file (boxes, posts, a van) with per-pixel labels and
+// collisions, and the IPT classifier measured on rendered frames (issue 16).
+#include <cstdio>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "visnav/ipt_obstacles/sim_eval.hpp"
+#include "visnav_sim/render.hpp"
+#include "visnav_sim/robot.hpp"
+#include "visnav_sim/world.hpp"
+
+namespace visnav::ipt {
+namespace {
+
+namespace vs = visnav::sim;
+
+constexpr const char* kWorld = R"(world:
+  textures:
+    grass: {procedural: noise, color: [90, 130, 60], size_m: 2.0}
+    crate: {procedural: planks, color: [170, 130, 80], color2: [90, 62, 36], size_m: 1.0, cell_m: 0.12, grout_m: 0.015}
+  default_ground: {texture: grass, class: grass}
+  obstacles:
+    - {name: box, kind: box, at: [3, 0], size_m: [0.5, 0.4], height_m: 0.6, texture: crate}
+    - {name: post, kind: post, at: [3, 2], radius_m: 0.1, sides: 6, texture: crate}
+    - {name: van, kind: van, at: [3, -4], yaw_deg: 90, texture: crate}
+)";
+
+TEST(SimObstacles, ShorthandsExpandIntoObstacleWalls) {
+  auto world = vs::parse_world(kWorld, "inline.yaml", ".");
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  const auto& walls = (*world)->walls;
+  ASSERT_EQ(walls.size(), 4u + 6u + 4u);
+  for (const auto& w : walls) EXPECT_EQ(w.label, vs::LabelClass::obstacle);
+  EXPECT_NEAR(cv::norm(walls[0].to - walls[0].from), 0.5, 1e-12);  // box length along yaw
+  EXPECT_NEAR(walls[0].top_m, 0.6, 1e-12);
+  EXPECT_NEAR(walls[4].from.x, 3.1, 1e-12);                        // post ring of radius 0.1
+  EXPECT_NEAR(walls[10].top_m, 1.9, 1e-12);                        // van default height
+  EXPECT_NEAR(cv::norm(walls[10].to - walls[10].from), 4.8, 1e-9);  // van default length
+}
+
+TEST(SimObstacles, BadObstacleEntriesNameTheKeyAndLine) {
+  const std::string bad = std::string(kWorld) + "    - {name: x, kind: tank, at: [0, 0], texture: crate}\n";
+  auto world = vs::parse_world(bad, "inline.yaml", ".");
+  ASSERT_FALSE(world.ok());
+  EXPECT_NE(world.error().message.find("inline.yaml:10"), std::string::npos) << world.error().message;
+  EXPECT_NE(world.error().message.find("unknown kind 'tank'"), std::string::npos);
+  const std::string mixed = std::string(kWorld) + "    - {name: y, kind: box, at: [0, 0], radius_m: 1, texture: crate}\n";
+  EXPECT_FALSE(vs::parse_world(mixed, "inline.yaml", ".").ok());
+}
+
+TEST(SimObstacles, RenderedWithObstacleLabelsAndCollidedWith) {
+  auto world = vs::parse_world(kWorld, "inline.yaml", ".");
+  ASSERT_TRUE(world.ok());
+  vs::CameraModel model;
+  vs::Renderer renderer(*world, model);
+  cv::Mat bgr, labels;
+  renderer.render({0.0, 0.0, 0.0}, bgr, &labels);  // the box 3 m ahead
+  cv::Mat mask;
+  vs::label_mask(labels, vs::LabelClass::obstacle, mask);
+  EXPECT_GT(cv::countNonZero(mask(cv::Rect(150, 0, 20, 240))), 20);
+  EXPECT_EQ(cv::countNonZero(mask(cv::Rect(0, 0, 60, 240))), 0);
+  const auto shapes = vs::collision_shapes(**world, 0.6, 0.25);
+  EXPECT_EQ(shapes.size(), 14u);
+}
+
+TEST(IptOnRenderedFrames, ClassifierPrecisionAndRecallAtTheThesisOperatingPoint) {
+  RocOptions options;  // the obstacle course, thesis rig at 320x240, 2 cm pairs
+  auto report = evaluate_classifier(options);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const Counts& c = report->at_operating_point;
+  std::printf("pairs %d features %ld TP %ld FP %ld TN %ld FN %ld unclassified obstacle %ld ground %ld border %ld "
+              "ransac outliers %ld\nprecision %.3f recall %.3f recall(unclassified as miss) %.3f fall-out %.3f "
+              "AUC %.3f (band off) %.3f (band on) best beta %.3f m contacts %ld (%ld at an obstacle)\n",
+              report->pairs, report->features, c.tp, c.fp, c.tn, c.fn, c.unclassified_obstacle, c.unclassified_ground,
+              c.border, c.ransac_outliers, c.precision(), c.recall(), c.recall_all(), c.fallout(),
+              report->auc_without_band, report->auc_with_band, report->best_beta_m, report->contact_points,
+              report->contact_points_on_obstacle_base);
+  EXPECT_GT(report->pairs, 60);
+  EXPECT_GT(c.precision(), 0.9);
+  EXPECT_GT(c.recall(), 0.8);
+  EXPECT_GT(report->auc_with_band, 0.9);
+  EXPECT_GE(report->auc_with_band + 1e-9, report->auc_without_band - 0.02);
+}
+
+TEST(IptOnRenderedFrames, CalibrateIptRecoversTheMount) {
+  CalibrationRunOptions o;  // true 0.43 m / 9°, guess 0.5 m / 5°
+  auto r = calibrate_on_rendered_frames(o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  std::printf("calibrate-ipt: height %.4f m pitch %.3f deg down, RMS D %.4f -> %.4f m\n", r->height_m,
+              -r->pitch_rad * 180 / CV_PI, r->initial_rms_discrepancy_m, r->rms_discrepancy_m);
+  EXPECT_NEAR(r->height_m, 0.43, 0.02);
+  EXPECT_NEAR(-r->pitch_rad * 180 / CV_PI, 9.0, 0.6);
+  EXPECT_LT(r->rms_discrepancy_m, 0.3 * r->initial_rms_discrepancy_m);
+}
+
+}  // namespace
+}  // namespace visnav::ipt

@@ -267,7 +267,9 @@ class ParamSchema {
   /// a constraint is written once, in the schema. Error: "key 'laps': value 0 is out of range [1, 100000]".
   [[nodiscard]] Status check(const P& p) const {
     for (const auto& f : fields_)
-      if (auto st = f.check(p); !st) return fail("key '" + f.doc.name + "': " + st.error().message);
+      if (auto st = f.check(p); !st)
+        return Error{"key '" + f.doc.name + "': " + st.error().message, st.error().with_default_code(ErrorCode::out_of_range).code,
+                     ErrorLocation{{}, 0, f.doc.name}};
     return ok();
   }
 
@@ -275,7 +277,7 @@ class ParamSchema {
   /// cross-field rules of validate()), e.g. a literal behaviour-tree port generated from this schema.
   [[nodiscard]] Status check_field(std::string_view name, const ConfigNode& value) const {
     const Field* f = find(name);
-    if (f == nullptr) return fail("unknown key '" + std::string(name) + "'");
+    if (f == nullptr) return fail(ErrorCode::unknown_key, "unknown key '" + std::string(name) + "'");
     P p{};
     return f->assign(p, value);
   }

@@ -1,0 +1,156 @@
+// Teaching and open-loop replay on simulator frames (straight15m): references are made by
+// feature loss with metric relative poses; replaying the taught poses switches through every
+// reference and stops at the goal; a view rotated or shifted off the path steers back; a
+// frame that is not the taught size is a per-frame status.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "sim_support.hpp"
+#include "visnav/visual_memory/follower.hpp"
+
+namespace vm = visnav::visual_memory;
+namespace sim = visnav::sim;
+
+TEST(VisualMemoryTeach, MakesReferencesWithMetricGeometryAlongAStraightPath) {
+  const vm::VisualMemory m = vm_test::teach_straight(8.0);
+  ASSERT_GE(m.references.size(), 3u);
+  std::printf("8 m taught: %zu references\n", m.references.size());
+  for (std::size_t k = 1; k < m.references.size(); ++k) {
+    const auto& r = m.references[k];
+    const double spacing = r.distance_m - m.references[k - 1].distance_m;
+    EXPECT_GT(spacing, 0.0);
+    EXPECT_LE(spacing, vm::TeachParams{}.max_reference_spacing_m + 0.06);
+    // straight drive: the relative pose is forward by the odometric spacing, no rotation
+    EXPECT_NEAR(cv::norm(r.t_from_prev_m), spacing, 1e-6) << "reference " << k;
+    const cv::Vec3d c = -(r.R_from_prev.t() * r.t_from_prev_m);  // this camera in the previous frame
+    EXPECT_GT(c[2], 0.9 * spacing) << "reference " << k;
+    EXPECT_LT(std::abs(std::atan2(r.R_from_prev(0, 2), r.R_from_prev(2, 2))), 0.03) << "reference " << k;
+    EXPECT_GT(r.count_3d(), 20) << "reference " << k;
+    std::printf("  ref %zu at %.2f m: %zu features, %d with 3D\n", k, r.distance_m, r.ids.size(), r.count_3d());
+  }
+}
+
+TEST(VisualMemoryTeach, TriangulatedDepthsMatchTheRenderedScene) {
+  // Depth check against the world: a point's triangulated position, mapped through the
+  // reference's known camera pose, must lie near the camera ray at the true (rendered) depth.
+  // The ground is the plane z_world = 0: for ground features the world height must be ~0.
+  const vm::VisualMemory m = vm_test::teach_straight(6.0);
+  const sim::CameraModel cam;
+  int ground = 0, close = 0;
+  for (std::size_t k = 1; k < m.references.size(); ++k) {
+    const auto& r = m.references[k];
+    const sim::CameraPose pose = sim::camera_pose(cam, visnav::Pose2D{r.distance_m, 0.0, 0.0});
+    for (std::size_t j = 0; j < r.ids.size(); ++j) {
+      if (!r.has_3d[j]) continue;
+      const cv::Vec3d pc(r.points3d_m[j].x, r.points3d_m[j].y, r.points3d_m[j].z);
+      const cv::Vec3d pw = pose.R_world_cam * pc + pose.position_world;
+      // below the horizon and near: the ground
+      if (r.points_px[j].y > cam.cy() + 40 && pc[2] < 8.0) {
+        ++ground;
+        if (std::abs(pw[2]) < 0.1) ++close;
+      }
+    }
+  }
+  std::printf("ground features with 3D: %d, within 0.1 m of the ground plane: %d\n", ground, close);
+  ASSERT_GT(ground, 20);
+  EXPECT_GT(close, 0.8 * ground);
+}
+
+namespace {
+
+struct ReplayRun {
+  int switches = 0;
+  bool goal = false;
+  int last_target = 0;
+  int steps = 0;
+};
+
+ReplayRun replay_open_loop(vm::MemoryFollower& follower, double y_m, double heading_rad) {
+  sim::Renderer renderer(vm_test::straight_world(), sim::CameraModel{});
+  cv::Mat bgr;
+  ReplayRun run;
+  for (double x = 0.0; x <= 9.0; x += 0.05) {
+    renderer.render(visnav::Pose2D{x, y_m, heading_rad}, bgr);
+    const vm::FollowStep s = follower.step(bgr, x);
+    ++run.steps;
+    EXPECT_TRUE(std::isfinite(s.command.angular_radps));
+    EXPECT_NE(s.status, vm::FollowStatus::failed) << s.failure;
+    if (s.status == vm::FollowStatus::switched) ++run.switches;
+    run.last_target = s.target;
+    if (s.finished()) {
+      run.goal = s.status == vm::FollowStatus::goal;
+      break;
+    }
+  }
+  return run;
+}
+
+}  // namespace
+
+TEST(VisualMemoryReplay, TheTaughtPosesSwitchThroughEveryReferenceAndStopAtTheGoal) {
+  vm::VisualMemory m = vm_test::teach_straight(8.0);
+  const int n = static_cast<int>(m.references.size());
+  auto follower = vm::MemoryFollower::create(vm::ReplayParams{}, std::move(m), 8.0);
+  ASSERT_TRUE(follower.ok()) << follower.error().message;
+  const ReplayRun run = replay_open_loop(*follower, 0.0, 0.0);
+  std::printf("replay: %d switches of %d references, goal %s after %d frames\n", run.switches, n,
+              run.goal ? "reached" : "NOT reached", run.steps);
+  EXPECT_TRUE(run.goal);
+  EXPECT_EQ(run.last_target, n - 1);
+  EXPECT_EQ(run.switches, n - 2);  // target starts at reference 1
+}
+
+TEST(VisualMemoryReplay, SteersBackTowardsThePathFromARotatedOrShiftedView) {
+  const vm::VisualMemory m = vm_test::teach_straight(6.0);
+  sim::Renderer renderer(vm_test::straight_world(), sim::CameraModel{});
+  cv::Mat bgr;
+  for (const char* controller : {"centroid", "AIJCA", "IJC", "IJCU", "IJP", "IJPU", "RH"}) {
+    for (const double heading : {-0.1, 0.1}) {
+      vm::ReplayParams p;
+      p.controller = controller;
+      auto follower = vm::MemoryFollower::create(p, m, 6.0);
+      ASSERT_TRUE(follower.ok());
+      vm::FollowStep s;
+      for (double x = 0.0; x <= 0.3; x += 0.05) {
+        renderer.render(visnav::Pose2D{x, 0.0, heading}, bgr);
+        s = follower->step(bgr, x);
+      }
+      ASSERT_GT(s.tracked, 8) << controller;
+      // rotated left (heading > 0): turn right (ω < 0), and the reverse
+      EXPECT_LT(s.command.angular_radps * heading, 0.0) << controller << " heading " << heading << ": "
+                                                        << vm::to_string(s.status) << " " << s.detail;
+    }
+  }
+}
+
+TEST(VisualMemoryReplay, AFrameOfTheWrongSizeIsABadFrameWithAZeroCommand) {
+  auto follower = vm::MemoryFollower::create(vm::ReplayParams{}, vm_test::teach_straight(3.0), 3.0);
+  ASSERT_TRUE(follower.ok());
+  const vm::FollowStep s = follower->step(cv::Mat(100, 100, CV_8UC3, cv::Scalar(10, 20, 30)), 0.0);
+  EXPECT_EQ(s.status, vm::FollowStatus::bad_frame);
+  EXPECT_EQ(s.command.linear_mps, 0.0);
+  EXPECT_EQ(s.command.angular_radps, 0.0);
+  const vm::FollowStep e = follower->step(cv::Mat(), 0.0);
+  EXPECT_EQ(e.status, vm::FollowStatus::bad_frame);
+}
+
+TEST(VisualMemoryReplay, ABlankViewIsLostThenFailsWithAReason) {
+  vm::ReplayParams p;
+  p.max_lost_frames = 5;
+  auto follower = vm::MemoryFollower::create(p, vm_test::teach_straight(3.0), 3.0);
+  ASSERT_TRUE(follower.ok());
+  const cv::Mat blank(240, 320, CV_8UC3, cv::Scalar(128, 128, 128));
+  vm::FollowStep s;
+  for (int i = 0; i < 6; ++i) {
+    s = follower->step(blank, 0.0);
+    EXPECT_EQ(s.command.linear_mps, 0.0);
+    EXPECT_EQ(s.command.angular_radps, 0.0);
+    if (i < 5) {
+      EXPECT_EQ(s.status, vm::FollowStatus::lost) << i;
+    }
+  }
+  EXPECT_EQ(s.status, vm::FollowStatus::failed);
+  EXPECT_FALSE(s.failure.empty());
+}

@@ -10,7 +10,8 @@
 //     the target, px), average position error at the references (true position when I_i is
 //     passed vs. the true position where I_i was taught, cm), average tracked features n, and
 //     the same with coarse calibration (±10 % on the focal length and δ, and on z̄ for IJPU/
-//     IJCU, signs drawn per run);
+//     IJCU, signs drawn per controller; the path is taught again with that calibration);
+//   * λ = a = 1, z̄ = 5 m, switching by the pose (seed 003; see docs for seed 004's rule here);
 //   * convergence domain: lateral start offsets 0, 0.2, … m until the goal is not reached within
 //     0.5 m; ρ = ε_1 at the largest converging offset / ε_1 at the taught start.
 // Usage: visual_memory_compare [--quick] (--quick: 320×240, offsets up to 0.6 m).
@@ -42,6 +43,8 @@ const visnav::Pose2D kStart{-1.0, -3.5, 0.0};  // the arc passes 2 m from the pi
 
 int g_width = 640, g_height = 480;
 bool g_trace = false;
+double g_lambda = 1.0;
+std::string g_switch_rule = "pose";
 
 sim::RobotParams robot_params(int seed) {
   sim::RobotParams p;
@@ -87,9 +90,12 @@ struct Taught {
   double length_m = 0.0;
 };
 
-Taught teach(const std::shared_ptr<const sim::World>& world) {
+/// Teaches the path with the camera model `camera` (the coarse runs teach with their own
+/// miscalibration, as a robot with that calibration would).
+Taught teach(const std::shared_ptr<const sim::World>& world, const vm::CameraParams& camera = {}) {
   Rig rig(world, 7, kStart);
   vm::TeachParams tp;
+  tp.camera = camera;
   auto teacher = vm::MemoryTeacher::create(tp).value();
   Taught t;
   double heading_turned = 0.0;
@@ -199,6 +205,9 @@ vm::ReplayParams params_for(const std::string& controller, bool coarse, std::mt1
   p.turn_speed_mps = kSpeed;
   p.camera.camera_forward_m = kDelta;
   p.uniform_depth_m = 5.0;
+  p.lambda = g_lambda;
+  p.centroid_gain_radps = g_lambda;
+  p.switch_rule = g_switch_rule;
   if (coarse) {
     std::bernoulli_distribution sign(0.5);
     auto factor = [&] { return sign(rng) ? 1.1 : 0.9; };
@@ -220,12 +229,18 @@ int main(int argc, char** argv) {
     g_height = 240;
     auto w = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/curve20m.yaml");
     if (!w.ok()) return 1;
-    const Taught t = teach(*w);
+    std::mt19937 rng0(1);
+    const vm::ReplayParams traced = params_for(argv[2], argc > 6, rng0);
+    const Taught t = teach(*w, traced.camera);
     for (std::size_t k = 0; k < t.reference_truth.size(); ++k)
       std::printf("ref %zu at %.2f m: truth (%.2f, %.2f), %d 3D\n", k, t.memory.references[k].distance_m,
                   t.reference_truth[k].x_m, t.reference_truth[k].y_m, t.memory.references[k].count_3d());
-    std::mt19937 rng(1);
-    const Metrics m = replay(*w, t, params_for(argv[2], false, rng), 21, argc > 3 ? std::atof(argv[3]) : 0.0);
+    if (argc > 4) g_lambda = std::atof(argv[4]);
+    if (argc > 5) g_switch_rule = argv[5];
+    vm::ReplayParams p = traced;
+    p.lambda = p.centroid_gain_radps = g_lambda;
+    p.switch_rule = g_switch_rule;
+    const Metrics m = replay(*w, t, p, 21, std::atof(argv[3]));
     std::printf("goal %d eps %.1f pos %.0f cm n %.0f end %.0f cm\n", m.goal, m.mean_error_px, m.mean_position_cm, m.mean_n,
                 100 * m.end_error_m);
     return 0;
@@ -248,7 +263,9 @@ int main(int argc, char** argv) {
                 "|---|---|---|---|---|---|\n",
                 coarse ? "coarse (±10 %)" : "correct");
     for (const char* c : controllers) {
-      const Metrics m = replay(*world, t, params_for(c, coarse, rng), coarse ? 31 : 21, 0.0);
+      const vm::ReplayParams p = params_for(c, coarse, rng);
+      const Taught taught_here = coarse ? teach(*world, p.camera) : Taught{};
+      const Metrics m = replay(*world, coarse ? taught_here : t, p, 21, 0.0);
       std::printf("| %s | %s | %.1f | %.0f | %.0f | %.0f |\n", c, m.goal ? "yes" : "no", m.mean_error_px,
                   m.mean_position_cm, m.mean_n, 100.0 * m.end_error_m);
       std::fflush(stdout);

@@ -154,3 +154,68 @@ TEST(VisualMemoryReplay, ABlankViewIsLostThenFailsWithAReason) {
   EXPECT_EQ(s.status, vm::FollowStatus::failed);
   EXPECT_FALSE(s.failure.empty());
 }
+
+TEST(VisualMemoryReplay, SeedFoursImageErrorRuleAlsoSwitchesThroughTheReferences) {
+  vm::VisualMemory m = vm_test::teach_straight(6.0);
+  const int n = static_cast<int>(m.references.size());
+  vm::ReplayParams p;
+  p.switch_rule = "image_error";
+  auto follower = vm::MemoryFollower::create(p, std::move(m), 6.0);
+  ASSERT_TRUE(follower.ok());
+  sim::Renderer renderer(vm_test::straight_world(), sim::CameraModel{});
+  cv::Mat bgr;
+  int by_image = 0, by_odometry = 0;
+  bool goal = false;
+  for (double x = 0.0; x <= 7.5 && !goal; x += 0.05) {
+    renderer.render(visnav::Pose2D{x, 0.0, 0.0}, bgr);
+    const vm::FollowStep s = follower->step(bgr, x);
+    if (s.status == vm::FollowStatus::switched) (s.detail.find("odometry") != std::string::npos ? by_odometry : by_image)++;
+    goal = s.status == vm::FollowStatus::goal;
+  }
+  std::printf("image-error rule: %d switches by the image error, %d by odometry, of %d references\n", by_image,
+              by_odometry, n);
+  EXPECT_TRUE(goal);
+  EXPECT_EQ(by_odometry, 0);
+  EXPECT_EQ(by_image, n - 2);
+}
+
+TEST(VisualMemoryTeach, TurningOnTheSpotGivesReferencesWithoutThreeDAndAReplayWithoutNaN) {
+  // Pure rotation: 60° to the left on the spot, in 1° steps (no baseline, nothing to triangulate).
+  sim::Renderer renderer(vm_test::straight_world(), sim::CameraModel{});
+  auto teacher = vm::MemoryTeacher::create(vm::TeachParams{});
+  ASSERT_TRUE(teacher.ok());
+  cv::Mat bgr;
+  for (int deg = 0; deg <= 60; ++deg) {
+    visnav::Pose2D pose{2.0, 0.0, deg * 3.14159265358979 / 180.0};
+    renderer.render(pose, bgr);
+    visnav::Odometry odom;
+    odom.pose = pose;
+    ASSERT_TRUE(teacher->add_frame(bgr, odom, 0.0).ok());
+  }
+  auto memory = teacher->finish();
+  ASSERT_TRUE(memory.ok());
+  ASSERT_GE(memory->references.size(), 2u);
+  for (const auto& r : memory->references) EXPECT_EQ(r.count_3d(), 0);
+  EXPECT_EQ(teacher->references_without_3d(), static_cast<int>(memory->references.size()));
+  // The relative rotation is the odometric one: about the camera's y axis by the heading change.
+  for (std::size_t k = 1; k < memory->references.size(); ++k) {
+    const auto& r = memory->references[k];
+    const double dth = r.heading_rad - memory->references[k - 1].heading_rad;
+    EXPECT_NEAR(std::atan2(r.R_from_prev(0, 2), r.R_from_prev(2, 2)), dth, 1e-9);
+  }
+  // Replaying the rotation: no pose anywhere, every law answers (IJC falls back), nothing NaN.
+  vm::ReplayParams p;
+  p.controller = "IJC";
+  auto follower = vm::MemoryFollower::create(p, std::move(*memory), 0.0);
+  ASSERT_TRUE(follower.ok());
+  for (int deg = 0; deg <= 60; deg += 2) {
+    renderer.render(visnav::Pose2D{2.0, 0.0, deg * 3.14159265358979 / 180.0}, bgr);
+    const vm::FollowStep s = follower->step(bgr, 0.0);
+    EXPECT_TRUE(std::isfinite(s.command.angular_radps) && std::isfinite(s.command.linear_mps));
+    EXPECT_FALSE(s.pose_ok) << deg;
+    if (s.status == vm::FollowStatus::no_pose) {
+      EXPECT_NE(s.detail.find("fallback AIJCA"), std::string::npos) << s.detail;
+    }
+    if (s.finished()) break;
+  }
+}

@@ -8,6 +8,7 @@
 // payload, distance, frames, lost policy, telemetry and halt (docs/plugins.md). The nodes are
 // thin: they translate the adapter's input into the core's and its answer back.
 #include <cmath>
+#include <cstdio>
 #include <optional>
 #include <string>
 
@@ -50,6 +51,12 @@ class VisualMemoryTeacher final : public EdgeTeacher {
     edge.statistics["references"] = static_cast<double>(memory.references.size());
     edge.statistics["references_without_3d"] = static_cast<double>(teacher_->references_without_3d());
     edge.statistics["points_3d_per_reference"] = with_3d / static_cast<double>(memory.references.size());
+    // where the reference images are (`visnav map render` draws a tick at each)
+    for (std::size_t k = 0; k < memory.references.size(); ++k) {
+      char key[32];
+      std::snprintf(key, sizeof key, "mark.ref%04zu_m", k);
+      edge.statistics[key] = memory.references[k].distance_m;
+    }
     return edge;
   }
 

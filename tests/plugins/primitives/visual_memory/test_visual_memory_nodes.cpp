@@ -91,6 +91,17 @@ TEST(VisualMemoryNodes, TeachesAnEdgeThenReplaysItFromAnOffsetStart) {
   EXPECT_GE(edge.statistics.at("references"), 5.0);
   EXPECT_GT(edge.statistics.at("points_3d_per_reference"), 20.0);
   EXPECT_TRUE(map.validate().empty());  // decodes through the plugin's payload check
+  // one render mark per reference, in order along the edge
+  int marks = 0;
+  double last = -1.0;
+  for (const auto& [key, d] : edge.statistics)
+    if (key.rfind("mark.ref", 0) == 0) {
+      ++marks;
+      EXPECT_GT(d, last) << key;
+      EXPECT_LE(d, edge.length_m + 1e-6) << key;
+      last = d;
+    }
+  EXPECT_EQ(marks, static_cast<int>(edge.statistics.at("references")));
   std::printf("taught: %.0f references, %.0f 3D points per reference, %llu payload bytes (%.0f B/m)\n",
               edge.statistics.at("references"), edge.statistics.at("points_3d_per_reference"),
               static_cast<unsigned long long>(edge.payload_bytes), edge.payload_bytes / edge.length_m);

@@ -219,3 +219,55 @@ TEST(VisualMemoryTeach, TurningOnTheSpotGivesReferencesWithoutThreeDAndAReplayWi
     if (s.finished()) break;
   }
 }
+
+TEST(VisualMemoryReplay, DetectsTheTurnOfAnArcAndSlowsDown) {
+  // curve20m courtyard: 1.5 m straight, then a 90° left arc of radius 2 m (ideal poses).
+  auto world = sim::load_world_cached(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/curve20m.yaml");
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  sim::Renderer renderer(*world, sim::CameraModel{});
+  auto pose_at = [](double s) {
+    const double x0 = -1.5, y0 = -3.5, straight = 1.5, r = 2.0;
+    if (s <= straight) return visnav::Pose2D{x0 + s, y0, 0.0};
+    const double th = (s - straight) / r;
+    return visnav::Pose2D{x0 + straight + r * std::sin(th), y0 + r * (1.0 - std::cos(th)), th};
+  };
+  const double length = 1.5 + 2.0 * 3.14159265358979 / 2.0;
+  auto teacher = vm::MemoryTeacher::create(vm::TeachParams{});
+  ASSERT_TRUE(teacher.ok());
+  cv::Mat bgr;
+  for (double s = 0.0; s <= length; s += 0.04) {
+    renderer.render(pose_at(s), bgr);
+    visnav::Odometry odom;
+    odom.pose = pose_at(s);
+    odom.distance_m = s;
+    ASSERT_TRUE(teacher->add_frame(bgr, odom, s).ok());
+  }
+  auto memory = teacher->finish();
+  ASSERT_TRUE(memory.ok());
+  vm::ReplayParams p;
+  auto follower = vm::MemoryFollower::create(p, std::move(*memory), length);
+  ASSERT_TRUE(follower.ok());
+  int straight_turning = 0, straight_frames = 0, arc_turning = 0, arc_frames = 0;
+  for (double s = 0.0; s <= length; s += 0.04) {
+    renderer.render(pose_at(s), bgr);
+    const vm::FollowStep st = follower->step(bgr, s);
+    if (st.finished()) break;
+    if (s < 0.5) {
+      ++straight_frames;
+      straight_turning += st.turning;
+      if (!st.turning) {
+        EXPECT_DOUBLE_EQ(st.command.linear_mps, p.speed_mps);
+      }
+    } else if (s > 2.0 && s < length - 0.5) {
+      ++arc_frames;
+      arc_turning += st.turning;
+      if (st.turning) {
+        EXPECT_DOUBLE_EQ(st.command.linear_mps, p.turn_speed_mps);
+      }
+    }
+  }
+  std::printf("turn detected on %d of %d straight frames, %d of %d arc frames\n", straight_turning, straight_frames,
+              arc_turning, arc_frames);
+  EXPECT_EQ(straight_turning, 0);
+  EXPECT_GT(arc_turning, arc_frames / 2);
+}

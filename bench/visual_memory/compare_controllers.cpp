@@ -21,7 +21,9 @@
 #include <cstring>
 #include <memory>
 #include <random>
+#include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "visnav/visual_memory/follower.hpp"
@@ -258,16 +260,39 @@ int main(int argc, char** argv) {
   std::printf("taught: %.2f m, %zu references, %dx%d\n\n", t.length_m, t.memory.references.size(), g_width, g_height);
   const char* controllers[] = {"RH", "IJP", "IJPU", "IJC", "IJCU", "AIJCA", "centroid"};
   std::mt19937 rng(2009);
+  // Table rows: mean ± sd over the replay seeds (each seed draws its own odometry and camera errors).
+  const int seeds[] = {21, 22, 23};
+  auto mean_sd = [](const std::vector<double>& v) {
+    double m = 0.0, q = 0.0;
+    for (double x : v) m += x;
+    m /= static_cast<double>(v.size());
+    for (double x : v) q += (x - m) * (x - m);
+    return std::pair<double, double>(m, std::sqrt(q / static_cast<double>(v.size())));
+  };
   for (const bool coarse : {false, true}) {
-    std::printf("%s calibration\n\n| controller | goal | avg eps_i (px) | avg position error (cm) | avg n | end error (cm) |\n"
+    std::printf("%s calibration, %zu replay seeds (mean ± sd)\n\n"
+                "| controller | goals | avg eps_i (px) | avg position error (cm) | avg n | end error (cm) |\n"
                 "|---|---|---|---|---|---|\n",
-                coarse ? "coarse (±10 %)" : "correct");
+                coarse ? "coarse (±10 %)" : "correct", std::size(seeds));
     for (const char* c : controllers) {
       const vm::ReplayParams p = params_for(c, coarse, rng);
       const Taught taught_here = coarse ? teach(*world, p.camera) : Taught{};
-      const Metrics m = replay(*world, coarse ? taught_here : t, p, 21, 0.0);
-      std::printf("| %s | %s | %.1f | %.0f | %.0f | %.0f |\n", c, m.goal ? "yes" : "no", m.mean_error_px,
-                  m.mean_position_cm, m.mean_n, 100.0 * m.end_error_m);
+      std::vector<double> eps, pos, n, end;
+      int goals = 0;
+      for (int seed : seeds) {
+        const Metrics m = replay(*world, coarse ? taught_here : t, p, seed, 0.0);
+        goals += m.goal ? 1 : 0;
+        eps.push_back(m.mean_error_px);
+        pos.push_back(m.mean_position_cm);
+        n.push_back(m.mean_n);
+        end.push_back(100.0 * m.end_error_m);
+      }
+      const auto [e_m, e_s] = mean_sd(eps);
+      const auto [p_m, p_s] = mean_sd(pos);
+      const auto [n_m, n_s] = mean_sd(n);
+      const auto [d_m, d_s] = mean_sd(end);
+      std::printf("| %s | %d/%zu | %.1f ± %.1f | %.1f ± %.1f | %.0f ± %.0f | %.1f ± %.1f |\n", c, goals, std::size(seeds),
+                  e_m, e_s, p_m, p_s, n_m, n_s, d_m, d_s);
       std::fflush(stdout);
     }
     std::printf("\n");

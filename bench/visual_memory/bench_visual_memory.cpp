@@ -4,8 +4,9 @@
 //     along the taught line 0.2 m to its left (straight15m, 640×480, 60° hfov): frame-to-frame
 //     KLT of the reference's features, PnP, reprojection of the 3D points (resume/drop),
 //     switching and the control law; the counter ms_per_frame is the mean over the frames;
-//   * teach/threads:<n>: MemoryTeacher::add_frame on the taught frames (KLT, the
-//     reference-to-frame 5-point check and, at new references, triangulation and Harris).
+//   * teach/<estimator>/threads:<n>: MemoryTeacher::add_frame on the taught frames (KLT, the
+//     reference-to-frame 5-point check and, at new references, triangulation and Harris), with
+//     OpenCV's RANSAC and with our MLESAC (300 minimal samples).
 // Frames and the memory are made once, outside the timing. OpenCV threads as in the name
 // (cv::setNumThreads).
 #include <benchmark/benchmark.h>
@@ -101,14 +102,16 @@ void replay(benchmark::State& state, const std::string& controller) {
   state.counters["tracked_mean"] = frames > 0 ? static_cast<double>(tracked) / static_cast<double>(frames) : 0.0;
 }
 
-void teach(benchmark::State& state) {
+void teach(benchmark::State& state, const std::string& estimator) {
+  vm::TeachParams tp;
+  tp.estimator = estimator;
   cv::setNumThreads(static_cast<int>(state.range(0)));
   const Data& d = data();
   std::int64_t frames = 0;
   double wall_s = 0.0;
   for (auto _ : state) {
     state.PauseTiming();
-    auto teacher = vm::MemoryTeacher::create(vm::TeachParams{}).value();
+    auto teacher = vm::MemoryTeacher::create(tp).value();
     state.ResumeTiming();
     const auto t0 = std::chrono::steady_clock::now();
     for (std::size_t k = 0; k < d.teach_frames.size(); ++k) {
@@ -128,6 +131,7 @@ void teach(benchmark::State& state) {
 BENCHMARK_CAPTURE(replay, centroid, std::string("centroid"))->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(replay, IJC, std::string("IJC"))->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(replay, IJCU, std::string("IJCU"))->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond);
-BENCHMARK(teach)->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK_CAPTURE(teach, ransac, std::string("ransac"))->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK_CAPTURE(teach, mlesac, std::string("mlesac"))->Arg(1)->ArgName("threads")->Unit(benchmark::kMillisecond)->Iterations(1);
 
 BENCHMARK_MAIN();

@@ -1,7 +1,10 @@
 #include "visnav/visual_memory/geometry.hpp"
 
 #include <cmath>
+#include <algorithm>
+#include <limits>
 #include <numbers>
+#include <random>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -63,6 +66,89 @@ const char* to_string(GeometryStatus s) {
 
 namespace {
 
+/// Squared Sampson distance (px²) of a correspondence to the epipolar geometry F (pixels).
+double sampson_px2(const cv::Matx33d& F, const cv::Point2f& a, const cv::Point2f& b) {
+  const cv::Vec3d x1(a.x, a.y, 1.0), x2(b.x, b.y, 1.0);
+  const cv::Vec3d Fx1 = F * x1, Ftx2 = F.t() * x2;
+  const double num = x2.dot(Fx1);
+  const double den = Fx1[0] * Fx1[0] + Fx1[1] * Fx1[1] + Ftx2[0] * Ftx2[0] + Ftx2[1] * Ftx2[1];
+  return den > 1e-18 ? num * num / den : std::numeric_limits<double>::infinity();
+}
+
+/// MLESAC (Torr & Zisserman 2000, as seed 003 uses it): minimal 5-point samples, each solution
+/// scored by the negative log-likelihood of a mixture of Gaussian inlier residuals (σ = the
+/// threshold) and uniform outliers over the image diagonal, the mixing share γ by EM; the best
+/// E and its inliers (posterior inlier probability > 0.5). Deterministic (fixed seed).
+cv::Mat mlesac_essential(const std::vector<cv::Point2f>& first, const std::vector<cv::Point2f>& second,
+                         const cv::Matx33d& K, double sigma_px, cv::Mat& mask) {
+  const int n = static_cast<int>(first.size());
+  const double v = std::hypot(2.0 * K(0, 2), 2.0 * K(1, 2));  // uniform outlier range, px
+  const double norm = 1.0 / (std::sqrt(2.0 * std::numbers::pi) * sigma_px);
+  const cv::Matx33d Kinv = K.inv();
+  std::mt19937 rng(0x5EED);
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  double best_nll = std::numeric_limits<double>::infinity();
+  cv::Matx33d best;
+  bool found = false;
+  std::vector<double> d2(static_cast<std::size_t>(n));
+  for (int it = 0; it < 300; ++it) {
+    int idx[5];
+    for (int k = 0; k < 5; ++k) {
+      bool again = true;
+      while (again) {
+        idx[k] = pick(rng);
+        again = false;
+        for (int q = 0; q < k; ++q) again = again || idx[q] == idx[k];
+      }
+    }
+    std::vector<cv::Point2f> a(5), b(5);
+    for (int k = 0; k < 5; ++k) {
+      a[static_cast<std::size_t>(k)] = first[static_cast<std::size_t>(idx[k])];
+      b[static_cast<std::size_t>(k)] = second[static_cast<std::size_t>(idx[k])];
+    }
+    cv::Mat Es;
+    try {
+      Es = cv::findEssentialMat(a, b, cv::Mat(K), cv::RANSAC, 0.999, sigma_px);
+    } catch (const cv::Exception&) {
+      continue;
+    }
+    if (Es.empty() || Es.cols != 3 || Es.rows % 3 != 0) continue;
+    Es.convertTo(Es, CV_64F);
+    for (int s = 0; s < Es.rows / 3; ++s) {
+      cv::Matx33d E;
+      for (int i = 0; i < 9; ++i) E.val[i] = Es.at<double>(3 * s + i / 3, i % 3);
+      const cv::Matx33d F = Kinv.t() * E * Kinv;
+      for (int j = 0; j < n; ++j) d2[static_cast<std::size_t>(j)] = sampson_px2(F, first[static_cast<std::size_t>(j)],
+                                                                               second[static_cast<std::size_t>(j)]);
+      double gamma = 0.5;
+      for (int em = 0; em < 5; ++em) {
+        double sum = 0.0;
+        for (double e : d2) {
+          const double pin = gamma * norm * std::exp(-0.5 * e / (sigma_px * sigma_px));
+          sum += pin / (pin + (1.0 - gamma) / v);
+        }
+        gamma = std::clamp(sum / n, 1e-3, 1.0 - 1e-3);
+      }
+      double nll = 0.0;
+      for (double e : d2) nll -= std::log(gamma * norm * std::exp(-0.5 * e / (sigma_px * sigma_px)) + (1.0 - gamma) / v);
+      if (std::isfinite(nll) && nll < best_nll) {
+        best_nll = nll;
+        best = E;
+        found = true;
+      }
+    }
+  }
+  if (!found) return {};
+  // posterior inliers of the best model
+  const cv::Matx33d F = Kinv.t() * best * Kinv;
+  mask = cv::Mat(n, 1, CV_8U, cv::Scalar(0));
+  for (int j = 0; j < n; ++j) {
+    const double e = sampson_px2(F, first[static_cast<std::size_t>(j)], second[static_cast<std::size_t>(j)]);
+    mask.at<std::uint8_t>(j) = e <= 9.0 * sigma_px * sigma_px ? 1 : 0;  // within 3σ
+  }
+  return cv::Mat(best, true);
+}
+
 int estimator_flag(const std::string& name) {
   if (name == "lmeds") return cv::LMEDS;
   if (name == "magsac") return cv::USAC_MAGSAC;
@@ -94,8 +180,12 @@ RelativeGeometry relative_geometry(const std::vector<cv::Point2f>& first, const 
   cv::Mat mask;
   cv::Mat E;
   try {
-    E = cv::findEssentialMat(first, second, cv::Mat(K), estimator_flag(params.estimator), 0.999,
-                             params.ransac_threshold_px, mask);
+    if (params.estimator == "mlesac") {
+      E = mlesac_essential(first, second, K, params.ransac_threshold_px, mask);
+    } else {
+      E = cv::findEssentialMat(first, second, cv::Mat(K), estimator_flag(params.estimator), 0.999,
+                               params.ransac_threshold_px, mask);
+    }
   } catch (const cv::Exception&) {
     E.release();
   }

@@ -51,7 +51,7 @@ const ParamSchema<TeachParams>& TeachParams::schema() {
           .field("min_baseline_m", &P::min_baseline_m, "no triangulation below this baseline (pure rotation), m")
           .range(0.0, 10.0)
           .field("ransac_threshold_px", &P::ransac_threshold_px, "essential-matrix inlier threshold, px").range(0.1, 20.0)
-          .field("estimator", &P::estimator, "robust estimator of E").one_of({"ransac", "lmeds", "magsac"})
+          .field("estimator", &P::estimator, "robust estimator of E").one_of({"ransac", "lmeds", "magsac", "mlesac"})
           .field("max_triangulation_error_px", &P::max_triangulation_error_px, "triangulated point reprojection limit, px")
           .range(0.1, 50.0)
           .field("min_parallax_deg", &P::min_parallax_deg, "triangulated point minimal parallax, deg").range(0.0, 45.0)

@@ -147,3 +147,33 @@ TEST(VisualMemoryGeometry, ProjectRejectsPointsBehindTheCamera) {
   EXPECT_NEAR(px.x, kK.cx_px, 1e-4);
   EXPECT_FALSE(vm::project(pose, cv::Point3f(0, 0, -5), kK, px));
 }
+
+TEST(VisualMemoryGeometry, EveryEstimatorIncludingMLESACRejectsThirtyPercentOutliers) {
+  const double yaw = 0.05;
+  const cv::Matx33d R = yaw_left(yaw);
+  const cv::Vec3d c = cv::Vec3d(0.1, 0.0, 1.0) * (1.0 / cv::norm(cv::Vec3d(0.1, 0.0, 1.0)));
+  const cv::Vec3d t = -(R * c);
+  Scene s = make_scene(R, t, false, 0.3, 11);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> ux(0.0f, 319.0f), uy(0.0f, 239.0f);
+  std::vector<bool> outlier(s.second.size(), false);
+  for (std::size_t j = 0; j < s.second.size(); j += 3) {  // every third: a random pixel
+    s.second[j] = cv::Point2f(ux(rng), uy(rng));
+    outlier[j] = true;
+  }
+  for (const char* estimator : {"ransac", "lmeds", "magsac", "mlesac"}) {
+    vm::GeometryParams p;
+    p.estimator = estimator;
+    const vm::RelativeGeometry g = vm::relative_geometry(s.first, s.second, kK, 1.0, p);
+    ASSERT_EQ(g.status, vm::GeometryStatus::ok) << estimator << ": " << vm::to_string(g.status);
+    EXPECT_NEAR(std::atan2(g.R(0, 2), g.R(2, 2)), yaw, 0.01) << estimator;
+    EXPECT_LT(cv::norm(g.t_m - t), 0.1) << estimator;
+    int outliers_in_3d = 0, made = 0;
+    for (std::size_t j = 0; j < outlier.size(); ++j) {
+      made += g.has_3d[j];
+      outliers_in_3d += g.has_3d[j] && outlier[j];
+    }
+    EXPECT_GT(made, 40) << estimator;
+    EXPECT_LE(outliers_in_3d, 2) << estimator;
+  }
+}

@@ -52,7 +52,7 @@ enum class GeometryStatus {
 struct GeometryParams {
   double min_baseline_m = 0.1;
   double ransac_threshold_px = 1.0;
-  std::string estimator = "ransac";   ///< ransac, lmeds, magsac
+  std::string estimator = "ransac";   ///< ransac, lmeds, magsac (OpenCV), mlesac (ours, seed 003's estimator)
   double max_triangulation_error_px = 2.0;
   double min_parallax_deg = 0.5;
 };

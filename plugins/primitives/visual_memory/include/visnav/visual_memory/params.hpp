@@ -45,7 +45,7 @@ struct TeachParams {
   double max_reference_spacing_m = 3.0;   ///< a reference at the latest after this distance
   double min_baseline_m = 0.1;            ///< below: no triangulation (pure rotation), the reference stores no 3D
   double ransac_threshold_px = 1.0;       ///< essential matrix inlier threshold
-  std::string estimator = "ransac";       ///< robust estimator of E: ransac, lmeds, magsac (see docs)
+  std::string estimator = "ransac";       ///< robust estimator of E: ransac, lmeds, magsac, mlesac (seed 003's)
   double max_triangulation_error_px = 2.0;  ///< triangulated points reprojecting worse are dropped
   double min_parallax_deg = 0.5;          ///< triangulated points seen under less parallax are dropped
   int png_compression = 3;                ///< reference image PNG level (0-9)

@@ -124,7 +124,7 @@ bool MemoryFollower::relocalise(const cv::Mat& grey) {
   std::vector<cv::Point2f> guess;
   cv::perspectiveTransform(ref.points_px, guess, best_H);
   std::vector<std::uint8_t> ok;
-  track_klt(ref.image, grey, ref.points_px, guess, ok, klt_, true);
+  track_klt(ref.image, as_reference_lit(grey, ref.image), ref.points_px, guess, ok, klt_, true);
   int n = 0;
   for (std::size_t j = 0; j < ok.size(); ++j) {
     tracked_[j] = ok[j];
@@ -134,6 +134,18 @@ bool MemoryFollower::relocalise(const cv::Mat& grey) {
     }
   }
   return n >= params_.min_tracked;
+}
+
+const cv::Mat& MemoryFollower::as_reference_lit(const cv::Mat& grey, const cv::Mat& reference) {
+  if (!params_.illumination_compensation) return grey;
+  // Global affine (gain, offset) brightness model: the frame's mean and standard deviation are
+  // mapped onto the reference image's before tracking from the reference.
+  cv::Scalar mc, sc, mr, sr;
+  cv::meanStdDev(grey, mc, sc);
+  cv::meanStdDev(reference, mr, sr);
+  const double gain = sc[0] > 1e-3 ? sr[0] / sc[0] : 1.0;
+  grey.convertTo(lit_, CV_8U, gain, mr[0] - gain * mc[0]);
+  return lit_;
 }
 
 PoseEstimate MemoryFollower::pose_now() const {
@@ -174,7 +186,7 @@ int MemoryFollower::resume_by_projection(const PoseEstimate& pose, const cv::Mat
   }
   if (which.empty()) return 0;
   std::vector<std::uint8_t> ok;
-  track_klt(ref.image, grey, from, guess, ok, klt_, true);
+  track_klt(ref.image, as_reference_lit(grey, ref.image), from, guess, ok, klt_, true);
   int resumed = 0;
   for (std::size_t k = 0; k < which.size(); ++k) {
     const cv::Point2f d = guess[k] - predicted[k];

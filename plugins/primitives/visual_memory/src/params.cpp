@@ -108,6 +108,8 @@ const ParamSchema<ReplayParams>& ReplayParams::schema() {
           .field("orb_ratio", &P::orb_ratio, "ratio test of relocalisation matches").range(0.3, 1.0)
           .field("min_relocalise_inliers", &P::min_relocalise_inliers, "homography inliers to accept a relocalisation")
           .range(8, 10000)
+          .field("illumination_compensation", &P::illumination_compensation,
+                 "match the frame's brightness to the reference's before tracking from the reference")
           .field("goal_overshoot_m", &P::goal_overshoot_m, "past the edge length by this: finished by odometry, m")
           .range(0.0, 100.0);
   return s;

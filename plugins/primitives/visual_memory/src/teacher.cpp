@@ -98,6 +98,7 @@ TeachFrameResult MemoryTeacher::make_reference(const std::string& reason) {
   memory_.references.push_back(std::move(ref));
   reference_distance_m_ = last_distance_m_;
   reference_pose_ = last_odometry_.pose;
+  reference_poses_.push_back(reference_pose_);
   last_is_reference_ = true;
   out.tracked = static_cast<int>(tracks_.size());
   return out;
@@ -159,7 +160,19 @@ Result<TeachFrameResult> MemoryTeacher::add_frame(const cv::Mat& image, const Od
 
 Result<VisualMemory> MemoryTeacher::finish() {
   if (memory_.references.empty()) return fail("no usable frame on the edge");
-  if (!last_is_reference_) (void)make_reference("goal");
+  if (!last_is_reference_) {
+    // The goal image ends the chain. A reference made just before the end (closer than
+    // min_reference_spacing_m) would leave the goal without baseline, hence without 3D points
+    // and without the pose that recognises it: it gives way to the goal.
+    if (memory_.references.size() >= 2 && last_distance_m_ - reference_distance_m_ < params_.min_reference_spacing_m) {
+      if (memory_.references.back().count_3d() == 0) --without_3d_;
+      memory_.references.pop_back();
+      reference_poses_.pop_back();
+      reference_pose_ = reference_poses_.back();
+      reference_distance_m_ = memory_.references.back().distance_m;
+    }
+    (void)make_reference("goal");
+  }
   return memory_;
 }
 

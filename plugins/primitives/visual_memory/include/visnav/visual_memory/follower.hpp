@@ -100,6 +100,8 @@ class MemoryFollower {
   void set_target(int index);
   int resume_by_projection(const PoseEstimate& pose, const cv::Mat& grey, int* dropped);
   PoseEstimate pose_now() const;
+  /// `grey` with the reference's brightness (illumination_compensation), else `grey` itself.
+  const cv::Mat& as_reference_lit(const cv::Mat& grey, const cv::Mat& reference);
   void control(FollowStep& out, const PoseEstimate& pose);
   double taught_offset_norm(int from) const;
 
@@ -117,6 +119,7 @@ class MemoryFollower {
   std::vector<cv::Point2f> points_;
   std::vector<std::uint8_t> tracked_;
   cv::Mat previous_;
+  cv::Mat lit_;  ///< scratch of as_reference_lit
   bool initialised_ = false;
   int lost_frames_ = 0;
   double min_error_px_ = 0.0;

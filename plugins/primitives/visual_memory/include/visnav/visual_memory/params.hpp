@@ -84,6 +84,10 @@ struct ReplayParams {
   int orb_features = 500;             ///< relocalisation ORB features per image
   double orb_ratio = 0.8;             ///< Lowe ratio test
   int min_relocalise_inliers = 15;    ///< homography inliers to accept a relocalisation
+  /// Map the frame's brightness (mean, standard deviation) onto the reference image's before
+  /// tracking from the reference (resuming, relocalising): a global version of the affine
+  /// contrast/brightness model of seed 003's tracker [6].
+  bool illumination_compensation = true;
   double goal_overshoot_m = 1.0;      ///< past the edge length by this without the goal image: finished by odometry
 
   [[nodiscard]] Status validate() const;

@@ -8,7 +8,8 @@
 // has driven `max_reference_spacing_m` since it (never before `min_reference_spacing_m`). A new
 // reference stores its relative pose to the previous one (E + cheirality, metric with the
 // odometric baseline) and the triangulated shared features; the tracker is then topped up with
-// new Harris corners. `finish()` adds the last frame as the final (goal) reference.
+// new Harris corners. `finish()` adds the last frame as the final (goal) reference, replacing a
+// reference made less than `min_reference_spacing_m` before it (the goal needs a baseline).
 // Input: the frame (BGR or grey) and the odometry (odom frame, metres/radians).
 // Thread-safety: one thread. No clock, no I/O.
 #pragma once
@@ -68,6 +69,7 @@ class MemoryTeacher {
   bool last_is_reference_ = false;
   double reference_distance_m_ = 0.0;
   Pose2D reference_pose_;
+  std::vector<Pose2D> reference_poses_;  ///< odometry pose of every reference
   int without_3d_ = 0;
 };
 

@@ -6,7 +6,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 
 #include "sim_support.hpp"
 #include "visnav/visual_memory/follower.hpp"
@@ -295,9 +294,6 @@ TEST(VisualMemoryReplay, IlluminationCompensationResumesMoreFeaturesUnderAnother
       resumed[on] += s.resumed;
       tracked[on] += s.tracked;
       lost[on] += s.status == vm::FollowStatus::lost;
-      if (std::getenv("VM_TRACE") != nullptr)
-        std::printf("x %.2f t %d %s tr %d/%d eps %.1f %s\n", x, s.target, vm::to_string(s.status), s.tracked, s.tracked_3d,
-                    s.image_error_px, s.detail.c_str());
       if (s.finished()) {
         goal[on] = s.status == vm::FollowStatus::goal;
         break;

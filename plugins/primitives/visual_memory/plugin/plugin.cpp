@@ -130,8 +130,9 @@ const PayloadCheckEntry kPayloadChecks[] = {{kKind, &check_payload}};
 }  // namespace
 }  // namespace visnav::visual_memory
 
-VISNAV_PLUGIN_WITH_PAYLOAD_CHECKS(visnav::PluginKind::nodes, "visual_memory", "0.1.0",
-                                  "Visual-memory edges: reference images, local 3D geometry and visual servoing "
-                                  "(seeds 003/004)",
-                                  nullptr, 0, &visnav::visual_memory::register_nodes, nullptr, 0,
-                                  visnav::visual_memory::kPayloadChecks, 1)
+VISNAV_PLUGIN({.name = "visual_memory",
+               .version = "0.1.0",
+               .description = "Visual-memory edges: reference images, local 3D geometry and visual servoing "
+                              "(seeds 003/004)",
+               .register_nodes = &visnav::visual_memory::register_nodes,
+               .payload_checks = visnav::visual_memory::kPayloadChecks})

@@ -178,6 +178,17 @@ Result<cv::Mat> render_map(const MapStore& map, int width_px) {
       cv::arrowedLine(img, ipt(a), ipt(b), colour, 3, cv::LINE_AA, 0, std::min(0.3, 14.0 / len_px));
     }
     if (cv::norm(b - t) > 2.0) dashed_line(img, b, t, cv::Scalar(150, 150, 150));  // odometric drift at loop closure
+    // Positions along the edge a primitive marks (statistics "mark.<name>_m", metres from the
+    // start; e.g. a visual_memory edge's reference images): a tick across the arrow.
+    if (len_px >= 1.0 && edges[i].length_m > 0.0) {
+      const cv::Point2d dir = (b - a) * (1.0 / len_px), across(-dir.y, dir.x);
+      for (const auto& [key, d] : edges[i].statistics) {
+        if (key.rfind("mark.", 0) != 0 || key.size() < 8 || key.compare(key.size() - 2, 2, "_m") != 0) continue;
+        if (!(d >= 0.0 && d <= edges[i].length_m)) continue;
+        const cv::Point2d m = a + (b - a) * (d / edges[i].length_m);
+        cv::line(img, ipt(m - 6.0 * across), ipt(m + 6.0 * across), colour * 0.5, 2, cv::LINE_AA);
+      }
+    }
   }
   // Nodes.
   for (const auto& n : map.nodes()) {

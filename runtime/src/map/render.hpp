@@ -31,7 +31,8 @@ struct MapLayout {
 /// BGR colour of a primitive kind (feature kinds red, path following blue, as seed 000 Fig. 1).
 [[nodiscard]] cv::Scalar kind_colour(const std::string& kind);
 
-/// Draws the map: edges as arrows coloured by kind, nodes with names, legend, scale bar.
+/// Draws the map: edges as arrows coloured by kind, with a tick at every position an edge marks
+/// (statistics "mark.<name>_m", metres from its start), nodes with names, legend, scale bar.
 /// `width_px` ≥ 200. Pure (no file I/O).
 [[nodiscard]] Result<cv::Mat> render_map(const MapStore& map, int width_px);
 

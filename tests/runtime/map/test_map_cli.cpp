@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "map/render.hpp"
 #include "map_test_util.hpp"
@@ -61,6 +62,41 @@ TEST(MapLayout, PositionHintsAnchorTheLayout) {
   EXPECT_NEAR(layout.node_xy_m.at("b").x, 100.0, 1e-9);
   EXPECT_NEAR(layout.node_xy_m.at("b").y, 45.0, 1e-9);
   EXPECT_GT(layout.node_xy_m.at("lonely").x, 100.0);  // unconnected: placed beside, not on top
+}
+
+TEST(MapLayout, RenderDrawsTheMarksAnEdgeStatesAlongIt) {
+  TempDir tmp;
+  auto map = MapStore::create(tmp / "marks", "marks");
+  ASSERT_TRUE(map);
+  map->set_sync(false);
+  ASSERT_TRUE(map->add_node(node("a", "a")));
+  ASSERT_TRUE(map->add_node(node("b", "b")));
+  auto e = edge("a", "b", "visual_memory", 10.0, 0.0);
+  ASSERT_TRUE(map->add_edge(e, make_body(1000, 1)));
+  auto plain = map_detail::render_map(*map, 800);
+  ASSERT_TRUE(plain);
+  auto marked_map = MapStore::create(tmp / "marks2", "marks");
+  ASSERT_TRUE(marked_map);
+  marked_map->set_sync(false);
+  ASSERT_TRUE(marked_map->add_node(node("a", "a")));
+  ASSERT_TRUE(marked_map->add_node(node("b", "b")));
+  e.statistics["mark.r000_m"] = 2.5;
+  e.statistics["mark.r001_m"] = 5.0;
+  e.statistics["marks_total"] = 7.5;  // not a mark (no "mark." prefix): not drawn
+  ASSERT_TRUE(marked_map->add_edge(e, make_body(1000, 1)));
+  auto marked = map_detail::render_map(*marked_map, 800);
+  ASSERT_TRUE(marked);
+  ASSERT_EQ(plain->size(), marked->size());
+  // The two images differ in two small patches only: a tick a quarter and half way along.
+  cv::Mat diff;
+  cv::absdiff(*plain, *marked, diff);
+  cv::cvtColor(diff, diff, cv::COLOR_BGR2GRAY);
+  std::vector<cv::Point> changed;
+  cv::findNonZero(diff > 0, changed);
+  ASSERT_FALSE(changed.empty());
+  const cv::Rect box = cv::boundingRect(changed);
+  EXPECT_LT(box.height, 30);                      // ticks, not a redrawn map
+  EXPECT_NEAR(box.width, 0.25 * (800 - 140), 12);  // from 2.5 m to 5.0 m of a 10 m edge drawn 660 px long
 }
 
 TEST(MapCli, InfoShowsKindsLengthsAndBytesPerMetre) {

@@ -18,9 +18,11 @@ namespace {
 using bt::NodeStatus;
 
 constexpr const char* kDefaultReplayKinds =
-    "feature_segment=ReplayFeatureEdge;feature_localmaps=ReplayFeatureEdge;path_following=FollowPathEdge";
+    "feature_segment=ReplayFeatureEdge;feature_localmaps=ReplayFeatureEdge;path_following=FollowPathEdge;"
+    "visual_memory=ReplayVisualMemoryEdge";
 constexpr const char* kDefaultTeachKinds =
-    "feature_segment=TeachFeatureEdge;feature_localmaps=TeachFeatureEdge;path_following=TeachPathEdge";
+    "feature_segment=TeachFeatureEdge;feature_localmaps=TeachFeatureEdge;path_following=TeachPathEdge;"
+    "visual_memory=TeachVisualMemoryEdge";
 
 std::optional<double> current_heading_rad(HostServices& host) {
   FrameBus* bus = host.frame_bus();

@@ -50,7 +50,7 @@ class ScriptedOperator final : public bt::StatefulActionNode {
 
   static bt::PortsList provided_ports() {
     return {route_file_port(),
-            bt::input_port<std::vector<std::string>>("kinds", "feature=feature_segment;path=path_following",
+            bt::input_port<std::vector<std::string>>("kinds", "feature=feature_segment;path=path_following;memory=visual_memory",
                                                       "route leg kind -> map edge kind"),
             bt::input_port<std::string>("force_kind", "", "teach every leg with this edge kind (e.g. a feature-only map)"),
             bt::input_port<double>("speed_mps", "0.5", "driving speed"),

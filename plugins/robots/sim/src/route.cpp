@@ -93,8 +93,8 @@ Result<Route> parse_route(std::string_view yaml_text, const std::string& file_la
         if (at == nullptr) return node_error(w, what + ": missing key 'at'");
         VISNAV_ASSIGN(rw.position_m, as_point(*at, "at"));
         VISNAV_ASSIGN(kind, get_string(w, "kind", kind));
-        if (kind != "feature" && kind != "path")
-          return node_error(*w.find("kind"), what + ": kind '" + kind + "' is not one of: feature, path");
+        if (kind != "feature" && kind != "path" && kind != "memory")
+          return node_error(*w.find("kind"), what + ": kind '" + kind + "' is not one of: feature, path, memory");
       }
       rw.kind = kind;
       if (!route.waypoints.empty() && cv::norm(rw.position_m - route.waypoints.back().position_m) < 1e-6)

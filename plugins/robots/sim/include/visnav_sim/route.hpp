@@ -5,7 +5,7 @@
 //    robot's odometric path length grew by |distance_m| or duration_s of simulated time
 //    passed; or
 //  * `waypoints:` a list of {x, y, kind} (world metres; kind = primitive of the leg that
-//    starts at this waypoint: "feature" or "path") driven by an internal pure-pursuit
+//    starts at this waypoint: "feature", "path" or "memory") driven by an internal pure-pursuit
 //    controller that behaves like an operator: it updates its command at command_rate_hz,
 //    quantises ω, slows down in curves and holds each command in between.
 // Optional `start: [x, y, heading_deg]` and `world:`.

@@ -85,10 +85,16 @@ void ProgressLine::show(const std::string& phase, double done, double total, con
   line << "  " << phase;
   if (static_cast<int>(phase.size()) < phase_width_) line << std::string(phase_width_ - phase.size(), ' ');
   line << " [" << std::string(static_cast<std::size_t>(filled), '#') << std::string(kWidth - filled, '.') << "] ";
-  char figures[128];
-  std::snprintf(figures, sizeof figures, "%3d %% %g/%g %s  %.0f s", static_cast<int>(share * 100.0), done, total,
-                unit.c_str(), elapsed_s);
-  line << figures;
+  // Counts print as integers (450000/1000000 scenarios), measures with two decimals (0.92/9.18 km).
+  const auto amount = [](double v) {
+    char text[32];
+    if (std::abs(v) < 1e15 && v == std::floor(v)) std::snprintf(text, sizeof text, "%lld", static_cast<long long>(v));
+    else std::snprintf(text, sizeof text, "%.2f", v);
+    return std::string(text);
+  };
+  char head[16];
+  std::snprintf(head, sizeof head, "%3d %% ", static_cast<int>(share * 100.0));
+  line << head << amount(done) << "/" << amount(total) << " " << unit << "  " << static_cast<long long>(elapsed_s) << " s";
   if (share > 0.0 && share < 1.0) line << ", ~" << static_cast<long long>(elapsed_s / share - elapsed_s) << " s left";
   if (terminal_) {
     std::cerr << "\r" << line.str() << "\x1b[K" << std::flush;

@@ -50,14 +50,16 @@ TEST(CommandLine, ProgressInALogWritesALinePerTenthAndRestartsPerPhase) {
     cli::ProgressLine progress(8);
     for (int i = 0; i <= 1000; ++i) progress.show("loops", i, 1000, "scenarios");
     progress.show("replay", 1, 4, "loops");
+    progress.show("drive", 0.918005, 9.18, "km");
     progress.end();
   }
   std::cerr.rdbuf(old);
   std::vector<std::string> lines;
   std::istringstream in(captured.str());
   for (std::string l; std::getline(in, l);) lines.push_back(l);
-  ASSERT_EQ(lines.size(), 12u) << captured.str();  // 0 %, 10 %, ..., 100 % and the next phase
+  ASSERT_EQ(lines.size(), 13u) << captured.str();  // 0 %, 10 %, ..., 100 % and the next phases
   EXPECT_EQ(lines[0].rfind("  loops    [..............................]   0 % 0/1000 scenarios", 0), 0u) << lines[0];
   EXPECT_NE(lines[10].find("[##############################] 100 % 1000/1000 scenarios"), std::string::npos) << lines[10];
   EXPECT_EQ(lines[11].rfind("  replay   [#######.......................]  25 % 1/4 loops", 0), 0u) << lines[11];
+  EXPECT_NE(lines[12].find("]  10 % 0.92/9.18 km"), std::string::npos) << lines[12];
 }

@@ -48,7 +48,9 @@ class OptionReader {
 ///   "  phase [#########.....................]  30 % 300/1000 scenarios  12 s, ~28 s left"
 /// On a terminal one line is redrawn in place at most every 0.5 s (and once when a phase first
 /// completes); when stderr is not a terminal (CI logs, pipes) a new line is written only when
-/// another tenth of the phase is done, so logs stay short. A new phase name restarts the clock.
+/// another tenth of the phase is done, so logs stay short. Elapsed time and the estimate left
+/// count from the start of the work: a new total or a count that goes back restarts them, a new
+/// phase label alone does not.
 class ProgressLine {
  public:
   /// `phase_width`: the phase name is padded to this many characters.
@@ -65,6 +67,8 @@ class ProgressLine {
   bool drawn_full_ = false;  // the 100 % state was drawn for this phase
   int last_tenth_ = -1;      // non-terminal: the last tenth written for this phase
   std::string phase_;
+  double total_ = 0.0;
+  double done_ = 0.0;
 };
 
 }  // namespace visnav::cli

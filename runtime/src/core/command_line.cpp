@@ -60,10 +60,14 @@ ProgressLine::ProgressLine(int phase_width) : phase_width_(phase_width), termina
 
 void ProgressLine::show(const std::string& phase, double done, double total, const std::string& unit) {
   const auto now = std::chrono::steady_clock::now();
-  if (phase != phase_ || phase_start_ == std::chrono::steady_clock::time_point{}) {
-    if (drawn_ && phase != phase_) end();
+  // The clock measures one piece of work: it restarts when the total changes or the count goes
+  // back, not when only the phase label changes ("runs 3/10 done" -> "runs 4/10 done").
+  if (phase_start_ == std::chrono::steady_clock::time_point{} || total != total_ || done < done_) phase_start_ = now;
+  total_ = total;
+  done_ = done;
+  if (phase != phase_) {
+    if (drawn_) end();
     phase_ = phase;
-    phase_start_ = now;
     drawn_full_ = false;
     last_tenth_ = -1;
   }

@@ -43,6 +43,9 @@ std::string subtree_chain(int n, bool cycle = false) {
 TEST_F(Limits, ChainOf5000SubTreesIsAValidationErrorNotACrash) {
   const auto d = validate(subtree_chain(5000));
   ASSERT_EQ(d.size(), 2u) << all(d);  // SubTree depth and node depth
+  EXPECT_EQ(d[0].code, visnav::ErrorCode::limit);
+  EXPECT_EQ(d[1].code, visnav::ErrorCode::limit);
+  // The message carries the measured depth and the chain: what the count got right.
   EXPECT_NE(d[0].message.find("SubTrees nest 4999 deep, more than the limit 64 (run.bt_max_subtree_depth): T0 -> T1 -> T2"),
             std::string::npos)
       << d[0].str();
@@ -68,6 +71,7 @@ TEST_F(Limits, SubTreeDepthLimitIsConfigurableAndExactlyTheLimitLoads) {
   EXPECT_TRUE(validate(subtree_chain(4)).empty());  // T0 -> T1 -> T2 -> T3: depth 3
   const auto d = validate(subtree_chain(5));
   ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, visnav::ErrorCode::limit) << d[0].str();
   EXPECT_NE(d[0].message.find("nest 4 deep, more than the limit 3"), std::string::npos) << d[0].str();
   auto tree = load(subtree_chain(4));
   EXPECT_EQ(tree.tick_once(), NodeStatus::success);
@@ -113,6 +117,7 @@ TEST_F(Limits, NodeLimitCountsSubTreeNodesAndIsConfigurable) {
   options.max_nodes = 12;
   const auto d = validate(xml);
   ASSERT_EQ(d.size(), 1u) << all(d);
+  EXPECT_EQ(d[0].code, visnav::ErrorCode::limit) << d[0].str();
   EXPECT_NE(d[0].message.find("would have 13 nodes, more than the limit 12"), std::string::npos) << d[0].str();
 }
 
@@ -128,6 +133,7 @@ TEST_F(Limits, TreeDepthCountsThroughSubTrees) {
   options.max_tree_depth = 20;
   const auto d = validate(xml);
   ASSERT_EQ(d.size(), 1u) << all(d);
+  EXPECT_EQ(d[0].code, visnav::ErrorCode::limit) << d[0].str();
   EXPECT_NE(d[0].message.find("the expanded tree is 21 nodes deep, more than the limit 20 (run.bt_max_tree_depth)"),
             std::string::npos)
       << d[0].str();

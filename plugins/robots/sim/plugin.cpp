@@ -26,7 +26,8 @@ const visnav::TypeEntry kTypes[] = {
         "sim", "pinhole camera rendering the sim robot's textured world (appearance changes, faults)"),
 };
 const visnav::CommandEntry kCommands[] = {
-    {"sim", "simulator tools: snapshot, topview, drive (route script), teleop (keyboard)", &run_sim}};
+    {"sim", "simulator tools: snapshot, topview, drive (route script), teleop (keyboard)",
+     &visnav::guarded_command<&run_sim>}};
 
 }  // namespace
 

@@ -177,6 +177,22 @@ Result<std::unique_ptr<PluginObject>> plugin_factory(const ConfigNode& params, H
   }
 }
 
+/// Wraps a plugin command's `Run(argc, argv, host)` so that no exception escapes into the host:
+/// one that escapes is logged under the command's name (argv[0]) and gives exit status 1.
+///   const CommandEntry kCommands[] = {{"align", "one line", &visnav::guarded_command<&run_align>}};
+template <int (*Run)(int, char**, HostServices&)>
+int guarded_command(int argc, char** argv, HostServices& host) noexcept {
+  const char* name = argc > 0 && argv != nullptr && argv[0] != nullptr ? argv[0] : "command";
+  try {
+    return Run(argc, argv, host);
+  } catch (const std::exception& e) {
+    host.logger().error(name, std::string("unexpected exception: ") + e.what());
+  } catch (...) {
+    host.logger().error(name, "unexpected non-standard exception");
+  }
+  return 1;
+}
+
 /// Param docs of `Impl::Params` (Impl must expose `using Params = ...` with a schema()).
 template <typename Impl>
 std::vector<ParamDoc> plugin_param_docs() {

@@ -2,11 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <iostream>
+#include <memory>
+#include <stdexcept>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "visnav/command_line.hpp"
+#include "visnav/plugin.hpp"
 
 namespace cli = visnav::cli;
 using visnav::ErrorCode;
@@ -62,4 +65,41 @@ TEST(CommandLine, ProgressInALogWritesALinePerTenthAndRestartsPerPhase) {
   EXPECT_NE(lines[10].find("[##############################] 100 % 1000/1000 scenarios"), std::string::npos) << lines[10];
   EXPECT_EQ(lines[11].rfind("  replay   [#######.......................]  25 % 1/4 loops", 0), 0u) << lines[11];
   EXPECT_NE(lines[12].find("]  10 % 0.92/9.18 km"), std::string::npos) << lines[12];
+}
+
+namespace {
+
+class RecordingHost final : public visnav::HostServices {
+ public:
+  struct Log final : visnav::Logger {
+    void log(visnav::LogLevel, std::string_view component, std::string_view message) override {
+      lines.push_back(std::string(component) + ": " + std::string(message));
+    }
+    std::vector<std::string> lines;
+  } log;
+  visnav::Logger& logger() override { return log; }
+  const visnav::Clock& clock() override { return clock_; }
+  visnav::Result<std::unique_ptr<visnav::Detector>> create_detector(std::string_view, const visnav::ConfigNode&) override {
+    return visnav::fail("none");
+  }
+
+ private:
+  struct Zero final : visnav::Clock {
+    [[nodiscard]] double now_s() const override { return 0.0; }
+  } clock_;
+};
+
+int throws(int, char**, visnav::HostServices&) { throw std::runtime_error("disk on fire"); }
+int returns_three(int, char**, visnav::HostServices&) { return 3; }
+
+}  // namespace
+
+TEST(CommandLine, AGuardedCommandKeepsExceptionsOnThePluginsSide) {
+  RecordingHost host;
+  std::string name = "align";
+  char* argv[] = {name.data(), nullptr};
+  EXPECT_EQ(visnav::guarded_command<&returns_three>(1, argv, host), 3);
+  EXPECT_EQ(visnav::guarded_command<&throws>(1, argv, host), 1);
+  ASSERT_EQ(host.log.lines.size(), 1u);
+  EXPECT_EQ(host.log.lines[0], "align: unexpected exception: disk on fire");
 }

@@ -155,20 +155,9 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
   return 0;
 }
 
-int evaluate_entry(int argc, char** argv, HostServices& host) {
-  try {
-    return run_evaluate(argc, argv, host);
-  } catch (const std::exception& e) {
-    host.logger().error("evaluate", std::string("unexpected exception: ") + e.what());
-    return 1;
-  } catch (...) {
-    host.logger().error("evaluate", "unexpected non-standard exception");
-    return 1;
-  }
-}
-
 const CommandEntry kCommands[] = {
-    {"evaluate", "compare a recorded run with a taught map frame by frame (offsets, inliers -> CSV, PNG)", &evaluate_entry},
+    {"evaluate", "compare a recorded run with a taught map frame by frame (offsets, inliers -> CSV, PNG)",
+     &guarded_command<&run_evaluate>},
 };
 
 }  // namespace

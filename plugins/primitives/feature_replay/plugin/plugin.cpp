@@ -24,25 +24,6 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
   return visnav::feature_replay::register_feature_nodes(registry, host);
 }
 
-template <int (*Run)(int, char**, visnav::HostServices&)>
-int command_entry(const char* name, int argc, char** argv, visnav::HostServices& host) noexcept {
-  try {
-    return Run(argc, argv, host);
-  } catch (const std::exception& e) {
-    host.logger().error(name, std::string("unexpected exception: ") + e.what());
-    return 1;
-  } catch (...) {
-    host.logger().error(name, "unexpected non-standard exception");
-    return 1;
-  }
-}
-
-int align_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
-  return command_entry<&visnav::feature_replay::run_align>("align", argc, argv, host);
-}
-int train_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
-  return command_entry<&visnav::feature_replay::run_train_descriptor>("train-descriptor", argc, argv, host);
-}
 
 /// The body states the length the edge was taught with; the graph's length_m decides when the
 /// replay ends. A mismatch means one of them was edited (issue 17: a body saying 500 m under a
@@ -76,8 +57,10 @@ const visnav::PayloadCheckEntry kPayloadChecks[] = {
 };
 
 const visnav::CommandEntry kCommands[] = {
-    {"align", "horizontal image offset of two images (or a list of pairs) by histogram voting", &align_entry},
-    {"train-descriptor", "evolve GRIEF comparison pairs on aligned image pairs (detector type grief)", &train_entry},
+    {"align", "horizontal image offset of two images (or a list of pairs) by histogram voting",
+     &visnav::guarded_command<&visnav::feature_replay::run_align>},
+    {"train-descriptor", "evolve GRIEF comparison pairs on aligned image pairs (detector type grief)",
+     &visnav::guarded_command<&visnav::feature_replay::run_train_descriptor>},
 };
 
 }  // namespace

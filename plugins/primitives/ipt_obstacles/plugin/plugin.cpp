@@ -11,34 +11,16 @@
 
 namespace {
 
-template <int (*Run)(int, char**, visnav::HostServices&)>
-int command_entry(const char* name, int argc, char** argv, visnav::HostServices& host) noexcept {
-  try {
-    return Run(argc, argv, host);
-  } catch (const std::exception& e) {
-    host.logger().error(name, std::string("unexpected exception: ") + e.what());
-    return 1;
-  } catch (...) {
-    host.logger().error(name, "unexpected non-standard exception");
-    return 1;
-  }
-}
-
-int ipt_roc_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
-  return command_entry<&visnav::ipt::run_ipt_roc>("ipt-roc", argc, argv, host);
-}
-int calibrate_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
-  return command_entry<&visnav::ipt::run_calibrate_ipt>("calibrate-ipt", argc, argv, host);
-}
 
 visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostServices& host) {
   return visnav::ipt::register_ipt_nodes(registry, host);
 }
 
 const visnav::CommandEntry kCommands[] = {
-    {"ipt-roc", "IPT obstacle/ground classifier on rendered frames: precision, recall, ROC AUC", &ipt_roc_entry},
+    {"ipt-roc", "IPT obstacle/ground classifier on rendered frames: precision, recall, ROC AUC",
+     &visnav::guarded_command<&visnav::ipt::run_ipt_roc>},
     {"calibrate-ipt", "camera height and pitch for the IPT from flat-ground frames (NLopt), in the simulator",
-     &calibrate_entry},
+     &visnav::guarded_command<&visnav::ipt::run_calibrate_ipt>},
 };
 
 }  // namespace

@@ -12,20 +12,9 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
   return visnav::path_following::register_path_nodes(registry, host);
 }
 
-int pathseg_entry(int argc, char** argv, visnav::HostServices& host) noexcept {
-  try {
-    return visnav::path_following::run_pathseg(argc, argv, host);
-  } catch (const std::exception& e) {
-    host.logger().error("pathseg", std::string("unexpected exception: ") + e.what());
-    return 1;
-  } catch (...) {
-    host.logger().error("pathseg", "unexpected non-standard exception");
-    return 1;
-  }
-}
-
 const visnav::CommandEntry kCommands[] = {
-    {"pathseg", "segment the path in one image and draw the stages (seed 000 Fig. 2)", &pathseg_entry},
+    {"pathseg", "segment the path in one image and draw the stages (seed 000 Fig. 2)",
+     &visnav::guarded_command<&visnav::path_following::run_pathseg>},
 };
 
 }  // namespace

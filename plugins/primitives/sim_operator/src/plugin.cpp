@@ -141,9 +141,9 @@ Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& hos
 
 const CommandEntry kCommands[] = {
     {"experiment", "teach a route in the simulator, displace, replay N loops, report accuracy (seed 000 eq. 18)",
-     &experiment_command},
+     &guarded_command<&experiment_command>},
     {"convergence", "straight segment from 0.5 m off: fit y = a*exp(-kx) per primitive (seed 000 Fig. 3)",
-     &convergence_command}};
+     &guarded_command<&convergence_command>}};
 
 }  // namespace
 }  // namespace visnav::simop

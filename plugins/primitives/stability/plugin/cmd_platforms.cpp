@@ -180,15 +180,6 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int platforms_command(int argc, char** argv, HostServices& /*host*/) noexcept {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "platforms: unexpected exception: " << e.what() << "\n";
-  } catch (...) {
-    std::cerr << "platforms: unexpected non-standard exception\n";
-  }
-  return 1;
-}
+int platforms_command(int argc, char** argv, HostServices& /*host*/) { return run(argc, argv); }
 
 }  // namespace visnav::stability

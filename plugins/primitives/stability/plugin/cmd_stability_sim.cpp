@@ -161,15 +161,6 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int stability_sim_command(int argc, char** argv, HostServices& /*host*/) noexcept {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "stability-sim: unexpected exception: " << e.what() << "\n";
-  } catch (...) {
-    std::cerr << "stability-sim: unexpected non-standard exception\n";
-  }
-  return 1;
-}
+int stability_sim_command(int argc, char** argv, HostServices& /*host*/) { return run(argc, argv); }
 
 }  // namespace visnav::stability

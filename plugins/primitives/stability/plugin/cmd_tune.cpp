@@ -313,15 +313,6 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int tune_command(int argc, char** argv, HostServices& /*host*/) noexcept {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "tune: unexpected exception: " << e.what() << "\n";
-  } catch (...) {
-    std::cerr << "tune: unexpected non-standard exception\n";
-  }
-  return 1;
-}
+int tune_command(int argc, char** argv, HostServices& /*host*/) { return run(argc, argv); }
 
 }  // namespace visnav::stability

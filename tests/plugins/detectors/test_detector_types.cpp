@@ -130,11 +130,13 @@ TEST_P(EveryType, ReconfigureChangesTargetAndKeepsTheOldConfigOnError) {
 
   auto bad = det->reconfigure(make_params({{"target_keypoints", "-3"}}));
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("target_keypoints"), std::string::npos) << bad.error().message;
+  EXPECT_EQ(bad.error().code, visnav::ErrorCode::out_of_range) << bad.error().message;
+  EXPECT_EQ(bad.error().where.key, "target_keypoints") << bad.error().message;
   EXPECT_EQ(det->target_keypoints(), 150);
   bad = det->reconfigure(make_params({{"no_such_key", "1"}}));
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("unknown key 'no_such_key'"), std::string::npos) << bad.error().message;
+  EXPECT_EQ(bad.error().code, visnav::ErrorCode::unknown_key) << bad.error().message;
+  EXPECT_EQ(bad.error().where.key, "no_such_key") << bad.error().message;
   bad = det->reconfigure(make_params({{"min_threshold", "50"}, {"max_threshold", "40"}, {"threshold", "45"}}));
   EXPECT_FALSE(bad.ok());
 }
@@ -185,8 +187,10 @@ TEST(DetectorTypes, ParamErrorsNameTheKeyAndLocation) {
   params.set("target_keypoints", ConfigNode::make_scalar("lots", {"robot.yaml", 11}));
   auto made = create_detector("star_brief", params);
   ASSERT_FALSE(made.ok());
-  EXPECT_NE(made.error().message.find("robot.yaml:11"), std::string::npos) << made.error().message;
-  EXPECT_NE(made.error().message.find("target_keypoints"), std::string::npos) << made.error().message;
+  EXPECT_EQ(made.error().code, visnav::ErrorCode::invalid_value) << made.error().message;
+  EXPECT_EQ(made.error().where.file, "robot.yaml") << made.error().message;
+  EXPECT_EQ(made.error().where.line, 11) << made.error().message;
+  EXPECT_EQ(made.error().where.key, "target_keypoints") << made.error().message;
 
   auto brisk = create_detector("brisk", make_params({{"upright", "true"}}));
   ASSERT_FALSE(brisk.ok());

@@ -30,6 +30,40 @@ std::vector<RocRun> obstacle_course_runs() {
 
 namespace {
 
+/// The rendered scene both evaluations run on: the world file and a pinhole model of the
+/// camera at the given mount. Errors name the world or the model's bad value.
+struct RenderedScene {
+  std::shared_ptr<const vs::World> world;
+  vs::CameraModel model;
+};
+Result<RenderedScene> rendered_scene(const std::string& world_name, int width_px, int height_px, double hfov_deg,
+                                     double height_m, double pitch_down_deg) {
+  VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(world_name));
+  RenderedScene scene;
+  VISNAV_ASSIGN(scene.world, vs::load_world_cached(path));
+  scene.model.width_px = width_px;
+  scene.model.height_px = height_px;
+  scene.model.hfov_deg = hfov_deg;
+  scene.model.height_m = height_m;
+  scene.model.pitch_down_deg = pitch_down_deg;
+  VISNAV_TRY(scene.model.validate());
+  return scene;
+}
+
+/// The IPT camera of a rendered model's intrinsics, mounted at `height_m` and `pitch_down_deg`.
+IptCamera ipt_camera_of(const vs::CameraModel& model, double height_m, double pitch_down_deg) {
+  IptCamera cam;
+  cam.width_px = model.width_px;
+  cam.height_px = model.height_px;
+  cam.fx_px = cam.fy_px = model.fx();
+  cam.cx_px = model.cx();
+  cam.cy_px = model.cy();
+  cam.height_m = height_m;
+  cam.pitch_rad = -pitch_down_deg * CV_PI / 180.0;
+  return cam;
+}
+
+
 bool is_ground_class(std::uint8_t label) {
   switch (static_cast<vs::LabelClass>(label)) {
     case vs::LabelClass::path:
@@ -98,23 +132,11 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
   VISNAV_TRY(options.profiles.validate());
   if (!(options.step_m > 0.0) || !(options.pair_every_m > 0.0) || options.max_features < 8)
     return Error{"ipt-roc: step_m and pair_every_m must be > 0 and max_features >= 8", ErrorCode::out_of_range};
-  VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(options.world));
-  VISNAV_ASSIGN(auto world, vs::load_world_cached(path));
-  vs::CameraModel model;
-  model.width_px = options.width_px;
-  model.height_px = options.height_px;
-  model.hfov_deg = options.hfov_deg;
-  model.height_m = options.mount_height_m;
-  model.pitch_down_deg = options.pitch_down_deg;
-  VISNAV_TRY(model.validate());
-  IptCamera cam;
-  cam.width_px = model.width_px;
-  cam.height_px = model.height_px;
-  cam.fx_px = cam.fy_px = model.fx();
-  cam.cx_px = model.cx();
-  cam.cy_px = model.cy();
-  cam.height_m = model.height_m;
-  cam.pitch_rad = -model.pitch_down_deg * CV_PI / 180.0;
+  VISNAV_ASSIGN(const RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
+                                                         options.hfov_deg, options.mount_height_m, options.pitch_down_deg));
+  const auto& world = scene.world;
+  const vs::CameraModel& model = scene.model;
+  const IptCamera cam = ipt_camera_of(model, model.height_m, model.pitch_down_deg);
   VISNAV_TRY(cam.validate());
 
   vs::Renderer renderer(world, model);
@@ -235,15 +257,11 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
 }
 
 Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptions& options) {
-  VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(options.world));
-  VISNAV_ASSIGN(auto world, vs::load_world_cached(path));
-  vs::CameraModel model;
-  model.width_px = options.width_px;
-  model.height_px = options.height_px;
-  model.hfov_deg = options.hfov_deg;
-  model.height_m = options.true_height_m;
-  model.pitch_down_deg = options.true_pitch_down_deg;
-  VISNAV_TRY(model.validate());
+  VISNAV_ASSIGN(const RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
+                                                         options.hfov_deg, options.true_height_m,
+                                                         options.true_pitch_down_deg));
+  const auto& world = scene.world;
+  const vs::CameraModel& model = scene.model;
   vs::Renderer renderer(world, model);
   cv::RNG rng(static_cast<std::uint64_t>(options.seed) * 104729u + 3u);
   cv::Mat bgr, noise, grey_a, grey_b;
@@ -270,15 +288,7 @@ Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptio
     if (p.pixels_a.size() < 8) continue;
     pairs.push_back(std::move(p));
   }
-  IptCamera guess;
-  guess.width_px = model.width_px;
-  guess.height_px = model.height_px;
-  guess.fx_px = guess.fy_px = model.fx();
-  guess.cx_px = model.cx();
-  guess.cy_px = model.cy();
-  guess.height_m = options.guess_height_m;
-  guess.pitch_rad = -options.guess_pitch_down_deg * CV_PI / 180.0;
-  return calibrate_height_pitch(guess, pairs);
+  return calibrate_height_pitch(ipt_camera_of(model, options.guess_height_m, options.guess_pitch_down_deg), pairs);
 }
 
 }  // namespace visnav::ipt

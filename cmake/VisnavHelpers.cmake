@@ -52,6 +52,8 @@ function(visnav_add_test name)
   add_executable(${name} ${ARG_SOURCES})
   visnav_target_settings(${name})
   target_link_libraries(${name} PRIVATE visnav::runtime GTest::gtest GTest::gtest_main ${ARG_LIBS})
+  # tests/support: shared scaffolding (fake devices, error expectations).
+  target_include_directories(${name} PRIVATE "${PROJECT_SOURCE_DIR}/tests/support")
   target_compile_definitions(${name} PRIVATE
     VISNAV_TEST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     VISNAV_TEST_BINARY_DIR="${PROJECT_BINARY_DIR}"

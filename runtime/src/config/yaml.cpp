@@ -31,11 +31,12 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, cons
                            Budget& budget, std::size_t depth) {
   const SourceLocation where = location_of(node.Mark(), file, fallback);
   if (budget.values_left == 0)
-    return fail(where.str() + ": document expands to more than " + std::to_string(kMaxYamlValues) +
-                " values (nested aliases?); refused");
+    return fail(ErrorCode::limit, {where.file, where.line, {}},
+                "document expands to more than " + std::to_string(kMaxYamlValues) + " values (nested aliases?); refused");
   --budget.values_left;
   if (depth > kMaxYamlDepth)
-    return fail(where.str() + ": nested deeper than " + std::to_string(kMaxYamlDepth) + " levels; refused");
+    return fail(ErrorCode::limit, {where.file, where.line, {}},
+                "nested deeper than " + std::to_string(kMaxYamlDepth) + " levels; refused");
   switch (node.Type()) {
     case YAML::NodeType::Undefined:
     case YAML::NodeType::Null: {
@@ -72,7 +73,7 @@ Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, cons
       return n;
     }
   }
-  return fail(where.str() + ": unsupported YAML node");
+  return fail(ErrorCode::parse_error, {where.file, where.line, {}}, "unsupported YAML node");
 }
 
 /// Sets keys[index..] below `node` to `value`, creating maps on the way (copies each
@@ -86,7 +87,8 @@ Status set_path(ConfigNode& node, const std::vector<std::string>& keys, std::siz
   if (!node.is_map()) {
     std::string walked;
     for (std::size_t i = 0; i < index; ++i) walked += (i ? "." : "") + keys[i];
-    return fail("--set " + text + ": '" + walked + "' at " + node.where().str() + " is not a map");
+    return Error{"--set " + text + ": '" + walked + "' at " + node.where().str() + " is not a map",
+                 ErrorCode::invalid_value, {node.where().file, node.where().line, walked}};
   }
   if (index + 1 == keys.size()) {
     node.set(keys[index], std::move(value));
@@ -103,8 +105,9 @@ Status set_path(ConfigNode& node, const std::vector<std::string>& keys, std::siz
 
 Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& file_label) {
   if (text.size() > kMaxYamlTextBytes)
-    return fail(file_label + ": " + std::to_string(text.size()) + " bytes is more than a configuration may have (" +
-                std::to_string(kMaxYamlTextBytes) + ")");
+    return fail(ErrorCode::limit, {file_label, 0, {}},
+                std::to_string(text.size()) + " bytes is more than a configuration may have (" +
+                    std::to_string(kMaxYamlTextBytes) + ")");
   try {
     YAML::Node doc = YAML::Load(std::string(text));
     Budget budget;
@@ -129,10 +132,11 @@ Result<ConfigNode> parse_yaml_file(const std::string& path) {
 Status apply_override(ConfigNode& root, std::string_view assignment) {
   const std::string text(assignment);
   const auto eq = text.find('=');
-  if (eq == std::string::npos) return fail("--set " + text + ": expected key.path=value");
+  if (eq == std::string::npos)
+    return fail(ErrorCode::invalid_value, {"--set " + text, 0, {}}, "expected key.path=value");
   const std::string path = text.substr(0, eq);
   const std::string value = text.substr(eq + 1);
-  if (path.empty()) return fail("--set " + text + ": empty key");
+  if (path.empty()) return fail(ErrorCode::invalid_value, {"--set " + text, 0, {}}, "empty key");
   const SourceLocation where{"--set " + text, 0};
 
   std::vector<std::string> keys;
@@ -147,7 +151,8 @@ Status apply_override(ConfigNode& root, std::string_view assignment) {
   }
   keys.push_back(current);
   for (const auto& k : keys)
-    if (k.empty()) return fail("--set " + text + ": empty component in key path '" + path + "'");
+    if (k.empty())
+      return fail(ErrorCode::invalid_value, {"--set " + text, 0, path}, "empty component in key path '" + path + "'");
 
   ConfigNode value_node;
   if (!value.empty() && (value.front() == '[' || value.front() == '{')) {

@@ -50,6 +50,108 @@ visnav::Result<double> parse_number(const std::string& name, const std::string& 
   return *v;
 }
 
+/// --send: publishes one control request once a subscriber is there. Exit status.
+int send_control(const visnav::cli::Args& a, const visnav::dds::TelemetryParams& params) {
+  auto command = visnav::dds::parse_control_command(a.get("--send"));
+  if (!command) return visnav::cli::usage_error("monitor", command.error().message);
+  if (*command == visnav::dds::msg::ControlCommand::swap_detector && a.get("--arg").empty())
+    return visnav::cli::usage_error("monitor", "--send swap_detector needs --arg DETECTOR");
+  auto wait_s = parse_number("--wait", a.get("--wait", "2"));
+  if (!wait_s) return visnav::cli::usage_error("monitor", wait_s.error().message);
+  auto publisher = visnav::dds::ControlPublisher::create(params);
+  if (!publisher) {
+    std::cerr << "visnav monitor: " << publisher.error().message << "\n";
+    return 1;
+  }
+  const bool matched = (*publisher)->wait_for_subscribers(1, *wait_s);
+  if (!matched) {
+    std::cerr << "visnav monitor: no control subscriber on '" << params.control_topic << "' (domain "
+              << params.domain_id << ") within " << *wait_s << " s; is `visnav run` running with a `dds:` config block?\n";
+    return 1;
+  }
+  if (auto st = (*publisher)->send(*command, a.get("--arg")); !st) {
+    std::cerr << "visnav monitor: " << st.error().message << "\n";
+    return 1;
+  }
+  // Give the reliable protocol a moment to deliver before the participant goes away.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::cout << "visnav monitor: sent " << visnav::dds::to_string(*command) << "\n";
+  return 0;
+}
+
+/// One telemetry sample as a JSON line or a table row on stdout.
+void print_sample(const visnav::dds::msg::Telemetry& t, bool json) {
+  if (json) {
+    std::printf(
+        "{\"seq\":%llu,\"stamp_s\":%.6f,\"node_path\":\"%s\",\"map_node\":\"%s\",\"edge\":\"%s\",\"distance_m\":%.4f,"
+        "\"matches\":%d,\"inliers\":%d,\"offset_px\":%.3f,\"linear_mps\":%.4f,\"angular_radps\":%.4f,\"status\":\"%s\"}\n",
+        static_cast<unsigned long long>(t.sequence_number), t.header.stamp.seconds(),
+        visnav::json_escape(t.node_path).c_str(), visnav::json_escape(t.map_node).c_str(),
+        visnav::json_escape(t.edge).c_str(), t.distance_m, t.matches, t.inliers, t.offset_px, t.linear_mps,
+        t.angular_radps, visnav::json_escape(t.status).c_str());
+  } else {
+    std::printf("#%-6llu %-14s node %-28s map %-10s edge %-8s d %7.2f m  off %+7.1f px  inl %4d/%-4d  v %+5.2f m/s  w %+5.2f rad/s\n",
+                static_cast<unsigned long long>(t.sequence_number), t.status.c_str(), t.node_path.c_str(),
+                t.map_node.empty() ? "-" : t.map_node.c_str(), t.edge.empty() ? "-" : t.edge.c_str(), t.distance_m,
+                t.offset_px, t.inliers, t.matches, t.linear_mps, t.angular_radps);
+  }
+  std::fflush(stdout);
+}
+
+/// The listening form: prints telemetry until Ctrl-C, --count samples or --duration. Exit status.
+int listen(const visnav::cli::Args& a, const visnav::dds::TelemetryParams& params) {
+  long max_count = 0;
+  if (a.has("--count")) {
+    auto c = visnav::detail::parse_int(a.get("--count"));
+    if (!c || *c <= 0) return visnav::cli::usage_error("monitor", "--count: expected a positive integer");
+    max_count = *c;
+  }
+  double duration_s = 0.0;
+  if (a.has("--duration")) {
+    auto d = parse_number("--duration", a.get("--duration"));
+    if (!d || *d <= 0) return visnav::cli::usage_error("monitor", "--duration: expected a positive number of seconds");
+    duration_s = *d;
+  }
+  const bool json = a.has("--json");
+  auto fail_with = [](const std::string& message) {
+    std::cerr << "visnav monitor: " << message << "\n";
+    return 1;
+  };
+  auto participant = visnav::dds::Participant::create(params.domain_id);
+  if (!participant) return fail_with(participant.error().message);
+  const visnav::dds::Qos qos{visnav::dds::Reliability::reliable, visnav::dds::Durability::volatile_data, 100, 0.0};
+  auto reader = visnav::dds::Reader<visnav::dds::msg::Telemetry>::create(
+      *participant, visnav::dds::EndpointOptions{params.telemetry_topic, qos, params.partition});
+  if (!reader) return fail_with(reader.error().message);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  if (!json)
+    std::cerr << "visnav monitor: listening on '" << params.telemetry_topic << "' (domain " << params.domain_id
+              << (params.partition.empty() ? "" : ", partition " + params.partition) << "); Ctrl-C to stop\n";
+
+  const auto start = std::chrono::steady_clock::now();
+  long received = 0;
+  while (!g_stop) {
+    if (max_count > 0 && received >= max_count) break;
+    if (duration_s > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= duration_s)
+      break;
+    auto ready = reader->wait(0.1);
+    if (!ready) return fail_with(ready.error().message);
+    if (!*ready) continue;
+    auto taken = reader->take([&](visnav::dds::msg::Telemetry&& t, const visnav::dds::SampleInfo&) {
+      if (max_count != 0 && received >= max_count) return;
+      ++received;
+      print_sample(t, json);
+    });
+    if (!taken) return fail_with(taken.error().message);
+  }
+  if (max_count > 0 && received < max_count) {
+    std::cerr << "visnav monitor: received " << received << " of " << max_count << " samples\n";
+    return 1;
+  }
+  return 0;
+}
+
 int monitor(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
@@ -81,116 +183,7 @@ int monitor(const std::vector<std::string>& args) {
       return 1;
     }
   }
-
-  if (a.has("--send")) {
-    auto command = visnav::dds::parse_control_command(a.get("--send"));
-    if (!command) return visnav::cli::usage_error("monitor", command.error().message);
-    if (*command == visnav::dds::msg::ControlCommand::swap_detector && a.get("--arg").empty())
-      return visnav::cli::usage_error("monitor", "--send swap_detector needs --arg DETECTOR");
-    auto wait_s = parse_number("--wait", a.get("--wait", "2"));
-    if (!wait_s) return visnav::cli::usage_error("monitor", wait_s.error().message);
-    auto publisher = visnav::dds::ControlPublisher::create(params);
-    if (!publisher) {
-      std::cerr << "visnav monitor: " << publisher.error().message << "\n";
-      return 1;
-    }
-    const bool matched = (*publisher)->wait_for_subscribers(1, *wait_s);
-    if (!matched) {
-      std::cerr << "visnav monitor: no control subscriber on '" << params.control_topic << "' (domain "
-                << params.domain_id << ") within " << *wait_s << " s; is `visnav run` running with a `dds:` config block?\n";
-      return 1;
-    }
-    if (auto st = (*publisher)->send(*command, a.get("--arg")); !st) {
-      std::cerr << "visnav monitor: " << st.error().message << "\n";
-      return 1;
-    }
-    // Give the reliable protocol a moment to deliver before the participant goes away.
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    std::cout << "visnav monitor: sent " << visnav::dds::to_string(*command) << "\n";
-    return 0;
-  }
-
-  long max_count = 0;
-  if (a.has("--count")) {
-    auto c = visnav::detail::parse_int(a.get("--count"));
-    if (!c || *c <= 0) return visnav::cli::usage_error("monitor", "--count: expected a positive integer");
-    max_count = *c;
-  }
-  double duration_s = 0.0;
-  if (a.has("--duration")) {
-    auto d = parse_number("--duration", a.get("--duration"));
-    if (!d || *d <= 0) return visnav::cli::usage_error("monitor", "--duration: expected a positive number of seconds");
-    duration_s = *d;
-  }
-  const bool json = a.has("--json");
-
-  auto participant = visnav::dds::Participant::create(params.domain_id);
-  if (!participant) {
-    std::cerr << "visnav monitor: " << participant.error().message << "\n";
-    return 1;
-  }
-  auto reader = visnav::dds::Reader<visnav::dds::msg::Telemetry>::create(
-      *participant, visnav::dds::EndpointOptions{params.telemetry_topic,
-                                                 visnav::dds::Qos{visnav::dds::Reliability::reliable,
-                                                                  visnav::dds::Durability::volatile_data, 100, 0.0},
-                                                 params.partition});
-  if (!reader) {
-    std::cerr << "visnav monitor: " << reader.error().message << "\n";
-    return 1;
-  }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  if (!json)
-    std::cerr << "visnav monitor: listening on '" << params.telemetry_topic << "' (domain " << params.domain_id
-              << (params.partition.empty() ? "" : ", partition " + params.partition) << "); Ctrl-C to stop\n";
-
-  const auto start = std::chrono::steady_clock::now();
-  long received = 0;
-  char line[1024];
-  auto print = [&](visnav::dds::msg::Telemetry&& t, const visnav::dds::SampleInfo&) {
-    ++received;
-    if (json) {
-      std::printf(
-          "{\"seq\":%llu,\"stamp_s\":%.6f,\"node_path\":\"%s\",\"map_node\":\"%s\",\"edge\":\"%s\",\"distance_m\":%.4f,"
-          "\"matches\":%d,\"inliers\":%d,\"offset_px\":%.3f,\"linear_mps\":%.4f,\"angular_radps\":%.4f,\"status\":\"%s\"}\n",
-          static_cast<unsigned long long>(t.sequence_number), t.header.stamp.seconds(),
-          visnav::json_escape(t.node_path).c_str(), visnav::json_escape(t.map_node).c_str(),
-          visnav::json_escape(t.edge).c_str(), t.distance_m, t.matches, t.inliers, t.offset_px, t.linear_mps,
-          t.angular_radps, visnav::json_escape(t.status).c_str());
-    } else {
-      std::snprintf(line, sizeof line,
-                    "#%-6llu %-14s node %-28s map %-10s edge %-8s d %7.2f m  off %+7.1f px  inl %4d/%-4d  v %+5.2f m/s  w %+5.2f rad/s\n",
-                    static_cast<unsigned long long>(t.sequence_number), t.status.c_str(), t.node_path.c_str(),
-                    t.map_node.empty() ? "-" : t.map_node.c_str(), t.edge.empty() ? "-" : t.edge.c_str(), t.distance_m,
-                    t.offset_px, t.inliers, t.matches, t.linear_mps, t.angular_radps);
-      std::fputs(line, stdout);
-    }
-    std::fflush(stdout);
-  };
-  while (!g_stop) {
-    if (max_count > 0 && received >= max_count) break;
-    if (duration_s > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= duration_s)
-      break;
-    auto ready = reader->wait(0.1);
-    if (!ready) {
-      std::cerr << "visnav monitor: " << ready.error().message << "\n";
-      return 1;
-    }
-    if (!*ready) continue;
-    auto taken = reader->take([&](visnav::dds::msg::Telemetry&& t, const visnav::dds::SampleInfo& i) {
-      if (max_count == 0 || received < max_count) print(std::move(t), i);
-    });
-    if (!taken) {
-      std::cerr << "visnav monitor: " << taken.error().message << "\n";
-      return 1;
-    }
-  }
-  if (max_count > 0 && received < max_count) {
-    std::cerr << "visnav monitor: received " << received << " of " << max_count << " samples\n";
-    return 1;
-  }
-  return 0;
+  return a.has("--send") ? send_control(a, params) : listen(a, params);
 }
 
 }  // namespace

@@ -118,252 +118,268 @@ dds::msg::Odometry to_ros_odometry(const visnav::Pose2D& pose, const visnav::Twi
   return o;
 }
 
-int simd(const std::vector<std::string>& args) {
+/// What the command line asked for, checked (usage errors are the Result's errors).
+struct SimdOptions {
+  std::string world;
+  int domain_id = 0;
+  double rate_hz = 100.0;
+  double camera_rate_hz = 15.0;
+  double command_timeout_s = 0.25;
+  double brake_decel_mps2 = 50.0;
+  double jpeg_quality = 90.0;
+  double duration_s = 0.0;
+  std::string transport = "raw";
+  std::string partition;
+  std::string cmd_topic;
+  std::string odom_topic;
+  std::string image_topic;
+  std::string ground_truth_topic;
+  std::string control_topic;
+  std::string writer_rule;  ///< --cmd-vel-writer: empty (anyone), "first" or a GUID
+  bool lock_first = false;  ///< writer_rule == "first"
+  bool control = true;      ///< subscribe the control topic
+  std::string keystore;
+  std::string identity;
+  std::vector<std::string> plugin_path;
+  visnav::LogLevel log_level = visnav::LogLevel::info;
+  visnav::ConfigNode robot_params;   ///< the sim robot's params (world, rates, --robot-param)
+  visnav::ConfigNode brake_params;   ///< robot_params with the acceleration limits of a watchdog stop
+  visnav::ConfigNode camera_params;  ///< --camera-param
+};
+
+visnav::Result<SimdOptions> parse_options(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
-  if (auto st = a.parse(args, {{"--world", Opt::value}, {"--domain", Opt::value}, {"--partition", Opt::value},
-                               {"--rate", Opt::value}, {"--camera-rate", Opt::value}, {"--command-timeout", Opt::value},
-                               {"--brake-decel", Opt::value}, {"--transport", Opt::value}, {"--jpeg-quality", Opt::value},
-                               {"--cmd-vel-topic", Opt::value}, {"--odom-topic", Opt::value}, {"--image-topic", Opt::value},
-                               {"--ground-truth-topic", Opt::value}, {"--robot-param", Opt::repeated},
-                               {"--camera-param", Opt::repeated}, {"--duration", Opt::value},
-                               {"--cmd-vel-writer", Opt::value}, {"--control-topic", Opt::value},
-                               {"--no-control", Opt::flag}, {"--keystore", Opt::value}, {"--identity", Opt::value},
-                               {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
-      !st)
-    return visnav::cli::usage_error("simd", st.error().message);
-  if (auto st = a.require({"--world"}); !st) return visnav::cli::usage_error("simd", st.error().message);
-
+  VISNAV_TRY(a.parse(args, {{"--world", Opt::value}, {"--domain", Opt::value}, {"--partition", Opt::value},
+                            {"--rate", Opt::value}, {"--camera-rate", Opt::value}, {"--command-timeout", Opt::value},
+                            {"--brake-decel", Opt::value}, {"--transport", Opt::value}, {"--jpeg-quality", Opt::value},
+                            {"--cmd-vel-topic", Opt::value}, {"--odom-topic", Opt::value}, {"--image-topic", Opt::value},
+                            {"--ground-truth-topic", Opt::value}, {"--robot-param", Opt::repeated},
+                            {"--camera-param", Opt::repeated}, {"--duration", Opt::value},
+                            {"--cmd-vel-writer", Opt::value}, {"--control-topic", Opt::value},
+                            {"--no-control", Opt::flag}, {"--keystore", Opt::value}, {"--identity", Opt::value},
+                            {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}}));
+  VISNAV_TRY(a.require({"--world"}));
+  SimdOptions o;
+  o.world = a.get("--world");
   std::string domain_text = a.get("--domain");
   if (domain_text.empty() && std::getenv("ROS_DOMAIN_ID") != nullptr) domain_text = std::getenv("ROS_DOMAIN_ID");
-  int domain_id = 0;
   if (!domain_text.empty()) {
     auto d = visnav::detail::parse_int(domain_text);
-    if (!d || *d < 0 || *d > 232) return visnav::cli::usage_error("simd", "--domain: expected 0..232, got '" + domain_text + "'");
-    domain_id = *d;
+    if (!d || *d < 0 || *d > 232) return visnav::fail("--domain: expected 0..232, got '" + domain_text + "'");
+    o.domain_id = *d;
   }
-  auto rate_hz = number(a, "--rate", 100.0, 1.0, 1000.0);
-  auto camera_rate_hz = number(a, "--camera-rate", 15.0, 0.0, 200.0);
-  auto timeout_s = number(a, "--command-timeout", 0.25, 0.0, 3600.0);
-  auto brake = number(a, "--brake-decel", 50.0, 0.01, 100.0);
-  auto quality = number(a, "--jpeg-quality", 90.0, 1.0, 100.0);
-  auto duration_s = number(a, "--duration", 0.0, 0.0, 1e9);
-  for (const auto* r : {&rate_hz, &camera_rate_hz, &timeout_s, &brake, &quality, &duration_s})
-    if (!*r) return visnav::cli::usage_error("simd", r->error().message);
-  const std::string transport = a.get("--transport", "raw");
-  if (transport != "raw" && transport != "compressed")
-    return visnav::cli::usage_error("simd", "--transport: expected raw or compressed, got '" + transport + "'");
-  const std::string partition = a.get("--partition");
-  const std::string cmd_topic = a.get("--cmd-vel-topic", "rt/cmd_vel");
-  const std::string odom_topic = a.get("--odom-topic", "rt/odom");
-  const std::string image_topic =
-      a.get("--image-topic", transport == "raw" ? "rt/camera/image_raw" : "rt/camera/image_raw/compressed");
-  const std::string gt_topic = a.get("--ground-truth-topic", "rt/visnav/sim/ground_truth");
-  const std::string control_topic = a.get("--control-topic", "rt/visnav/control");
-  const std::string writer_rule = a.get("--cmd-vel-writer");
-  const bool lock_first = writer_rule == "first";
-  if (!writer_rule.empty() && !lock_first &&
-      (writer_rule.size() != 32 || writer_rule.find_first_not_of("0123456789abcdef") != std::string::npos))
-    return visnav::cli::usage_error("simd", "--cmd-vel-writer: expected 32 lowercase hex digits or 'first', got '" +
-                                                dds::log_safe(writer_rule) + "'");
-
-  visnav::LogLevel level = visnav::LogLevel::info;
+  VISNAV_ASSIGN(o.rate_hz, number(a, "--rate", o.rate_hz, 1.0, 1000.0));
+  VISNAV_ASSIGN(o.camera_rate_hz, number(a, "--camera-rate", o.camera_rate_hz, 0.0, 200.0));
+  VISNAV_ASSIGN(o.command_timeout_s, number(a, "--command-timeout", o.command_timeout_s, 0.0, 3600.0));
+  VISNAV_ASSIGN(o.brake_decel_mps2, number(a, "--brake-decel", o.brake_decel_mps2, 0.01, 100.0));
+  VISNAV_ASSIGN(o.jpeg_quality, number(a, "--jpeg-quality", o.jpeg_quality, 1.0, 100.0));
+  VISNAV_ASSIGN(o.duration_s, number(a, "--duration", o.duration_s, 0.0, 1e9));
+  o.transport = a.get("--transport", "raw");
+  if (o.transport != "raw" && o.transport != "compressed")
+    return visnav::fail("--transport: expected raw or compressed, got '" + o.transport + "'");
+  o.partition = a.get("--partition");
+  o.cmd_topic = a.get("--cmd-vel-topic", "rt/cmd_vel");
+  o.odom_topic = a.get("--odom-topic", "rt/odom");
+  o.image_topic = a.get("--image-topic", o.transport == "raw" ? "rt/camera/image_raw" : "rt/camera/image_raw/compressed");
+  o.ground_truth_topic = a.get("--ground-truth-topic", "rt/visnav/sim/ground_truth");
+  o.control_topic = a.get("--control-topic", "rt/visnav/control");
+  o.control = !a.has("--no-control");
+  o.writer_rule = a.get("--cmd-vel-writer");
+  o.lock_first = o.writer_rule == "first";
+  if (!o.writer_rule.empty() && !o.lock_first &&
+      (o.writer_rule.size() != 32 || o.writer_rule.find_first_not_of("0123456789abcdef") != std::string::npos))
+    return visnav::fail("--cmd-vel-writer: expected 32 lowercase hex digits or 'first', got '" +
+                        dds::log_safe(o.writer_rule) + "'");
+  if (a.has("--keystore") != a.has("--identity")) return visnav::fail("--keystore and --identity go together");
+  o.keystore = a.get("--keystore");
+  o.identity = a.get("--identity");
+  o.plugin_path = a.all("--plugin-path");
   if (a.has("--log-level")) {
-    auto l = visnav::parse_log_level(a.get("--log-level"));
-    if (!l) return visnav::cli::usage_error("simd", l.error().message);
-    level = *l;
+    VISNAV_ASSIGN(o.log_level, visnav::parse_log_level(a.get("--log-level")));
   }
-  visnav::StderrLogger logger(level);
-  auto error = [&](const std::string& message) {
-    logger.error("simd", message);
-    return 1;
-  };
 
-  // --- the simulated robot and camera, through the plugin loader -------------------------------
-  visnav::ConfigNode robot_params = visnav::ConfigNode::make_map({"--world", 0});
-  robot_params.set("world", visnav::ConfigNode::make_scalar(a.get("--world"), {"--world", 0}));
-  robot_params.set("command_timeout_s", visnav::ConfigNode::make_scalar("0"));  // simd's wall-time watchdog rules
-  robot_params.set("odom_rate_hz", visnav::ConfigNode::make_scalar(std::to_string(*rate_hz)));
-  for (const auto& kv : a.all("--robot-param"))
-    if (auto st = visnav::apply_override(robot_params, kv); !st) return visnav::cli::usage_error("simd", st.error().message);
-  visnav::ConfigNode camera_params = visnav::ConfigNode::make_map();
-  for (const auto& kv : a.all("--camera-param"))
-    if (auto st = visnav::apply_override(camera_params, kv); !st) return visnav::cli::usage_error("simd", st.error().message);
+  o.robot_params = visnav::ConfigNode::make_map({"--world", 0});
+  o.robot_params.set("world", visnav::ConfigNode::make_scalar(o.world, {"--world", 0}));
+  o.robot_params.set("command_timeout_s", visnav::ConfigNode::make_scalar("0"));  // simd's wall-time watchdog rules
+  o.robot_params.set("odom_rate_hz", visnav::ConfigNode::make_scalar(std::to_string(o.rate_hz)));
+  for (const auto& kv : a.all("--robot-param")) VISNAV_TRY(visnav::apply_override(o.robot_params, kv));
+  o.camera_params = visnav::ConfigNode::make_map();
+  for (const auto& kv : a.all("--camera-param")) VISNAV_TRY(visnav::apply_override(o.camera_params, kv));
   // Brake: the same params with the acceleration limits raised (reconfigured while stopping).
-  visnav::ConfigNode brake_params = robot_params;
-  brake_params.set("linear_accel_mps2", visnav::ConfigNode::make_scalar(std::to_string(*brake)));
-  brake_params.set("angular_accel_radps2", visnav::ConfigNode::make_scalar(std::to_string(std::min(200.0, 2.0 * *brake))));
+  o.brake_params = o.robot_params;
+  o.brake_params.set("linear_accel_mps2", visnav::ConfigNode::make_scalar(std::to_string(o.brake_decel_mps2)));
+  o.brake_params.set("angular_accel_radps2",
+                     visnav::ConfigNode::make_scalar(std::to_string(std::min(200.0, 2.0 * o.brake_decel_mps2))));
+  return o;
+}
 
-  auto loader = visnav::PluginLoader::with_default_path(a.all("--plugin-path"));
-  if (auto scanned = loader.scan(); !scanned) return error(scanned.error().message);
-  visnav::WallClock clock;
-  visnav::RuntimeHost host(loader, logger, clock);
-  auto robot = loader.create<visnav::Robot>("sim", robot_params, host);
-  if (!robot) return error("robot: " + robot.error().message);
-  visnav::SimulationControl* sim = (*robot)->simulation();
-  if (sim == nullptr) return error("robot type 'sim' is not a simulated robot");
-  host.set_robot(robot->get());
-  auto camera = loader.create<visnav::Camera>("sim", camera_params, host);
-  if (!camera) return error("camera: " + camera.error().message);
+/// The image writer of the chosen transport (exactly one is set).
+struct ImageWriters {
+  std::optional<dds::Writer<dds::msg::Image>> raw;
+  std::optional<dds::Writer<dds::msg::CompressedImage>> jpeg;
+};
 
-  // --- DDS endpoints -------------------------------------------------------------------------
-  if (a.has("--keystore") != a.has("--identity"))
-    return visnav::cli::usage_error("simd", "--keystore and --identity go together");
-  if (a.has("--keystore")) {
-    if (auto st = dds::set_default_security(dds::keystore_identity(a.get("--keystore"), a.get("--identity"))); !st)
-      return error(st.error().message);
-    logger.info("simd", "DDS Security on: identity '" + a.get("--identity") + "' from " + a.get("--keystore"));
+/// The DDS side of simd: writers and the two subscriptions feeding `commands`.
+struct Endpoints {
+  std::optional<dds::Participant> participant;
+  std::optional<dds::Writer<dds::msg::Odometry>> odom;
+  std::optional<dds::Writer<dds::msg::Odometry>> ground_truth;
+  ImageWriters images;
+  std::unique_ptr<dds::Subscription<dds::msg::Twist>> cmd_vel;
+  std::unique_ptr<dds::Subscription<dds::msg::Control>> control;  ///< null with --no-control
+};
+
+/// cmd_vel handler: arbitration (issue 17: with --cmd-vel-writer only one participant drives),
+/// non-finite commands dropped, the newest command kept with its arrival time.
+void accept_command(const SimdOptions& o, CommandSlot& commands, dds::WarningLimiter& warnings, visnav::Logger& logger,
+                    const dds::msg::Twist& t, const dds::SampleInfo& info) {
+  std::lock_guard lock(commands.mutex);
+  if (!o.writer_rule.empty()) {
+    if (o.lock_first && commands.allowed_writer.empty() && !info.writer_participant.empty()) {
+      commands.allowed_writer = info.writer_participant;
+      logger.info("simd", "cmd_vel: locked to the first sender, participant " + commands.allowed_writer);
+    }
+    if (info.writer_participant.empty() || info.writer_participant != commands.allowed_writer) {
+      ++commands.foreign;
+      if (warnings.allow(info.receive_time_s))
+        logger.warn("simd", "dropped cmd_vel from participant '" + dds::log_safe(info.writer_participant) + "' (only " +
+                                commands.allowed_writer + " may drive; " + std::to_string(commands.foreign) +
+                                " dropped so far)");
+      return;
+    }
+  }
+  if (!std::isfinite(t.linear.x) || !std::isfinite(t.angular.z)) {
+    ++commands.rejected;
+    if (warnings.allow(info.receive_time_s))
+      logger.warn("simd", "dropped a non-finite cmd_vel (" + std::to_string(commands.rejected) + " so far)");
+    return;
+  }
+  commands.command = visnav::Twist{t.linear.x, t.angular.z};
+  commands.received = std::chrono::steady_clock::now();
+  ++commands.count;
+}
+
+/// Control handler: pause at the robot side (issue 17). Whoever sends cmd_vel, a paused robot
+/// stays at zero. Any participant may pause (stopping is always safe); with DDS Security only
+/// operators can.
+void accept_control(CommandSlot& commands, visnav::Logger& logger, const dds::msg::Control& c, const dds::SampleInfo& info) {
+  const auto command = static_cast<dds::msg::ControlCommand>(c.command);
+  if (command != dds::msg::ControlCommand::pause && command != dds::msg::ControlCommand::resume &&
+      command != dds::msg::ControlCommand::abort)
+    return;  // swap_detector and unknown codes concern the mission only
+  std::lock_guard lock(commands.mutex);
+  const bool hold = command != dds::msg::ControlCommand::resume;
+  if (hold == commands.paused) return;
+  commands.paused = hold;
+  logger.warn("simd", std::string(hold ? "paused" : "resumed") + " by " + dds::to_string(command) + " from participant " +
+                          dds::log_safe(info.writer_participant) + (hold ? ": holding zero velocity until resume" : ""));
+}
+
+/// Opens the participant (with DDS Security when a keystore is given), writers and subscriptions.
+/// The handlers keep references to `commands`, `warnings` and `logger`, which must outlive the result.
+visnav::Status open_endpoints(const SimdOptions& o, CommandSlot& commands, dds::WarningLimiter& warnings,
+                              visnav::Logger& logger, Endpoints& out) {
+  if (!o.keystore.empty()) {
+    VISNAV_TRY(dds::set_default_security(dds::keystore_identity(o.keystore, o.identity)));
+    logger.info("simd", "DDS Security on: identity '" + o.identity + "' from " + o.keystore);
   } else {
     logger.info("simd", "DDS Security off: any participant on the domain can command this robot unless "
                         "--cmd-vel-writer pins the sender (docs/security.md)");
   }
-  auto participant = dds::Participant::create(domain_id);
-  if (!participant) return error(participant.error().message);
-  const dds::Qos odom_qos = dds::Qos::ros_default();
-  auto odom_writer = dds::Writer<dds::msg::Odometry>::create(*participant, {odom_topic, odom_qos, partition});
-  if (!odom_writer) return error(odom_writer.error().message);
-  auto gt_writer = dds::Writer<dds::msg::Odometry>::create(*participant, {gt_topic, dds::Qos::sensor_data(), partition});
-  if (!gt_writer) return error(gt_writer.error().message);
-  std::optional<dds::Writer<dds::msg::Image>> raw_writer;
-  std::optional<dds::Writer<dds::msg::CompressedImage>> jpeg_writer;
+  VISNAV_ASSIGN(auto participant, dds::Participant::create(o.domain_id));
+  out.participant.emplace(std::move(participant));
+  dds::Participant& p = *out.participant;
+  VISNAV_ASSIGN(auto odom, dds::Writer<dds::msg::Odometry>::create(p, {o.odom_topic, dds::Qos::ros_default(), o.partition}));
+  out.odom.emplace(std::move(odom));
+  VISNAV_ASSIGN(auto gt, dds::Writer<dds::msg::Odometry>::create(p, {o.ground_truth_topic, dds::Qos::sensor_data(), o.partition}));
+  out.ground_truth.emplace(std::move(gt));
   const dds::Qos image_qos{dds::Reliability::best_effort, dds::Durability::volatile_data, 1, 0.0};
-  if (transport == "raw") {
-    auto w = dds::Writer<dds::msg::Image>::create(*participant, {image_topic, image_qos, partition});
-    if (!w) return error(w.error().message);
-    raw_writer.emplace(std::move(*w));
+  if (o.transport == "raw") {
+    VISNAV_ASSIGN(auto w, dds::Writer<dds::msg::Image>::create(p, {o.image_topic, image_qos, o.partition}));
+    out.images.raw.emplace(std::move(w));
   } else {
-    auto w = dds::Writer<dds::msg::CompressedImage>::create(*participant, {image_topic, image_qos, partition});
-    if (!w) return error(w.error().message);
-    jpeg_writer.emplace(std::move(*w));
+    VISNAV_ASSIGN(auto w, dds::Writer<dds::msg::CompressedImage>::create(p, {o.image_topic, image_qos, o.partition}));
+    out.images.jpeg.emplace(std::move(w));
   }
-  CommandSlot commands;
-  commands.allowed_writer = lock_first ? std::string() : writer_rule;
-  dds::WarningLimiter command_warnings(1.0);
-  auto cmd_sub = dds::Subscription<dds::msg::Twist>::create(
-      *participant, {cmd_topic, dds::Qos::sensor_data(), partition},
-      [&](dds::msg::Twist&& t, const dds::SampleInfo& info) {
-        std::lock_guard lock(commands.mutex);
-        // Command arbitration (issue 17): with --cmd-vel-writer only one participant drives.
-        if (!writer_rule.empty()) {
-          if (lock_first && commands.allowed_writer.empty() && !info.writer_participant.empty()) {
-            commands.allowed_writer = info.writer_participant;
-            logger.info("simd", "cmd_vel: locked to the first sender, participant " + commands.allowed_writer);
-          }
-          if (info.writer_participant.empty() || info.writer_participant != commands.allowed_writer) {
-            ++commands.foreign;
-            if (command_warnings.allow(info.receive_time_s))
-              logger.warn("simd", "dropped cmd_vel from participant '" + dds::log_safe(info.writer_participant) +
-                                      "' (only " + commands.allowed_writer + " may drive; " +
-                                      std::to_string(commands.foreign) + " dropped so far)");
-            return;
-          }
-        }
-        if (!std::isfinite(t.linear.x) || !std::isfinite(t.angular.z)) {
-          ++commands.rejected;
-          if (command_warnings.allow(info.receive_time_s))
-            logger.warn("simd", "dropped a non-finite cmd_vel (" + std::to_string(commands.rejected) + " so far)");
-          return;
-        }
-        commands.command = visnav::Twist{t.linear.x, t.angular.z};
-        commands.received = std::chrono::steady_clock::now();
-        ++commands.count;
+  commands.allowed_writer = o.lock_first ? std::string() : o.writer_rule;
+  auto warn = [&logger](const std::string& message) { logger.warn("simd", message); };
+  auto cmd_vel = dds::Subscription<dds::msg::Twist>::create(
+      p, {o.cmd_topic, dds::Qos::sensor_data(), o.partition},
+      [&o, &commands, &warnings, &logger](dds::msg::Twist&& t, const dds::SampleInfo& info) {
+        accept_command(o, commands, warnings, logger, t, info);
       },
-      [&](const std::string& message) { logger.warn("simd", message); });
-  if (!cmd_sub) return error(cmd_sub.error().message);
-  // Pause at the robot side (issue 17): whoever sends cmd_vel, a paused robot stays at zero. Any
-  // participant may pause (stopping is always safe); with DDS Security only operators can.
-  std::unique_ptr<dds::Subscription<dds::msg::Control>> control_sub;
-  if (!a.has("--no-control")) {
-    auto made = dds::Subscription<dds::msg::Control>::create(
-        *participant, {control_topic, dds::Qos{dds::Reliability::reliable, dds::Durability::volatile_data, 32, 0.0}, partition},
-        [&](dds::msg::Control&& c, const dds::SampleInfo& info) {
-          const auto command = static_cast<dds::msg::ControlCommand>(c.command);
-          if (command != dds::msg::ControlCommand::pause && command != dds::msg::ControlCommand::resume &&
-              command != dds::msg::ControlCommand::abort)
-            return;  // swap_detector and unknown codes concern the mission only
-          std::lock_guard lock(commands.mutex);
-          const bool hold = command != dds::msg::ControlCommand::resume;
-          if (hold == commands.paused) return;
-          commands.paused = hold;
-          logger.warn("simd", std::string(hold ? "paused" : "resumed") + " by " + dds::to_string(command) +
-                                  " from participant " + dds::log_safe(info.writer_participant) +
-                                  (hold ? ": holding zero velocity until resume" : ""));
-        },
-        [&](const std::string& message) { logger.warn("simd", message); });
-    if (!made) return error(made.error().message);
-    control_sub = std::move(*made);
+      warn);
+  if (!cmd_vel) return std::move(cmd_vel).error();
+  out.cmd_vel = std::move(*cmd_vel);
+  if (o.control) {
+    const dds::Qos control_qos{dds::Reliability::reliable, dds::Durability::volatile_data, 32, 0.0};
+    auto control = dds::Subscription<dds::msg::Control>::create(
+        p, {o.control_topic, control_qos, o.partition},
+        [&commands, &logger](dds::msg::Control&& c, const dds::SampleInfo& info) { accept_control(commands, logger, c, info); },
+        warn);
+    if (!control) return std::move(control).error();
+    out.control = std::move(*control);
   }
+  return visnav::ok();
+}
 
-  std::signal(SIGINT, on_stop_signal);
-  std::signal(SIGTERM, on_stop_signal);
-
-  // --- camera thread ---------------------------------------------------------------------------
-  std::atomic<std::uint64_t> frames{0};
-  std::thread camera_thread;
-  if (*camera_rate_hz > 0.0) {
-    camera_thread = std::thread([&] {
-      const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-          std::chrono::duration<double>(1.0 / *camera_rate_hz));
-      auto next = std::chrono::steady_clock::now();
-      dds::msg::Image image_msg;
-      dds::msg::CompressedImage jpeg_msg;
-      jpeg_msg.format = "jpeg";
-      std::vector<uchar> encoded;
-      const std::vector<int> jpeg_params{cv::IMWRITE_JPEG_QUALITY, static_cast<int>(*quality)};
-      dds::WarningLimiter warnings(5.0);
-      while (!g_stop) {
-        next += period;
-        auto grabbed = (*camera)->grab(0.0);
-        if (grabbed && grabbed->has_value()) {
-          const visnav::Frame& f = **grabbed;
-          visnav::Status st = visnav::ok();
-          if (raw_writer) {
-            st = dds::fill_image_message(f.image, image_msg);
-            image_msg.header.stamp = dds::msg::Time::from_seconds(dds::epoch_now_s());
-            image_msg.header.frame_id = "camera";
-            if (st) st = raw_writer->write(image_msg);
-          } else if (cv::imencode(".jpg", f.image, encoded, jpeg_params)) {
-            jpeg_msg.data.assign(encoded.begin(), encoded.end());
-            jpeg_msg.header.stamp = dds::msg::Time::from_seconds(dds::epoch_now_s());
-            jpeg_msg.header.frame_id = "camera";
-            st = jpeg_writer->write(jpeg_msg);
-          }
-          if (st) ++frames;
-          else if (warnings.allow(dds::epoch_now_s())) logger.warn("simd", "image: " + st.error().message);
-        } else if (!grabbed && warnings.allow(dds::epoch_now_s())) {
-          logger.warn("simd", "camera: " + grabbed.error().message);
-        }
-        std::this_thread::sleep_until(next);
-        if (std::chrono::steady_clock::now() > next + period) next = std::chrono::steady_clock::now();  // fell behind
-      }
-    });
-  }
-
-  logger.info("simd", "world '" + a.get("--world") + "', domain " + std::to_string(domain_id) +
-                          (partition.empty() ? "" : ", partition '" + partition + "'") + ": cmd_vel from '" + cmd_topic +
-                          "' (watchdog " + fmt(*timeout_s) + " s), odometry on '" + odom_topic + "' at " +
-                          fmt(*rate_hz) + " Hz, " + transport + " images on '" + image_topic + "' at " +
-                          fmt(*camera_rate_hz) + " Hz; participant " + participant->guid() +
-                          (writer_rule.empty() ? ", cmd_vel from any participant (no --cmd-vel-writer)"
-                                               : ", cmd_vel only from " + (lock_first ? std::string("the first sender") : writer_rule)) +
-                          (control_sub ? ", pause/resume on '" + control_topic + "'" : ""));
-  std::cout << "simd: ready" << std::endl;
-
-  // --- real-time simulation loop ----------------------------------------------------------------
+/// The camera thread's body: grabs and publishes at --camera-rate until g_stop.
+void publish_images(const SimdOptions& o, visnav::Camera& camera, ImageWriters& writers, visnav::Logger& logger,
+                    std::atomic<std::uint64_t>& frames) {
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(1.0 / *rate_hz));
+      std::chrono::duration<double>(1.0 / o.camera_rate_hz));
+  auto next = std::chrono::steady_clock::now();
+  dds::msg::Image image_msg;
+  dds::msg::CompressedImage jpeg_msg;
+  jpeg_msg.format = "jpeg";
+  std::vector<uchar> encoded;
+  const std::vector<int> jpeg_params{cv::IMWRITE_JPEG_QUALITY, static_cast<int>(o.jpeg_quality)};
+  dds::WarningLimiter warnings(5.0);
+  while (!g_stop) {
+    next += period;
+    auto grabbed = camera.grab(0.0);
+    if (grabbed && grabbed->has_value()) {
+      const visnav::Frame& f = **grabbed;
+      visnav::Status st = visnav::ok();
+      if (writers.raw) {
+        st = dds::fill_image_message(f.image, image_msg);
+        image_msg.header.stamp = dds::msg::Time::from_seconds(dds::epoch_now_s());
+        image_msg.header.frame_id = "camera";
+        if (st) st = writers.raw->write(image_msg);
+      } else if (cv::imencode(".jpg", f.image, encoded, jpeg_params)) {
+        jpeg_msg.data.assign(encoded.begin(), encoded.end());
+        jpeg_msg.header.stamp = dds::msg::Time::from_seconds(dds::epoch_now_s());
+        jpeg_msg.header.frame_id = "camera";
+        st = writers.jpeg->write(jpeg_msg);
+      }
+      if (st) ++frames;
+      else if (warnings.allow(dds::epoch_now_s())) logger.warn("simd", "image: " + st.error().message);
+    } else if (!grabbed && warnings.allow(dds::epoch_now_s())) {
+      logger.warn("simd", "camera: " + grabbed.error().message);
+    }
+    std::this_thread::sleep_until(next);
+    if (std::chrono::steady_clock::now() > next + period) next = std::chrono::steady_clock::now();  // fell behind
+  }
+}
+
+/// The real-time simulation loop (main thread): the newest fresh command (zero while paused), the
+/// watchdog brake, one step per period, odometry and ground truth published. Returns the exit
+/// status: 0 at g_stop or --duration, 1 when a step fails.
+int simulate(const SimdOptions& o, visnav::Robot& robot, visnav::SimulationControl& sim, CommandSlot& commands,
+             Endpoints& endpoints, visnav::Logger& logger, std::uint64_t& watchdog_trips) {
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / o.rate_hz));
   const auto start = std::chrono::steady_clock::now();
   auto last = start;
   auto next = start;
   double last_odom_stamp = -1.0;
   bool braking = false;
-  std::uint64_t watchdog_trips = 0;
-  int exit_code = 0;
   while (!g_stop) {
     next += period;
     std::this_thread::sleep_until(next);
     const auto now = std::chrono::steady_clock::now();
-    if (*duration_s > 0.0 && std::chrono::duration<double>(now - start).count() >= *duration_s) break;
+    if (o.duration_s > 0.0 && std::chrono::duration<double>(now - start).count() >= o.duration_s) break;
     if (now > next + 5 * period) next = now;  // fell far behind (e.g. suspended): don't burst
 
     visnav::Twist command;
@@ -372,33 +388,86 @@ int simd(const std::vector<std::string>& args) {
     {
       std::lock_guard lock(commands.mutex);
       any = commands.count > 0;
-      fresh = any &&
-              (*timeout_s <= 0.0 || std::chrono::duration<double>(now - commands.received).count() <= *timeout_s);
+      fresh = any && (o.command_timeout_s <= 0.0 ||
+                      std::chrono::duration<double>(now - commands.received).count() <= o.command_timeout_s);
       if (fresh && !commands.paused) command = commands.command;
     }
     if (fresh && braking) {
       braking = false;
-      if (auto st = (*robot)->reconfigure(robot_params); !st) logger.warn("simd", "restore limits: " + st.error().message);
+      if (auto st = robot.reconfigure(o.robot_params); !st) logger.warn("simd", "restore limits: " + st.error().message);
     } else if (!fresh && !braking && any) {
       braking = true;
       ++watchdog_trips;
-      logger.warn("simd", "watchdog: no cmd_vel for " + fmt(*timeout_s) + " s, stopping");
-      if (auto st = (*robot)->reconfigure(brake_params); !st) logger.warn("simd", "brake: " + st.error().message);
+      logger.warn("simd", "watchdog: no cmd_vel for " + fmt(o.command_timeout_s) + " s, stopping");
+      if (auto st = robot.reconfigure(o.brake_params); !st) logger.warn("simd", "brake: " + st.error().message);
     }
-    if (auto st = (*robot)->send_command(command); !st) logger.warn("simd", "command: " + st.error().message);
+    if (auto st = robot.send_command(command); !st) logger.warn("simd", "command: " + st.error().message);
 
     const double dt_s = std::min(0.1, std::chrono::duration<double>(now - last).count());
     last = now;
-    if (auto st = sim->step(dt_s); !st) {
-      exit_code = error("simulation step: " + st.error().message);
-      break;
+    if (auto st = sim.step(dt_s); !st) {
+      logger.error("simd", "simulation step: " + st.error().message);
+      return 1;
     }
-    if (auto odom = (*robot)->latest_odometry(); odom && odom->timestamp_s != last_odom_stamp) {
+    if (auto odom = robot.latest_odometry(); odom && odom->timestamp_s != last_odom_stamp) {
       last_odom_stamp = odom->timestamp_s;
-      (void)odom_writer->write(to_ros_odometry(odom->pose, odom->twist, "odom"));
-      (void)gt_writer->write(to_ros_odometry(sim->ground_truth_pose(), odom->twist, "world"));
+      (void)endpoints.odom->write(to_ros_odometry(odom->pose, odom->twist, "odom"));
+      (void)endpoints.ground_truth->write(to_ros_odometry(sim.ground_truth_pose(), odom->twist, "world"));
     }
   }
+  return 0;
+}
+
+std::string describe_setup(const SimdOptions& o, const std::string& participant_guid) {
+  return "world '" + o.world + "', domain " + std::to_string(o.domain_id) +
+         (o.partition.empty() ? "" : ", partition '" + o.partition + "'") + ": cmd_vel from '" + o.cmd_topic +
+         "' (watchdog " + fmt(o.command_timeout_s) + " s), odometry on '" + o.odom_topic + "' at " + fmt(o.rate_hz) +
+         " Hz, " + o.transport + " images on '" + o.image_topic + "' at " + fmt(o.camera_rate_hz) +
+         " Hz; participant " + participant_guid +
+         (o.writer_rule.empty() ? ", cmd_vel from any participant (no --cmd-vel-writer)"
+                                : ", cmd_vel only from " + (o.lock_first ? std::string("the first sender") : o.writer_rule)) +
+         (o.control ? ", pause/resume on '" + o.control_topic + "'" : "");
+}
+
+int simd(const std::vector<std::string>& args) {
+  auto options = parse_options(args);
+  if (!options) return visnav::cli::usage_error("simd", options.error().message);
+  const SimdOptions& o = *options;
+  visnav::StderrLogger logger(o.log_level);
+  auto error = [&](const std::string& message) {
+    logger.error("simd", message);
+    return 1;
+  };
+
+  // The simulated robot and camera, through the plugin loader.
+  auto loader = visnav::PluginLoader::with_default_path(o.plugin_path);
+  if (auto scanned = loader.scan(); !scanned) return error(scanned.error().message);
+  visnav::WallClock clock;
+  visnav::RuntimeHost host(loader, logger, clock);
+  auto robot = loader.create<visnav::Robot>("sim", o.robot_params, host);
+  if (!robot) return error("robot: " + robot.error().message);
+  visnav::SimulationControl* sim = (*robot)->simulation();
+  if (sim == nullptr) return error("robot type 'sim' is not a simulated robot");
+  host.set_robot(robot->get());
+  auto camera = loader.create<visnav::Camera>("sim", o.camera_params, host);
+  if (!camera) return error("camera: " + camera.error().message);
+
+  CommandSlot commands;
+  dds::WarningLimiter command_warnings(1.0);
+  Endpoints endpoints;
+  if (auto st = open_endpoints(o, commands, command_warnings, logger, endpoints); !st) return error(st.error().message);
+
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+  std::atomic<std::uint64_t> frames{0};
+  std::thread camera_thread;
+  if (o.camera_rate_hz > 0.0)
+    camera_thread = std::thread([&] { publish_images(o, **camera, endpoints.images, logger, frames); });
+  logger.info("simd", describe_setup(o, endpoints.participant->guid()));
+  std::cout << "simd: ready" << std::endl;
+
+  std::uint64_t watchdog_trips = 0;
+  const int exit_code = simulate(o, **robot, *sim, commands, endpoints, logger, watchdog_trips);
   g_stop = true;
   if (camera_thread.joinable()) camera_thread.join();
   (void)(*robot)->send_command(visnav::Twist{});
@@ -409,12 +478,12 @@ int simd(const std::vector<std::string>& args) {
     received = commands.count;
     foreign = commands.foreign;
   }
-  logger.info("simd", "stopped after " + fmt(sim->time_s()) + " s: " + std::to_string(received) +
-                          " commands, " + std::to_string(foreign) + " dropped by arbitration, " +
-                          std::to_string(watchdog_trips) + " watchdog stops, " +
-                          std::to_string(frames.load()) + " images");
-  control_sub.reset();
-  cmd_sub->reset();
+  logger.info("simd", "stopped after " + fmt(sim->time_s()) + " s: " + std::to_string(received) + " commands, " +
+                          std::to_string(foreign) + " dropped by arbitration, " + std::to_string(watchdog_trips) +
+                          " watchdog stops, " + std::to_string(frames.load()) + " images");
+  // The subscriptions' handlers reference `commands` and `logger`: stop them first.
+  endpoints.control.reset();
+  endpoints.cmd_vel.reset();
   return exit_code;
 }
 

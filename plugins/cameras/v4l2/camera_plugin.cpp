@@ -61,9 +61,9 @@ struct V4l2Params : ImageOptions {  // + the image pipeline keys (add_image_fiel
   double open_timeout_s = 5.0;
 
   [[nodiscard]] Status validate() const {
-    if (device.empty()) return fail("key 'device' is required (e.g. /dev/video0)");
-    if (!pixel_format.empty() && pixel_format.size() != 4) return fail("key 'pixel_format': a FOURCC of 4 characters (MJPG, YUYV), got '" + pixel_format + "'");
-    if (min_exposure > max_exposure) return fail("key 'min_exposure': must not exceed max_exposure");
+    if (device.empty()) return Error{"key 'device' is required (e.g. /dev/video0)", ErrorCode::missing, {{}, 0, "device"}};
+    if (!pixel_format.empty() && pixel_format.size() != 4) return fail(ErrorCode::invalid_value, {{}, 0, "pixel_format"}, "a FOURCC of 4 characters (MJPG, YUYV), got '" + pixel_format + "'");
+    if (min_exposure > max_exposure) return fail(ErrorCode::inconsistent, {{}, 0, "min_exposure"}, "must not exceed max_exposure");
     return ImageOptions::validate();
   }
   static const ParamSchema<V4l2Params>& schema() {
@@ -99,20 +99,20 @@ Status probe_device(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
     if (errno == ENOENT)
-      return fail("v4l2 device '" + path + "' does not exist (no V4L2 device found at that path; is the camera connected and its driver loaded?)");
-    return fail("v4l2 device '" + path + "': " + errno_text(errno));
+      return fail(ErrorCode::not_found, {path, 0, "device"}, "v4l2 device does not exist (no V4L2 device found at that path; is the camera connected and its driver loaded?)");
+    return fail(ErrorCode::io, {path, 0, "device"}, errno_text(errno));
   }
-  if (!S_ISCHR(st.st_mode)) return fail("v4l2 device '" + path + "' is not a character device (not a V4L2 device node)");
+  if (!S_ISCHR(st.st_mode)) return fail(ErrorCode::invalid_value, {path, 0, "device"}, "not a character device (not a V4L2 device node)");
   const int fd = ::open(path.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return fail("v4l2 device '" + path + "' cannot be opened: " + errno_text(errno));
+  if (fd < 0) return fail(ErrorCode::io, {path, 0, "device"}, "cannot be opened: " + errno_text(errno));
   v4l2_capability cap {};
   const int rc = ::ioctl(fd, VIDIOC_QUERYCAP, &cap);
   const int err = errno;
   ::close(fd);
-  if (rc != 0) return fail("v4l2 device '" + path + "' is not a V4L2 device (VIDIOC_QUERYCAP: " + errno_text(err) + ")");
+  if (rc != 0) return fail(ErrorCode::invalid_value, {path, 0, "device"}, "not a V4L2 device (VIDIOC_QUERYCAP: " + errno_text(err) + ")");
   const std::uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
   if (!(caps & (V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_VIDEO_CAPTURE_MPLANE)))
-    return fail("v4l2 device '" + path + "' (" + reinterpret_cast<const char*>(cap.card) + ") is not a video capture device");
+    return fail(ErrorCode::invalid_value, {path, 0, "device"}, std::string("(") + reinterpret_cast<const char*>(cap.card) + ") is not a video capture device");
   return ok();
 }
 
@@ -172,9 +172,9 @@ class V4l2Camera final : public Camera {
     if (opened.wait_for(std::chrono::duration<double>(p.open_timeout_s)) != std::future_status::ready) {
       // Leave the helper running detached: hand the future to a thread that waits it out.
       std::thread([f = std::move(opened)]() mutable { f.wait(); }).detach();
-      return fail("v4l2 device '" + p.device + "' did not open within open_timeout_s = " + std::to_string(p.open_timeout_s) + " s");
+      return fail(ErrorCode::io, {p.device, 0, "device"}, "did not open within open_timeout_s = " + std::to_string(p.open_timeout_s) + " s");
     }
-    if (!opened.get()) return fail("v4l2 device '" + p.device + "': OpenCV's V4L2 backend could not open it (busy or unsupported format?)");
+    if (!opened.get()) return fail(ErrorCode::io, {p.device, 0, "device"}, "OpenCV's V4L2 backend could not open it (busy or unsupported format?)");
 
     std::unique_ptr<V4l2Camera> cam(new V4l2Camera(p, host, std::move(pipeline), std::move(shared)));
     cam->configure_controls();

@@ -33,7 +33,7 @@ struct VideoParams : ImageOptions {  // + the image pipeline keys (add_image_fie
   bool loop = false;
 
   [[nodiscard]] Status validate() const {
-    if (file.empty()) return fail("key 'file' is required (the video file)");
+    if (file.empty()) return Error{"key 'file' is required (the video file)", ErrorCode::missing, {{}, 0, "file"}};
     return ImageOptions::validate();
   }
   static const ParamSchema<VideoParams>& schema() {
@@ -61,14 +61,14 @@ class VideoCamera final : public Camera {
     std::unique_ptr<VideoCamera> cam(new VideoCamera(p, host.clock()));
     cam->path_ = resolve_path(p.file, base);
     std::error_code ec;
-    if (!fs::exists(cam->path_, ec)) return fail("video file '" + cam->path_ + "': no such file");
-    if (!fs::is_regular_file(cam->path_, ec)) return fail("video file '" + cam->path_ + "': not a regular file");
+    if (!fs::exists(cam->path_, ec)) return fail(ErrorCode::not_found, {cam->path_, 0, "file"}, "no such file");
+    if (!fs::is_regular_file(cam->path_, ec)) return fail(ErrorCode::invalid_value, {cam->path_, 0, "file"}, "not a regular file");
     VISNAV_ASSIGN(cam->pipeline_, ImagePipeline::create(p, base));
     VISNAV_TRY(cam->open());
     // A file that opens but yields no frame (truncated, not a video) is rejected now, not at the first tick.
     VISNAV_TRY(cam->decode_next());
     if (!cam->peek_)
-      return fail("video file '" + cam->path_ + "': no frame could be decoded (empty, truncated or not a video)");
+      return fail(ErrorCode::parse_error, {cam->path_, 0, "file"}, "no frame could be decoded (empty, truncated or not a video)");
     host.logger().info("camera_video", cam->path_ + ": " + std::to_string(cam->fps_) + " fps, pacing " + p.pacing);
     return cam;
   }
@@ -79,9 +79,9 @@ class VideoCamera final : public Camera {
       if (!peek_ && pacer_.pacing() == Pacing::clock && clock_->now_s() <= last_t_s_ + 1e-9)
         return std::optional<Frame>{};  // ends when the next frame would be due
       if (!peek_) {
-        if (!params_.loop) return fail("video file '" + path_ + "': end of video after " + std::to_string(decoded_) + " frames");
+        if (!params_.loop) return fail(ErrorCode::missing, {path_, 0, "file"}, "end of video after " + std::to_string(decoded_) + " frames");
         VISNAV_TRY(restart());
-        if (!peek_) return fail("video file '" + path_ + "': no frame after restarting");
+        if (!peek_) return fail(ErrorCode::parse_error, {path_, 0, "file"}, "no frame after restarting");
       }
       times_.assign(1, peek_->t_s);
       auto due = pacer_.due(times_, 0, wall_now_s(), clock_->now_s());
@@ -103,7 +103,7 @@ class VideoCamera final : public Camera {
       }
       Frame frame;
       if (auto st = pipeline_.apply(current.image, frame.image); !st)
-        return fail("video file '" + path_ + "', frame " + std::to_string(current.index) + ": " + st.error().message);
+        return fail(st.error().code, {path_, 0, "file"}, "frame " + std::to_string(current.index) + ": " + st.error().message);
       frame.timestamp_s = stamp;
       frame.sequence = sequence_++;
       return std::optional<Frame>(std::move(frame));
@@ -125,10 +125,10 @@ class VideoCamera final : public Camera {
     try {
       capture_.open(path_, cv::CAP_ANY);
     } catch (const cv::Exception& e) {
-      return fail("video file '" + path_ + "': cannot be opened: " + e.what());
+      return fail(ErrorCode::io, {path_, 0, "file"}, std::string("cannot be opened: ") + e.what());
     }
     if (!capture_.isOpened())
-      return fail("video file '" + path_ + "': OpenCV videoio cannot open it (unreadable, unsupported codec or not a video)");
+      return fail(ErrorCode::parse_error, {path_, 0, "file"}, "OpenCV videoio cannot open it (unreadable, unsupported codec or not a video)");
     fps_ = params_.frame_rate_hz > 0.0 ? params_.frame_rate_hz : capture_.get(cv::CAP_PROP_FPS);
     if (!(fps_ > 0.0 && fps_ < 10000.0)) fps_ = 25.0;
     return ok();
@@ -149,7 +149,7 @@ class VideoCamera final : public Camera {
     try {
       got = capture_.read(image);
     } catch (const cv::Exception& e) {
-      return fail("video file '" + path_ + "', frame " + std::to_string(decoded_) + ": decoding failed: " + e.what());
+      return fail(ErrorCode::parse_error, {path_, 0, "file"}, "frame " + std::to_string(decoded_) + ": decoding failed: " + e.what());
     }
     if (!got || image.empty()) {
       peek_.reset();

@@ -41,7 +41,8 @@ struct RecordedRobotParams {
   std::string commands_file;
 
   [[nodiscard]] Status validate() const {
-    if (run_dir.empty() && odometry_file.empty()) return fail("give 'run_dir' (a recorded run) or 'odometry_file'");
+    if (run_dir.empty() && odometry_file.empty())
+      return Error{"give 'run_dir' (a recorded run) or 'odometry_file'", ErrorCode::missing, {{}, 0, "run_dir"}};
     return ok();
   }
   static const ParamSchema<RecordedRobotParams>& schema() {
@@ -110,7 +111,7 @@ class RecordedRobot final : public Robot, public SimulationControl {
     if (!p.commands_file.empty()) {
       const std::string path = resolve_path(p.commands_file, base);
       r->commands_.reset(std::fopen(path.c_str(), "w"));
-      if (!r->commands_) return fail("commands_file '" + path + "': cannot be written");
+      if (!r->commands_) return fail(ErrorCode::io, {path, 0, "commands_file"}, "cannot be written");
       std::fputs("t_s,linear_mps,angular_radps\n", r->commands_.get());
       std::fflush(r->commands_.get());
     }
@@ -140,7 +141,7 @@ class RecordedRobot final : public Robot, public SimulationControl {
       return ok();
     }
     if (next_frame_ >= frames_.size())
-      return fail(times_file_ + ": end of the recorded run after " + std::to_string(frames_.size()) + " time steps (t = " +
+      return fail(ErrorCode::missing, {times_file_}, "end of the recorded run after " + std::to_string(frames_.size()) + " time steps (t = " +
                   std::to_string(time_s_) + " s)");
     time_s_ = frames_[next_frame_++].t_s;
     return ok();
@@ -180,11 +181,11 @@ class RecordedRobot final : public Robot, public SimulationControl {
     if (!fs::exists(path, ec)) return out;
     VISNAV_ASSIGN(CsvTable table, read_csv(path));
     const auto ct = table.column({"t_s"});
-    if (!ct) return fail(path + ":" + std::to_string(table.header_line) + ": needs a column t_s");
+    if (!ct) return fail(ErrorCode::missing, {path, table.header_line}, "needs a column t_s");
     for (const CsvRow& row : table.rows) {
       VISNAV_ASSIGN(double t, csv_number(row.fields[*ct], table.where(row), "t_s"));
       if (!out.empty() && t < out.back().t_s)
-        return fail(table.where(row) + ": tick time " + std::to_string(t) + " s is earlier than the previous one");
+        return fail(ErrorCode::inconsistent, table.where(row, "t_s"), "tick time " + std::to_string(t) + " s is earlier than the previous one");
       out.push_back(TimedLine{t, row.line});
     }
     return out;

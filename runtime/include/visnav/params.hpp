@@ -347,8 +347,17 @@ class ParamSchema {
     if (!errors.empty()) return;  // validate() assumes every field parsed
     if (auto valid = out.validate(); !valid) {
       const Error& e = valid.error();
-      errors.push_back(Error{at.str() + ": " + e.message, e.with_default_code(ErrorCode::inconsistent).code,
-                             e.where.empty() ? ErrorLocation{at.file, at.line, {}} : e.where});
+      // validate() knows the key at most; the file and line are the params map's, or the
+      // key's own line when the map gives that key.
+      ErrorLocation where = e.where;
+      if (where.file.empty()) {
+        where.file = at.file;
+        where.line = at.line;
+        const ConfigNode* value = where.key.empty() || !node.is_map() ? nullptr : node.find(where.key);
+        if (value != nullptr) where.line = value->where().line;
+      }
+      SourceLocation shown{where.file, where.line};
+      errors.push_back(Error{shown.str() + ": " + e.message, e.with_default_code(ErrorCode::inconsistent).code, where});
     }
   }
   const Field* find(std::string_view key) const {

@@ -59,6 +59,11 @@ struct ErrorLocation {
   int line = 0;      ///< 1-based; 0 when unknown
   std::string key;   ///< key path, attribute or node path; empty when none
 
+  ErrorLocation() = default;
+  /// `{path}`, `{path, line}` or `{path, line, key}`.
+  ErrorLocation(std::string file_path, int line_1based = 0, std::string key_path = {})  // NOLINT implicit
+      : file(std::move(file_path)), line(line_1based), key(std::move(key_path)) {}
+
   [[nodiscard]] bool empty() const noexcept { return file.empty() && line == 0 && key.empty(); }
   /// "file:line: key" with the missing parts left out ("" when empty()).
   [[nodiscard]] std::string str() const {

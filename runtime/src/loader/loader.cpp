@@ -142,7 +142,7 @@ Result<std::size_t> PluginLoader::scan() {
     if (!fs::is_directory(dir, ec)) continue;
     std::vector<fs::path> files;
     fs::directory_iterator it(dir, ec);
-    if (ec) return fail("cannot read plugin directory " + dir + ": " + ec.message());
+    if (ec) return fail(ErrorCode::io, {dir}, "cannot read plugin directory " + dir + ": " + ec.message());
     for (const auto& entry : it) {
       std::error_code fec;
       if (!entry.is_regular_file(fec)) continue;
@@ -181,7 +181,7 @@ Result<std::string> PluginLoader::resolve_library(std::string_view path_or_name,
     if (tried != nullptr) tried->push_back(text);
     std::error_code ec;
     if (fs::is_regular_file(text, ec)) return absolute_path(text);
-    return fail("plugin library " + text + " not found");
+    return fail(ErrorCode::not_found, "plugin library " + text + " not found");
   }
   const std::string file_name = is_plugin_file_name(text) ? text : std::string(kPrefix) + text + std::string(kSuffix);
   for (const auto& dir : search_dirs_) {
@@ -190,7 +190,7 @@ Result<std::string> PluginLoader::resolve_library(std::string_view path_or_name,
     std::error_code ec;
     if (fs::is_regular_file(candidate, ec)) return absolute_path(candidate);
   }
-  return fail("plugin library '" + text + "' not found");
+  return fail(ErrorCode::not_found, "plugin library '" + text + "' not found");
 }
 
 Result<const PluginLibraryInfo*> PluginLoader::load_library(std::string_view path_or_name) {
@@ -198,7 +198,7 @@ Result<const PluginLibraryInfo*> PluginLoader::load_library(std::string_view pat
   std::vector<std::string> tried;
   auto path = resolve_library(path_or_name, &tried);
   if (!path) {
-    return fail("plugin library '" + std::string(path_or_name) + "' not found; tried: " +
+    return fail(ErrorCode::not_found, "plugin library '" + std::string(path_or_name) + "' not found; tried: " +
                 (tried.empty() ? std::string("(search path is empty)") : join(tried, ", ")));
   }
   return load_path(*path);
@@ -212,14 +212,14 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* why = dlerror();
-    return fail(path + ": dlopen failed: " + (why != nullptr ? why : "unknown error"));
+    return fail(ErrorCode::plugin, {path}, std::string("dlopen failed: ") + (why != nullptr ? why : "unknown error"));
   }
   auto library = std::make_shared<detail::LibraryHandle>(handle, path);
 
   dlerror();
   void* symbol = dlsym(handle, VISNAV_PLUGIN_ENTRY_SYMBOL);
   if (symbol == nullptr) {
-    return fail(path + ": not a visnav plugin: entry symbol '" VISNAV_PLUGIN_ENTRY_SYMBOL
+    return fail(ErrorCode::plugin, {path}, "not a visnav plugin: entry symbol '" VISNAV_PLUGIN_ENTRY_SYMBOL
                 "' not found (define it with VISNAV_PLUGIN(...))");
   }
   using EntryFn = const PluginDescriptor* (*)();
@@ -228,21 +228,21 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
   try {
     descriptor = entry();
   } catch (...) {
-    return fail(path + ": " VISNAV_PLUGIN_ENTRY_SYMBOL "() threw an exception");
+    return fail(ErrorCode::plugin, {path}, VISNAV_PLUGIN_ENTRY_SYMBOL "() threw an exception");
   }
-  if (descriptor == nullptr) return fail(path + ": " VISNAV_PLUGIN_ENTRY_SYMBOL "() returned null");
+  if (descriptor == nullptr) return fail(ErrorCode::plugin, {path}, VISNAV_PLUGIN_ENTRY_SYMBOL "() returned null");
 
   // The ABI version is the first field and the only one read before it is known to match.
   const std::uint32_t abi = *reinterpret_cast<const std::uint32_t*>(descriptor);
   if (abi != kPluginAbiVersion) {
-    return fail(path + ": plugin ABI version " + std::to_string(abi) + " does not match the runtime's ABI version " +
+    return fail(ErrorCode::plugin, {path}, "plugin ABI version " + std::to_string(abi) + " does not match the runtime's ABI version " +
                 std::to_string(kPluginAbiVersion) + "; rebuild the plugin against this SDK");
   }
   if (descriptor->descriptor_size != sizeof(PluginDescriptor)) {
-    return fail(path + ": descriptor size " + std::to_string(descriptor->descriptor_size) + " does not match " +
+    return fail(ErrorCode::plugin, {path}, "descriptor size " + std::to_string(descriptor->descriptor_size) + " does not match " +
                 std::to_string(sizeof(PluginDescriptor)) + " (plugin built against different SDK headers)");
   }
-  if (descriptor->name == nullptr || descriptor->name[0] == '\0') return fail(path + ": descriptor has no name");
+  if (descriptor->name == nullptr || descriptor->name[0] == '\0') return fail(ErrorCode::plugin, {path}, "descriptor has no name");
 
   auto loaded = std::make_unique<Loaded>();
   loaded->library = library;
@@ -257,39 +257,39 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
   info.abi_version = abi;
 
   if (descriptor->type_count > 0 && descriptor->types == nullptr)
-    return fail(path + ": descriptor declares " + std::to_string(descriptor->type_count) + " types but no table");
+    return fail(ErrorCode::plugin, {path}, "descriptor declares " + std::to_string(descriptor->type_count) + " types but no table");
   for (std::size_t i = 0; i < descriptor->type_count; ++i) {
     const TypeEntry& t = descriptor->types[i];
-    if (t.type_name == nullptr || t.type_name[0] == '\0') return fail(path + ": type #" + std::to_string(i) + " has no name");
+    if (t.type_name == nullptr || t.type_name[0] == '\0') return fail(ErrorCode::plugin, {path}, "type #" + std::to_string(i) + " has no name");
     const auto kind_value = static_cast<std::uint32_t>(t.kind);
     if (t.kind != PluginKind::robot && t.kind != PluginKind::camera && t.kind != PluginKind::detector)
-      return fail(path + ": type '" + std::string(t.type_name) + "' has kind " + std::to_string(kind_value) +
+      return fail(ErrorCode::plugin, {path}, "type '" + std::string(t.type_name) + "' has kind " + std::to_string(kind_value) +
                   " (robot, camera or detector expected)");
-    if (t.create == nullptr) return fail(path + ": type '" + std::string(t.type_name) + "' has no factory");
+    if (t.create == nullptr) return fail(ErrorCode::plugin, {path}, "type '" + std::string(t.type_name) + "' has no factory");
     for (std::size_t j = 0; j < i; ++j)
       if (descriptor->types[j].kind == t.kind && std::string_view(descriptor->types[j].type_name) == t.type_name)
-        return fail(path + ": " + to_string(t.kind) + " type '" + std::string(t.type_name) +
+        return fail(ErrorCode::plugin, {path}, std::string(to_string(t.kind)) + " type '" + std::string(t.type_name) +
                     "' is listed twice in the descriptor");
     info.types.push_back({t.kind, t.type_name});
   }
   info.kinds = descriptor_kinds(*descriptor);
   if (info.kinds.empty() && descriptor->command_count == 0)
-    return fail(path + ": plugin '" + info.name + "' provides nothing (no types, no nodes, no commands)");
+    return fail(ErrorCode::plugin, {path}, "plugin '" + info.name + "' provides nothing (no types, no nodes, no commands)");
   if (descriptor->command_count > 0 && descriptor->commands == nullptr)
-    return fail(path + ": descriptor declares commands but no table");
+    return fail(ErrorCode::plugin, {path}, "descriptor declares commands but no table");
   for (std::size_t i = 0; i < descriptor->command_count; ++i) {
     const CommandEntry& c = descriptor->commands[i];
     if (c.name == nullptr || c.name[0] == '\0' || c.run == nullptr)
-      return fail(path + ": command #" + std::to_string(i) + " has no name or no run function");
+      return fail(ErrorCode::plugin, {path}, "command #" + std::to_string(i) + " has no name or no run function");
     info.command_names.emplace_back(c.name);
   }
 
   if (descriptor->payload_check_count > 0 && descriptor->payload_checks == nullptr)
-    return fail(path + ": descriptor declares payload checks but no table");
+    return fail(ErrorCode::plugin, {path}, "descriptor declares payload checks but no table");
   for (std::size_t i = 0; i < descriptor->payload_check_count; ++i) {
     const PayloadCheckEntry& c = descriptor->payload_checks[i];
     if (c.kind == nullptr || !map_format::valid_kind(c.kind) || c.check == nullptr)
-      return fail(path + ": payload check #" + std::to_string(i) + " has no valid edge kind or no check function");
+      return fail(ErrorCode::plugin, {path}, "payload check #" + std::to_string(i) + " has no valid edge kind or no check function");
   }
 
   // Report type clashes with libraries loaded earlier (both stay loaded; see find_type).
@@ -343,17 +343,17 @@ Result<PluginTypeInfo> PluginLoader::find_type(PluginKind kind, std::string_view
   if (!library.empty()) {
     const Loaded* l = find_loaded(library);
     if (l == nullptr)
-      return fail("plugin library '" + std::string(library) + "' is not loaded (search path: " +
+      return fail(ErrorCode::not_found, "plugin library '" + std::string(library) + "' is not loaded (search path: " +
                   describe_search_path(search_dirs_) + ")");
     if (!l->info.provides(kind))
-      return fail("plugin library " + l->info.path + " provides no " + kind_name + " types (it provides: " +
+      return fail(ErrorCode::not_found, "plugin library " + l->info.path + " provides no " + kind_name + " types (it provides: " +
                   l->info.kinds_text() + ")");
     for (std::size_t i = 0; i < l->descriptor->type_count; ++i) {
       const TypeEntry& t = l->descriptor->types[i];
       if (t.kind == kind && type_name == t.type_name)
         return PluginTypeInfo{kind, t.type_name, t.description != nullptr ? t.description : "", l->info.path};
     }
-    return fail("plugin library " + l->info.path + " provides no " + kind_name + " type '" + std::string(type_name) +
+    return fail(ErrorCode::not_found, "plugin library " + l->info.path + " provides no " + kind_name + " type '" + std::string(type_name) +
                 "' (its " + kind_name + " types: " + join(l->info.type_names(kind), ", ") + ")");
   }
 
@@ -368,7 +368,7 @@ Result<PluginTypeInfo> PluginLoader::find_type(PluginKind kind, std::string_view
   if (matches.size() > 1) {
     std::vector<std::string> paths;
     for (const auto& m : matches) paths.push_back(m.library_path);
-    return fail("duplicate " + kind_name + " type '" + std::string(type_name) + "': provided by both " +
+    return fail(ErrorCode::inconsistent, "duplicate " + kind_name + " type '" + std::string(type_name) + "': provided by both " +
                 join(paths, " and ") + "; pin one with 'plugin: <library>'");
   }
   std::string message = "no " + kind_name + " plugin provides type '" + std::string(type_name) + "'; known " +
@@ -379,7 +379,7 @@ Result<PluginTypeInfo> PluginLoader::find_type(PluginKind kind, std::string_view
     for (const auto& p : problems_) failed.push_back(p.path + ": " + p.message);
     message += "; libraries not used: " + join(failed, "; ");
   }
-  return fail(message);
+  return fail(ErrorCode::not_found, std::move(message));
 }
 
 Result<std::vector<ParamDoc>> PluginLoader::param_docs(PluginKind kind, std::string_view type_name,
@@ -390,9 +390,9 @@ Result<std::vector<ParamDoc>> PluginLoader::param_docs(PluginKind kind, std::str
   try {
     return t->param_docs();
   } catch (const std::exception& e) {
-    return fail(info.library_path + ": param docs of '" + std::string(type_name) + "' threw: " + e.what());
+    return fail(ErrorCode::plugin, info.library_path + ": param docs of '" + std::string(type_name) + "' threw: " + e.what());
   } catch (...) {
-    return fail(info.library_path + ": param docs of '" + std::string(type_name) + "' threw");
+    return fail(ErrorCode::plugin, info.library_path + ": param docs of '" + std::string(type_name) + "' threw");
   }
 }
 
@@ -425,13 +425,13 @@ Result<PluginPtr<PluginObject>> PluginLoader::create_object(PluginKind kind, std
   try {
     made = entry->create(params, host);
   } catch (const std::exception& e) {
-    return fail(who + ": factory threw an exception: " + e.what());
+    return fail(ErrorCode::plugin, who + ": factory threw an exception: " + e.what());
   } catch (...) {
-    return fail(who + ": factory threw a non-standard exception");
+    return fail(ErrorCode::plugin, who + ": factory threw a non-standard exception");
   }
   if (!made) return made.error().with_context(who);
   std::unique_ptr<PluginObject> object = std::move(made).value();
-  if (!object) return fail(who + ": factory returned no object");
+  if (!object) return fail(ErrorCode::plugin, who + ": factory returned no object");
   return PluginPtr<PluginObject>(object.release(), PluginObjectDeleter{l->library});
 }
 

@@ -17,12 +17,14 @@ class Reader {
  public:
   explicit Reader(const std::string& file, std::size_t entry_budget = 0) : file_(file), entries_left_(entry_budget) {}
 
-  [[nodiscard]] Error at(const YAML::Node& n, const std::string& message) const {
-    return at_line(n.Mark().line, message);
+  /// An error about node `n` of the graph file: "<file>:<line>: <message>", with the code
+  /// (parse_error unless said: the graph is a file format) and the location.
+  [[nodiscard]] Error at(const YAML::Node& n, const std::string& message, ErrorCode code = ErrorCode::parse_error) const {
+    return at_line(n.Mark().line, message, code);
   }
-  [[nodiscard]] Error at_line(int zero_based_line, const std::string& message) const {
-    if (zero_based_line < 0) return fail(file_ + ": " + message);
-    return fail(file_ + ":" + std::to_string(zero_based_line + 1) + ": " + message);
+  [[nodiscard]] Error at_line(int zero_based_line, const std::string& message,
+                              ErrorCode code = ErrorCode::parse_error) const {
+    return fail(code, {file_, zero_based_line < 0 ? 0 : zero_based_line + 1}, message);
   }
 
   /// Iterates a map's entries, rejecting duplicate and unknown keys. `fn(key, key_node, value)`.
@@ -39,9 +41,9 @@ class Reader {
       if (!ok_key) {
         std::string list;
         for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
-        return at(it->first, what + ": unknown key '" + key + "' (known keys: " + list + ")");
+        return at(it->first, what + ": unknown key '" + key + "' (known keys: " + list + ")", ErrorCode::unknown_key);
       }
-      if (!seen.insert(key).second) return at(it->first, what + ": duplicate key '" + key + "'");
+      if (!seen.insert(key).second) return at(it->first, what + ": duplicate key '" + key + "'", ErrorCode::inconsistent);
       VISNAV_TRY(fn(key, it->first, it->second));
     }
     return ok();
@@ -53,7 +55,8 @@ class Reader {
   [[nodiscard]] Status spend(const YAML::Node& n, const std::string& what) const {
     if (entries_left_ == 0)
       return at(n, what + ": the graph expands to more entries than its text holds (YAML aliases are not allowed "
-                          "in a map graph)");
+                          "in a map graph)",
+                ErrorCode::limit);
     --entries_left_;
     return ok();
   }
@@ -197,6 +200,140 @@ std::string utc_now() {
   return buf;
 }
 
+namespace {
+
+/// One entry of `nodes:` appended to raw (with its line and listed outgoing edges).
+Status parse_node(Reader& r, const YAML::Node& item, RawGraph& raw) {
+  Graph& g = raw.g;
+  NodeRecord node;
+  bool has_id = false;
+  std::vector<std::tuple<std::string, double, int>> outs;
+  const std::string what = "node #" + std::to_string(g.nodes.size() + 1);
+  const Status node_status = r.entries(item, what, {"id", "name", "position_hint", "outgoing"},
+                       [&](const std::string& key, const YAML::Node& k, const YAML::Node& v) -> Status {
+    if (key == "id") {
+      VISNAV_ASSIGN(node.id, r.id(k, v, what));
+      has_id = true;
+    } else if (key == "name") {
+      if (!v.IsNull()) { VISNAV_ASSIGN(node.name, r.text(k, v, what)); }
+      if (!valid_text(node.name)) return r.at(v, what + ": name is not valid UTF-8 text");
+    } else if (key == "position_hint") {
+      if (v.IsNull()) return ok();
+      Pose2D pose;
+      int fields = 0;
+      VISNAV_TRY(r.entries(v, what + " position_hint", {"x_m", "y_m", "heading_rad"},
+                           [&](const std::string& pk, const YAML::Node& pkn, const YAML::Node& pv) -> Status {
+        VISNAV_ASSIGN(double d, r.number(pkn, pv, what + " position_hint"));
+        if (pk == "x_m") pose.x_m = d;
+        else if (pk == "y_m") pose.y_m = d;
+        else pose.heading_rad = d;
+        ++fields;
+        return ok();
+      }));
+      if (fields < 2) return r.at(v, what + ": position_hint needs at least x_m and y_m");
+      node.position_hint = pose;
+    } else {  // outgoing
+      if (v.IsNull()) return ok();
+      if (!v.IsSequence()) return r.at(v, what + ": 'outgoing' must be a list of {edge, azimuth_rad}");
+      for (const auto& o : v) {
+        std::string edge;
+        double az = 0.0;
+        bool has_edge = false, has_az = false;
+        VISNAV_TRY(r.entries(o, what + " outgoing", {"edge", "azimuth_rad"},
+                             [&](const std::string& ok_, const YAML::Node& okn, const YAML::Node& ov) -> Status {
+          if (ok_ == "edge") {
+            VISNAV_ASSIGN(edge, r.id(okn, ov, what + " outgoing"));
+            has_edge = true;
+          } else {
+            VISNAV_ASSIGN(az, r.number(okn, ov, what + " outgoing"));
+            has_az = true;
+          }
+          return ok();
+        }));
+        if (!has_edge || !has_az) return r.at(o, what + ": each 'outgoing' entry needs 'edge' and 'azimuth_rad'");
+        outs.emplace_back(edge, az, o.Mark().line);
+      }
+    }
+    return ok();
+  });
+  if (!node_status) return node_status;
+  if (!has_id) return r.at(item, what + ": missing key 'id'", ErrorCode::missing);
+  g.nodes.push_back(std::move(node));
+  raw.node_lines.push_back(item.Mark().line);
+  raw.listed_outgoing.push_back(std::move(outs));
+  return ok();
+}
+
+/// One entry of `edges:` appended to raw (with its line).
+Status parse_edge(Reader& r, const YAML::Node& item, RawGraph& raw) {
+  Graph& g = raw.g;
+  EdgeRecord edge;
+  std::set<std::string> got;
+  const std::string what = "edge #" + std::to_string(g.edges.size() + 1);
+  VISNAV_TRY(r.entries(item, what,
+                       {"id", "from", "to", "kind", "length_m", "azimuth_rad", "created", "payload",
+                        "payload_bytes", "statistics"},
+                       [&](const std::string& key, const YAML::Node& k, const YAML::Node& v) -> Status {
+    got.insert(key);
+    if (key == "id") {
+      VISNAV_ASSIGN(edge.id, r.id(k, v, what));
+    } else if (key == "from") {
+      VISNAV_ASSIGN(edge.from, r.id(k, v, what));
+    } else if (key == "to") {
+      VISNAV_ASSIGN(edge.to, r.id(k, v, what));
+    } else if (key == "kind") {
+      VISNAV_ASSIGN(edge.kind, r.text(k, v, what));
+      if (!map_format::valid_kind(edge.kind)) {
+        return r.at(v, what + ": kind '" + edge.kind + "' is not a valid primitive kind (1-64 of A-Z a-z 0-9 _ - .)");
+      }
+    } else if (key == "length_m") {
+      VISNAV_ASSIGN(edge.length_m, r.number(k, v, what));
+      if (edge.length_m < 0.0) return r.at(v, what + ": length_m must be >= 0");
+    } else if (key == "azimuth_rad") {
+      VISNAV_ASSIGN(edge.azimuth_rad, r.number(k, v, what));
+    } else if (key == "created") {
+      VISNAV_ASSIGN(edge.created, r.text(k, v, what));
+      if (!valid_utc_timestamp(edge.created)) {
+        return r.at(v, what + ": created '" + edge.created + "' is not an ISO-8601 UTC time (YYYY-MM-DDTHH:MM:SSZ)");
+      }
+    } else if (key == "payload") {
+      VISNAV_ASSIGN(edge.payload_file, r.text(k, v, what));
+    } else if (key == "payload_bytes") {
+      VISNAV_ASSIGN(double d, r.number(k, v, what));
+      if (d < 0.0 || d != std::floor(d) || d > 9.0e15) return r.at(v, what + ": payload_bytes must be a whole number >= 0");
+      edge.payload_bytes = static_cast<std::uint64_t>(d);
+    } else {  // statistics
+      if (v.IsNull()) return ok();
+      if (!v.IsMap()) return r.at(v, what + ": statistics must be a map of name: number");
+      for (auto it = v.begin(); it != v.end(); ++it) {
+        if (auto spent = r.spend(it->first, what + " statistics"); !spent) return spent;
+        if (!it->first.IsScalar() || !map_format::valid_kind(it->first.Scalar())) {
+          return r.at(it->first, what + ": statistics keys must be 1-64 of A-Z a-z 0-9 _ - .");
+        }
+        VISNAV_ASSIGN(double d, r.number(it->first, it->second, what + " statistics"));
+        if (!edge.statistics.emplace(it->first.Scalar(), d).second) {
+          return r.at(it->first, what + ": duplicate statistic '" + it->first.Scalar() + "'", ErrorCode::inconsistent);
+        }
+      }
+    }
+    return ok();
+  }));
+  for (const char* req : {"id", "from", "to", "kind", "length_m", "azimuth_rad", "created", "payload"}) {
+    if (got.count(req) == 0) {
+      return r.at(item, what + (edge.id.empty() ? "" : " ('" + edge.id + "')") + ": missing key '" + req + "'", ErrorCode::missing);
+    }
+  }
+  const std::string expected = std::string(map_format::kEdgeFolder) + "/" + edge.id + ".bin";
+  if (edge.payload_file != expected) {
+    return r.at(item, "edge '" + edge.id + "': payload must be '" + expected + "', got '" + edge.payload_file + "'");
+  }
+  g.edges.push_back(std::move(edge));
+  raw.edge_lines.push_back(item.Mark().line);
+  return ok();
+}
+
+}  // namespace
+
 Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_name) {
   Reader r(file_name, text_in.size());
   YAML::Node root;
@@ -208,140 +345,11 @@ Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_
 
   RawGraph raw;
   Graph& g = raw.g;
-  auto& node_lines = raw.node_lines;
-  auto& edge_lines = raw.edge_lines;
-  auto& listed_outgoing = raw.listed_outgoing;
   bool have_format = false, have_version = false, have_name = false, have_nodes = false, have_edges = false;
 
   try {
     if (root.IsNull()) return r.at_line(0, "empty file (not a visnav map graph)");
     if (!root.IsMap()) return r.at(root, "expected a map with keys format, version, name, nodes, edges");
-
-    auto parse_node = [&](const YAML::Node& item) -> Status {
-      NodeRecord node;
-      bool has_id = false;
-      std::vector<std::tuple<std::string, double, int>> outs;
-      const std::string what = "node #" + std::to_string(g.nodes.size() + 1);
-      const Status node_status = r.entries(item, what, {"id", "name", "position_hint", "outgoing"},
-                           [&](const std::string& key, const YAML::Node& k, const YAML::Node& v) -> Status {
-        if (key == "id") {
-          VISNAV_ASSIGN(node.id, r.id(k, v, what));
-          has_id = true;
-        } else if (key == "name") {
-          if (!v.IsNull()) { VISNAV_ASSIGN(node.name, r.text(k, v, what)); }
-          if (!valid_text(node.name)) return r.at(v, what + ": name is not valid UTF-8 text");
-        } else if (key == "position_hint") {
-          if (v.IsNull()) return ok();
-          Pose2D pose;
-          int fields = 0;
-          VISNAV_TRY(r.entries(v, what + " position_hint", {"x_m", "y_m", "heading_rad"},
-                               [&](const std::string& pk, const YAML::Node& pkn, const YAML::Node& pv) -> Status {
-            VISNAV_ASSIGN(double d, r.number(pkn, pv, what + " position_hint"));
-            if (pk == "x_m") pose.x_m = d;
-            else if (pk == "y_m") pose.y_m = d;
-            else pose.heading_rad = d;
-            ++fields;
-            return ok();
-          }));
-          if (fields < 2) return r.at(v, what + ": position_hint needs at least x_m and y_m");
-          node.position_hint = pose;
-        } else {  // outgoing
-          if (v.IsNull()) return ok();
-          if (!v.IsSequence()) return r.at(v, what + ": 'outgoing' must be a list of {edge, azimuth_rad}");
-          for (const auto& o : v) {
-            std::string edge;
-            double az = 0.0;
-            bool has_edge = false, has_az = false;
-            VISNAV_TRY(r.entries(o, what + " outgoing", {"edge", "azimuth_rad"},
-                                 [&](const std::string& ok_, const YAML::Node& okn, const YAML::Node& ov) -> Status {
-              if (ok_ == "edge") {
-                VISNAV_ASSIGN(edge, r.id(okn, ov, what + " outgoing"));
-                has_edge = true;
-              } else {
-                VISNAV_ASSIGN(az, r.number(okn, ov, what + " outgoing"));
-                has_az = true;
-              }
-              return ok();
-            }));
-            if (!has_edge || !has_az) return r.at(o, what + ": each 'outgoing' entry needs 'edge' and 'azimuth_rad'");
-            outs.emplace_back(edge, az, o.Mark().line);
-          }
-        }
-        return ok();
-      });
-      if (!node_status) return node_status;
-      if (!has_id) return r.at(item, what + ": missing key 'id'");
-      g.nodes.push_back(std::move(node));
-      node_lines.push_back(item.Mark().line);
-      listed_outgoing.push_back(std::move(outs));
-      return ok();
-    };
-
-    auto parse_edge = [&](const YAML::Node& item) -> Status {
-      EdgeRecord edge;
-      std::set<std::string> got;
-      const std::string what = "edge #" + std::to_string(g.edges.size() + 1);
-      VISNAV_TRY(r.entries(item, what,
-                           {"id", "from", "to", "kind", "length_m", "azimuth_rad", "created", "payload",
-                            "payload_bytes", "statistics"},
-                           [&](const std::string& key, const YAML::Node& k, const YAML::Node& v) -> Status {
-        got.insert(key);
-        if (key == "id") {
-          VISNAV_ASSIGN(edge.id, r.id(k, v, what));
-        } else if (key == "from") {
-          VISNAV_ASSIGN(edge.from, r.id(k, v, what));
-        } else if (key == "to") {
-          VISNAV_ASSIGN(edge.to, r.id(k, v, what));
-        } else if (key == "kind") {
-          VISNAV_ASSIGN(edge.kind, r.text(k, v, what));
-          if (!map_format::valid_kind(edge.kind)) {
-            return r.at(v, what + ": kind '" + edge.kind + "' is not a valid primitive kind (1-64 of A-Z a-z 0-9 _ - .)");
-          }
-        } else if (key == "length_m") {
-          VISNAV_ASSIGN(edge.length_m, r.number(k, v, what));
-          if (edge.length_m < 0.0) return r.at(v, what + ": length_m must be >= 0");
-        } else if (key == "azimuth_rad") {
-          VISNAV_ASSIGN(edge.azimuth_rad, r.number(k, v, what));
-        } else if (key == "created") {
-          VISNAV_ASSIGN(edge.created, r.text(k, v, what));
-          if (!valid_utc_timestamp(edge.created)) {
-            return r.at(v, what + ": created '" + edge.created + "' is not an ISO-8601 UTC time (YYYY-MM-DDTHH:MM:SSZ)");
-          }
-        } else if (key == "payload") {
-          VISNAV_ASSIGN(edge.payload_file, r.text(k, v, what));
-        } else if (key == "payload_bytes") {
-          VISNAV_ASSIGN(double d, r.number(k, v, what));
-          if (d < 0.0 || d != std::floor(d) || d > 9.0e15) return r.at(v, what + ": payload_bytes must be a whole number >= 0");
-          edge.payload_bytes = static_cast<std::uint64_t>(d);
-        } else {  // statistics
-          if (v.IsNull()) return ok();
-          if (!v.IsMap()) return r.at(v, what + ": statistics must be a map of name: number");
-          for (auto it = v.begin(); it != v.end(); ++it) {
-            if (auto spent = r.spend(it->first, what + " statistics"); !spent) return spent;
-            if (!it->first.IsScalar() || !map_format::valid_kind(it->first.Scalar())) {
-              return r.at(it->first, what + ": statistics keys must be 1-64 of A-Z a-z 0-9 _ - .");
-            }
-            VISNAV_ASSIGN(double d, r.number(it->first, it->second, what + " statistics"));
-            if (!edge.statistics.emplace(it->first.Scalar(), d).second) {
-              return r.at(it->first, what + ": duplicate statistic '" + it->first.Scalar() + "'");
-            }
-          }
-        }
-        return ok();
-      }));
-      for (const char* req : {"id", "from", "to", "kind", "length_m", "azimuth_rad", "created", "payload"}) {
-        if (got.count(req) == 0) {
-          return r.at(item, what + (edge.id.empty() ? "" : " ('" + edge.id + "')") + ": missing key '" + req + "'");
-        }
-      }
-      const std::string expected = std::string(map_format::kEdgeFolder) + "/" + edge.id + ".bin";
-      if (edge.payload_file != expected) {
-        return r.at(item, "edge '" + edge.id + "': payload must be '" + expected + "', got '" + edge.payload_file + "'");
-      }
-      g.edges.push_back(std::move(edge));
-      edge_lines.push_back(item.Mark().line);
-      return ok();
-    };
 
     const Status root_status = r.entries(root, "graph", {"format", "version", "name", "nodes", "edges"},
                          [&](const std::string& key, const YAML::Node& k, const YAML::Node& v) -> Status {
@@ -354,7 +362,7 @@ Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_
         if (ver != std::floor(ver) || ver < 1) return r.at(v, "version must be a whole number >= 1");
         if (ver > map_format::kGraphVersion) {
           return r.at(v, "unsupported graph format version " + format_double(ver) + " (this build reads version " +
-                             std::to_string(map_format::kGraphVersion) + ")");
+                             std::to_string(map_format::kGraphVersion) + ")", ErrorCode::out_of_range);
         }
         g.version = static_cast<int>(ver);
         have_version = true;
@@ -366,7 +374,7 @@ Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_
         (key == "nodes" ? have_nodes : have_edges) = true;
         if (v.IsNull()) return ok();
         if (!v.IsSequence()) return r.at(v, "'" + key + "' must be a list");
-        for (const auto& item : v) VISNAV_TRY(key == "nodes" ? parse_node(item) : parse_edge(item));
+        for (const auto& item : v) VISNAV_TRY(key == "nodes" ? parse_node(r, item, raw) : parse_edge(r, item, raw));
       }
       return ok();
     });
@@ -374,11 +382,11 @@ Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_
   } catch (const YAML::Exception& e) {
     return r.at_line(e.mark.line, std::string("malformed graph: ") + e.msg);
   }
-  if (!have_format) return r.at_line(0, "missing key 'format: visnav-map' (not a visnav map graph)");
-  if (!have_version) return r.at_line(0, "missing key 'version'");
-  if (!have_name) return r.at_line(0, "missing key 'name'");
-  if (!have_nodes) return r.at_line(0, "missing key 'nodes'");
-  if (!have_edges) return r.at_line(0, "missing key 'edges'");
+  if (!have_format) return r.at_line(0, "missing key 'format: visnav-map' (not a visnav map graph)", ErrorCode::missing);
+  if (!have_version) return r.at_line(0, "missing key 'version'", ErrorCode::missing);
+  if (!have_name) return r.at_line(0, "missing key 'name'", ErrorCode::missing);
+  if (!have_nodes) return r.at_line(0, "missing key 'nodes'", ErrorCode::missing);
+  if (!have_edges) return r.at_line(0, "missing key 'edges'", ErrorCode::missing);
   return raw;
 }
 
@@ -394,7 +402,7 @@ Result<Graph> check_references(RawGraph raw, const std::string& file_name) {
     auto [it, inserted] = node_index.emplace(g.nodes[i].id, i);
     if (!inserted) {
       return r.at_line(node_lines[i], "duplicate node id '" + g.nodes[i].id + "' (first defined at line " +
-                                          std::to_string(node_lines[it->second] + 1) + ")");
+                                          std::to_string(node_lines[it->second] + 1) + ")", ErrorCode::inconsistent);
     }
   }
   // Names are how trees and operators address places ("start", "door"): two nodes of one name
@@ -406,7 +414,7 @@ Result<Graph> check_references(RawGraph raw, const std::string& file_name) {
     if (!inserted) {
       return r.at_line(node_lines[i], "node '" + g.nodes[i].id + "': duplicate node name '" + g.nodes[i].name +
                                           "' (also node '" + g.nodes[it->second].id + "' at line " +
-                                          std::to_string(node_lines[it->second] + 1) + ")");
+                                          std::to_string(node_lines[it->second] + 1) + ")", ErrorCode::inconsistent);
     }
   }
   std::map<std::string, std::size_t, std::less<>> edge_index;
@@ -415,10 +423,10 @@ Result<Graph> check_references(RawGraph raw, const std::string& file_name) {
     auto [it, inserted] = edge_index.emplace(e.id, i);
     if (!inserted) {
       return r.at_line(edge_lines[i], "duplicate edge id '" + e.id + "' (first defined at line " +
-                                          std::to_string(edge_lines[it->second] + 1) + ")");
+                                          std::to_string(edge_lines[it->second] + 1) + ")", ErrorCode::inconsistent);
     }
-    if (node_index.count(e.from) == 0) return r.at_line(edge_lines[i], "edge '" + e.id + "': 'from' names unknown node '" + e.from + "'");
-    if (node_index.count(e.to) == 0) return r.at_line(edge_lines[i], "edge '" + e.id + "': 'to' names unknown node '" + e.to + "'");
+    if (node_index.count(e.from) == 0) return r.at_line(edge_lines[i], "edge '" + e.id + "': 'from' names unknown node '" + e.from + "'", ErrorCode::not_found);
+    if (node_index.count(e.to) == 0) return r.at_line(edge_lines[i], "edge '" + e.id + "': 'to' names unknown node '" + e.to + "'", ErrorCode::not_found);
   }
   // Node azimuth lists must match the edges exactly.
   std::vector<std::size_t> listed_count(g.edges.size(), 0);
@@ -426,26 +434,26 @@ Result<Graph> check_references(RawGraph raw, const std::string& file_name) {
     for (const auto& [edge_id, az, line] : listed_outgoing[n]) {
       auto it = edge_index.find(edge_id);
       if (it == edge_index.end()) {
-        return r.at_line(line, "node '" + g.nodes[n].id + "': outgoing lists unknown edge '" + edge_id + "'");
+        return r.at_line(line, "node '" + g.nodes[n].id + "': outgoing lists unknown edge '" + edge_id + "'", ErrorCode::not_found);
       }
       const auto& e = g.edges[it->second];
       if (e.from != g.nodes[n].id) {
         return r.at_line(line, "node '" + g.nodes[n].id + "': outgoing lists edge '" + edge_id + "', which starts at '" +
-                                   e.from + "'");
+                                   e.from + "'", ErrorCode::inconsistent);
       }
       if (std::abs(e.azimuth_rad - az) > 1e-9) {
         return r.at_line(line, "node '" + g.nodes[n].id + "': azimuth " + format_double(az) + " of edge '" + edge_id +
-                                   "' differs from the edge's azimuth_rad " + format_double(e.azimuth_rad));
+                                   "' differs from the edge's azimuth_rad " + format_double(e.azimuth_rad), ErrorCode::inconsistent);
       }
       if (++listed_count[it->second] > 1) {
-        return r.at_line(line, "node '" + g.nodes[n].id + "': edge '" + edge_id + "' listed twice in outgoing");
+        return r.at_line(line, "node '" + g.nodes[n].id + "': edge '" + edge_id + "' listed twice in outgoing", ErrorCode::inconsistent);
       }
     }
   }
   for (std::size_t i = 0; i < g.edges.size(); ++i) {
     if (listed_count[i] == 0) {
       return r.at_line(node_lines[node_index.at(g.edges[i].from)],
-                       "node '" + g.edges[i].from + "': outgoing does not list its edge '" + g.edges[i].id + "'");
+                       "node '" + g.edges[i].from + "': outgoing does not list its edge '" + g.edges[i].id + "'", ErrorCode::inconsistent);
     }
   }
   return std::move(raw.g);
@@ -454,7 +462,7 @@ Result<Graph> check_references(RawGraph raw, const std::string& file_name) {
 Result<Graph> parse_graph(const std::string& text, const std::string& file_name, GraphParser parser) {
   if (parser != GraphParser::full_only) {
     if (auto raw = parse_fast(text)) return check_references(std::move(*raw), file_name);
-    if (parser == GraphParser::fast_only) return fail(file_name + ": not in the canonical layout (fast parser)");
+    if (parser == GraphParser::fast_only) return fail(ErrorCode::parse_error, {file_name}, "not in the canonical layout (fast parser)");
   }
   auto raw = parse_full(text, file_name);
   if (!raw) return std::move(raw).error();

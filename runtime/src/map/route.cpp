@@ -11,11 +11,11 @@ namespace visnav {
 
 Result<Route> plan_route(const MapStore& map, std::string_view from, std::string_view to, const RouteCost& cost) {
   const double inf = std::numeric_limits<double>::infinity();
-  if (!(cost.default_multiplier > 0.0)) return fail("route cost: default_multiplier must be > 0 (or +inf)");
-  if (!(cost.per_edge_cost >= 0.0) || std::isinf(cost.per_edge_cost)) return fail("route cost: per_edge_cost must be finite and >= 0");
+  if (!(cost.default_multiplier > 0.0)) return Error{"route cost: default_multiplier must be > 0 (or +inf)", ErrorCode::out_of_range, {{}, 0, "default_multiplier"}};
+  if (!(cost.per_edge_cost >= 0.0) || std::isinf(cost.per_edge_cost)) return Error{"route cost: per_edge_cost must be finite and >= 0", ErrorCode::out_of_range, {{}, 0, "per_edge_cost"}};
   for (const auto& [kind, m] : cost.kind_multiplier) {
-    if (!(m > 0.0)) return fail("route cost: multiplier of kind '" + kind + "' must be > 0 (or +inf to forbid it), got " +
-                                map_detail::format_double(m));
+    if (!(m > 0.0)) return Error{"route cost: multiplier of kind '" + kind + "' must be > 0 (or +inf to forbid it), got " +
+                                map_detail::format_double(m), ErrorCode::out_of_range, {{}, 0, kind}};
   }
   VISNAV_ASSIGN(const NodeRecord* start, map.resolve_node(from));
   VISNAV_ASSIGN(const NodeRecord* goal, map.resolve_node(to));
@@ -73,7 +73,7 @@ Result<Route> plan_route(const MapStore& map, std::string_view from, std::string
     }
   }
   if (std::isinf(dist[g])) {
-    return fail(map.dir() + ": no route from '" + start->id + "' to '" + goal->id + "'" +
+    return fail(ErrorCode::not_found, map.dir() + ": no route from '" + start->id + "' to '" + goal->id + "'" +
                 (cost.kind_multiplier.empty() ? "" : " with the given kind costs"));
   }
   Route route;

@@ -6,8 +6,13 @@
 
 #include "test_support.hpp"
 #include "visnav/detectors/detector_types.hpp"
+#include "error_expect.hpp"
 
 namespace visnav::detectors {
+using visnav::ErrorCode;
+using visnav::test::At;
+using visnav::test::fails_with;
+
 namespace {
 
 using testing::median;
@@ -25,13 +30,12 @@ TEST_P(EveryType, RejectsBadImagesAndSurvivesBlankAndTinyOnes) {
   ASSERT_TRUE(det);
   Features f;
   auto st = det->detect(cv::Mat(), f);
-  ASSERT_FALSE(st.ok());
-  EXPECT_NE(st.error().message.find("empty image"), std::string::npos) << st.error().message;
+  EXPECT_TRUE(fails_with(st, ErrorCode::invalid_value));
   st = det->detect(cv::Mat(48, 64, CV_16UC1, cv::Scalar(3)), f);
-  ASSERT_FALSE(st.ok());
-  EXPECT_NE(st.error().message.find("CV_16UC1"), std::string::npos) << st.error().message;
-  EXPECT_FALSE(det->detect(cv::Mat(48, 64, CV_32FC3), f).ok());
-  EXPECT_FALSE(det->detect(cv::Mat(48, 64, CV_8UC2, cv::Scalar(1, 2)), f).ok());
+  EXPECT_TRUE(fails_with(st, ErrorCode::invalid_value));
+  EXPECT_NE(st.error().message.find("CV_16UC1"), std::string::npos) << st.error().message;  // names the type
+  EXPECT_TRUE(fails_with(det->detect(cv::Mat(48, 64, CV_32FC3), f), ErrorCode::invalid_value));
+  EXPECT_TRUE(fails_with(det->detect(cv::Mat(48, 64, CV_8UC2, cv::Scalar(1, 2)), f), ErrorCode::invalid_value));
 
   for (const cv::Mat& blank : {cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)), cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 90, 90))}) {
     ASSERT_TRUE(det->detect(blank, f).ok());
@@ -178,8 +182,8 @@ TEST(DetectorTypes, AllNineTypesExist) {
                                              "gftt_brief", "sift",  "akaze", "brisk"};
   EXPECT_EQ(detector_type_names(), expected);
   auto unknown = create_detector("surf");
-  ASSERT_FALSE(unknown.ok());
-  EXPECT_NE(unknown.error().message.find("star_brief"), std::string::npos);
+  EXPECT_TRUE(fails_with(unknown, ErrorCode::not_found));
+  EXPECT_NE(unknown.error().message.find("star_brief"), std::string::npos) << unknown.error().message;  // lists the known
 }
 
 TEST(DetectorTypes, ParamErrorsNameTheKeyAndLocation) {
@@ -193,8 +197,7 @@ TEST(DetectorTypes, ParamErrorsNameTheKeyAndLocation) {
   EXPECT_EQ(made.error().where.key, "target_keypoints") << made.error().message;
 
   auto brisk = create_detector("brisk", make_params({{"upright", "true"}}));
-  ASSERT_FALSE(brisk.ok());
-  EXPECT_NE(brisk.error().message.find("upright"), std::string::npos);
+  EXPECT_TRUE(fails_with(brisk, ErrorCode::inconsistent, visnav::test::key_only("upright")));
   EXPECT_FALSE(create_detector("star_brief", make_params({{"threshold", "1"}, {"min_threshold", "2"}})).ok());
   EXPECT_FALSE(create_detector("star_brief", make_params({{"suppress_nonmax_size_px", "4"}})).ok());
   EXPECT_FALSE(create_detector("agast_brief", make_params({{"agast_type", "OAST_5_5"}})).ok());

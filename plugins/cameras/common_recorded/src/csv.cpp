@@ -67,32 +67,33 @@ Result<CsvTable> parse_csv(std::string_view text, const std::string& file_label)
       continue;
     }
     if (fields.size() != table.header.size())
-      return fail(file_label + ":" + std::to_string(line_no) + ": expected " + std::to_string(table.header.size()) +
-                  " fields (as the header on line " + std::to_string(table.header_line) + "), got " +
-                  std::to_string(fields.size()));
+      return fail(ErrorCode::parse_error, {file_label, line_no},
+                  "expected " + std::to_string(table.header.size()) + " fields (as the header on line " +
+                      std::to_string(table.header_line) + "), got " + std::to_string(fields.size()));
     table.rows.push_back(CsvRow{line_no, std::move(fields)});
   }
-  if (table.header.empty()) return fail(file_label + ": no header line (empty file)");
+  if (table.header.empty()) return fail(ErrorCode::parse_error, {file_label}, "no header line (empty file)");
   return table;
 }
 
 Result<CsvTable> read_csv(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(path + ": cannot open (missing or unreadable)");
+  if (!in) return fail(ErrorCode::not_found, {path}, "cannot open (missing or unreadable)");
   std::ostringstream ss;
   ss << in.rdbuf();
-  if (in.bad()) return fail(path + ": read error");
+  if (in.bad()) return fail(ErrorCode::io, {path}, "read error");
   return parse_csv(ss.str(), path);
 }
 
-Result<double> csv_number(const std::string& text, const std::string& where, std::string_view column) {
+Result<double> csv_number(const std::string& text, const ErrorLocation& where, std::string_view column) {
   double v = 0.0;
   const char* b = text.data();
   const char* e = b + text.size();
   if (b != e && *b == '+') ++b;
   auto [p, ec] = std::from_chars(b, e, v);
   if (ec != std::errc{} || p != e || b == e || !std::isfinite(v))
-    return fail(where + ": column '" + std::string(column) + "': '" + text + "' is not a number");
+    return fail(ErrorCode::invalid_value, {where.file, where.line, std::string(column)},
+                "column '" + std::string(column) + "': '" + text + "' is not a number");
   return v;
 }
 

@@ -29,7 +29,7 @@ Result<std::optional<Frame>> ImageListCamera::grab(double timeout_s) {
   }
   if (next_ >= times_.size()) {
     if (!loop_ || times_.empty())
-      return fail(list_.file + ": end of the image sequence after " + std::to_string(delivered_) + " frames");
+      return fail(ErrorCode::missing, {list_.file}, "end of the image sequence after " + std::to_string(delivered_) + " frames");
     // Start again; later laps continue the time line (period = span + mean spacing).
     const double span = times_.back() - times_.front();
     const double step = times_.size() > 1 ? span / static_cast<double>(times_.size() - 1) : 0.1;
@@ -48,16 +48,18 @@ Result<std::optional<Frame>> ImageListCamera::grab(double timeout_s) {
   }
   if (!index) return std::optional<Frame>{};
   const FrameEntry& entry = list_.frames[*index];
-  const std::string where = entry.line > 0 ? list_.file + ":" + std::to_string(entry.line) + ": " : std::string();
+  const ErrorLocation where = entry.line > 0 ? ErrorLocation{list_.file, entry.line, "file"} : ErrorLocation{entry.path};
   cv::Mat raw;
   try {
     raw = cv::imread(entry.path, cv::IMREAD_ANYCOLOR);
   } catch (const cv::Exception& e) {
-    return fail(where + "image '" + entry.path + "' cannot be read: " + e.what());
+    return fail(ErrorCode::io, where, "image '" + entry.path + "' cannot be read: " + e.what());
   }
-  if (raw.empty()) return fail(where + "image '" + entry.path + "' cannot be read (missing, truncated or not an image)");
+  if (raw.empty())
+    return fail(ErrorCode::io, where, "image '" + entry.path + "' cannot be read (missing, truncated or not an image)");
   Frame frame;
-  if (auto st = pipeline_.apply(raw, frame.image); !st) return fail(where + "image '" + entry.path + "': " + st.error().message);
+  if (auto st = pipeline_.apply(raw, frame.image); !st)
+    return fail(st.error().code, where, "image '" + entry.path + "': " + st.error().message);
   frame.timestamp_s = pacer_.stamp(times_, *index, clock_->now_s());
   frame.sequence = entry.sequence;
   next_ = *index + 1;

@@ -32,7 +32,7 @@ struct RawSample {
   bool has_heading = false;
   bool has_distance = false;
   bool has_twist = false;
-  std::string where;
+  ErrorLocation where;  // the sample's file and line
 };
 
 const std::initializer_list<std::string_view> kT = {"t_s", "t", "time", "timestamp"};
@@ -47,17 +47,19 @@ const std::initializer_list<std::string_view> kW = {"angular_radps", "omega", "w
 Result<std::vector<Odometry>> finish(std::vector<RawSample>& raw, const std::string& file) {
   std::vector<Odometry> out;
   out.reserve(raw.size());
-  if (raw.empty()) return fail(file + ": no odometry samples");
+  if (raw.empty()) return fail(ErrorCode::missing, {file}, "no odometry samples");
   for (std::size_t i = 1; i < raw.size(); ++i) {
     if (!(raw[i].odo.timestamp_s > raw[i - 1].odo.timestamp_s))
-      return fail(raw[i].where + ": timestamp " + fmt(raw[i].odo.timestamp_s) + " is not after the previous one (" +
-                  fmt(raw[i - 1].odo.timestamp_s) + " at " + raw[i - 1].where + "): odometry must be in time order");
+      return fail(ErrorCode::inconsistent, raw[i].where,
+                  "timestamp " + fmt(raw[i].odo.timestamp_s) + " is not after the previous one (" +
+                      fmt(raw[i - 1].odo.timestamp_s) + " at " + raw[i - 1].where.str() +
+                      "): odometry must be in time order");
   }
   double path_m = 0.0;
   for (std::size_t i = 0; i < raw.size(); ++i) {
     RawSample& s = raw[i];
     if (!s.has_pose && !s.has_distance)
-      return fail(s.where + ": needs x_m and y_m, or distance_m");
+      return fail(ErrorCode::missing, s.where, "needs x_m and y_m, or distance_m");
     if (i > 0 && s.has_pose) path_m += std::hypot(s.odo.pose.x_m - raw[i - 1].odo.pose.x_m, s.odo.pose.y_m - raw[i - 1].odo.pose.y_m);
     if (!s.has_distance) s.odo.distance_m = path_m;
     if (!s.has_pose) {
@@ -78,7 +80,7 @@ Result<std::vector<Odometry>> finish(std::vector<RawSample>& raw, const std::str
 Result<std::vector<RawSample>> parse_csv_log(const std::string& path) {
   VISNAV_ASSIGN(CsvTable table, read_csv(path));
   const auto ct = table.column(kT);
-  if (!ct) return fail(path + ":" + std::to_string(table.header_line) + ": no time column (t_s, t, time or timestamp)");
+  if (!ct) return fail(ErrorCode::missing, {path, table.header_line}, "no time column (t_s, t, time or timestamp)");
   const auto cx = table.column(kX);
   const auto cy = table.column(kY);
   const auto ch = table.column(kHeading);
@@ -86,7 +88,7 @@ Result<std::vector<RawSample>> parse_csv_log(const std::string& path) {
   const auto cv = table.column(kV);
   const auto cw = table.column(kW);
   if ((cx.has_value() != cy.has_value()) || (!cx && !cd))
-    return fail(path + ":" + std::to_string(table.header_line) + ": needs columns x_m and y_m, or distance_m");
+    return fail(ErrorCode::missing, {path, table.header_line}, "needs columns x_m and y_m, or distance_m");
   std::vector<RawSample> raw;
   raw.reserve(table.rows.size());
   for (const CsvRow& row : table.rows) {
@@ -122,22 +124,25 @@ Result<std::vector<RawSample>> parse_yaml_log(const std::string& path) {
   const ConfigNode* seq = &root;
   if (root.is_map()) {
     seq = root.find("odometry");
-    if (seq == nullptr) return fail(root.where().str() + ": expected a sequence of samples or a key 'odometry'");
+    if (seq == nullptr)
+      return fail(ErrorCode::missing, {root.where().file, root.where().line, "odometry"},
+                  "expected a sequence of samples or a key 'odometry'");
   }
-  if (!seq->is_sequence()) return fail(seq->where().str() + ": expected a sequence of odometry samples");
+  if (!seq->is_sequence())
+    return fail(ErrorCode::invalid_value, {seq->where().file, seq->where().line}, "expected a sequence of odometry samples");
   std::vector<RawSample> raw;
   for (const ConfigNode& item : seq->items()) {
     RawSample s;
-    s.where = item.where().str();
-    if (!item.is_map()) return fail(s.where + ": expected a map {t_s: ..., x_m: ..., ...}");
+    s.where = {item.where().file, item.where().line};
+    if (!item.is_map()) return fail(ErrorCode::invalid_value, s.where, "expected a map {t_s: ..., x_m: ..., ...}");
     bool has_t = false;
     bool has_x = false;
     bool has_y = false;
     bool has_v = false;
     bool has_w = false;
     for (const auto& [key, value] : item.entries()) {
-      const std::string where = value.where().str();
-      if (!value.is_scalar()) return fail(where + ": key '" + key + "': expected a number");
+      const ErrorLocation where{value.where().file, value.where().line, key};
+      if (!value.is_scalar()) return fail(ErrorCode::invalid_value, where, "key '" + key + "': expected a number");
       VISNAV_ASSIGN(double v, csv_number(value.scalar(), where, key));
       const std::string_view key_view = key;  // (clang 14 cannot capture a structured binding)
       auto is = [&](std::initializer_list<std::string_view> names) {
@@ -150,10 +155,10 @@ Result<std::vector<RawSample>> parse_yaml_log(const std::string& path) {
       else if (is(kDistance)) { s.odo.distance_m = v; s.has_distance = true; }
       else if (is(kV)) { s.odo.twist.linear_mps = v; has_v = true; }
       else if (is(kW)) { s.odo.twist.angular_radps = v; has_w = true; }
-      else return fail(where + ": unknown key '" + key + "' (known: t_s, x_m, y_m, heading_rad, distance_m, linear_mps, angular_radps)");
+      else return fail(ErrorCode::unknown_key, where, "unknown key '" + key + "' (known: t_s, x_m, y_m, heading_rad, distance_m, linear_mps, angular_radps)");
     }
-    if (!has_t) return fail(s.where + ": key 't_s' is missing");
-    if (has_x != has_y) return fail(s.where + ": give both x_m and y_m");
+    if (!has_t) return fail(ErrorCode::missing, {s.where.file, s.where.line, "t_s"}, "key 't_s' is missing");
+    if (has_x != has_y) return fail(ErrorCode::missing, s.where, "give both x_m and y_m");
     s.has_pose = has_x;
     s.has_twist = has_v && has_w;
     raw.push_back(std::move(s));
@@ -187,7 +192,7 @@ Result<OdometryLog> OdometryLog::load(const std::string& path) {
 Result<OdometryLog> OdometryLog::from_samples(std::vector<Odometry> samples, std::string label) {
   for (std::size_t i = 1; i < samples.size(); ++i)
     if (!(samples[i].timestamp_s > samples[i - 1].timestamp_s))
-      return fail(label + ": sample " + std::to_string(i) + " is not after the previous one");
+      return fail(ErrorCode::inconsistent, {label}, "sample " + std::to_string(i) + " is not after the previous one");
   OdometryLog log;
   log.file_ = std::move(label);
   log.samples_ = std::move(samples);
@@ -217,23 +222,23 @@ std::optional<Odometry> OdometryLog::sample_at(double t_s, OdometrySync sync) co
 
 Status OdometryLog::check_coverage(const std::vector<TimedLine>& times, const std::string& times_file, double max_gap_s,
                                    OdometrySync sync) const {
-  if (samples_.empty()) return fail(file_ + ": no odometry samples");
+  if (samples_.empty()) return fail(ErrorCode::missing, {file_}, "no odometry samples");
   const double first = samples_.front().timestamp_s;
   const double last = samples_.back().timestamp_s;
   const std::string covers = " (" + file_ + " covers t = " + fmt(first) + " .. " + fmt(last) + " s)";
   for (const TimedLine& tl : times) {
-    const std::string where = times_file + (tl.line > 0 ? std::string(":") + std::to_string(tl.line) : std::string());
+    const ErrorLocation where{times_file, tl.line};
     auto before = std::upper_bound(samples_.begin(), samples_.end(), tl.t_s + 1e-9,
                                    [](double t, const Odometry& o) { return t < o.timestamp_s; });
     if (before == samples_.begin())
-      return fail(where + ": frame at t = " + fmt(tl.t_s) + " s is before the first odometry sample" + covers);
+      return fail(ErrorCode::inconsistent, where, "frame at t = " + fmt(tl.t_s) + " s is before the first odometry sample" + covers);
     const double gap_before = tl.t_s - (before - 1)->timestamp_s;
     if (gap_before > max_gap_s)
-      return fail(where + ": frame at t = " + fmt(tl.t_s) + " s is " + fmt(gap_before) +
+      return fail(ErrorCode::inconsistent, where, "frame at t = " + fmt(tl.t_s) + " s is " + fmt(gap_before) +
                   " s after the nearest earlier odometry sample (max_frame_gap_s = " + fmt(max_gap_s) + ")" + covers);
     if (sync == OdometrySync::interpolate && before != samples_.end() && before->timestamp_s - tl.t_s > max_gap_s &&
         gap_before > 1e-9)
-      return fail(where + ": frame at t = " + fmt(tl.t_s) + " s has no odometry sample within max_frame_gap_s = " +
+      return fail(ErrorCode::inconsistent, where, "frame at t = " + fmt(tl.t_s) + " s has no odometry sample within max_frame_gap_s = " +
                   fmt(max_gap_s) + " s after it to interpolate with" + covers);
   }
   return ok();

@@ -64,8 +64,8 @@ bool natural_less(const std::string& a, const std::string& b) {
 Status check_order(const FrameList& list) {
   for (std::size_t i = 1; i < list.frames.size(); ++i)
     if (list.frames[i].t_s < list.frames[i - 1].t_s)
-      return fail(list.file + (list.frames[i].line > 0 ? std::string(":") + std::to_string(list.frames[i].line) : std::string()) +
-                  ": time " + fmt(list.frames[i].t_s) + " s is earlier than the previous frame's " +
+      return fail(ErrorCode::inconsistent, {list.file, list.frames[i].line},
+                  "time " + fmt(list.frames[i].t_s) + " s is earlier than the previous frame's " +
                   fmt(list.frames[i - 1].t_s) + " s: frame times must not decrease");
   return ok();
 }
@@ -81,22 +81,24 @@ std::vector<TimedLine> FrameList::times() const {
 
 Status check_run_folder(const std::string& dir) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return fail(dir + ": not a recorded-run folder (no such directory)");
+  if (!fs::is_directory(dir, ec)) return fail(ErrorCode::not_found, {dir}, "not a recorded-run folder (no such directory)");
   const fs::path info = fs::path(dir) / kRunInfoFile;
   if (fs::exists(info, ec)) {
     VISNAV_ASSIGN(ConfigNode root, parse_yaml_file(info.string()));
     const ConfigNode* format = root.is_map() ? root.find("format") : nullptr;
     if (format == nullptr || !format->is_scalar() || format->scalar() != kRunFormatName)
-      return fail(info.string() + ": not a visnav recorded run (expected 'format: " + kRunFormatName + "')");
+      return fail(ErrorCode::invalid_value, {info.string(), format != nullptr ? format->where().line : 0, "format"},
+                  "not a visnav recorded run (expected 'format: " + std::string(kRunFormatName) + "')");
     const ConfigNode* version = root.find("version");
     if (version == nullptr || !version->is_scalar() || version->scalar() != std::to_string(kRunFormatVersion))
-      return fail(version != nullptr ? version->where().str() + ": unsupported recorded-run version '" +
-                                           (version->is_scalar() ? version->scalar() : std::string("?")) + "' (this build reads " +
-                                           std::to_string(kRunFormatVersion) + ")"
-                                     : info.string() + ": key 'version' is missing");
+      return version != nullptr
+                 ? fail(ErrorCode::out_of_range, {info.string(), version->where().line, "version"},
+                        "unsupported recorded-run version '" + (version->is_scalar() ? version->scalar() : std::string("?")) +
+                            "' (this build reads " + std::to_string(kRunFormatVersion) + ")")
+                 : fail(ErrorCode::missing, {info.string(), 0, "version"}, "key 'version' is missing");
   }
   if (!fs::exists(fs::path(dir) / kFramesFile, ec))
-    return fail(dir + ": not a recorded-run folder (" + kFramesFile + " is missing)");
+    return fail(ErrorCode::not_found, {dir}, "not a recorded-run folder (" + std::string(kFramesFile) + " is missing)");
   return ok();
 }
 
@@ -107,7 +109,7 @@ Result<FrameList> read_run_frames(const std::string& run_dir) {
   const auto ct = table.column({"t_s", "t", "timestamp"});
   const auto cf = table.column({"file"});
   const auto cs = table.column({"sequence"});
-  if (!ct || !cf) return fail(path + ":" + std::to_string(table.header_line) + ": needs columns t_s and file");
+  if (!ct || !cf) return fail(ErrorCode::missing, {path, table.header_line}, "needs columns t_s and file");
   FrameList list;
   list.file = path;
   for (const CsvRow& row : table.rows) {
@@ -122,26 +124,26 @@ Result<FrameList> read_run_frames(const std::string& run_dir) {
     }
     e.path = (fs::path(run_dir) / row.fields[*cf]).string();
     std::error_code ec;
-    if (!fs::exists(e.path, ec)) return fail(table.where(row) + ": image '" + e.path + "' does not exist");
+    if (!fs::exists(e.path, ec)) return fail(ErrorCode::not_found, table.where(row, "file"), "image '" + e.path + "' does not exist");
     list.frames.push_back(std::move(e));
   }
-  if (list.frames.empty()) return fail(path + ": the run has no frames");
+  if (list.frames.empty()) return fail(ErrorCode::missing, {path}, "the run has no frames");
   VISNAV_TRY(check_order(list));
   return list;
 }
 
 Result<FrameList> list_image_folder(const std::string& folder, const std::string& timestamps_file, double default_rate_hz) {
   std::error_code ec;
-  if (!fs::is_directory(folder, ec)) return fail(folder + ": no such image folder");
+  if (!fs::is_directory(folder, ec)) return fail(ErrorCode::not_found, {folder}, "no such image folder");
   std::vector<std::string> names;
   for (const auto& entry : fs::directory_iterator(folder, ec)) {
     if (!entry.is_regular_file(ec)) continue;
     const std::string name = entry.path().filename().string();
     if (is_image_name(name)) names.push_back(name);
   }
-  if (ec) return fail(folder + ": cannot list the folder: " + ec.message());
+  if (ec) return fail(ErrorCode::io, {folder}, "cannot list the folder: " + ec.message());
   if (names.empty())
-    return fail(folder + ": the folder holds no images (png, jpg, jpeg, bmp, tif, tiff, pgm, ppm, webp)");
+    return fail(ErrorCode::missing, {folder}, "the folder holds no images (png, jpg, jpeg, bmp, tif, tiff, pgm, ppm, webp)");
   std::sort(names.begin(), names.end(), natural_less);
 
   FrameList list;
@@ -168,7 +170,7 @@ Result<FrameList> list_image_folder(const std::string& folder, const std::string
     VISNAV_ASSIGN(CsvTable table, read_csv(ts));
     const auto ct = table.column({"t_s", "t", "timestamp", "time"});
     const auto cf = table.column({"file", "name", "image"});
-    if (!ct) return fail(ts + ":" + std::to_string(table.header_line) + ": needs a column t_s (and optionally file)");
+    if (!ct) return fail(ErrorCode::missing, {ts, table.header_line}, "needs a column t_s (and optionally file)");
     if (cf) {
       std::map<std::string, std::size_t> index;
       for (std::size_t i = 0; i < names.size(); ++i) index[names[i]] = i;
@@ -176,19 +178,19 @@ Result<FrameList> list_image_folder(const std::string& folder, const std::string
       for (const CsvRow& row : table.rows) {
         auto it = index.find(row.fields[*cf]);
         if (it == index.end())
-          return fail(table.where(row) + ": image '" + row.fields[*cf] + "' is not in " + folder);
+          return fail(ErrorCode::not_found, table.where(row, "file"), "image '" + row.fields[*cf] + "' is not in " + folder);
         VISNAV_ASSIGN(list.frames[it->second].t_s, csv_number(row.fields[*ct], table.where(row), "t_s"));
         list.frames[it->second].line = row.line;
         seen[it->second] = true;
       }
       for (std::size_t i = 0; i < names.size(); ++i)
-        if (!seen[i]) return fail(ts + ": no time for image '" + names[i] + "'");
+        if (!seen[i]) return fail(ErrorCode::missing, {ts}, "no time for image '" + names[i] + "'");
       VISNAV_TRY(check_order(list));
       return list;
     }
     if (table.rows.size() != names.size())
-      return fail(ts + ": " + std::to_string(table.rows.size()) + " times for " + std::to_string(names.size()) +
-                  " images in " + folder);
+      return fail(ErrorCode::inconsistent, {ts},
+                  std::to_string(table.rows.size()) + " times for " + std::to_string(names.size()) + " images in " + folder);
     for (std::size_t i = 0; i < names.size(); ++i) {
       VISNAV_ASSIGN(list.frames[i].t_s, csv_number(table.rows[i].fields[*ct], table.where(table.rows[i]), "t_s"));
       list.frames[i].line = table.rows[i].line;
@@ -198,7 +200,7 @@ Result<FrameList> list_image_folder(const std::string& folder, const std::string
   }
   // Text: one time per line, or "name time".
   std::ifstream in(ts);
-  if (!in) return fail(ts + ": cannot open (missing or unreadable)");
+  if (!in) return fail(ErrorCode::not_found, {ts}, "cannot open (missing or unreadable)");
   std::string line;
   int line_no = 0;
   std::size_t k = 0;
@@ -208,13 +210,15 @@ Result<FrameList> list_image_folder(const std::string& folder, const std::string
     std::vector<std::string> parts;
     for (std::string p; fields >> p;) parts.push_back(p);
     if (parts.empty() || parts[0][0] == '#') continue;
-    if (k >= names.size()) return fail(ts + ":" + std::to_string(line_no) + ": more times than the " + std::to_string(names.size()) + " images in " + folder);
-    VISNAV_ASSIGN(list.frames[k].t_s, csv_number(parts.back(), ts + ":" + std::to_string(line_no), "time"));
+    if (k >= names.size())
+      return fail(ErrorCode::inconsistent, {ts, line_no},
+                  "more times than the " + std::to_string(names.size()) + " images in " + folder);
+    VISNAV_ASSIGN(list.frames[k].t_s, csv_number(parts.back(), {ts, line_no}, "time"));
     list.frames[k].line = line_no;
     ++k;
   }
   if (k != names.size())
-    return fail(ts + ": " + std::to_string(k) + " times for " + std::to_string(names.size()) + " images in " + folder);
+    return fail(ErrorCode::inconsistent, {ts}, std::to_string(k) + " times for " + std::to_string(names.size()) + " images in " + folder);
   VISNAV_TRY(check_order(list));
   return list;
 }
@@ -229,7 +233,7 @@ Result<std::vector<std::pair<double, Pose2D>>> read_ground_truth(const std::stri
   const auto cx = table.column({"x_m"});
   const auto cy = table.column({"y_m"});
   const auto ch = table.column({"heading_rad"});
-  if (!ct || !cx || !cy || !ch) return fail(path + ": needs columns t_s, x_m, y_m, heading_rad");
+  if (!ct || !cx || !cy || !ch) return fail(ErrorCode::missing, {path, table.header_line}, "needs columns t_s, x_m, y_m, heading_rad");
   for (const CsvRow& row : table.rows) {
     Pose2D p;
     VISNAV_ASSIGN(double t, csv_number(row.fields[*ct], table.where(row), "t_s"));

@@ -43,12 +43,12 @@ Status DetectorBase::detect(const cv::Mat& image, Features& out) {
   out.norm = norm();
   if (image.empty()) {
     out.descriptors.release();
-    return fail(std::string("detector '") + type_name() + "': empty image");
+    return fail(ErrorCode::invalid_value, std::string("detector '") + type_name() + "': empty image");
   }
   if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3 && image.channels() != 4) ||
       image.dims != 2) {
     out.descriptors.release();
-    return fail(std::string("detector '") + type_name() +
+    return fail(ErrorCode::invalid_value, std::string("detector '") + type_name() +
                 "': expected an 8-bit grey (CV_8UC1) or BGR (CV_8UC3) image, got " + describe_mat(image));
   }
   const cv::Mat* grey = &image;

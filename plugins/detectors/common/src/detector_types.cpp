@@ -187,7 +187,7 @@ Status GriefDetector::setup(const GriefParams& p) {
   if (!p.pairs.empty() && p.pairs != "brief") {
     VISNAV_ASSIGN(PairsFile file, read_pairs_file(p.pairs));
     if (file.patch_size_px != p.patch_size_px)
-      return fail(p.pairs + ": the pairs were made for patch_size_px " + std::to_string(file.patch_size_px) +
+      return fail(ErrorCode::inconsistent, p.pairs + ": the pairs were made for patch_size_px " + std::to_string(file.patch_size_px) +
                   " but the detector has patch_size_px " + std::to_string(p.patch_size_px) + " (set it to match)");
     pattern = std::move(file.pairs);
   }
@@ -267,7 +267,7 @@ Status FastBriefDetector::run(const cv::Mat& grey, double threshold, Features& o
 
 Status GfttBriefParams::validate() const {
   VISNAV_TRY(validate_common());
-  if (block_size_px % 2 == 0) return fail("block_size_px must be odd");
+  if (block_size_px % 2 == 0) return Error{"block_size_px must be odd", ErrorCode::invalid_value, {{}, 0, "block_size_px"}};
   return brief_params(*this).validate();
 }
 
@@ -317,7 +317,7 @@ Status GfttBriefDetector::run(const cv::Mat& grey, double threshold, Features& o
 Status OrbParams::validate() const {
   VISNAV_TRY(validate_common());
   if (edge_threshold_px < patch_size_px / 2 + 1)
-    return fail("edge_threshold_px (" + std::to_string(edge_threshold_px) + ") must be > patch_size_px / 2");
+    return Error{"edge_threshold_px (" + std::to_string(edge_threshold_px) + ") must be > patch_size_px / 2", ErrorCode::inconsistent, {{}, 0, "edge_threshold_px"}};
   return ok();
 }
 
@@ -418,7 +418,7 @@ Status SiftDetector::run(const cv::Mat& grey, double threshold, Features& out, i
 Status AkazeParams::validate() const {
   VISNAV_TRY(validate_common());
   if (descriptor_size_bits != 0 && (descriptor_size_bits < 8 || descriptor_size_bits > 486))
-    return fail("descriptor_size_bits must be 0 (full, 486) or in [8, 486]");
+    return Error{"descriptor_size_bits must be 0 (full, 486) or in [8, 486]", ErrorCode::out_of_range, {{}, 0, "descriptor_size_bits"}};
   return ok();
 }
 
@@ -455,7 +455,7 @@ Status AkazeDetector::run(const cv::Mat& grey, double threshold, Features& out, 
 Status BriskParams::validate() const {
   VISNAV_TRY(validate_common());
   if (upright)
-    return fail("upright: OpenCV's BRISK always estimates the keypoint orientation; set upright: false");
+    return Error{"upright: OpenCV's BRISK always estimates the keypoint orientation; set upright: false", ErrorCode::inconsistent, {{}, 0, "upright"}};
   return ok();
 }
 

@@ -62,7 +62,7 @@ const std::vector<std::string>& detector_type_names() {
 
 Result<std::unique_ptr<DetectorBase>> create_detector(std::string_view type, const ConfigNode& params) {
   const Entry* e = find(type);
-  if (e == nullptr) return fail("unknown detector type '" + std::string(type) + "' (known: " + known_types() + ")");
+  if (e == nullptr) return fail(ErrorCode::not_found, "unknown detector type '" + std::string(type) + "' (known: " + known_types() + ")");
   try {
     return e->create(params);
   } catch (const std::exception& ex) {
@@ -72,7 +72,7 @@ Result<std::unique_ptr<DetectorBase>> create_detector(std::string_view type, con
 
 Result<std::vector<ParamDoc>> detector_param_docs(std::string_view type) {
   const Entry* e = find(type);
-  if (e == nullptr) return fail("unknown detector type '" + std::string(type) + "' (known: " + known_types() + ")");
+  if (e == nullptr) return fail(ErrorCode::not_found, "unknown detector type '" + std::string(type) + "' (known: " + known_types() + ")");
   return e->docs();
 }
 

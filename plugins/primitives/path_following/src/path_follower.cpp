@@ -541,12 +541,12 @@ Result<PathEstimate> PathFollower::process(const cv::Mat& bgr) {
 }
 
 Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
-  if (bgr.empty()) return fail("path follower: empty image");
+  if (bgr.empty()) return fail(ErrorCode::invalid_value, "path follower: empty image");
   if (bgr.type() != CV_8UC3)
-    return fail("path follower: expected an 8-bit 3-channel BGR image (CV_8UC3), got a " + describe_type(bgr) +
+    return fail(ErrorCode::invalid_value, "path follower: expected an 8-bit 3-channel BGR image (CV_8UC3), got a " + describe_type(bgr) +
                 " image");
   if (bgr.cols < kMinImageWidthPx || bgr.rows < kMinImageHeightPx)
-    return fail("path follower: image " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
+    return fail(ErrorCode::out_of_range, "path follower: image " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
                 " is smaller than the minimum " + std::to_string(kMinImageWidthPx) + "x" +
                 std::to_string(kMinImageHeightPx));
   ensure_buffers(bgr.size());

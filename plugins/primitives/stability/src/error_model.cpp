@@ -38,9 +38,9 @@ ConvergenceModels ConvergenceModels::defaults() {
 
 Status ConvergenceModels::validate() const {
   for (const auto& [kind, k] : k_per_m) {
-    if (!map_format::valid_kind(kind)) return fail("convergence model: '" + kind + "' is not a valid primitive kind");
+    if (!map_format::valid_kind(kind)) return Error{"convergence model: '" + kind + "' is not a valid primitive kind", ErrorCode::invalid_value, {{}, 0, kind}};
     if (!std::isfinite(k) || k < 0.0)
-      return fail("convergence model: k of '" + kind + "' must be finite and >= 0 1/m, got " + std::to_string(k));
+      return Error{"convergence model: k of '" + kind + "' must be finite and >= 0 1/m, got " + std::to_string(k), ErrorCode::out_of_range, {{}, 0, kind}};
   }
   return ok();
 }
@@ -56,11 +56,11 @@ const char* to_string(Verdict v) {
 
 Status StabilityParams::validate() const {
   if (!(marginal_radius > 0.0 && marginal_radius < 1.0))
-    return fail("marginal_radius must be in (0, 1), got " + std::to_string(marginal_radius));
+    return Error{"marginal_radius must be in (0, 1), got " + std::to_string(marginal_radius), ErrorCode::out_of_range, {{}, 0, "marginal_radius"}};
   if (!(unit_tolerance > 0.0 && unit_tolerance < 0.01))
-    return fail("unit_tolerance must be in (0, 0.01), got " + std::to_string(unit_tolerance));
+    return Error{"unit_tolerance must be in (0, 0.01), got " + std::to_string(unit_tolerance), ErrorCode::out_of_range, {{}, 0, "unit_tolerance"}};
   if (!(min_turn_rad >= 0.0 && min_turn_rad < 1.0))
-    return fail("min_turn_rad must be in [0, 1), got " + std::to_string(min_turn_rad));
+    return Error{"min_turn_rad must be in [0, 1), got " + std::to_string(min_turn_rad), ErrorCode::out_of_range, {{}, 0, "min_turn_rad"}};
   return ok();
 }
 
@@ -80,7 +80,7 @@ Result<StabilityReport> analyse_loop(const std::vector<ModelEdge>& edges, const 
   VISNAV_TRY(models.validate());
   VISNAV_TRY(params.validate());
   if (edges.size() < 2) {
-    return fail(edges.empty() ? std::string("the route has no edge: nothing to analyse")
+    return fail(ErrorCode::inconsistent, edges.empty() ? std::string("the route has no edge: nothing to analyse")
                               : "the route has one edge ('" + edges[0].id +
                                     "'): a closed route needs at least two edges with a turn between them "
                                     "(seed 000 Sec. 5.3)");
@@ -90,13 +90,13 @@ Result<StabilityReport> analyse_loop(const std::vector<ModelEdge>& edges, const 
   for (std::size_t i = 0; i < edges.size(); ++i) {
     const ModelEdge& e = edges[i];
     if (!std::isfinite(e.length_m) || e.length_m <= 0.0)
-      return fail("edge '" + e.id + "': length_m must be finite and > 0, got " + std::to_string(e.length_m));
+      return Error{"edge '" + e.id + "': length_m must be finite and > 0, got " + std::to_string(e.length_m), ErrorCode::out_of_range, {{}, 0, e.id}};
     if (!std::isfinite(e.direction_rad))
-      return fail("edge '" + e.id + "': direction is not finite");
+      return Error{"edge '" + e.id + "': direction is not finite", ErrorCode::invalid_value, {{}, 0, e.id}};
     auto it = models.k_per_m.find(e.kind);
     if (it == models.k_per_m.end())
-      return fail("edge '" + e.id + "': primitive '" + e.kind + "' has no convergence model; give its k with --k " +
-                  e.kind + "=<1/m>");
+      return Error{"edge '" + e.id + "': primitive '" + e.kind + "' has no convergence model; give its k with --k " +
+                  e.kind + "=<1/m>", ErrorCode::not_found, {{}, 0, e.id}};
     k[i] = it->second;
     EdgeContribution c;
     c.edge = e;
@@ -164,18 +164,18 @@ Result<std::vector<ModelEdge>> closed_route(const MapStore& map, const std::vect
   } else {
     for (const auto& id : edge_ids) {
       const EdgeRecord* e = map.find_edge(id);
-      if (e == nullptr) return fail(map.graph_path() + ": no edge '" + id + "'");
+      if (e == nullptr) return Error{map.graph_path() + ": no edge '" + id + "'", ErrorCode::not_found, {map.graph_path(), 0, id}};
       route.push_back(e);
     }
   }
-  if (route.empty()) return fail(map.graph_path() + ": the map has no edge");
+  if (route.empty()) return fail(ErrorCode::missing, {map.graph_path()}, "the map has no edge");
   for (std::size_t i = 0; i + 1 < route.size(); ++i) {
     if (route[i]->to != route[i + 1]->from)
-      return fail(map.graph_path() + ": edge '" + route[i]->id + "' ends at node '" + route[i]->to + "' but the next edge '" +
-                  route[i + 1]->id + "' starts at '" + route[i + 1]->from + "': not a chain (give the loop with --edges)");
+      return Error{map.graph_path() + ": edge '" + route[i]->id + "' ends at node '" + route[i]->to + "' but the next edge '" +
+                  route[i + 1]->id + "' starts at '" + route[i + 1]->from + "': not a chain (give the loop with --edges)", ErrorCode::inconsistent, {map.graph_path(), 0, route[i]->id}};
   }
   if (route.back()->to != route.front()->from)
-    return fail(map.graph_path() + ": the route is not closed: it ends at node '" + route.back()->to +
+    return fail(ErrorCode::inconsistent, {map.graph_path()}, "the route is not closed: it ends at node '" + route.back()->to +
                 "' but starts at '" + route.front()->from + "'");
   std::vector<ModelEdge> out;
   for (const EdgeRecord* e : route) {

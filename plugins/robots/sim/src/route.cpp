@@ -40,7 +40,8 @@ double Route::waypoint_length_m() const {
 
 Result<Route> parse_route(std::string_view yaml_text, const std::string& file_label) {
   VISNAV_ASSIGN(ConfigNode doc, parse_yaml_text(yaml_text, file_label));
-  if (!doc.is_map() || doc.find("route") == nullptr) return fail(doc.where().str() + ": a route file has one top-level key 'route'");
+  if (!doc.is_map() || doc.find("route") == nullptr)
+    return node_error(doc, "a route file has one top-level key 'route'", ErrorCode::missing, "route");
   VISNAV_TRY(check_keys(doc, {"route"}, "the route file"));
   const ConfigNode& root = *doc.find("route");
   VISNAV_TRY(check_keys(root, {"name", "world", "start", "closed", "pursuit", "waypoints", "commands"}, "'route'"));
@@ -90,11 +91,12 @@ Result<Route> parse_route(std::string_view yaml_text, const std::string& file_la
       } else {
         VISNAV_TRY(check_keys(w, {"at", "kind"}, what));
         const ConfigNode* at = w.find("at");
-        if (at == nullptr) return node_error(w, what + ": missing key 'at'");
+        if (at == nullptr) return node_error(w, what + ": missing key 'at'", ErrorCode::missing, "at");
         VISNAV_ASSIGN(rw.position_m, as_point(*at, "at"));
         VISNAV_ASSIGN(kind, get_string(w, "kind", kind));
         if (kind != "feature" && kind != "path" && kind != "memory")
-          return node_error(*w.find("kind"), what + ": kind '" + kind + "' is not one of: feature, path, memory");
+          return node_error(*w.find("kind"), what + ": kind '" + kind + "' is not one of: feature, path, memory",
+                            ErrorCode::out_of_range, "kind");
       }
       rw.kind = kind;
       if (!route.waypoints.empty() && cv::norm(rw.position_m - route.waypoints.back().position_m) < 1e-6)
@@ -107,7 +109,7 @@ Result<Route> parse_route(std::string_view yaml_text, const std::string& file_la
 
 Result<Route> load_route(const std::string& path) {
   std::ifstream in(path);
-  if (!in) return fail(path + ": cannot open route file");
+  if (!in) return fail(ErrorCode::not_found, {path}, "cannot open route file");
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_route(ss.str(), path);

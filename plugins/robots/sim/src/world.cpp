@@ -2,7 +2,6 @@
 // world/route path resolution and the world cache.
 #include "visnav_sim/world.hpp"
 
-#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -25,49 +24,6 @@ namespace {
 
 constexpr const char* kLabelNames[kLabelClassCount] = {"sky",  "path",  "grass", "floor", "pavement",
                                                         "ground", "wall", "fence", "tree",  "obstacle"};
-
-// Alias bombs (issue 17): yaml-cpp keeps aliases unexpanded, so the walk counts the values it
-// produces and refuses a document that expands beyond what any world or route file needs.
-constexpr std::size_t kMaxYamlValues = 50000;  // the campus world has a few thousand
-constexpr std::size_t kMaxYamlDepth = 64;
-
-Result<ConfigNode> convert(const YAML::Node& node, const std::string& file, std::size_t& values_left,
-                           std::size_t depth = 0) {
-  SourceLocation where{file, node.Mark().line + 1};
-  if (values_left == 0 || depth > kMaxYamlDepth)
-    return fail(where.str() + ": document expands to more than " + std::to_string(kMaxYamlValues) + " values or " +
-                std::to_string(kMaxYamlDepth) + " levels (nested aliases?); refused");
-  --values_left;
-  switch (node.Type()) {
-    case YAML::NodeType::Null:
-    case YAML::NodeType::Undefined: {
-      ConfigNode n;
-      n.set_where(where);
-      return n;
-    }
-    case YAML::NodeType::Scalar: return ConfigNode::make_scalar(node.Scalar(), where);
-    case YAML::NodeType::Sequence: {
-      ConfigNode n = ConfigNode::make_sequence(where);
-      for (const auto& item : node) {
-        VISNAV_ASSIGN(ConfigNode child, convert(item, file, values_left, depth + 1));
-        n.push_back(std::move(child));
-      }
-      return n;
-    }
-    case YAML::NodeType::Map: {
-      ConfigNode n = ConfigNode::make_map(where);
-      for (const auto& kv : node) {
-        const std::string key = kv.first.Scalar();
-        if (n.find(key) != nullptr)
-          return fail(file + ":" + std::to_string(kv.first.Mark().line + 1) + ": duplicate key '" + key + "'");
-        VISNAV_ASSIGN(ConfigNode child, convert(kv.second, file, values_left, depth + 1));
-        n.set(key, std::move(child));
-      }
-      return n;
-    }
-  }
-  return fail(where.str() + ": unsupported YAML node");
-}
 
 double cross(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c) {
   return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
@@ -381,7 +337,7 @@ Result<std::string> resolve_data_path(const std::string& name_or_path, const std
     std::error_code ec;
     return fs::is_regular_file(p, ec);
   };
-  if (name_or_path.empty()) return fail("no " + folder.substr(0, folder.size() - 1) + " file given");
+  if (name_or_path.empty()) return fail(ErrorCode::missing, "no " + folder.substr(0, folder.size() - 1) + " file given");
   if (try_path(name_or_path)) return name_or_path;
   if (!relative_to.empty() && fs::path(name_or_path).is_relative()) {
     std::error_code ec;
@@ -396,7 +352,7 @@ Result<std::string> resolve_data_path(const std::string& name_or_path, const std
   }
   std::string list;
   for (const auto& t : tried) list += (list.empty() ? "" : ", ") + t;
-  return fail(folder.substr(0, folder.size() - 1) + " '" + name_or_path + "' not found (tried: " + list + ")");
+  return fail(ErrorCode::not_found, folder.substr(0, folder.size() - 1) + " '" + name_or_path + "' not found (tried: " + list + ")");
 }
 
 }  // namespace
@@ -465,23 +421,13 @@ cv::Rect2d World::bounds() const {
   return b;
 }
 
+// World and route files are YAML read by the SDK's parser: the same syntax errors, duplicate-key
+// check and alias-bomb limits (issue 17) as run configs.
 Result<ConfigNode> parse_yaml_text(std::string_view text, const std::string& file_label) {
-  try {
-    YAML::Node root = YAML::Load(std::string(text));
-    std::size_t values_left = kMaxYamlValues;
-    return convert(root, file_label, values_left);
-  } catch (const YAML::Exception& e) {
-    return fail(file_label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
-  }
+  return visnav::parse_yaml_string(text, file_label);
 }
 
-Result<ConfigNode> parse_yaml_path(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return fail(path + ": cannot open file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_yaml_text(ss.str(), path);
-}
+Result<ConfigNode> parse_yaml_path(const std::string& path) { return visnav::parse_yaml_file(path); }
 
 std::string skimage_data_dir() {
   if (const char* env = std::getenv("VISNAV_SKIMAGE_DIR"); env != nullptr && *env != '\0') return env;
@@ -492,7 +438,7 @@ Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text, con
                                                  const std::string& base_dir) {
   VISNAV_ASSIGN(ConfigNode doc, parse_yaml_text(yaml_text, file_label));
   if (!doc.is_map() || doc.find("world") == nullptr)
-    return fail(doc.where().str() + ": a world file has one top-level key 'world'");
+    return node_error(doc, "a world file has one top-level key 'world'", ErrorCode::missing, "world");
   VISNAV_TRY(check_keys(doc, {"world"}, "the world file"));
   const ConfigNode& root = *doc.find("world");
   VISNAV_TRY(check_keys(root,
@@ -538,7 +484,7 @@ Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text, con
 
 Result<std::shared_ptr<const World>> load_world(const std::string& path) {
   std::ifstream in(path);
-  if (!in) return fail(path + ": cannot open world file");
+  if (!in) return fail(ErrorCode::not_found, {path}, "cannot open world file");
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_world(ss.str(), path, fs::path(path).parent_path().string());

@@ -14,8 +14,10 @@
 
 namespace visnav::sim::detail {
 
-inline Error node_error(const ConfigNode& node, const std::string& message) {
-  return fail(node.where().str() + ": " + message);
+/// "<file>:<line>: <message>" with the code and the location (file, line and `key` when given).
+inline Error node_error(const ConfigNode& node, const std::string& message, ErrorCode code = ErrorCode::invalid_value,
+                        std::string key = {}) {
+  return Error{node.where().str() + ": " + message, code, {node.where().file, node.where().line, std::move(key)}};
 }
 
 /// Fails on the first key of `map` not in `known`.
@@ -27,7 +29,7 @@ inline Status check_keys(const ConfigNode& map, std::initializer_list<std::strin
     if (!found) {
       std::string list;
       for (auto k : known) list += (list.empty() ? "" : ", ") + std::string(k);
-      return node_error(value, "unknown key '" + key + "' in " + what + " (known keys: " + list + ")");
+      return node_error(value, "unknown key '" + key + "' in " + what + " (known keys: " + list + ")", ErrorCode::unknown_key, key);
     }
   }
   return ok();
@@ -41,9 +43,10 @@ inline std::string show(const ConfigNode& node) {
 }
 
 inline Result<double> as_double(const ConfigNode& node, const std::string& key) {
-  if (!node.is_scalar()) return node_error(node, "key '" + key + "': expected a number, got " + show(node));
+  if (!node.is_scalar())
+    return node_error(node, "key '" + key + "': expected a number, got " + show(node), ErrorCode::invalid_value, key);
   auto v = visnav::detail::parse_double(node.scalar());
-  if (!v) return node_error(node, "key '" + key + "': value '" + node.scalar() + "' is not a number");
+  if (!v) return node_error(node, "key '" + key + "': value '" + node.scalar() + "' is not a number", ErrorCode::invalid_value, key);
   return *v;
 }
 
@@ -55,29 +58,30 @@ inline Result<double> get_double(const ConfigNode& map, const std::string& key, 
   if (!v) return v;
   if (*v < min_value || *v > max_value)
     return node_error(*n, "key '" + key + "': value " + n->scalar() + " is out of range [" +
-                              std::to_string(min_value) + ", " + std::to_string(max_value) + "]");
+                              std::to_string(min_value) + ", " + std::to_string(max_value) + "]",
+                      ErrorCode::out_of_range, key);
   return v;
 }
 
 inline Result<double> require_double(const ConfigNode& map, const std::string& key, const std::string& what,
                                      double min_value = -1e300, double max_value = 1e300) {
-  if (map.find(key) == nullptr) return node_error(map, what + ": missing key '" + key + "'");
+  if (map.find(key) == nullptr) return node_error(map, what + ": missing key '" + key + "'", ErrorCode::missing, key);
   return get_double(map, key, 0.0, min_value, max_value);
 }
 
 inline Result<std::string> get_string(const ConfigNode& map, const std::string& key, const std::string& fallback) {
   const ConfigNode* n = map.find(key);
   if (n == nullptr) return fallback;
-  if (!n->is_scalar()) return node_error(*n, "key '" + key + "': expected a string, got " + show(*n));
+  if (!n->is_scalar()) return node_error(*n, "key '" + key + "': expected a string, got " + show(*n), ErrorCode::invalid_value, key);
   return n->scalar();
 }
 
 inline Result<bool> get_bool(const ConfigNode& map, const std::string& key, bool fallback) {
   const ConfigNode* n = map.find(key);
   if (n == nullptr) return fallback;
-  if (!n->is_scalar()) return node_error(*n, "key '" + key + "': expected true/false, got " + show(*n));
+  if (!n->is_scalar()) return node_error(*n, "key '" + key + "': expected true/false, got " + show(*n), ErrorCode::invalid_value, key);
   auto v = visnav::detail::parse_bool(n->scalar());
-  if (!v) return node_error(*n, "key '" + key + "': value '" + n->scalar() + "' is not a boolean");
+  if (!v) return node_error(*n, "key '" + key + "': value '" + n->scalar() + "' is not a boolean", ErrorCode::invalid_value, key);
   return *v;
 }
 

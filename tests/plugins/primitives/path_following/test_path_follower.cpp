@@ -9,11 +9,16 @@
 #include "synthetic.hpp"
 #include "visnav/path_following/path_follower.hpp"
 #include "visnav/path_following/stages.hpp"
+#include "error_expect.hpp"
 
 namespace pf = visnav::path_following;
 using pf::testing::make_scene;
 using pf::testing::mask_iou;
 using pf::testing::SceneSpec;
+
+using visnav::ErrorCode;
+using visnav::test::At;
+using visnav::test::fails_with;
 
 namespace {
 
@@ -208,19 +213,17 @@ TEST(PathFollower, ReferenceWithoutADominantAppearanceGivesNoReference) {
 TEST(PathFollower, BadInputsAreErrorsNotCrashes) {
   auto follower = make_follower();
   auto empty = follower.process(cv::Mat());
-  ASSERT_FALSE(empty.ok());
-  EXPECT_NE(empty.error().message.find("empty"), std::string::npos);
+  EXPECT_TRUE(fails_with(empty, ErrorCode::invalid_value));
 
   auto tiny = follower.process(cv::Mat(10, 10, CV_8UC3, cv::Scalar(100, 100, 100)));
-  ASSERT_FALSE(tiny.ok());
-  EXPECT_NE(tiny.error().message.find("10x10"), std::string::npos);
+  EXPECT_TRUE(fails_with(tiny, ErrorCode::out_of_range));
+  EXPECT_NE(tiny.error().message.find("10x10"), std::string::npos) << tiny.error().message;  // tells the size
 
   auto gray = follower.process(cv::Mat(240, 320, CV_8UC1, cv::Scalar(100)));
-  ASSERT_FALSE(gray.ok());
-  EXPECT_NE(gray.error().message.find("1-channel"), std::string::npos);
+  EXPECT_TRUE(fails_with(gray, ErrorCode::invalid_value));
 
   auto floats = follower.process(cv::Mat(240, 320, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5)));
-  EXPECT_FALSE(floats.ok());
+  EXPECT_TRUE(fails_with(floats, ErrorCode::invalid_value));
 
   // Smallest accepted image works.
   const cv::Mat smallest(pf::kMinImageHeightPx, pf::kMinImageWidthPx, CV_8UC3, cv::Scalar(90, 120, 90));
@@ -253,14 +256,12 @@ TEST(PathFollower, ParamsAreValidated) {
 
   node.set("horizon_mode", visnav::ConfigNode::make_scalar("sideways", {"cfg.yaml", 5}));
   auto bad_mode = pf::PathFollowerParams::schema().parse(node);
-  ASSERT_FALSE(bad_mode.ok());
-  EXPECT_NE(bad_mode.error().message.find("cfg.yaml:5"), std::string::npos);
+  EXPECT_TRUE(fails_with(bad_mode, ErrorCode::out_of_range, At{"cfg.yaml", 5, "horizon_mode"}));
 
   visnav::ConfigNode unknown = visnav::ConfigNode::make_map({"cfg.yaml", 3});
   unknown.set("segk", visnav::ConfigNode::make_scalar("5", {"cfg.yaml", 7}));
   auto bad_key = pf::PathFollowerParams::schema().parse(unknown);
-  ASSERT_FALSE(bad_key.ok());
-  EXPECT_NE(bad_key.error().message.find("segk"), std::string::npos);
+  EXPECT_TRUE(fails_with(bad_key, ErrorCode::unknown_key, At{"cfg.yaml", 7, "segk"}));
 }
 
 TEST(ControlLaw, SignNormalisationAndClamps) {

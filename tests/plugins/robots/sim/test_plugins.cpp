@@ -10,6 +10,11 @@
 #include "visnav/host.hpp"
 #include "visnav/loader.hpp"
 #include "visnav/plugin.hpp"
+#include "error_expect.hpp"
+
+using visnav::ErrorCode;
+using visnav::test::At;
+using visnav::test::fails_with;
 
 namespace {
 
@@ -92,11 +97,9 @@ TEST(SimPlugins, BadParamsAreRejectedWithLocation) {
   visnav::PluginLoader loader({VISNAV_TEST_PLUGIN_DIR});
   TestHost host;
   auto robot = loader.create<visnav::Robot>("sim", params({{"max_linear_mps", "fast"}}), host, "simulator");
-  ASSERT_FALSE(robot.ok());
-  EXPECT_NE(robot.error().message.find("test.yaml:2"), std::string::npos) << robot.error().message;
+  EXPECT_TRUE(fails_with(robot, ErrorCode::invalid_value, At{"test.yaml", 2, "max_linear_mps"}));
   auto robot2 = loader.create<visnav::Robot>("sim", params({{"kinematics", "hovercraft"}}), host, "simulator");
-  ASSERT_FALSE(robot2.ok());
-  EXPECT_NE(robot2.error().message.find("hovercraft"), std::string::npos) << robot2.error().message;
+  EXPECT_TRUE(fails_with(robot2, ErrorCode::out_of_range, At{"test.yaml", 2, "kinematics"}));
 }
 
 TEST(SimPlugins, CliDispatchesTheSimCommand) {

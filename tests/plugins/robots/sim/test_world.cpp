@@ -104,5 +104,6 @@ TEST(SimWorld, BadValuesRejected) {
 TEST(SimWorld, ResolveWorldPathListsTriedPaths) {
   auto p = vs::resolve_world_path("no_such_world");
   ASSERT_FALSE(p.ok());
-  EXPECT_NE(p.error().message.find("no_such_world.yaml"), std::string::npos) << p.error().message;
+  EXPECT_EQ(p.error().code, visnav::ErrorCode::not_found) << p.error().message;
+  EXPECT_NE(p.error().message.find("no_such_world.yaml"), std::string::npos) << p.error().message;  // the tried paths
 }

@@ -147,8 +147,8 @@ struct World {
 /// $VISNAV_SKIMAGE_DIR if set, else /usr/lib/python3/dist-packages/skimage/data.
 [[nodiscard]] std::string skimage_data_dir();
 
-/// Parses YAML text into a ConfigNode with file:line locations (used for world and route
-/// files; independent of the runtime's config loader).
+/// Parses YAML text into a ConfigNode with file:line locations (world and route files): the SDK's
+/// parse_yaml_string / parse_yaml_file, with their limits.
 [[nodiscard]] Result<ConfigNode> parse_yaml_text(std::string_view text, const std::string& file_label);
 [[nodiscard]] Result<ConfigNode> parse_yaml_path(const std::string& path);
 

@@ -31,17 +31,19 @@ struct CsvTable {
 
   /// Index of the first column named any of `names`, or nullopt.
   [[nodiscard]] std::optional<std::size_t> column(std::initializer_list<std::string_view> names) const;
-  /// "file:line".
-  [[nodiscard]] std::string where(const CsvRow& row) const { return file + ":" + std::to_string(row.line); }
+  /// The row's file and line (and `column` as the key), for errors about it.
+  [[nodiscard]] ErrorLocation where(const CsvRow& row, std::string column = {}) const {
+    return {file, row.line, std::move(column)};
+  }
 };
 
-/// Reads a CSV file. Errors: missing/unreadable file (naming the path), no header, a row with a
-/// different number of fields than the header (file:line).
+/// Reads a CSV file. Errors: not_found (missing/unreadable file, naming the path), io, parse_error
+/// (no header; a row with a different number of fields than the header, at its file:line).
 [[nodiscard]] Result<CsvTable> read_csv(const std::string& path);
 /// Parses CSV text (`file_label` is used in error messages).
 [[nodiscard]] Result<CsvTable> parse_csv(std::string_view text, const std::string& file_label);
 
-/// Parses a finite double; the error names `where` and the column.
-[[nodiscard]] Result<double> csv_number(const std::string& text, const std::string& where, std::string_view column);
+/// Parses a finite double; the error (invalid_value) is at `where` with the column as its key.
+[[nodiscard]] Result<double> csv_number(const std::string& text, const ErrorLocation& where, std::string_view column);
 
 }  // namespace visnav::recorded

@@ -98,6 +98,26 @@ Result<RouteCost> parse_kind_costs(const std::vector<std::string>& entries) {
   return cost;
 }
 
+Result<Route> plan_from_edge(const MapStore& map, std::string_view edge_id, std::string_view goal, const RouteCost& cost) {
+  const EdgeRecord* edge = map.find_edge(edge_id);
+  if (edge == nullptr)
+    return fail(ErrorCode::not_found, "no edge '" + std::string(edge_id) + "' in map " + map.dir());
+  VISNAV_ASSIGN(const NodeRecord* goal_node, map.resolve_node(goal));
+  Route route;
+  route.from = edge->from;
+  route.to = goal_node->id;
+  route.edge_ids.push_back(edge->id);
+  route.length_m = edge->length_m;
+  auto it = cost.kind_multiplier.find(edge->kind);
+  route.cost = edge->length_m * (it != cost.kind_multiplier.end() ? it->second : cost.default_multiplier) + cost.per_edge_cost;
+  if (edge->to == goal_node->id) return route;
+  VISNAV_ASSIGN(Route rest, plan_route(map, edge->to, goal_node->id, cost));
+  route.edge_ids.insert(route.edge_ids.end(), rest.edge_ids.begin(), rest.edge_ids.end());
+  route.length_m += rest.length_m;
+  route.cost += rest.cost;
+  return route;
+}
+
 Result<Route> plan_cycle(const MapStore& map, std::string_view node, const RouteCost& cost) {
   VISNAV_ASSIGN(const NodeRecord* start, map.resolve_node(node));
   // The cheapest cycle through `start` is an outgoing edge start→x followed by the cheapest

@@ -85,6 +85,7 @@ class FollowRoute final : public bt::ControlNode {
   bool turn_at_nodes_ = true;
   bool carry_overshoot_ = true;
   double max_carry_m_ = 0.5;
+  double start_distance_m_ = 0.0;  ///< of the route's first edge, already behind the robot at the start
   bool first_turn_absolute_ = false;
   std::optional<double> edge_origin_m_;  ///< odometric distance at which the current edge counts as started
   std::optional<double> ended_at_m_;     ///< odometric distance of the last finished edge's end node

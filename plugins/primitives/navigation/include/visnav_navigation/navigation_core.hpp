@@ -72,6 +72,12 @@ using KindMap = std::vector<std::pair<std::string, std::string>>;
 /// Parses entries "kind=multiplier" into a RouteCost (multiplier > 0; "inf" forbids a kind).
 [[nodiscard]] Result<RouteCost> parse_kind_costs(const std::vector<std::string>& entries);
 
+/// Route from the middle of edge `edge_id` to node `goal`: that edge, then the cheapest route from
+/// its end node to `goal` (nothing more when it ends there). Used after relocalisation, when the
+/// robot stands part-way along an edge. Errors: unknown edge or goal, no route from its end node.
+[[nodiscard]] Result<Route> plan_from_edge(const MapStore& map, std::string_view edge_id, std::string_view goal,
+                                           const RouteCost& cost = {});
+
 /// Cheapest route from `node` back to itself through at least one edge (a closed patrol
 /// route). Error when the node lies on no cycle.
 [[nodiscard]] Result<Route> plan_cycle(const MapStore& map, std::string_view node, const RouteCost& cost = {});

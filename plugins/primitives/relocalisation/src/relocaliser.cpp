@@ -249,7 +249,7 @@ RelocAnswer Relocaliser::decide() const {
   answer.confidence = std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);
   answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +
                   std::to_string(usable) + " frames agree" +
-                  (runner_up != nullptr ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"
+                  (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"
                                         : std::string());
   return answer;
 }

@@ -127,6 +127,7 @@ RelocAnswer Relocaliser::decide() const {
     double distance_m;
     double heading_rad;
     double confidence;
+    double score;
     int frame;
   };
   std::vector<Moved> votes;
@@ -137,7 +138,8 @@ RelocAnswer Relocaliser::decide() const {
     const double turned_rad = wrap(newest->odom_heading_rad - f.odom_heading_rad);
     for (const auto& v : f.votes)
       if (v.edge < edges_.size() && v.confidence >= params_.min_confidence)
-        votes.push_back({v.edge, v.distance_m + moved_m, wrap(v.heading_offset_rad + turned_rad), v.confidence, frame_index});
+        votes.push_back({v.edge, v.distance_m + moved_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
+                         v.score > 0.0 ? v.score : v.confidence, frame_index});
     ++frame_index;
   }
   const int usable = frame_index;
@@ -146,7 +148,7 @@ RelocAnswer Relocaliser::decide() const {
     answer.reason = "not on the map: no place of the map was verified in " + std::to_string(usable) + " frames";
     return answer;
   }
-  std::stable_sort(votes.begin(), votes.end(), [](const Moved& x, const Moved& y) { return x.confidence > y.confidence; });
+  std::stable_sort(votes.begin(), votes.end(), [](const Moved& x, const Moved& y) { return x.score > y.score; });
 
   struct Hypothesis {
     std::uint32_t edge;
@@ -154,7 +156,8 @@ RelocAnswer Relocaliser::decide() const {
     double weight = 0.0;   // sum of vote confidences
     double offset_sum = 0.0;
     double sin_sum = 0.0, cos_sum = 0.0;
-    std::vector<double> best;  // per usable frame
+    std::vector<double> best;        // per usable frame: best vote score
+    std::vector<double> confidence;  // per usable frame: best vote confidence
     double score = 0.0;
     int support = 0;
   };
@@ -170,19 +173,23 @@ RelocAnswer Relocaliser::decide() const {
       }
     }
     if (into == nullptr) {
-      hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(static_cast<std::size_t>(usable), 0.0)});
+      hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(static_cast<std::size_t>(usable), 0.0),
+                                std::vector<double>(static_cast<std::size_t>(usable), 0.0)});
       into = &hyps.back();
       into_delta = 0.0;
     }
     // Position relative to the hypothesis' edge (a vote across a node is counted past its end).
     const double on_edge_m = into->centre_m + into_delta;
-    into->offset_sum += v.confidence * on_edge_m;
-    into->weight += v.confidence;
+    // Weighted by the vote scores: the strongest places pull the centre.
+    into->offset_sum += v.score * on_edge_m;
+    into->weight += v.score;
     into->centre_m = into->offset_sum / into->weight;
-    into->sin_sum += v.confidence * std::sin(v.heading_rad);
-    into->cos_sum += v.confidence * std::cos(v.heading_rad);
+    into->sin_sum += v.score * std::sin(v.heading_rad);
+    into->cos_sum += v.score * std::cos(v.heading_rad);
     auto& b = into->best[static_cast<std::size_t>(v.frame)];
-    b = std::max(b, v.confidence);
+    b = std::max(b, v.score);
+    auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
+    c = std::max(c, v.confidence);
   }
   for (auto& h : hyps) {
     double sum = 0.0;
@@ -243,7 +250,7 @@ RelocAnswer Relocaliser::decide() const {
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
   const double mean_confidence = best.weight > 0.0 ? [&] {
     double s = 0.0;
-    for (double b : best.best) s += b;
+    for (double c : best.confidence) s += c;
     return s / std::max(1, best.support);
   }() : 0.0;
   answer.confidence = std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);

@@ -60,7 +60,7 @@ Result<std::vector<PlaceVote>> PlaceVerifier::votes(const Features& current, dou
                   estimator_.estimate(feature_replay::ReferenceView{f->descriptors, f->positions_px}, current,
                                       image_width_px));
     if (!e.valid || e.confidence < min_confidence) continue;
-    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad});
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence});
   }
   return out;
 }

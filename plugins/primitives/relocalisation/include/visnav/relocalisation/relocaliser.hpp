@@ -10,7 +10,7 @@
 //
 // Votes are grouped into hypotheses: votes on one edge within place_tolerance_m, and places at
 // the two sides of a node (end of one edge, start of the next) within place_tolerance_m of it
-// are one physical place. A hypothesis' score sums, per frame, the best confidence it got; an
+// are one physical place. A hypothesis' score sums, per frame, the best vote score it got; an
 // optional odometry prior (an edge and distance where the robot is believed to be) weighs every
 // hypothesis by exp(-0.5 (route distance / prior_sigma_m)^2), route distance counted along the
 // edge or over one node into the next or previous edge (farther: weight 0).
@@ -72,6 +72,10 @@ struct PlaceVote {
   double distance_m = 0.0;            ///< along the edge
   double confidence = 0.0;            ///< histogram confidence [0, 1]
   double heading_offset_rad = 0.0;    ///< robot heading minus taught heading
+  /// Weight of the vote in a hypothesis' score; <= 0 means `confidence`. The verifier gives
+  /// inliers x confidence: the confidence saturates at a few dozen inliers, so places a few metres
+  /// apart that see the same far walls would tie on it, while their inlier counts still differ.
+  double score = 0.0;
 };
 
 /// What one frame contributed.

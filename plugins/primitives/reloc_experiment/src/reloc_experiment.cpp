@@ -29,7 +29,7 @@ namespace {
 
 const char* const kUsage =
     "usage: visnav reloc-experiment [--trials N] [--replays R] [--appearance A] [--route R] [--config C]\n"
-    "                               [--lateral-m L] [--heading-deg H] [--seed S] [--out DIR]\n"
+    "                               [--lateral-m L] [--heading-deg H] [--look-around-deg D] [--seed S] [--out DIR]\n"
     "\n"
     "Relocalisation from random start poses (issue 21). Teaches ROUTE in the simulator with every leg\n"
     "as a feature_segment edge (the place index covers feature edges), then for each trial starts a\n"
@@ -48,6 +48,7 @@ const char* const kUsage =
     "  --config C       run config (default config/sim_reloc_campus.yaml)\n"
     "  --lateral-m L    lateral offset bound (default 0.5)\n"
     "  --heading-deg H  heading offset bound (default 30)\n"
+    "  --look-around-deg D  Relocalise's look_around_deg (default 0: stand still)\n"
     "  --seed S         random seed of the start poses and error models (default 1)\n"
     "  --out DIR        output folder: map/, trials.csv, run.log (default /tmp/visnav_reloc_experiment)\n"
     "\n"
@@ -62,6 +63,7 @@ struct Options {
   double lateral_m = 0.5;
   double heading_deg = 30.0;
   int seed = 1;
+  double look_around_deg = 0.0;
   std::string out = "/tmp/visnav_reloc_experiment";
 };
 
@@ -144,6 +146,8 @@ Result<Options> parse(int argc, char** argv) {
       VISNAV_ASSIGN(o.lateral_m, in.number(0, 10));
     } else if (a == "--heading-deg") {
       VISNAV_ASSIGN(o.heading_deg, in.number(0, 180));
+    } else if (a == "--look-around-deg") {
+      VISNAV_ASSIGN(o.look_around_deg, in.number(0, 180));
     } else if (a == "--seed") {
       VISNAV_ASSIGN(const double v, in.number(0, 1e9));
       o.seed = static_cast<int>(v);
@@ -288,7 +292,7 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     const fs::path reloc_xml = dir / "relocalise.xml";
     if (!replay)
       std::ofstream(reloc_xml) << "<root BTCPP_format=\"4\" main_tree_to_execute=\"R\"><BehaviorTree ID=\"R\">\n"
-                                  "  <Relocalise edge=\"{reloc_edge}\" distance_m=\"{reloc_distance_m}\" "
+                                  "  <Relocalise look_around_deg=\"" << o.look_around_deg << "\" edge=\"{reloc_edge}\" distance_m=\"{reloc_distance_m}\" "
                                   "status=\"{reloc_status}\" reason=\"{reloc_reason}\"/>\n</BehaviorTree></root>\n";
     auto tree = (*session)->load_tree(replay ? project_file(tree_file) : reloc_xml.string());
     if (!tree) return setup_error(tree.error().message);

@@ -55,6 +55,7 @@ struct RelocaliseNodeParams {
                       {"place_tolerance_m", "place_tolerance_m"},
                       {"max_runner_up_ratio", "max_runner_up_ratio"},
                       {"min_agreement", "min_agreement"},
+                      {"min_answer_confidence", "min_answer_confidence"},
                       {"min_features", "min_features"},
                       {"min_image_stddev", "min_image_stddev"},
                       {"prior_sigma_m", "prior_sigma_m"}})

@@ -54,6 +54,9 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .range(0.0, 1.0)
           .field("min_agreement", &P::min_agreement, "fraction of usable frames that must support the answer")
           .range(0.0, 1.0)
+          .field("min_answer_confidence", &P::min_answer_confidence,
+                 "a localised answer below this confidence waits for more frames, then is ambiguous")
+          .range(0.0, 1.0)
           .field("min_features", &P::min_features, "a frame with fewer features is blank (covered, dark)")
           .range(0, 100000)
           .field("min_image_stddev", &P::min_image_stddev,
@@ -243,17 +246,26 @@ RelocAnswer Relocaliser::decide() const {
                     std::to_string(best.support) + " of " + std::to_string(usable) + " frames";
     return answer;
   }
+  const double mean_confidence = [&] {
+    double s = 0.0;
+    for (double c : best.confidence) s += c;
+    return s / std::max(1, best.support);
+  }();
+  const double confidence =
+      std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);
+  if (confidence < params_.min_answer_confidence) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: the best place, " + place_name(best) + ", is too weak (confidence " + fmt(confidence) +
+                    " < " + fmt(params_.min_answer_confidence) + ")";
+    return answer;
+  }
   answer.status = RelocStatus::localised;
   answer.edge = best.edge;
   const RouteEdge& e = edges_[best.edge];
   answer.distance_m = std::clamp(best.centre_m, 0.0, e.length_m);
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
-  const double mean_confidence = best.weight > 0.0 ? [&] {
-    double s = 0.0;
-    for (double c : best.confidence) s += c;
-    return s / std::max(1, best.support);
-  }() : 0.0;
-  answer.confidence = std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);
+  answer.confidence = confidence;
   answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +
                   std::to_string(usable) + " frames agree" +
                   (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"

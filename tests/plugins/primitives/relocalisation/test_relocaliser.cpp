@@ -135,4 +135,15 @@ TEST(Relocaliser, BlankFramesAreACameraProblemAndNoVotesAreNotOnTheMap) {
     sporadic.add(frame(i % 4 == 0 ? std::vector<PlaceVote>{{1, 6.0, 0.4, 0.0}} : std::vector<PlaceVote>{}));
   const RelocAnswer s = sporadic.decide();
   EXPECT_EQ(s.status, RelocStatus::not_on_map) << s.reason;
+
+  // Agreeing but weak frames (confidence 0.35 each < min_answer_confidence 0.45): they wait for
+  // more frames, then the answer is ambiguous, not a guess.
+  Relocaliser weak(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) {
+    weak.add(frame({{1, 6.0, 0.35, 0.0}}));
+    if (i + 1 < p.max_frames) {
+      EXPECT_EQ(weak.decide().status, RelocStatus::pending);
+    }
+  }
+  EXPECT_EQ(weak.decide().status, RelocStatus::ambiguous) << weak.decide().reason;
 }

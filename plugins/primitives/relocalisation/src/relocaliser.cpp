@@ -161,6 +161,7 @@ RelocAnswer Relocaliser::decide() const {
     double sin_sum = 0.0, cos_sum = 0.0;
     std::vector<double> best;        // per usable frame: best vote score
     std::vector<double> confidence;  // per usable frame: best vote confidence
+    std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
     double score = 0.0;
     int support = 0;
   };
@@ -176,8 +177,9 @@ RelocAnswer Relocaliser::decide() const {
       }
     }
     if (into == nullptr) {
-      hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(static_cast<std::size_t>(usable), 0.0),
-                                std::vector<double>(static_cast<std::size_t>(usable), 0.0)});
+      const auto n = static_cast<std::size_t>(usable);
+      hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(n, 0.0),
+                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
       into = &hyps.back();
       into_delta = 0.0;
     }
@@ -190,6 +192,7 @@ RelocAnswer Relocaliser::decide() const {
     into->sin_sum += v.score * std::sin(v.heading_rad);
     into->cos_sum += v.score * std::cos(v.heading_rad);
     auto& b = into->best[static_cast<std::size_t>(v.frame)];
+    if (v.score > b) into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
     b = std::max(b, v.score);
     auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
     c = std::max(c, v.confidence);
@@ -263,7 +266,13 @@ RelocAnswer Relocaliser::decide() const {
   answer.status = RelocStatus::localised;
   answer.edge = best.edge;
   const RouteEdge& e = edges_[best.edge];
-  answer.distance_m = std::clamp(best.centre_m, 0.0, e.length_m);
+  // Along the edge: the median of the frames' best votes (the centre of all votes within the
+  // tolerance leans towards the side with more, weaker neighbours).
+  std::vector<double> peaks;
+  for (std::size_t i = 0; i < best.best.size(); ++i)
+    if (best.best[i] > 0.0) peaks.push_back(best.peak_m[i]);
+  std::nth_element(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(peaks.size() / 2), peaks.end());
+  answer.distance_m = std::clamp(peaks.empty() ? best.centre_m : peaks[peaks.size() / 2], 0.0, e.length_m);
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
   answer.confidence = confidence;
   answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -142,6 +143,63 @@ TEST(RelocClosedLoopSim, ReplaysTheRestOfTheRouteFromTheMiddleOfAnEdge) {
               bb_string(*tree, "reloc_edge").c_str(), *d, 1.5 * 1.03, end.x_m, end.y_m, error_m, report.run_time_s,
               report.wall_time_s);
   EXPECT_LT(error_m, 0.8) << "the rest of the route is driven to the start node";
+  EXPECT_FALSE(fs::exists(map_dir + "/progress.yaml")) << "a finished route leaves no checkpoint to resume";
+}
+
+TEST(RelocClosedLoopSim, ResumesAStoppedMissionFromItsCheckpointAfterRelocalising) {
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  teach(map_dir, "curve20m", "curve20m_polygon");
+  if (HasFatalFailure()) return;
+  Pose2D stopped_at;
+  {
+    // 1 m into the first leg; the mission is stopped after 15 s (a pause turned into a restart,
+    // or a crash: the checkpoint is all that survives).
+    auto session = make_session(map_dir, {"robot.params.start_pose=-2;-2.1;5"});
+    ASSERT_NE(session, nullptr);
+    auto tree = session->load_tree(kSource + "/trees/replay_from_here.xml");
+    ASSERT_TRUE(tree.ok()) << tree.error().message;
+    tree->blackboard().set("goal", std::string("start"));
+    RunOptions run;
+    run.after_tick = [](const TickInfo& t) { return t.t_s < 15.0; };
+    const RunReport report = run_tree(*session, *tree, run);
+    EXPECT_NE(report.outcome, RunOutcome::success) << "stopped before the goal";
+    stopped_at = session->robot().simulation()->ground_truth_pose();
+  }
+  ASSERT_TRUE(fs::exists(map_dir + "/progress.yaml"));
+  auto values = progress_checkpoint_values(map_dir);
+  ASSERT_TRUE(values.ok()) << values.error().message;
+  std::string edge_entry;
+  for (const auto& v : *values)
+    if (v.rfind("resume_edge=", 0) == 0) edge_entry = v;
+  EXPECT_FALSE(edge_entry.empty());
+  EXPECT_NE(std::find(values->begin(), values->end(), "resume_goal=n0"), values->end());
+  std::printf("stopped at (%.2f, %.2f); checkpoint: %s\n", stopped_at.x_m, stopped_at.y_m, edge_entry.c_str());
+
+  // A new process: the robot stands where it stopped; resume_route.xml relocalises with the
+  // checkpoint as prior, then drives on to the goal.
+  char pose[96];
+  std::snprintf(pose, sizeof pose, "robot.params.start_pose=%.4f;%.4f;%.3f", stopped_at.x_m, stopped_at.y_m,
+                stopped_at.heading_rad * 180.0 / M_PI);
+  auto session = make_session(map_dir, {pose});
+  ASSERT_NE(session, nullptr);
+  auto tree = session->load_tree(kSource + "/trees/resume_route.xml");
+  ASSERT_TRUE(tree.ok()) << tree.error().message;
+  ASSERT_TRUE(set_blackboard_values(*tree, *values).ok());
+  RunOptions run;
+  run.after_tick = [](const TickInfo& t) { return t.t_s < 300.0; };
+  const RunReport report = run_tree(*session, *tree, run);
+  EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason << " / " << bb_string(*tree, "reloc_reason");
+  const Pose2D end = session->robot().simulation()->ground_truth_pose();
+  const double error_m = std::hypot(end.x_m + 3.0, end.y_m + 2.0);
+  std::printf("resumed: %s; ended %.2f m from the start\n", bb_string(*tree, "reloc_reason").c_str(), error_m);
+  EXPECT_LT(error_m, 0.8);
+  EXPECT_FALSE(fs::exists(map_dir + "/progress.yaml"));
+
+  // Nothing left to resume: a clear not_found error naming the file.
+  auto none = progress_checkpoint_values(map_dir);
+  ASSERT_FALSE(none.ok());
+  EXPECT_EQ(none.error().code, ErrorCode::not_found);
 }
 
 TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {

@@ -26,8 +26,8 @@
 //   * localised    — the best hypothesis is supported by at least `frames` frames and by
 //     min_agreement of the usable frames, no distinct place comes close, and the answer's
 //     confidence reaches min_answer_confidence (a weaker one waits for more frames and is
-//     answered ambiguous at max_frames: in the campus experiment every weak answer below 0.45
-//     that was not refused was as likely wrong as right).
+//     answered ambiguous at max_frames: in the campus experiment the answers below 0.5 were
+//     wrong as often as right).
 // Never from one frame: `frames` >= 3.
 //
 // Frames: distances in metres along an edge from its start; heading offsets in radians, the
@@ -53,7 +53,7 @@ struct RelocaliseParams {
   double place_tolerance_m = 1.0;     ///< votes this close (along the route) are one place
   double max_runner_up_ratio = 0.6;   ///< a distinct place scoring above this fraction of the best: ambiguous
   double min_agreement = 0.7;         ///< fraction of usable frames that must support the answer
-  double min_answer_confidence = 0.45;  ///< a localised answer weaker than this waits, then is ambiguous
+  double min_answer_confidence = 0.5;   ///< a localised answer weaker than this waits, then is ambiguous
   int min_features = 25;              ///< a frame with fewer features is blank
   double min_image_stddev = 6.0;      ///< a frame whose grey-level standard deviation is below is blank
   double prior_sigma_m = 0.0;         ///< odometry prior spread along the route, m (0 = no prior)

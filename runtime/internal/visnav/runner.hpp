@@ -297,6 +297,11 @@ struct PreparedMission {
 /// Error names a malformed entry.
 [[nodiscard]] Status set_blackboard_values(bt::Tree& tree, const std::vector<std::string>& assignments);
 
+/// `visnav run --resume`: the entries of MAP/progress.yaml (written by a run, e.g. FollowRoute
+/// checkpoint="true") as "key=value" blackboard assignments, plus "resume=true". Errors: no
+/// checkpoint (not_found), not a flat YAML map (parse_error / invalid_value, naming file:line).
+[[nodiscard]] Result<std::vector<std::string>> progress_checkpoint_values(const std::string& map_dir);
+
 /// The folder bare map names live in: $VISNAV_MAPS_DIR when set and not empty, else `maps`
 /// (relative to the current directory, i.e. the repository's top-level maps/ when run there).
 [[nodiscard]] std::string maps_dir();

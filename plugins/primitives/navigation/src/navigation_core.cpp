@@ -1,5 +1,13 @@
 #include "visnav_navigation/navigation_core.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -96,6 +104,70 @@ Result<RouteCost> parse_kind_costs(const std::vector<std::string>& entries) {
     cost.kind_multiplier[kv.first] = multiplier;
   }
   return cost;
+}
+
+std::string format_progress(const ProgressCheckpoint& progress) {
+  char distance[48];
+  std::snprintf(distance, sizeof distance, "%.3f", progress.distance_m);
+  std::string text = "# visnav progress checkpoint (FollowRoute checkpoint=\"true\"); `visnav run --resume` reads it\n";
+  text.append("resume_edge: ").append(progress.edge).append("\n");
+  text.append("resume_distance_m: ").append(distance).append("\n");
+  text.append("resume_goal: ").append(progress.goal).append("\n");
+  return text;
+}
+
+Status write_progress(const std::string& map_dir, const ProgressCheckpoint& progress) {
+  const std::string text = format_progress(progress);
+  const std::string target = (std::filesystem::path(map_dir) / kProgressFile).string();
+  std::string temp_name = ".";
+  temp_name.append(kProgressFile).append(".tmp.").append(std::to_string(::getpid()));
+  const std::string temp = (std::filesystem::path(map_dir) / temp_name).string();
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + std::strerror(errno));
+  const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  const int err = errno;
+  if (!written || ::fsync(fd) != 0 || ::close(fd) != 0) {
+    if (written) ::close(fd);
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, temp + ": write failed: " + std::strerror(err));
+  }
+  if (::rename(temp.c_str(), target.c_str()) != 0) {
+    const int rename_err = errno;
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, target + ": rename failed: " + std::strerror(rename_err));
+  }
+  if (const int dfd = ::open(map_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
+    (void)::fsync(dfd);
+    ::close(dfd);
+  }
+  return ok();
+}
+
+Status clear_progress(const std::string& map_dir) {
+  std::error_code ec;
+  std::filesystem::remove(std::filesystem::path(map_dir) / kProgressFile, ec);
+  if (ec) return fail(ErrorCode::io, map_dir + "/" + kProgressFile + ": cannot remove: " + ec.message());
+  return ok();
+}
+
+Result<Route> plan_from_edge(const MapStore& map, std::string_view edge_id, std::string_view goal, const RouteCost& cost) {
+  const EdgeRecord* edge = map.find_edge(edge_id);
+  if (edge == nullptr)
+    return fail(ErrorCode::not_found, "no edge '" + std::string(edge_id) + "' in map " + map.dir());
+  VISNAV_ASSIGN(const NodeRecord* goal_node, map.resolve_node(goal));
+  Route route;
+  route.from = edge->from;
+  route.to = goal_node->id;
+  route.edge_ids.push_back(edge->id);
+  route.length_m = edge->length_m;
+  auto it = cost.kind_multiplier.find(edge->kind);
+  route.cost = edge->length_m * (it != cost.kind_multiplier.end() ? it->second : cost.default_multiplier) + cost.per_edge_cost;
+  if (edge->to == goal_node->id) return route;
+  VISNAV_ASSIGN(Route rest, plan_route(map, edge->to, goal_node->id, cost));
+  route.edge_ids.insert(route.edge_ids.end(), rest.edge_ids.begin(), rest.edge_ids.end());
+  route.length_m += rest.length_m;
+  route.cost += rest.cost;
+  return route;
 }
 
 Result<Route> plan_cycle(const MapStore& map, std::string_view node, const RouteCost& cost) {

@@ -70,8 +70,11 @@ PlanRoute::PlanRoute(const std::string& name, const bt::NodeConfig& config, Host
     : bt::SyncActionNode(name, config), host_(host) {}
 
 bt::PortsList PlanRoute::provided_ports() {
-  return {bt::input_port<std::string>("start", "start node (id or name)"),
+  return {bt::input_port<std::string>("start", "", "start node (id or name); ignored when start_edge is set"),
           bt::input_port<std::string>("goal", "goal node (id or name); equal to start plans a closed loop"),
+          bt::input_port<std::string>("start_edge", "",
+                                      "plan from the middle of this edge (e.g. {reloc_edge} from Relocalise): the "
+                                      "route is the rest of it, then the cheapest route from its end node to the goal"),
           bt::input_port<std::vector<std::string>>("kind_costs", "",
                                                     "cost multipliers per edge kind, e.g. path_following=0.5"),
           bt::output_port<std::vector<std::string>>("route", "{route}", "edge ids to traverse, in order"),
@@ -87,14 +90,22 @@ NodeStatus PlanRoute::tick() {
   if (!start || !goal || !costs) return fail_node(host_, *this, (!start ? start.error() : !goal ? goal.error() : costs.error()).message);
   auto cost = parse_kind_costs(*costs);
   if (!cost) return fail_node(host_, *this, "kind_costs: " + cost.error().message);
-  auto start_node = map->resolve_node(*start);
+  auto start_edge = get_input<std::string>("start_edge");
+  if (!start_edge) return fail_node(host_, *this, start_edge.error().message);
   auto goal_node = map->resolve_node(*goal);
-  if (!start_node) return fail_node(host_, *this, start_node.error().message);
   if (!goal_node) return fail_node(host_, *this, goal_node.error().message);
-  auto route = (*start_node)->id == (*goal_node)->id ? plan_cycle(*map, (*start_node)->id, *cost)
-                                                     : plan_route(*map, (*start_node)->id, (*goal_node)->id, *cost);
+  Result<Route> route = Route{};
+  if (!start_edge->empty()) {
+    route = plan_from_edge(*map, *start_edge, (*goal_node)->id, *cost);
+  } else {
+    if (start->empty()) return fail_node(host_, *this, "PlanRoute needs 'start' (a node) or 'start_edge'");
+    auto start_node = map->resolve_node(*start);
+    if (!start_node) return fail_node(host_, *this, start_node.error().message);
+    route = (*start_node)->id == (*goal_node)->id ? plan_cycle(*map, (*start_node)->id, *cost)
+                                                  : plan_route(*map, (*start_node)->id, (*goal_node)->id, *cost);
+  }
   if (!route) return fail_node(host_, *this, route.error().message);
-  host_.logger().info(path(), "route " + *start + " -> " + *goal + ": " + std::to_string(route->edge_ids.size()) +
+  host_.logger().info(path(), "route " + (start_edge->empty() ? *start : "edge " + *start_edge) + " -> " + *goal + ": " + std::to_string(route->edge_ids.size()) +
                                   " edges, " + std::to_string(route->length_m) + " m");
   auto s1 = set_output("route", route->edge_ids);
   auto s2 = set_output("length_m", route->length_m);
@@ -194,6 +205,14 @@ bt::PortsList FollowRoute::provided_ports() {
                            "the previous edge's end node (last-frame overshoot plus stopping distance) minus the gap "
                            "recorded when teaching (statistic start_gap_m), projected onto the new edge's direction"),
       bt::input_port<double>("max_carry_m", "0.5", "clamp of |carried_m|, m (> 0)"),
+      bt::input_port<bool>("checkpoint", "false",
+                           "keep a progress checkpoint (edge, distance, goal) in the map folder, progress.yaml, "
+                           "written crash-safely at each edge start and every checkpoint_interval_m, removed when the "
+                           "route is done: `visnav run --resume` continues from it"),
+      bt::input_port<double>("checkpoint_interval_m", "1", "distance between checkpoint writes along an edge, m (> 0)"),
+      bt::input_port<double>("start_distance_m", "0",
+                             "distance of the route's first edge already behind the robot when the route starts "
+                             "(e.g. {reloc_distance_m} from Relocalise): the first edge is driven from there, m (>= 0)"),
       bt::input_port<std::string>(
           "first_edge_turn", "none",
           "before the first edge of a mission (no previous_edge): none = no turn, the robot starts facing along "
@@ -221,11 +240,27 @@ Status FollowRoute::start() {
   VISNAV_ASSIGN(carry_overshoot_, get_input<bool>("carry_overshoot"));
   VISNAV_ASSIGN(max_carry_m_, get_input<double>("max_carry_m"));
   if (!(max_carry_m_ > 0.0)) return fail("max_carry_m must be > 0");
+  VISNAV_ASSIGN(checkpoint_, get_input<bool>("checkpoint"));
+  VISNAV_ASSIGN(checkpoint_interval_m_, get_input<double>("checkpoint_interval_m"));
+  if (!(checkpoint_interval_m_ > 0.0))
+    return fail(ErrorCode::out_of_range, {"", 0, "checkpoint_interval_m"},
+                "value " + std::to_string(checkpoint_interval_m_) + " must be > 0");
+  VISNAV_ASSIGN(start_distance_m_, get_input<double>("start_distance_m"));
+  if (!(start_distance_m_ >= 0.0) || !std::isfinite(start_distance_m_))
+    return fail(ErrorCode::out_of_range, {"", 0, "start_distance_m"},
+                "value " + std::to_string(start_distance_m_) + " is not a finite distance >= 0");
+  if (!route_.empty())
+    if (const EdgeRecord* first = map->find_edge(route_.front()); first != nullptr && start_distance_m_ > first->length_m)
+      return fail(ErrorCode::out_of_range, {"", 0, "start_distance_m"},
+                  "value " + std::to_string(start_distance_m_) + " is beyond the end of edge " + first->id + " (" +
+                      std::to_string(first->length_m) + " m)");
   VISNAV_ASSIGN(const std::string first_turn, get_input<std::string>("first_edge_turn"));
   if (first_turn != "none" && first_turn != "absolute")
     return fail("port 'first_edge_turn': '" + first_turn + "' is not one of: none, absolute");
   first_turn_absolute_ = first_turn == "absolute";
   previous_start_heading_.reset();
+  checkpointed_m_.reset();
+  checkpoint_warned_ = false;
   VISNAV_ASSIGN(turn_, read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s"));
   child_for_edge_.clear();
   for (const auto& edge_id : route_) {
@@ -287,6 +322,8 @@ NodeStatus FollowRoute::tick() {
                                        turn_between_edges_rad(*prev, edge), max_carry_m_);
       }
     }
+    // The first edge of a route started from the middle (a relocalised robot): the rest of it.
+    if (index_ == 0 && start_distance_m_ > 0.0) carried_m = start_distance_m_;
     edge_origin_m_.reset();
     if (odom) edge_origin_m_ = odom->distance_m - carried_m;
     if (auto st = set_output("carried_m", carried_m); !st) return fail_node(host_, *this, st.error().message);
@@ -294,7 +331,9 @@ NodeStatus FollowRoute::tick() {
     (void)set_output("current_node", edge.from);
     host_.logger().info(path(), "edge " + edge.id + " (" + edge.kind + ", " + std::to_string(edge.length_m) +
                                     " m, carried " + std::to_string(carried_m) + " m)");
+    checkpointed_m_.reset();
   }
+  save_progress(edge);
   const std::size_t child_index = child_for_edge_[index_];
   const NodeStatus child_status = children_[child_index]->execute_tick();
   if (child_status == NodeStatus::running) return NodeStatus::running;
@@ -307,7 +346,12 @@ NodeStatus FollowRoute::tick() {
   if (edge_origin_m_) ended_at_m_ = *edge_origin_m_ + edge.length_m;
   ended_edge_ = edge.id;
   ++index_;
-  if (index_ >= route_.size()) return NodeStatus::success;
+  if (index_ >= route_.size()) {
+    // Done: nothing is left to resume.
+    if (checkpoint_)
+      if (auto st = clear_progress(map.dir()); !st) host_.logger().warn(path(), st.error().message);
+    return NodeStatus::success;
+  }
   turning_ = true;
   return NodeStatus::running;
 }
@@ -329,6 +373,23 @@ double FollowRoute::turn_target_rad(const EdgeRecord* previous, const EdgeRecord
   // It followed the shape of the terrain (e.g. rounded a corner): measure from the heading the
   // robot had, aligned with the previous edge's azimuth, when that edge started.
   return *previous_start_heading_ + wrap_angle_rad(next.azimuth_rad - previous->azimuth_rad);
+}
+
+void FollowRoute::save_progress(const EdgeRecord& edge) {
+  if (!checkpoint_ || !edge_origin_m_ || host_.frame_bus() == nullptr) return;
+  const auto odom = host_.frame_bus()->latest_odometry();
+  if (!odom) return;
+  const double along_m = std::clamp(odom->distance_m - *edge_origin_m_, 0.0, edge.length_m);
+  if (checkpointed_m_ && along_m - *checkpointed_m_ < checkpoint_interval_m_) return;
+  MapStore& map = *host_.map();
+  const EdgeRecord* last = map.find_edge(route_.back());
+  const ProgressCheckpoint progress{edge.id, along_m, last != nullptr ? last->to : edge.to};
+  if (auto st = write_progress(map.dir(), progress); !st) {
+    // A checkpoint that cannot be written does not stop the mission (it only limits a resume).
+    if (!checkpoint_warned_) host_.logger().warn(path(), "progress checkpoint: " + st.error().message);
+    checkpoint_warned_ = true;
+  }
+  checkpointed_m_ = along_m;
 }
 
 void FollowRoute::halt() {

@@ -72,6 +72,8 @@ class FollowRoute final : public bt::ControlNode {
 
  private:
   Status start();
+  /// With checkpoint: writes the progress checkpoint at the edge start and every checkpoint_interval_m.
+  void save_progress(const EdgeRecord& edge);
   [[nodiscard]] double turn_target_rad(const EdgeRecord* previous, const EdgeRecord& next, double heading_rad) const;
 
   HostServices& host_;
@@ -85,6 +87,11 @@ class FollowRoute final : public bt::ControlNode {
   bool turn_at_nodes_ = true;
   bool carry_overshoot_ = true;
   double max_carry_m_ = 0.5;
+  double start_distance_m_ = 0.0;  ///< of the route's first edge, already behind the robot at the start
+  bool checkpoint_ = false;
+  double checkpoint_interval_m_ = 1.0;
+  std::optional<double> checkpointed_m_;  ///< along the current edge at the last checkpoint write
+  bool checkpoint_warned_ = false;
   bool first_turn_absolute_ = false;
   std::optional<double> edge_origin_m_;  ///< odometric distance at which the current edge counts as started
   std::optional<double> ended_at_m_;     ///< odometric distance of the last finished edge's end node

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <numbers>
 
 #include "visnav_navigation/navigation_core.hpp"
@@ -147,4 +149,56 @@ TEST(NavigationCore, CarriedDistanceProjectsTheOvershootOntoTheNextEdge) {
   EXPECT_DOUBLE_EQ(carried_distance_m(3.0, 0.0, 0.0, 0.5), 0.5);        // clamped
   EXPECT_DOUBLE_EQ(carried_distance_m(-3.0, 0.0, 0.0, 0.5), -0.5);
   EXPECT_DOUBLE_EQ(carried_distance_m(std::nan(""), 0.0, 0.0, 0.5), 0.0);
+}
+
+TEST(NavigationCore, PlanFromEdgeIsTheRestOfThatEdgeThenTheCheapestRoute) {
+  auto dir = temp_map_dir("from_edge");
+  auto map = MapStore::create(dir.string(), "from_edge");
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  map->set_sync(false);
+  NodeRecord n;
+  n.name = "a";
+  auto a = *map->add_node(n);
+  n.name = "b";
+  auto b = *map->add_node(n);
+  n.name = "c";
+  auto c = *map->add_node(n);
+  const auto ab = add_edge(*map, a, b, 10);
+  const auto bc = add_edge(*map, b, c, 4);
+  const auto ca = add_edge(*map, c, a, 6);
+  // From the middle of a->b back to a: the rest of a->b, then b->c->a.
+  auto loop = plan_from_edge(*map, ab, "a");
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  EXPECT_EQ(loop->edge_ids, (std::vector<std::string>{ab, bc, ca}));
+  EXPECT_DOUBLE_EQ(loop->length_m, 20.0);
+  EXPECT_EQ(loop->from, a);
+  // The goal is the edge's own end node: that edge alone.
+  auto one = plan_from_edge(*map, bc, "c");
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->edge_ids, (std::vector<std::string>{bc}));
+  // Unknown edge or goal: errors with codes.
+  auto unknown = plan_from_edge(*map, "nope", "a");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.error().code, ErrorCode::not_found);
+  EXPECT_FALSE(plan_from_edge(*map, ab, "nowhere").ok());
+  fs::remove_all(dir);
+}
+
+TEST(NavigationCore, ProgressCheckpointIsWrittenWholeAndCleared) {
+  auto dir = temp_map_dir("progress");
+  fs::create_directories(dir);
+  ASSERT_TRUE(write_progress(dir.string(), {"e3", 2.5, "n0"}).ok());
+  ASSERT_TRUE(write_progress(dir.string(), {"e4", 0.25, "n0"}).ok());  // replaces, never appends
+  std::ifstream in(dir / kProgressFile);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, format_progress({"e4", 0.25, "n0"}));
+  EXPECT_NE(text.find("resume_edge: e4\nresume_distance_m: 0.250\nresume_goal: n0\n"), std::string::npos);
+  std::size_t files = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1u) << "no temporary file is left";
+  ASSERT_TRUE(clear_progress(dir.string()).ok());
+  EXPECT_FALSE(fs::exists(dir / kProgressFile));
+  EXPECT_TRUE(clear_progress(dir.string()).ok()) << "clearing twice is fine";
+  EXPECT_FALSE(write_progress((dir / "missing" / "deeper").string(), {"e1", 0.0, "n0"}).ok());
+  fs::remove_all(dir);
 }

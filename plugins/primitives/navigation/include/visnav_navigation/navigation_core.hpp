@@ -72,6 +72,29 @@ using KindMap = std::vector<std::pair<std::string, std::string>>;
 /// Parses entries "kind=multiplier" into a RouteCost (multiplier > 0; "inf" forbids a kind).
 [[nodiscard]] Result<RouteCost> parse_kind_costs(const std::vector<std::string>& entries);
 
+/// Route from the middle of edge `edge_id` to node `goal`: that edge, then the cheapest route from
+/// its end node to `goal` (nothing more when it ends there). Used after relocalisation, when the
+/// robot stands part-way along an edge. Errors: unknown edge or goal, no route from its end node.
+[[nodiscard]] Result<Route> plan_from_edge(const MapStore& map, std::string_view edge_id, std::string_view goal,
+                                           const RouteCost& cost = {});
+
+/// The progress checkpoint FollowRoute keeps in the map folder with checkpoint="true": where the
+/// mission is, as blackboard entries that `visnav run --resume` sets before the first tick
+/// (trees/resume_route.xml relocalises with them as its odometry prior, then drives on to the goal).
+inline constexpr const char* kProgressFile = "progress.yaml";
+struct ProgressCheckpoint {
+  std::string edge;          ///< resume_edge: the edge being driven
+  double distance_m = 0.0;   ///< resume_distance_m: odometric distance along it
+  std::string goal;          ///< resume_goal: the route's last node
+};
+/// The file text: a comment line, then "resume_edge: e3", "resume_distance_m: 1.250", "resume_goal: n0".
+[[nodiscard]] std::string format_progress(const ProgressCheckpoint& progress);
+/// Writes map_dir/progress.yaml crash-safely (temporary file, fsync, rename, folder fsync): a
+/// crash leaves the previous checkpoint or the new one, never a torn file.
+[[nodiscard]] Status write_progress(const std::string& map_dir, const ProgressCheckpoint& progress);
+/// Removes map_dir/progress.yaml (a finished route leaves nothing to resume). Absent is fine.
+[[nodiscard]] Status clear_progress(const std::string& map_dir);
+
 /// Cheapest route from `node` back to itself through at least one edge (a closed patrol
 /// route). Error when the node lies on no cycle.
 [[nodiscard]] Result<Route> plan_cycle(const MapStore& map, std::string_view node, const RouteCost& cost = {});

@@ -1,0 +1,49 @@
+// relocalisation core — one frame against the place index: lookup, then histogram verification.
+//
+// votes(): the frame's features are coded with the index vocabulary, the `candidates` nearest
+// places by Hamming distance are fetched, and each is verified with the feature primitive's
+// matching and histogram voting (feature_replay/heading.hpp) against that place's reference
+// features (PlaceSource). A place whose estimate is valid and reaches min_confidence becomes a
+// PlaceVote carrying the estimate's heading offset (robot heading minus taught heading, rad).
+// blank_reason(): why a frame is unusable (a covered or dark camera), or empty.
+//
+// Thread-safety: single-threaded (owns the estimator's buffers and the payload cache).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "visnav/devices.hpp"
+#include "visnav/feature_replay/heading.hpp"
+#include "visnav/relocalisation/place_index.hpp"
+#include "visnav/relocalisation/relocaliser.hpp"
+
+namespace visnav::reloc {
+
+/// Empty when `image` and `features` are usable, else one line saying why not (grey-level standard
+/// deviation below min_image_stddev, fewer than min_features features).
+[[nodiscard]] std::string blank_reason(const cv::Mat& image, const Features& features, const RelocaliseParams& params);
+
+class PlaceVerifier {
+ public:
+  /// `index` and `map` must outlive the verifier.
+  PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading);
+  /// Verified places of one frame (see the file comment). Errors: features of the wrong type,
+  /// a payload that cannot be read.
+  Result<std::vector<PlaceVote>> votes(const Features& current, double image_width_px, int candidates,
+                                       double min_confidence);
+  /// The index's edges as the Relocaliser's route graph (from/to taken from the map).
+  [[nodiscard]] std::vector<RouteEdge> route_edges() const;
+  /// Hits of the last lookup (before verification).
+  [[nodiscard]] const std::vector<PlaceCandidate>& last_candidates() const { return candidates_; }
+
+ private:
+  const PlaceIndex& index_;
+  const MapStore& map_;
+  PlaceSource source_;
+  feature_replay::HeadingEstimator estimator_;
+  std::vector<std::uint64_t> code_;
+  std::vector<PlaceCandidate> candidates_;
+};
+
+}  // namespace visnav::reloc

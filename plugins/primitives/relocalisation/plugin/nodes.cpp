@@ -1,0 +1,374 @@
+// Relocalise and BuildPlaceIndex: thin adapters over the relocalisation core (see nodes.hpp).
+#include "nodes.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav/bt/node.hpp"
+#include "visnav/map.hpp"
+#include "visnav/relocalisation/place_index.hpp"
+#include "visnav/relocalisation/relocaliser.hpp"
+#include "visnav/relocalisation/verifier.hpp"
+
+namespace visnav::reloc {
+namespace {
+
+using bt::NodeStatus;
+
+std::string fmt(double v, int digits = 3) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+double wrap(double a) {
+  const double r = std::remainder(a, 2.0 * std::numbers::pi);
+  return r <= -std::numbers::pi ? r + 2.0 * std::numbers::pi : r;
+}
+
+/// The node's parameters: the decision's, the look-around turn and the camera's field of view.
+struct RelocaliseNodeParams {
+  RelocaliseParams decision;
+  double look_around_deg = 0.0;
+  double turn_speed_radps = 0.3;
+  double horizontal_fov_deg = 60.0;
+
+  [[nodiscard]] Status validate() const {
+    VISNAV_TRY(schema().check(*this));
+    return decision.validate();
+  }
+  static const ParamSchema<RelocaliseNodeParams>& schema() {
+    using P = RelocaliseNodeParams;
+    static const auto s =
+        ParamSchema<P>{}
+            .include(&P::decision, RelocaliseParams::schema(),
+                     {{"frames", "frames"},
+                      {"max_frames", "max_frames"},
+                      {"candidates", "candidates"},
+                      {"min_confidence", "min_confidence"},
+                      {"place_tolerance_m", "place_tolerance_m"},
+                      {"max_runner_up_ratio", "max_runner_up_ratio"},
+                      {"min_agreement", "min_agreement"},
+                      {"min_answer_confidence", "min_answer_confidence"},
+                      {"min_features", "min_features"},
+                      {"min_image_stddev", "min_image_stddev"},
+                      {"prior_sigma_m", "prior_sigma_m"}})
+            .field("look_around_deg", &P::look_around_deg,
+                   "turn in place this far left, then right, then back while taking frames (0 = stand still), deg")
+            .range(0.0, 180.0)
+            .field("turn_speed_radps", &P::turn_speed_radps, "turn rate while looking around, rad/s")
+            .range(0.05, 2.0)
+            .field("horizontal_fov_deg", &P::horizontal_fov_deg,
+                   "camera horizontal field of view (converts image offsets to heading offsets), deg")
+            .range(1.0, 360.0);
+    return s;
+  }
+};
+
+/// Ports from the schema (declared once: defaults are the struct's, ranges checked on literals).
+void append_schema_ports(bt::PortsList& ports) {
+  for (const ParamDoc& d : RelocaliseNodeParams::schema().docs()) {
+    bt::PortInfo p = d.type == "int" ? bt::input_port<int>(d.name, d.default_value, d.description)
+                                     : bt::input_port<double>(d.name, d.default_value, d.description);
+    if (!d.constraint.empty()) p.description += " " + d.constraint;
+    p.constraint = d.constraint;
+    p.check = [name = d.name](std::string_view text) {
+      return RelocaliseNodeParams::schema().check_field(name, ConfigNode::make_scalar(std::string(text)));
+    };
+    ports.push_back(std::move(p));
+  }
+}
+
+Result<RelocaliseNodeParams> read_params(const bt::TreeNode& node) {
+  ConfigNode map = ConfigNode::make_map(node.where());
+  for (const ParamDoc& d : RelocaliseNodeParams::schema().docs()) {
+    std::string text;
+    if (d.type == "int") {
+      VISNAV_ASSIGN(int v, node.get_input<int>(d.name));
+      text = std::to_string(v);
+    } else {
+      VISNAV_ASSIGN(double v, node.get_input<double>(d.name));
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.17g", v);
+      text = buf;
+    }
+    map.set(d.name, ConfigNode::make_scalar(std::move(text), node.where()));
+  }
+  return RelocaliseNodeParams::schema().parse(map);
+}
+
+/// The map's place index: loaded and checked against the map, or built (and saved) when the map
+/// has none yet. A damaged or stale index is an error (rebuilt by `visnav reloc-index M`).
+Result<std::shared_ptr<const PlaceIndex>> index_for(const MapStore& map, Logger& logger, const std::string& who) {
+  auto loaded = load_place_index(map.dir());
+  if (loaded) {
+    VISNAV_TRY(loaded->matches(map));
+    return std::make_shared<const PlaceIndex>(std::move(*loaded));
+  }
+  if (loaded.error().code != ErrorCode::not_found) return std::move(loaded).error();
+  logger.warn(who, map.dir() + ": no place index yet; building it now");
+  int last_tenth = -1;
+  std::string last_phase;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto built = build_place_index(map, PlaceIndexParams{}, [&](const char* phase, double done, double total) {
+    const int tenth = total > 0.0 ? static_cast<int>(10.0 * done / total) : 10;
+    if (phase != last_phase || tenth != last_tenth) {
+      if (phase != last_phase || tenth % 5 == 0)
+        logger.info(who, std::string("building the place index: ") + phase + " " + std::to_string(tenth * 10) + " %");
+      last_phase = phase;
+      last_tenth = tenth;
+    }
+  });
+  if (!built) return std::move(built).error();
+  VISNAV_TRY(save_place_index(map.dir(), *built));
+  logger.info(who, "place index built: " + std::to_string(built->places.size()) + " places in " +
+                       fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1) +
+                       " s, saved to " + index_path(map.dir()));
+  return std::make_shared<const PlaceIndex>(std::move(*built));
+}
+
+// -------------------------------------------------------------------------------- Relocalise
+
+class Relocalise final : public bt::StatefulActionNode {
+ public:
+  Relocalise(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+      : StatefulActionNode(name, config), host_(host) {}
+
+  static bt::PortsList provided_ports() {
+    bt::PortsList p = {
+        bt::input_port<std::string>("prior_edge", "",
+                                    "odometry prior: the edge the robot is believed to be on (empty = none; used "
+                                    "with prior_sigma_m > 0)"),
+        bt::input_port<double>("prior_distance_m", "0", "odometry prior: distance along prior_edge, m"),
+        bt::output_port<std::string>("edge", "{reloc_edge}", "edge the robot is on"),
+        bt::output_port<double>("distance_m", "{reloc_distance_m}", "distance along that edge from its start, m"),
+        bt::output_port<double>("heading_offset_rad", "{reloc_heading_offset_rad}",
+                                "robot heading minus the taught heading there, rad (CCW +)"),
+        bt::output_port<double>("turn_rad", "{reloc_turn_rad}",
+                                "turn that faces the taught heading (-heading_offset_rad), for TurnToAzimuth relative"),
+        bt::output_port<double>("confidence", "{reloc_confidence}", "[0, 1]"),
+        bt::output_port<std::string>("status", "{reloc_status}",
+                                     "localised, ambiguous, not_on_map or camera_blocked"),
+        bt::output_port<std::string>("reason", "{reloc_reason}", "one line: why this answer"),
+    };
+    append_schema_ports(p);
+    return p;
+  }
+
+  NodeStatus on_start() override {
+    if (auto st = start(); !st) return failed(st.error().message);
+    return on_running();
+  }
+
+  NodeStatus on_running() override {
+    FrameBus& bus = *host_.frame_bus();
+    const auto odom = bus.latest_odometry();
+    const auto frame = bus.latest_frame();
+    if (!odom) return failed("no odometry");
+    const Twist turn = look_around(*odom);
+    if (!frame || (have_sequence_ && frame->sequence == last_sequence_)) return send(turn);
+    have_sequence_ = true;
+    last_sequence_ = frame->sequence;
+
+    FrameVotes fv;
+    fv.odom_distance_m = odom->distance_m;
+    fv.odom_heading_rad = odom->pose.heading_rad;
+    std::string blank;
+    Detector* detector = host_.active_detector();
+    if (detector == nullptr) return failed("Relocalise needs a detector (config section detector:)");
+    if (frame->image.empty()) blank = "empty frame";
+    else if (auto st = detector->detect(frame->image, features_); !st) blank = "detector failed: " + st.error().message;
+    if (blank.empty()) blank = blank_reason(frame->image, features_, params_.decision);
+    fv.blank = !blank.empty();
+    if (fv.blank && blank != last_blank_) host_.logger().info(path(), "blank frame: " + blank);
+    last_blank_ = blank;
+    if (!fv.blank) {
+      auto votes = verifier_->votes(features_, frame->image.cols, params_.decision.candidates,
+                                    params_.decision.min_confidence);
+      if (!votes) return failed(votes.error().message);
+      fv.votes = std::move(*votes);
+    }
+    const std::size_t vote_count = fv.votes.size();
+    relocaliser_->add(std::move(fv));
+    const RelocAnswer a = relocaliser_->decide();
+    publish(a, turn, vote_count);
+    if (a.status == RelocStatus::pending) {
+      // Looking around: keep turning until the sweep is done; an early answer still ends it.
+      return send(turn);
+    }
+    stop();
+    (void)set_output("status", std::string(to_string(a.status)));
+    (void)set_output("reason", a.reason);
+    (void)set_output("confidence", a.confidence);
+    if (a.status != RelocStatus::localised) {
+      host_.logger().warn(path(), a.reason);
+      return NodeStatus::failure;
+    }
+    const std::string& edge_id = index_->edges[a.edge].id;
+    (void)set_output("edge", edge_id);
+    (void)set_output("distance_m", a.distance_m);
+    (void)set_output("heading_offset_rad", a.heading_offset_rad);
+    (void)set_output("turn_rad", -a.heading_offset_rad);
+    host_.logger().info(path(), a.reason + "; heading offset " + fmt(a.heading_offset_rad * 180.0 / std::numbers::pi, 1) +
+                                    " deg, confidence " + fmt(a.confidence));
+    return NodeStatus::success;
+  }
+
+  void on_halted() override { stop(); }
+
+ private:
+  Status start() {
+    MapStore* map = host_.map();
+    if (map == nullptr) return fail(ErrorCode::missing, "Relocalise needs a map (visnav run --map M)");
+    if (host_.frame_bus() == nullptr || host_.robot() == nullptr)
+      return fail(ErrorCode::missing, "Relocalise needs a running robot and camera");
+    VISNAV_ASSIGN(params_, read_params(*this));
+    // One index per map folder for the node's life (a tree relocalising several times reloads nothing).
+    if (!index_ || index_dir_ != map->dir()) {
+      VISNAV_ASSIGN(index_, index_for(*map, host_.logger(), path()));
+      index_dir_ = map->dir();
+    }
+    feature_replay::HeadingParams heading;
+    heading.horizontal_fov_deg = params_.horizontal_fov_deg;
+    verifier_.emplace(*index_, *map, heading);
+    relocaliser_.emplace(params_.decision, verifier_->route_edges());
+    VISNAV_ASSIGN(const std::string prior_edge, get_input<std::string>("prior_edge"));
+    if (!prior_edge.empty()) {
+      VISNAV_ASSIGN(const double prior_m, get_input<double>("prior_distance_m"));
+      bool found = false;
+      for (std::size_t i = 0; i < index_->edges.size(); ++i)
+        if (index_->edges[i].id == prior_edge) {
+          relocaliser_->set_prior(static_cast<std::uint32_t>(i), prior_m);
+          found = true;
+        }
+      if (!found)
+        return fail(ErrorCode::not_found, {"", 0, "prior_edge"},
+                    "'" + prior_edge + "' is not a feature edge of the place index");
+    }
+    have_sequence_ = false;
+    last_blank_.clear();
+    sweep_ = 0;
+    turned_rad_ = 0.0;
+    last_heading_.reset();
+    (void)set_output("status", std::string("pending"));
+    stop();
+    return ok();
+  }
+
+  /// The look-around command: left to +look_around_deg, right to -look_around_deg, back to 0.
+  Twist look_around(const Odometry& odom) {
+    if (last_heading_) turned_rad_ += wrap(odom.pose.heading_rad - *last_heading_);
+    last_heading_ = odom.pose.heading_rad;
+    const double limit = params_.look_around_deg * std::numbers::pi / 180.0;
+    if (limit <= 0.0 || sweep_ >= 3) return Twist{};
+    const double targets[3] = {limit, -limit, 0.0};
+    const double error = targets[sweep_] - turned_rad_;
+    if (std::abs(error) < 0.03) {
+      ++sweep_;
+      return look_around(odom);
+    }
+    return Twist{0.0, std::copysign(params_.turn_speed_radps, error)};
+  }
+
+  NodeStatus send(const Twist& t) {
+    if (auto st = host_.robot()->send_command(t); !st) return failed("sending the command: " + st.error().message);
+    return NodeStatus::running;
+  }
+  void stop() {
+    if (Robot* r = host_.robot()) (void)r->stop();
+  }
+  NodeStatus failed(const std::string& message) {
+    stop();
+    (void)set_output("reason", message);
+    host_.logger().error(path(), message);
+    return NodeStatus::failure;
+  }
+  void publish(const RelocAnswer& a, const Twist& command, std::size_t votes) {
+    Telemetry* t = host_.telemetry();
+    if (t == nullptr) return;
+    NavStatus s;
+    s.node_path = path();
+    s.edge = a.status == RelocStatus::localised ? index_->edges[a.edge].id : std::string();
+    s.distance_m = a.distance_m;
+    s.matches = static_cast<int>(votes);
+    s.command = command;
+    s.confidence = a.confidence;
+    s.status = "relocalising: " + std::string(to_string(a.status)) + " (" + std::to_string(a.usable_frames) +
+               " frames, " + std::to_string(a.blank_frames) + " blank)";
+    t->publish(s);
+  }
+
+  HostServices& host_;
+  RelocaliseNodeParams params_;
+  std::shared_ptr<const PlaceIndex> index_;
+  std::string index_dir_;
+  std::optional<PlaceVerifier> verifier_;
+  std::optional<Relocaliser> relocaliser_;
+  Features features_;
+  bool have_sequence_ = false;
+  std::uint64_t last_sequence_ = 0;
+  std::string last_blank_;
+  int sweep_ = 0;
+  double turned_rad_ = 0.0;
+  std::optional<double> last_heading_;
+};
+
+// ---------------------------------------------------------------------------- BuildPlaceIndex
+
+class BuildPlaceIndex final : public bt::SyncActionNode {
+ public:
+  BuildPlaceIndex(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+      : SyncActionNode(name, config), host_(host) {}
+  static bt::PortsList provided_ports() {
+    return {bt::input_port<bool>("only_if_missing", "false",
+                                 "keep an existing index that matches the map (a damaged or stale one is rebuilt)")};
+  }
+
+ protected:
+  NodeStatus tick() override {
+    MapStore* map = host_.map();
+    if (map == nullptr) return failed("BuildPlaceIndex needs a map (visnav run --map M)");
+    auto keep = get_input<bool>("only_if_missing");
+    if (!keep) return failed(keep.error().message);
+    if (*keep)
+      if (auto loaded = load_place_index(map->dir()); loaded && loaded->matches(*map)) return NodeStatus::success;
+    if (auto st = map->flush(); !st) return failed(st.error().message);
+    const auto t0 = std::chrono::steady_clock::now();
+    auto built = build_place_index(*map, PlaceIndexParams{});
+    if (!built) return failed(built.error().message);
+    if (auto st = save_place_index(map->dir(), *built); !st) return failed(st.error().message);
+    host_.logger().info(path(), "place index: " + std::to_string(built->places.size()) + " places, " +
+                                    std::to_string(built->byte_size()) + " bytes, built in " +
+                                    fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2) +
+                                    " s");
+    return NodeStatus::success;
+  }
+
+ private:
+  NodeStatus failed(const std::string& message) {
+    host_.logger().error(path(), message);
+    return NodeStatus::failure;
+  }
+  HostServices& host_;
+};
+
+}  // namespace
+
+Status register_reloc_nodes(bt::NodeRegistry& registry, HostServices& host) {
+  VISNAV_TRY(registry.register_node<Relocalise>(
+      "Relocalise",
+      "Where on the map the robot is, from a short sequence of frames verified by histogram voting (or "
+      "ambiguous / not_on_map / camera_blocked)",
+      [&host](const std::string& n, const bt::NodeConfig& c) { return std::make_unique<Relocalise>(n, c, host); }));
+  return registry.register_node<BuildPlaceIndex>(
+      "BuildPlaceIndex", "Builds the map's place index (place_index.bin) for Relocalise",
+      [&host](const std::string& n, const bt::NodeConfig& c) { return std::make_unique<BuildPlaceIndex>(n, c, host); });
+}
+
+}  // namespace visnav::reloc

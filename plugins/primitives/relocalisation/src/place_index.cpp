@@ -1,0 +1,473 @@
+// The place index: vocabulary training (k-majority), place codes, Hamming lookup, file format.
+#include "visnav/relocalisation/place_index.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <random>
+
+#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_replay/segment_map.hpp"
+
+namespace visnav::reloc {
+
+namespace fs = std::filesystem;
+using feature_replay::LocalMapPath;
+using feature_replay::SegmentMap;
+
+bool indexable_kind(std::string_view kind) { return kind == kSegmentKind || kind == kLocalMapsKind; }
+
+const ParamSchema<PlaceIndexParams>& PlaceIndexParams::schema() {
+  using P = PlaceIndexParams;
+  static const auto s =
+      ParamSchema<P>{}
+          .field("vocabulary_words", &P::vocabulary_words, "bits of a place code (words of the vocabulary); multiple of 64")
+          .range(64, 8192)
+          .field("segment_spacing_m", &P::segment_spacing_m, "place spacing along feature_segment edges, m")
+          .range(0.05, 10.0)
+          .field("vocabulary_sample", &P::vocabulary_sample, "descriptors sampled to train the vocabulary")
+          .range(64, 1000000)
+          .field("vocabulary_iterations", &P::vocabulary_iterations, "k-majority iterations")
+          .range(1, 50);
+  return s;
+}
+
+namespace {
+
+/// Hamming distance of two descriptor rows of `bytes` bytes.
+inline int hamming(const std::uint8_t* a, const std::uint8_t* b, int bytes) {
+  int d = 0;
+  int i = 0;
+  for (; i + 8 <= bytes; i += 8) {
+    std::uint64_t x, y;
+    std::memcpy(&x, a + i, 8);
+    std::memcpy(&y, b + i, 8);
+    d += std::popcount(x ^ y);
+  }
+  for (; i < bytes; ++i) d += std::popcount(static_cast<unsigned>(a[i] ^ b[i]));
+  return d;
+}
+
+/// Row of `vocabulary` nearest to `row`.
+int nearest_word(const cv::Mat& vocabulary, const std::uint8_t* row) {
+  int best = 0;
+  int best_d = 1 << 30;
+  for (int w = 0; w < vocabulary.rows; ++w) {
+    const int d = hamming(vocabulary.ptr<std::uint8_t>(w), row, vocabulary.cols);
+    if (d < best_d) {
+      best_d = d;
+      best = w;
+    }
+  }
+  return best;
+}
+
+/// k-majority clustering of the rows of `sample` into `words` words (deterministic).
+cv::Mat train_vocabulary(const cv::Mat& sample, int words, int iterations, const IndexProgress& progress) {
+  const int bytes = sample.cols;
+  cv::Mat vocabulary(words, bytes, CV_8UC1);
+  // Initial words: evenly spaced sample rows (the sample is already a random draw).
+  for (int w = 0; w < words; ++w) {
+    const int r = static_cast<int>((static_cast<long long>(w) * sample.rows) / words);
+    sample.row(r).copyTo(vocabulary.row(w));
+  }
+  std::vector<int> assignment(static_cast<std::size_t>(sample.rows), 0);
+  std::vector<int> bit_counts(static_cast<std::size_t>(words) * static_cast<std::size_t>(bytes) * 8);
+  std::vector<int> members(static_cast<std::size_t>(words));
+  for (int it = 0; it < iterations; ++it) {
+    if (progress) progress("vocabulary", it, iterations);
+    std::fill(bit_counts.begin(), bit_counts.end(), 0);
+    std::fill(members.begin(), members.end(), 0);
+    for (int r = 0; r < sample.rows; ++r) {
+      const std::uint8_t* row = sample.ptr<std::uint8_t>(r);
+      const int w = nearest_word(vocabulary, row);
+      assignment[static_cast<std::size_t>(r)] = w;
+      ++members[static_cast<std::size_t>(w)];
+      int* counts = bit_counts.data() + static_cast<std::size_t>(w) * static_cast<std::size_t>(bytes) * 8;
+      for (int b = 0; b < bytes; ++b)
+        for (int k = 0; k < 8; ++k) counts[b * 8 + k] += (row[b] >> k) & 1;
+    }
+    for (int w = 0; w < words; ++w) {
+      const int n = members[static_cast<std::size_t>(w)];
+      if (n == 0) continue;  // an empty word keeps its value
+      const int* counts = bit_counts.data() + static_cast<std::size_t>(w) * static_cast<std::size_t>(bytes) * 8;
+      std::uint8_t* out = vocabulary.ptr<std::uint8_t>(w);
+      for (int b = 0; b < bytes; ++b) {
+        std::uint8_t v = 0;
+        for (int k = 0; k < 8; ++k)
+          if (2 * counts[b * 8 + k] > n) v = static_cast<std::uint8_t>(v | (1u << k));
+        out[b] = v;
+      }
+    }
+  }
+  if (progress) progress("vocabulary", iterations, iterations);
+  return vocabulary;
+}
+
+Error index_error(const std::string& file, const std::string& what) {
+  return fail(ErrorCode::parse_error, file + ": damaged place index: " + what +
+                                          " (rebuild it with `visnav reloc-index MAP`)");
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- PlaceIndex
+
+Status PlaceIndex::encode(const cv::Mat& descriptors, std::span<std::uint64_t> out) const {
+  std::fill(out.begin(), out.end(), 0);
+  if (descriptors.empty()) return ok();
+  if (descriptors.type() != CV_8UC1 || descriptors.cols != vocabulary.cols)
+    return fail(ErrorCode::invalid_value, "place code: descriptors must be binary (CV_8UC1) rows of " +
+                                              std::to_string(vocabulary.cols) + " bytes, got type " +
+                                              std::to_string(descriptors.type()) + " with " +
+                                              std::to_string(descriptors.cols) + " columns");
+  for (int r = 0; r < descriptors.rows; ++r) {
+    const int w = nearest_word(vocabulary, descriptors.ptr<std::uint8_t>(r));
+    out[static_cast<std::size_t>(w / 64)] |= std::uint64_t{1} << (w % 64);
+  }
+  return ok();
+}
+
+void PlaceIndex::query(std::span<const std::uint64_t> q, int k, std::vector<PlaceCandidate>& out) const {
+  out.clear();
+  const std::size_t w = static_cast<std::size_t>(code_words());
+  if (k <= 0 || places.empty() || q.size() != w) return;
+  out.resize(places.size());
+  const std::uint64_t* c = codes.data();
+  for (std::size_t p = 0; p < places.size(); ++p, c += w) {
+    int d = 0;
+    for (std::size_t i = 0; i < w; ++i) d += std::popcount(c[i] ^ q[i]);
+    out[p] = PlaceCandidate{static_cast<std::uint32_t>(p), d};
+  }
+  const auto keep = std::min<std::size_t>(static_cast<std::size_t>(k), out.size());
+  std::partial_sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(keep), out.end(),
+                    [](const PlaceCandidate& a, const PlaceCandidate& b) {
+                      return a.hamming != b.hamming ? a.hamming < b.hamming : a.place < b.place;
+                    });
+  out.resize(keep);
+}
+
+std::vector<std::uint8_t> PlaceIndex::serialize() const {
+  PayloadWriter body;
+  body.put<std::int32_t>(params.vocabulary_words);
+  body.put<double>(params.segment_spacing_m);
+  body.put<std::int32_t>(params.vocabulary_sample);
+  body.put<std::int32_t>(params.vocabulary_iterations);
+  body.put<std::uint32_t>(static_cast<std::uint32_t>(edges.size()));
+  for (const auto& e : edges) {
+    body.put_string(e.id);
+    body.put_string(e.kind);
+    body.put<double>(e.length_m);
+    body.put<std::uint64_t>(e.payload_bytes);
+  }
+  body.put<std::int32_t>(vocabulary.cols);
+  body.put_bytes({vocabulary.data, vocabulary.total()});
+  body.put<std::uint32_t>(static_cast<std::uint32_t>(places.size()));
+  for (const auto& p : places) {
+    body.put<std::uint32_t>(p.edge);
+    body.put<float>(p.distance_m);
+  }
+  for (std::uint64_t c : codes) body.put<std::uint64_t>(c);
+  const std::vector<std::uint8_t>& b = body.bytes();
+  PayloadWriter file;
+  for (char ch : kIndexMagic) file.put<std::uint8_t>(static_cast<std::uint8_t>(ch));
+  file.put<std::uint32_t>(kIndexVersion);
+  file.put<std::uint32_t>(map_format::crc32(b));
+  file.put<std::uint64_t>(b.size());
+  std::vector<std::uint8_t> out = file.take();
+  out.insert(out.end(), b.begin(), b.end());
+  return out;
+}
+
+Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, const std::string& name) {
+  constexpr std::size_t kHeader = 8 + 4 + 4 + 8;
+  if (file.size() < kHeader)
+    return index_error(name, "truncated header (" + std::to_string(file.size()) + " bytes)");
+  if (std::memcmp(file.data(), kIndexMagic, 8) != 0) return index_error(name, "not a place index (bad magic)");
+  PayloadReader head(file.subspan(8, kHeader - 8));
+  const auto version = head.get<std::uint32_t>();
+  const auto crc = head.get<std::uint32_t>();
+  const auto length = head.get<std::uint64_t>();
+  if (!version || !crc || !length) return index_error(name, "truncated header");
+  if (*version != kIndexVersion)
+    return index_error(name, "format version " + std::to_string(*version) + ", this build reads " +
+                                 std::to_string(kIndexVersion));
+  if (*length != file.size() - kHeader)
+    return index_error(name, "body length " + std::to_string(*length) + " bytes, file holds " +
+                                 std::to_string(file.size() - kHeader));
+  const auto body = file.subspan(kHeader);
+  if (const std::uint32_t computed = map_format::crc32(body); computed != *crc) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "checksum mismatch (stored 0x%08x, computed 0x%08x)", *crc, computed);
+    return index_error(name, buf);
+  }
+  // The checksum matched: what follows fails only on a file written by a broken writer.
+  PayloadReader r(body);
+  PlaceIndex index;
+  auto bad = [&](const std::string& what) { return index_error(name, what); };
+  auto words = r.get<std::int32_t>();
+  auto spacing = r.get<double>();
+  auto sample = r.get<std::int32_t>();
+  auto iterations = r.get<std::int32_t>();
+  if (!words || !spacing || !sample || !iterations) return bad("truncated parameters");
+  index.params = {*words, *spacing, *sample, *iterations};
+  if (auto st = index.params.validate(); !st || *words % 64 != 0) return bad("invalid parameters");
+  auto edge_count = r.get<std::uint32_t>();
+  if (!edge_count || *edge_count > r.remaining()) return bad("edge table");
+  for (std::uint32_t i = 0; i < *edge_count; ++i) {
+    IndexedEdge e;
+    auto id = r.get_string();
+    auto kind = r.get_string();
+    auto len = r.get<double>();
+    auto bytes = r.get<std::uint64_t>();
+    if (!id || !kind || !len || !bytes) return bad("edge table entry " + std::to_string(i));
+    index.edges.push_back({*id, *kind, *len, *bytes});
+  }
+  auto cols = r.get<std::int32_t>();
+  auto vocab = r.get_bytes();
+  if (!cols || !vocab || *cols <= 0 || *cols > 1024 ||
+      vocab->size() != static_cast<std::size_t>(*cols) * static_cast<std::size_t>(*words))
+    return bad("vocabulary");
+  index.vocabulary = cv::Mat(*words, *cols, CV_8UC1);
+  std::memcpy(index.vocabulary.data, vocab->data(), vocab->size());
+  auto place_count = r.get<std::uint32_t>();
+  if (!place_count) return bad("place count");
+  const std::size_t w = static_cast<std::size_t>(index.code_words());
+  if (static_cast<std::size_t>(*place_count) * (8 + 8 * w) != r.remaining()) return bad("place table size");
+  index.places.resize(*place_count);
+  for (auto& p : index.places) {
+    auto e = r.get<std::uint32_t>();
+    auto d = r.get<float>();
+    if (!e || !d || *e >= index.edges.size() || !std::isfinite(*d)) return bad("place entry");
+    p = PlaceRef{*e, *d};
+  }
+  index.codes.resize(index.places.size() * w);
+  for (auto& c : index.codes) {
+    auto v = r.get<std::uint64_t>();
+    if (!v) return bad("codes");
+    c = *v;
+  }
+  return index;
+}
+
+Status PlaceIndex::matches(const MapStore& map) const {
+  std::vector<const EdgeRecord*> wanted;
+  for (const auto& e : map.edges())
+    if (indexable_kind(e.kind)) wanted.push_back(&e);
+  const std::string file = index_path(map.dir());
+  auto stale = [&](const std::string& what) {
+    return fail(ErrorCode::inconsistent, file + ": stale place index: " + what +
+                                             " since it was built (rebuild it with `visnav reloc-index " + map.dir() +
+                                             "`)");
+  };
+  for (const EdgeRecord* e : wanted) {
+    auto it = std::find_if(edges.begin(), edges.end(), [&](const IndexedEdge& x) { return x.id == e->id; });
+    if (it == edges.end()) return stale("edge " + e->id + " was added");
+    if (it->kind != e->kind || it->payload_bytes != e->payload_bytes) return stale("edge " + e->id + " changed");
+  }
+  for (const auto& x : edges)
+    if (map.find_edge(x.id) == nullptr) return stale("edge " + x.id + " was removed");
+  return ok();
+}
+
+std::size_t PlaceIndex::byte_size() const { return serialize().size(); }
+
+// ------------------------------------------------------------------------------ PlaceSource
+
+struct PlaceSource::Decoded {
+  std::optional<SegmentMap> segment;
+  std::optional<LocalMapPath> localmaps;
+};
+
+Result<const PlaceSource::Decoded*> PlaceSource::decode(const EdgeRecord& edge) {
+  if (auto it = cache_.find(edge.id); it != cache_.end()) return it->second.get();
+  if (!indexable_kind(edge.kind))
+    return fail(ErrorCode::invalid_value, "edge " + edge.id + ": kind '" + edge.kind + "' has no feature places");
+  VISNAV_ASSIGN(std::vector<std::uint8_t> body, map_.read_payload(edge.id));
+  auto decoded = std::make_shared<Decoded>();
+  if (edge.kind == kSegmentKind) {
+    auto m = SegmentMap::deserialize(body);
+    if (!m) return m.error().with_context(map_.payload_path(edge.id));
+    decoded->segment = std::move(*m);
+  } else {
+    auto m = LocalMapPath::deserialize(body);
+    if (!m) return m.error().with_context(map_.payload_path(edge.id));
+    decoded->localmaps = std::move(*m);
+  }
+  const Decoded* raw = decoded.get();
+  cache_.emplace(edge.id, std::move(decoded));
+  return raw;
+}
+
+Result<std::vector<float>> PlaceSource::place_distances(const EdgeRecord& edge, double segment_spacing_m) {
+  VISNAV_ASSIGN(const Decoded* d, decode(edge));
+  std::vector<float> out;
+  if (d->localmaps) {
+    for (const auto& m : d->localmaps->maps) out.push_back(static_cast<float>(m.distance_m));
+    return out;
+  }
+  const double length_m = std::max(0.0, d->segment->length_m);
+  const int n = static_cast<int>(std::floor(length_m / segment_spacing_m)) + 1;
+  for (int i = 0; i < n; ++i) out.push_back(static_cast<float>(i * segment_spacing_m));
+  return out;
+}
+
+Result<const PlaceFeatures*> PlaceSource::features(const std::string& edge_id, double distance_m) {
+  const EdgeRecord* edge = map_.find_edge(edge_id);
+  if (edge == nullptr) return fail(ErrorCode::not_found, "place: unknown edge '" + edge_id + "'");
+  VISNAV_ASSIGN(const Decoded* d, decode(*edge));
+  scratch_.positions_px.clear();
+  if (d->localmaps) {
+    const int i = d->localmaps->nearest_map(distance_m);
+    if (i < 0) {
+      scratch_.descriptors.release();
+      return &scratch_;
+    }
+    const auto& m = d->localmaps->maps[static_cast<std::size_t>(i)];
+    if (m.descriptors.type() != CV_8UC1)
+      return fail(ErrorCode::invalid_value, "edge " + edge_id + ": float descriptors cannot be indexed");
+    scratch_.descriptors = m.descriptors;
+    scratch_.positions_px = m.positions_px;
+    return &scratch_;
+  }
+  const SegmentMap& s = *d->segment;
+  if (!s.descriptors.empty() && s.descriptors.type() != CV_8UC1)
+    return fail(ErrorCode::invalid_value, "edge " + edge_id + ": float descriptors cannot be indexed");
+  // Landmarks seen at this distance when teaching (f <= d <= g), at their expected positions.
+  std::vector<int> rows;
+  const auto end = std::upper_bound(s.landmarks.begin(), s.landmarks.end(), distance_m,
+                                    [](double v, const feature_replay::Landmark& l) { return v < l.first_distance_m; });
+  for (auto it = s.landmarks.begin(); it != end; ++it)
+    if (it->last_distance_m >= distance_m) {
+      rows.push_back(static_cast<int>(it - s.landmarks.begin()));
+      scratch_.positions_px.push_back(it->expected_px(distance_m));
+    }
+  scratch_.descriptors.create(static_cast<int>(rows.size()), s.descriptors.cols, CV_8UC1);
+  for (std::size_t i = 0; i < rows.size(); ++i) s.descriptors.row(rows[i]).copyTo(scratch_.descriptors.row(static_cast<int>(i)));
+  return &scratch_;
+}
+
+// ----------------------------------------------------------------------------------- build
+
+Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params, const IndexProgress& progress) {
+  VISNAV_TRY(params.validate());
+  if (params.vocabulary_words % 64 != 0)
+    return fail(ErrorCode::out_of_range, "vocabulary_words: " + std::to_string(params.vocabulary_words) +
+                                             " is not a multiple of 64");
+  PlaceIndex index;
+  index.params = params;
+  PlaceSource source(map);
+  // Pass 1: the places and a deterministic reservoir sample of their descriptors.
+  std::mt19937_64 rng(0x5eed1dcULL);
+  cv::Mat sample;
+  long long seen = 0;
+  int cols = -1;
+  std::vector<const EdgeRecord*> edges;
+  for (const auto& e : map.edges())
+    if (indexable_kind(e.kind)) edges.push_back(&e);
+  if (edges.empty())
+    return fail(ErrorCode::not_found, map.dir() + ": no feature edge (feature_segment, feature_localmaps) to index");
+  for (std::size_t ei = 0; ei < edges.size(); ++ei) {
+    const EdgeRecord& e = *edges[ei];
+    if (progress) progress("places", static_cast<double>(ei), static_cast<double>(edges.size()));
+    index.edges.push_back({e.id, e.kind, e.length_m, e.payload_bytes});
+    VISNAV_ASSIGN(std::vector<float> distances, source.place_distances(e, params.segment_spacing_m));
+    for (float d : distances) {
+      VISNAV_ASSIGN(const PlaceFeatures* f, source.features(e.id, d));
+      index.places.push_back({static_cast<std::uint32_t>(ei), d});
+      if (f->descriptors.empty()) continue;
+      if (cols < 0) {
+        cols = f->descriptors.cols;
+        sample.create(params.vocabulary_sample, cols, CV_8UC1);
+      }
+      if (f->descriptors.cols != cols)
+        return fail(ErrorCode::inconsistent, "edge " + e.id + ": descriptor width " + std::to_string(f->descriptors.cols) +
+                                                 " bytes differs from the map's " + std::to_string(cols));
+      for (int r = 0; r < f->descriptors.rows; ++r, ++seen) {
+        long long slot = seen;
+        if (seen >= params.vocabulary_sample) slot = static_cast<long long>(rng() % static_cast<std::uint64_t>(seen + 1));
+        if (slot < params.vocabulary_sample) f->descriptors.row(r).copyTo(sample.row(static_cast<int>(slot)));
+      }
+    }
+  }
+  if (seen < params.vocabulary_words)
+    return fail(ErrorCode::inconsistent, map.dir() + ": only " + std::to_string(seen) +
+                                             " descriptors in the map, fewer than vocabulary_words " +
+                                             std::to_string(params.vocabulary_words));
+  if (seen < params.vocabulary_sample) sample = sample.rowRange(0, static_cast<int>(seen)).clone();
+  index.vocabulary = train_vocabulary(sample, params.vocabulary_words, params.vocabulary_iterations, progress);
+  // Pass 2: the codes.
+  const std::size_t w = static_cast<std::size_t>(index.code_words());
+  index.codes.assign(index.places.size() * w, 0);
+  for (std::size_t p = 0; p < index.places.size(); ++p) {
+    if (progress && p % 64 == 0) progress("codes", static_cast<double>(p), static_cast<double>(index.places.size()));
+    const PlaceRef& ref = index.places[p];
+    VISNAV_ASSIGN(const PlaceFeatures* f, source.features(index.edges[ref.edge].id, ref.distance_m));
+    VISNAV_TRY(index.encode(f->descriptors, {index.codes.data() + p * w, w}));
+  }
+  if (progress) progress("codes", static_cast<double>(index.places.size()), static_cast<double>(index.places.size()));
+  return index;
+}
+
+// ------------------------------------------------------------------------------------ files
+
+std::string index_path(const std::string& map_dir) { return (fs::path(map_dir) / kIndexFile).string(); }
+
+Status save_place_index(const std::string& map_dir, const PlaceIndex& index) {
+  const std::vector<std::uint8_t> bytes = index.serialize();
+  const std::string target = index_path(map_dir);
+  const std::string temp = (fs::path(map_dir) / ("." + std::string(kIndexFile) + ".tmp." + std::to_string(::getpid()))).string();
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + std::strerror(errno));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int err = errno;
+      ::close(fd);
+      ::unlink(temp.c_str());
+      return fail(ErrorCode::io, temp + ": write failed: " + std::strerror(err));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, temp + ": fsync/close failed: " + std::strerror(err));
+  }
+  if (::rename(temp.c_str(), target.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, target + ": rename failed: " + std::strerror(err));
+  }
+  // The rename is durable once the folder is.
+  if (const int dfd = ::open(map_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
+    (void)::fsync(dfd);
+    ::close(dfd);
+  }
+  return ok();
+}
+
+Result<PlaceIndex> load_place_index(const std::string& map_dir) {
+  const std::string path = index_path(map_dir);
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    return fail(ErrorCode::not_found, path + ": no place index (build it with `visnav reloc-index " + map_dir + "`)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail(ErrorCode::io, path + ": cannot open");
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return PlaceIndex::deserialize(bytes, path);
+}
+
+}  // namespace visnav::reloc

@@ -1,0 +1,285 @@
+// Sequence decision of the relocaliser (see relocaliser.hpp for the rules).
+#include "visnav/relocalisation/relocaliser.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <utility>
+
+namespace visnav::reloc {
+
+namespace {
+
+double wrap(double a) {
+  const double r = std::remainder(a, 2.0 * std::numbers::pi);
+  return r <= -std::numbers::pi ? r + 2.0 * std::numbers::pi : r;
+}
+
+std::string fmt(double v, int digits = 2) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+}  // namespace
+
+const char* to_string(RelocStatus s) {
+  switch (s) {
+    case RelocStatus::pending: return "pending";
+    case RelocStatus::localised: return "localised";
+    case RelocStatus::ambiguous: return "ambiguous";
+    case RelocStatus::not_on_map: return "not_on_map";
+    case RelocStatus::camera_blocked: return "camera_blocked";
+  }
+  return "pending";
+}
+
+const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
+  using P = RelocaliseParams;
+  static const auto s =
+      ParamSchema<P>{}
+          .field("frames", &P::frames, "usable frames that must agree before answering (never one frame)")
+          .range(3, 100)
+          .field("max_frames", &P::max_frames, "usable frames after which an undecided sequence is answered")
+          .range(3, 1000)
+          .field("candidates", &P::candidates, "places proposed by the index and verified per frame")
+          .range(1, 200)
+          .field("min_confidence", &P::min_confidence, "histogram-voting confidence of a verified place")
+          .range(0.01, 1.0)
+          .field("place_tolerance_m", &P::place_tolerance_m, "votes this close along the route are one place, m")
+          .range(0.05, 20.0)
+          .field("max_runner_up_ratio", &P::max_runner_up_ratio,
+                 "a distinct place scoring above this fraction of the best makes the answer ambiguous")
+          .range(0.0, 1.0)
+          .field("min_agreement", &P::min_agreement, "fraction of usable frames that must support the answer")
+          .range(0.0, 1.0)
+          .field("min_answer_confidence", &P::min_answer_confidence,
+                 "a localised answer below this confidence waits for more frames, then is ambiguous")
+          .range(0.0, 1.0)
+          .field("min_features", &P::min_features, "a frame with fewer features is blank (covered, dark)")
+          .range(0, 100000)
+          .field("min_image_stddev", &P::min_image_stddev,
+                 "a frame whose grey-level standard deviation is below this is blank (covered lens)")
+          .range(0.0, 128.0)
+          .field("prior_sigma_m", &P::prior_sigma_m,
+                 "odometry prior: spread along the route around the believed position, m (0 = no prior)")
+          .range(0.0, 100000.0);
+  return s;
+}
+
+Status RelocaliseParams::validate() const {
+  VISNAV_TRY(schema().check(*this));
+  if (max_frames < frames)
+    return fail(ErrorCode::inconsistent, {"", 0, "max_frames"},
+                "max_frames " + std::to_string(max_frames) + " is below frames " + std::to_string(frames));
+  return ok();
+}
+
+Relocaliser::Relocaliser(const RelocaliseParams& params, std::vector<RouteEdge> edges)
+    : params_(params), edges_(std::move(edges)) {}
+
+void Relocaliser::set_prior(std::uint32_t edge, double distance_m) { prior_ = std::make_pair(edge, distance_m); }
+
+void Relocaliser::add(FrameVotes frame) { frames_.push_back(std::move(frame)); }
+
+std::optional<double> Relocaliser::route_distance_m(std::uint32_t a, double da, std::uint32_t b, double db) const {
+  if (a >= edges_.size() || b >= edges_.size()) return std::nullopt;
+  const RouteEdge& ea = edges_[a];
+  const RouteEdge& eb = edges_[b];
+  std::optional<double> best;
+  auto take = [&](double v) {
+    if (!best || std::abs(v) < std::abs(*best)) best = v;
+  };
+  if (a == b) {
+    take(db - da);
+    if (ea.from == ea.to && ea.length_m > 0.0) {  // a closed one-edge loop: its two ends are one place
+      take(db - da - ea.length_m);
+      take(db - da + ea.length_m);
+    }
+  }
+  if (ea.to == eb.from) take((ea.length_m - da) + db);
+  if (eb.to == ea.from) take(-((eb.length_m - db) + da));
+  return best;
+}
+
+RelocAnswer Relocaliser::decide() const {
+  RelocAnswer answer;
+  const FrameVotes* newest = nullptr;
+  for (const auto& f : frames_) {
+    if (f.blank) {
+      ++answer.blank_frames;
+    } else {
+      ++answer.usable_frames;
+      newest = &f;
+    }
+  }
+  if (answer.usable_frames < params_.frames) {
+    if (answer.blank_frames >= params_.frames) {
+      answer.status = RelocStatus::camera_blocked;
+      answer.reason = "camera blocked: " + std::to_string(answer.blank_frames) + " of " +
+                      std::to_string(frames_.size()) +
+                      " frames were blank (too few features or a flat image: covered lens, darkness)";
+    }
+    return answer;
+  }
+
+  // Votes moved to the newest frame by the robot's own motion, strongest first.
+  struct Moved {
+    std::uint32_t edge;
+    double distance_m;
+    double heading_rad;
+    double confidence;
+    double score;
+    int frame;
+  };
+  std::vector<Moved> votes;
+  int frame_index = 0;
+  for (const auto& f : frames_) {
+    if (f.blank) continue;
+    const double moved_m = newest->odom_distance_m - f.odom_distance_m;
+    const double turned_rad = wrap(newest->odom_heading_rad - f.odom_heading_rad);
+    for (const auto& v : f.votes)
+      if (v.edge < edges_.size() && v.confidence >= params_.min_confidence)
+        votes.push_back({v.edge, v.distance_m + moved_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
+                         v.score > 0.0 ? v.score : v.confidence, frame_index});
+    ++frame_index;
+  }
+  const int usable = frame_index;
+  if (votes.empty()) {
+    answer.status = RelocStatus::not_on_map;
+    answer.reason = "not on the map: no place of the map was verified in " + std::to_string(usable) + " frames";
+    return answer;
+  }
+  std::stable_sort(votes.begin(), votes.end(), [](const Moved& x, const Moved& y) { return x.score > y.score; });
+
+  struct Hypothesis {
+    std::uint32_t edge;
+    double centre_m;       // on `edge`
+    double weight = 0.0;   // sum of vote confidences
+    double offset_sum = 0.0;
+    double sin_sum = 0.0, cos_sum = 0.0;
+    std::vector<double> best;        // per usable frame: best vote score
+    std::vector<double> confidence;  // per usable frame: best vote confidence
+    std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
+    double score = 0.0;
+    int support = 0;
+  };
+  std::vector<Hypothesis> hyps;
+  for (const Moved& v : votes) {
+    Hypothesis* into = nullptr;
+    double into_delta = 0.0;
+    for (auto& h : hyps) {
+      auto d = route_distance_m(h.edge, h.centre_m, v.edge, v.distance_m);
+      if (d && std::abs(*d) <= params_.place_tolerance_m && (into == nullptr || std::abs(*d) < std::abs(into_delta))) {
+        into = &h;
+        into_delta = *d;
+      }
+    }
+    if (into == nullptr) {
+      const auto n = static_cast<std::size_t>(usable);
+      hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(n, 0.0),
+                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
+      into = &hyps.back();
+      into_delta = 0.0;
+    }
+    // Position relative to the hypothesis' edge (a vote across a node is counted past its end).
+    const double on_edge_m = into->centre_m + into_delta;
+    // Weighted by the vote scores: the strongest places pull the centre.
+    into->offset_sum += v.score * on_edge_m;
+    into->weight += v.score;
+    into->centre_m = into->offset_sum / into->weight;
+    into->sin_sum += v.score * std::sin(v.heading_rad);
+    into->cos_sum += v.score * std::cos(v.heading_rad);
+    auto& b = into->best[static_cast<std::size_t>(v.frame)];
+    if (v.score > b) into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
+    b = std::max(b, v.score);
+    auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
+    c = std::max(c, v.confidence);
+  }
+  for (auto& h : hyps) {
+    double sum = 0.0;
+    for (double b : h.best)
+      if (b > 0.0) {
+        sum += b;
+        ++h.support;
+      }
+    double weight = 1.0;
+    if (prior_ && params_.prior_sigma_m > 0.0) {
+      auto d = route_distance_m(prior_->first, prior_->second, h.edge, h.centre_m);
+      weight = d ? std::exp(-0.5 * (*d / params_.prior_sigma_m) * (*d / params_.prior_sigma_m)) : 0.0;
+    }
+    h.score = sum * weight;
+  }
+  std::stable_sort(hyps.begin(), hyps.end(), [](const Hypothesis& x, const Hypothesis& y) { return x.score > y.score; });
+  const Hypothesis& best = hyps.front();
+  auto place_name = [&](const Hypothesis& h) {
+    return "edge " + edges_[h.edge].id + " at " + fmt(std::clamp(h.centre_m, 0.0, edges_[h.edge].length_m)) + " m";
+  };
+  if (!(best.score > 0.0)) {
+    answer.status = usable >= params_.max_frames ? RelocStatus::not_on_map : RelocStatus::pending;
+    answer.reason = "not on the map: the places seen are outside the odometry prior (" +
+                    fmt(params_.prior_sigma_m) + " m)";
+    return answer;
+  }
+  // The strongest place that is not the same stretch of route as the best.
+  const Hypothesis* runner_up = nullptr;
+  for (std::size_t i = 1; i < hyps.size(); ++i) {
+    auto d = route_distance_m(best.edge, best.centre_m, hyps[i].edge, hyps[i].centre_m);
+    if (!d || std::abs(*d) > 2.0 * params_.place_tolerance_m) {
+      runner_up = &hyps[i];
+      break;
+    }
+  }
+  const double ratio = runner_up != nullptr ? runner_up->score / best.score : 0.0;
+  const bool final_frame = usable >= params_.max_frames;
+  answer.support = best.support;
+  if (ratio > params_.max_runner_up_ratio) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: " + place_name(best) + " (score " + fmt(best.score) + ") and " + place_name(*runner_up) +
+                    " (score " + fmt(runner_up->score) + ") both match";
+    return answer;
+  }
+  const double needed = std::max<double>(params_.frames, params_.min_agreement * usable);
+  if (best.support < needed) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::not_on_map;
+    answer.reason = "not on the map: the best place, " + place_name(best) + ", is supported by only " +
+                    std::to_string(best.support) + " of " + std::to_string(usable) + " frames";
+    return answer;
+  }
+  const double mean_confidence = [&] {
+    double s = 0.0;
+    for (double c : best.confidence) s += c;
+    return s / std::max(1, best.support);
+  }();
+  const double confidence =
+      std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);
+  if (confidence < params_.min_answer_confidence) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: the best place, " + place_name(best) + ", is too weak (confidence " + fmt(confidence) +
+                    " < " + fmt(params_.min_answer_confidence) + ")";
+    return answer;
+  }
+  answer.status = RelocStatus::localised;
+  answer.edge = best.edge;
+  const RouteEdge& e = edges_[best.edge];
+  // Along the edge: the median of the frames' best votes (the centre of all votes within the
+  // tolerance leans towards the side with more, weaker neighbours).
+  std::vector<double> peaks;
+  for (std::size_t i = 0; i < best.best.size(); ++i)
+    if (best.best[i] > 0.0) peaks.push_back(best.peak_m[i]);
+  std::nth_element(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(peaks.size() / 2), peaks.end());
+  answer.distance_m = std::clamp(peaks.empty() ? best.centre_m : peaks[peaks.size() / 2], 0.0, e.length_m);
+  answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
+  answer.confidence = confidence;
+  answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +
+                  std::to_string(usable) + " frames agree" +
+                  (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"
+                                        : std::string());
+  return answer;
+}
+
+}  // namespace visnav::reloc

@@ -1,0 +1,68 @@
+// Lookup + histogram verification of one frame (see verifier.hpp).
+#include "visnav/relocalisation/verifier.hpp"
+
+#include <cstdio>
+
+#include <opencv2/core.hpp>
+
+namespace visnav::reloc {
+
+std::string blank_reason(const cv::Mat& image, const Features& features, const RelocaliseParams& params) {
+  if (image.empty()) return "empty frame";
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(image, mean, stddev);
+  double sd = 0.0;
+  for (int c = 0; c < image.channels() && c < 4; ++c) sd = std::max(sd, stddev[c]);
+  char buf[160];
+  if (sd < params.min_image_stddev) {
+    std::snprintf(buf, sizeof buf, "flat image: grey-level standard deviation %.1f < %.1f (covered lens or darkness)", sd,
+                  params.min_image_stddev);
+    return buf;
+  }
+  if (static_cast<int>(features.keypoints.size()) < params.min_features) {
+    std::snprintf(buf, sizeof buf, "%zu features < min_features %d", features.keypoints.size(), params.min_features);
+    return buf;
+  }
+  return {};
+}
+
+PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading)
+    : index_(index), map_(map), source_(map), estimator_(heading) {
+  code_.resize(static_cast<std::size_t>(index_.code_words()));
+}
+
+std::vector<RouteEdge> PlaceVerifier::route_edges() const {
+  std::vector<RouteEdge> out;
+  for (const auto& e : index_.edges) {
+    RouteEdge r{e.id, "", "", e.length_m};
+    if (const EdgeRecord* rec = map_.find_edge(e.id)) {
+      r.from = rec->from;
+      r.to = rec->to;
+      r.length_m = rec->length_m;
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+Result<std::vector<PlaceVote>> PlaceVerifier::votes(const Features& current, double image_width_px, int candidates,
+                                                    double min_confidence) {
+  std::vector<PlaceVote> out;
+  candidates_.clear();
+  if (current.descriptors.empty()) return out;
+  VISNAV_TRY(index_.encode(current.descriptors, code_));
+  index_.query(code_, candidates, candidates_);
+  for (const PlaceCandidate& c : candidates_) {
+    const PlaceRef& ref = index_.places[c.place];
+    VISNAV_ASSIGN(const PlaceFeatures* f, source_.features(index_.edges[ref.edge].id, ref.distance_m));
+    if (f->descriptors.empty()) continue;
+    VISNAV_ASSIGN(feature_replay::HeadingEstimate e,
+                  estimator_.estimate(feature_replay::ReferenceView{f->descriptors, f->positions_px}, current,
+                                      image_width_px));
+    if (!e.valid || e.confidence < min_confidence) continue;
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence});
+  }
+  return out;
+}
+
+}  // namespace visnav::reloc

@@ -1,0 +1,257 @@
+// Relocalisation and replay from the middle of a route in the simulator (issue 21), through the
+// real loader and plugins (robot + camera sim, star_brief, feature_replay, navigation,
+// sim_operator, path_following, relocalisation) with config/sim_reloc.yaml (3 % odometry scale
+// error, lock-step at 10 Hz):
+//  * curve20m: the 20 m rectangle taught as four feature_segment edges; the robot is then put
+//    1.5 m into the second edge, 0.15 m off it and turned 15 deg, with no place index in the map:
+//    trees/replay_from_here.xml builds the index on demand, relocalises onto the second edge,
+//    turns to the taught heading and drives the rest of the route back to the start.
+//    The same start with the lens covered (camera gain 0) is refused and the robot does not move.
+//  * repetitive_loop: the same rectangle in a point-symmetric courtyard, where the first and the
+//    third leg look alike: without a prior Relocalise answers ambiguous (never a guess); with the
+//    odometry prior of where the robot stopped it answers the right leg.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "visnav/bt/node.hpp"
+#include "visnav/bt/tree.hpp"
+#include "visnav/map.hpp"
+#include "visnav/runner.hpp"
+
+namespace fs = std::filesystem;
+using namespace visnav;
+
+namespace {
+
+const std::string kSource = VISNAV_TEST_SOURCE_DIR;
+
+class TempFolder {
+ public:
+  TempFolder() {
+    path_ = fs::temp_directory_path() / ("visnav_reloc_loop_" + std::to_string(::getpid()) + "_" +
+                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempFolder() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  [[nodiscard]] std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
+
+std::unique_ptr<Session> make_session(const std::string& map_dir, const std::vector<std::string>& overrides) {
+  auto config = load_run_config(kSource + "/config/sim_reloc.yaml", overrides);
+  EXPECT_TRUE(config.ok()) << config.error().message;
+  if (!config) return nullptr;
+  SessionOptions options;
+  options.use_default_plugin_path = false;
+  options.extra_plugin_dirs = {VISNAV_TEST_PLUGIN_DIR};
+  options.map_path = map_dir;
+  options.overrides = overrides;
+  auto session = Session::create(std::move(*config), options);
+  EXPECT_TRUE(session.ok()) << session.error().message;
+  if (!session) return nullptr;
+  if (MapStore* map = (*session)->map()) map->set_sync(false);
+  return std::move(*session);
+}
+
+/// Teaches `route` (four feature_segment legs of a closed rectangle) into `map_dir`.
+void teach(const std::string& map_dir, const std::string& world, const std::string& route) {
+  auto session = make_session(map_dir, {"robot.params.world=" + world});
+  ASSERT_NE(session, nullptr);
+  auto tree = session->load_tree(kSource + "/trees/teach_feature_edge.xml");
+  ASSERT_TRUE(tree.ok()) << tree.error().message;
+  tree->blackboard().set("route_file", kSource + "/config/routes/" + route + ".yaml");
+  tree->blackboard().set("style", std::string("segment"));
+  tree->blackboard().set("force_kind", std::string("feature_segment"));
+  tree->blackboard().set("close_loop", true);
+  const RunReport report = run_tree(*session, *tree);
+  ASSERT_EQ(report.outcome, RunOutcome::success) << report.reason;
+  ASSERT_EQ(session->map()->edges().size(), 4u);
+  std::printf("teach %s: %.1f s wall\n", world.c_str(), report.wall_time_s);
+}
+
+std::string bb_string(bt::Tree& tree, const std::string& key) {
+  auto v = tree.blackboard().get<std::string>(key);
+  return v ? *v : std::string();
+}
+
+/// Runs a one-node Relocalise tree (attributes `attributes`) and returns the report.
+RunReport relocalise_only(Session& session, const TempFolder& tmp, const std::string& attributes, bt::Tree** out_tree,
+                          std::optional<bt::Tree>& holder) {
+  const std::string xml = tmp.file("relocalise.xml");
+  std::ofstream(xml) << R"(<root BTCPP_format="4" main_tree_to_execute="R"><BehaviorTree ID="R">
+  <Relocalise )" << attributes << R"( edge="{reloc_edge}" distance_m="{reloc_distance_m}" status="{reloc_status}" reason="{reloc_reason}"/>
+</BehaviorTree></root>)";
+  auto tree = session.load_tree(xml);
+  EXPECT_TRUE(tree.ok()) << tree.error().message;
+  holder.emplace(std::move(*tree));
+  *out_tree = &*holder;
+  RunOptions run;
+  run.after_tick = [](const TickInfo& t) { return t.t_s < 60.0; };
+  return run_tree(session, *holder, run);
+}
+
+}  // namespace
+
+TEST(RelocClosedLoopSim, ReplaysTheRestOfTheRouteFromTheMiddleOfAnEdge) {
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  teach(map_dir, "curve20m", "curve20m_polygon");
+  if (HasFatalFailure()) return;
+  ASSERT_FALSE(fs::exists(map_dir + "/place_index.bin")) << "the teach tree builds no index: built on demand below";
+  std::string second_edge;
+  {
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok());
+    second_edge = map->edges()[1].id;
+  }
+  // 1.5 m into the second leg ((3, -2) -> (3, 2)), 0.15 m to its right, turned 15 deg left.
+  auto session = make_session(map_dir, {"robot.params.start_pose=3.15;-0.5;105"});
+  ASSERT_NE(session, nullptr);
+  auto tree = session->load_tree(kSource + "/trees/replay_from_here.xml");
+  ASSERT_TRUE(tree.ok()) << tree.error().message;
+  tree->blackboard().set("goal", std::string("start"));
+  SimulationControl* sim = session->robot().simulation();
+  RunOptions run;
+  run.after_tick = [](const TickInfo& t) { return t.t_s < 300.0; };
+  const RunReport report = run_tree(*session, *tree, run);
+  EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason << " / " << bb_string(*tree, "reloc_reason");
+  EXPECT_TRUE(fs::exists(map_dir + "/place_index.bin")) << "built on demand and kept in the map folder";
+  EXPECT_EQ(bb_string(*tree, "reloc_edge"), second_edge) << bb_string(*tree, "reloc_reason");
+  auto d = tree->blackboard().get<double>("reloc_distance_m");
+  ASSERT_TRUE(d.ok());
+  EXPECT_NEAR(*d, 1.5 * 1.03, 1.0) << "along-track error within 1 m (odometric map distances)";
+  const Pose2D end = sim->ground_truth_pose();
+  const double error_m = std::hypot(end.x_m + 3.0, end.y_m + 2.0);
+  std::printf("relocalised on %s at %.2f m (truth ~%.2f m); replay ended at (%.2f, %.2f), %.2f m from the start, "
+              "%.0f s simulated, %.1f s wall\n",
+              bb_string(*tree, "reloc_edge").c_str(), *d, 1.5 * 1.03, end.x_m, end.y_m, error_m, report.run_time_s,
+              report.wall_time_s);
+  EXPECT_LT(error_m, 0.8) << "the rest of the route is driven to the start node";
+  EXPECT_FALSE(fs::exists(map_dir + "/progress.yaml")) << "a finished route leaves no checkpoint to resume";
+}
+
+TEST(RelocClosedLoopSim, ResumesAStoppedMissionFromItsCheckpointAfterRelocalising) {
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  teach(map_dir, "curve20m", "curve20m_polygon");
+  if (HasFatalFailure()) return;
+  Pose2D stopped_at;
+  {
+    // 1 m into the first leg; the mission is stopped after 15 s (a pause turned into a restart,
+    // or a crash: the checkpoint is all that survives).
+    auto session = make_session(map_dir, {"robot.params.start_pose=-2;-2.1;5"});
+    ASSERT_NE(session, nullptr);
+    auto tree = session->load_tree(kSource + "/trees/replay_from_here.xml");
+    ASSERT_TRUE(tree.ok()) << tree.error().message;
+    tree->blackboard().set("goal", std::string("start"));
+    RunOptions run;
+    run.after_tick = [](const TickInfo& t) { return t.t_s < 15.0; };
+    const RunReport report = run_tree(*session, *tree, run);
+    EXPECT_NE(report.outcome, RunOutcome::success) << "stopped before the goal";
+    stopped_at = session->robot().simulation()->ground_truth_pose();
+  }
+  ASSERT_TRUE(fs::exists(map_dir + "/progress.yaml"));
+  auto values = progress_checkpoint_values(map_dir);
+  ASSERT_TRUE(values.ok()) << values.error().message;
+  std::string edge_entry;
+  for (const auto& v : *values)
+    if (v.rfind("resume_edge=", 0) == 0) edge_entry = v;
+  EXPECT_FALSE(edge_entry.empty());
+  EXPECT_NE(std::find(values->begin(), values->end(), "resume_goal=n0"), values->end());
+  std::printf("stopped at (%.2f, %.2f); checkpoint: %s\n", stopped_at.x_m, stopped_at.y_m, edge_entry.c_str());
+
+  // A new process: the robot stands where it stopped; resume_route.xml relocalises with the
+  // checkpoint as prior, then drives on to the goal.
+  char pose[96];
+  std::snprintf(pose, sizeof pose, "robot.params.start_pose=%.4f;%.4f;%.3f", stopped_at.x_m, stopped_at.y_m,
+                stopped_at.heading_rad * 180.0 / M_PI);
+  auto session = make_session(map_dir, {pose});
+  ASSERT_NE(session, nullptr);
+  auto tree = session->load_tree(kSource + "/trees/resume_route.xml");
+  ASSERT_TRUE(tree.ok()) << tree.error().message;
+  ASSERT_TRUE(set_blackboard_values(*tree, *values).ok());
+  RunOptions run;
+  run.after_tick = [](const TickInfo& t) { return t.t_s < 300.0; };
+  const RunReport report = run_tree(*session, *tree, run);
+  EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason << " / " << bb_string(*tree, "reloc_reason");
+  const Pose2D end = session->robot().simulation()->ground_truth_pose();
+  const double error_m = std::hypot(end.x_m + 3.0, end.y_m + 2.0);
+  std::printf("resumed: %s; ended %.2f m from the start\n", bb_string(*tree, "reloc_reason").c_str(), error_m);
+  EXPECT_LT(error_m, 0.8);
+  EXPECT_FALSE(fs::exists(map_dir + "/progress.yaml"));
+
+  // Nothing left to resume: a clear not_found error naming the file.
+  auto none = progress_checkpoint_values(map_dir);
+  ASSERT_FALSE(none.ok());
+  EXPECT_EQ(none.error().code, ErrorCode::not_found);
+}
+
+TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  teach(map_dir, "repetitive_loop", "repetitive_loop");
+  if (HasFatalFailure()) return;
+  std::string first_edge, third_edge;
+  {
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok());
+    first_edge = map->edges()[0].id;
+    third_edge = map->edges()[2].id;
+  }
+  // 1.5 m into the first leg; the third leg, seen from (1.5, 2) heading west, looks the same.
+  const std::vector<std::string> at = {"robot.params.world=repetitive_loop", "robot.params.start_pose=-1.5;-2;0"};
+  {
+    std::vector<std::string> covered = at;
+    covered.push_back("camera.params.gain=0");
+    auto session = make_session(map_dir, covered);
+    ASSERT_NE(session, nullptr);
+    const Pose2D before = session->robot().simulation()->ground_truth_pose();
+    std::optional<bt::Tree> holder;
+    bt::Tree* tree = nullptr;
+    const RunReport report = relocalise_only(*session, tmp, "", &tree, holder);
+    EXPECT_EQ(report.outcome, RunOutcome::failure);
+    EXPECT_EQ(bb_string(*tree, "reloc_status"), "camera_blocked") << bb_string(*tree, "reloc_reason");
+    const Pose2D after = session->robot().simulation()->ground_truth_pose();
+    EXPECT_LT(std::hypot(after.x_m - before.x_m, after.y_m - before.y_m), 0.01) << "a refused answer never moves";
+  }
+  {
+    auto session = make_session(map_dir, at);
+    ASSERT_NE(session, nullptr);
+    std::optional<bt::Tree> holder;
+    bt::Tree* tree = nullptr;
+    const RunReport report = relocalise_only(*session, tmp, "", &tree, holder);
+    std::printf("no prior: %s: %s\n", bb_string(*tree, "reloc_status").c_str(), bb_string(*tree, "reloc_reason").c_str());
+    EXPECT_EQ(report.outcome, RunOutcome::failure);
+    EXPECT_EQ(bb_string(*tree, "reloc_status"), "ambiguous") << bb_string(*tree, "reloc_reason");
+  }
+  {
+    auto session = make_session(map_dir, at);
+    ASSERT_NE(session, nullptr);
+    std::optional<bt::Tree> holder;
+    bt::Tree* tree = nullptr;
+    const RunReport report = relocalise_only(
+        *session, tmp, "prior_edge=\"" + first_edge + "\" prior_distance_m=\"1.2\" prior_sigma_m=\"2\"", &tree, holder);
+    std::printf("with prior: %s: %s\n", bb_string(*tree, "reloc_status").c_str(), bb_string(*tree, "reloc_reason").c_str());
+    EXPECT_EQ(report.outcome, RunOutcome::success);
+    EXPECT_EQ(bb_string(*tree, "reloc_edge"), first_edge);
+    auto d = tree->blackboard().get<double>("reloc_distance_m");
+    ASSERT_TRUE(d.ok());
+    EXPECT_NEAR(*d, 1.5 * 1.03, 1.0);
+  }
+}

@@ -1,0 +1,149 @@
+// Sequence decision of the relocaliser (issue 21): agreement over frames, never one frame, the
+// two ends of a loop, the odometry prior, a blocked camera, a robot off the map.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "visnav/relocalisation/relocaliser.hpp"
+
+using namespace visnav::reloc;
+
+namespace {
+
+/// A closed loop of three 10 m edges: e0 a->b, e1 b->c, e2 c->a.
+std::vector<RouteEdge> loop() {
+  return {{"e0", "a", "b", 10.0}, {"e1", "b", "c", 10.0}, {"e2", "c", "a", 10.0}};
+}
+
+FrameVotes frame(std::vector<PlaceVote> votes, double odom_m = 0.0, double heading_rad = 0.0) {
+  FrameVotes f;
+  f.votes = std::move(votes);
+  f.odom_distance_m = odom_m;
+  f.odom_heading_rad = heading_rad;
+  return f;
+}
+
+FrameVotes blank() {
+  FrameVotes f;
+  f.blank = true;
+  return f;
+}
+
+}  // namespace
+
+TEST(Relocaliser, AnswersOnlyAfterEnoughAgreeingFrames) {
+  RelocaliseParams p;  // frames 5
+  Relocaliser r(p, loop());
+  for (int i = 0; i < 4; ++i) {
+    r.add(frame({{1, 4.2, 0.8, 0.1}, {1, 4.4, 0.5, 0.1}}));
+    EXPECT_EQ(r.decide().status, RelocStatus::pending) << "frame " << i + 1;
+  }
+  r.add(frame({{1, 4.2, 0.8, 0.1}}));
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_EQ(a.edge, 1u);
+  EXPECT_NEAR(a.distance_m, 4.25, 0.05);
+  EXPECT_NEAR(a.heading_offset_rad, 0.1, 1e-9);
+  EXPECT_EQ(a.support, 5);
+  EXPECT_GT(a.confidence, 0.5);
+}
+
+TEST(Relocaliser, SchemaRefusesASingleFrameAnswer) {
+  RelocaliseParams p;
+  p.frames = 1;
+  EXPECT_FALSE(p.validate().ok());
+  p.frames = 5;
+  p.max_frames = 4;
+  const auto st = p.validate();
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, visnav::ErrorCode::inconsistent);
+  EXPECT_EQ(st.error().where.key, "max_frames");
+}
+
+TEST(Relocaliser, TwoEndsOfARepetitiveLoopAreAmbiguousWithoutAPrior) {
+  // The same view matches 2 m into e0 and 2 m before the end of e1 (8 m): two distinct places.
+  RelocaliseParams p;
+  std::vector<FrameVotes> frames;
+  for (int i = 0; i < p.max_frames; ++i) frames.push_back(frame({{0, 2.0, 0.7, 0.0}, {1, 8.0, 0.65, 0.0}}));
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) {
+    r.add(frames[static_cast<std::size_t>(i)]);
+    if (i + 1 < p.max_frames) {
+      EXPECT_EQ(r.decide().status, RelocStatus::pending) << "never answers early";
+    }
+  }
+  const RelocAnswer a = r.decide();
+  EXPECT_EQ(a.status, RelocStatus::ambiguous) << a.reason;
+  EXPECT_NE(a.reason.find("e0"), std::string::npos);
+  EXPECT_NE(a.reason.find("e1"), std::string::npos);
+
+  // The odometry prior (the robot stopped at 7.5 m on e1) decides between them.
+  RelocaliseParams with_prior = p;
+  with_prior.prior_sigma_m = 2.0;
+  Relocaliser r2(with_prior, loop());
+  r2.set_prior(1, 7.5);
+  for (int i = 0; i < p.frames; ++i) r2.add(frames[static_cast<std::size_t>(i)]);
+  const RelocAnswer b = r2.decide();
+  ASSERT_EQ(b.status, RelocStatus::localised) << b.reason;
+  EXPECT_EQ(b.edge, 1u);
+  EXPECT_NEAR(b.distance_m, 8.0, 1e-6);
+}
+
+TEST(Relocaliser, PlacesOnBothSidesOfANodeAreOnePlace) {
+  // The end of e2 and the start of e0 are the same spot (node a): not ambiguous.
+  RelocaliseParams p;
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.frames; ++i) r.add(frame({{2, 9.8, 0.7, 0.0}, {0, 0.2, 0.7, 0.0}}));
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_TRUE((a.edge == 2u && a.distance_m > 9.5) || (a.edge == 0u && a.distance_m < 0.5)) << a.reason;
+}
+
+TEST(Relocaliser, VotesFollowTheRobotsOwnMotion) {
+  // The robot creeps 0.5 m per frame and turns 0.05 rad: the same place seen from a moving robot
+  // agrees once moved to the newest frame.
+  RelocaliseParams p;
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.frames; ++i)
+    r.add(frame({{0, 3.0 + 0.5 * i, 0.6, 0.1 + 0.05 * i}}, 0.5 * i, 0.05 * i));
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_NEAR(a.distance_m, 5.0, 0.05);
+  EXPECT_NEAR(a.heading_offset_rad, 0.1 + 0.05 * 4, 1e-6);
+  // Frames whose places do not move with the robot do not agree: scattered support.
+  Relocaliser still(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) still.add(frame({{0, 3.0, 0.6, 0.0}}, 1.5 * i));
+  EXPECT_NE(still.decide().status, RelocStatus::localised);
+}
+
+TEST(Relocaliser, BlankFramesAreACameraProblemAndNoVotesAreNotOnTheMap) {
+  RelocaliseParams p;
+  Relocaliser covered(p, loop());
+  for (int i = 0; i < p.frames; ++i) covered.add(blank());
+  const RelocAnswer c = covered.decide();
+  EXPECT_EQ(c.status, RelocStatus::camera_blocked) << c.reason;
+  EXPECT_EQ(c.blank_frames, p.frames);
+
+  Relocaliser off(p, loop());
+  for (int i = 0; i < p.frames; ++i) off.add(frame({}));
+  EXPECT_EQ(off.decide().status, RelocStatus::not_on_map);
+
+  // Sporadic weak matches (1 frame in 4) are not an answer either: not on the map after max_frames.
+  Relocaliser sporadic(p, loop());
+  for (int i = 0; i < p.max_frames; ++i)
+    sporadic.add(frame(i % 4 == 0 ? std::vector<PlaceVote>{{1, 6.0, 0.4, 0.0}} : std::vector<PlaceVote>{}));
+  const RelocAnswer s = sporadic.decide();
+  EXPECT_EQ(s.status, RelocStatus::not_on_map) << s.reason;
+
+  // Agreeing but weak frames (confidence 0.35 each < min_answer_confidence 0.45): they wait for
+  // more frames, then the answer is ambiguous, not a guess.
+  Relocaliser weak(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) {
+    weak.add(frame({{1, 6.0, 0.35, 0.0}}));
+    if (i + 1 < p.max_frames) {
+      EXPECT_EQ(weak.decide().status, RelocStatus::pending);
+    }
+  }
+  EXPECT_EQ(weak.decide().status, RelocStatus::ambiguous) << weak.decide().reason;
+}

@@ -133,6 +133,26 @@ TEST_F(McapInterop, VisnavReadsARos2BagWrittenByMcapCore) {
   EXPECT_NEAR(cols[0], 101.9, 1e-9);  // log time of the last sample
   EXPECT_NEAR(cols[4], 0.95, 1e-9);   // odometric distance: 19 * 0.05 m
   EXPECT_NEAR(cols[6], 0.19, 1e-12);  // its yaw rate
+  // The same through `visnav convert --config C`: the topics come from run.bag_image_topic /
+  // run.bag_odom_topic of the robot's config; without them the default topic is not in the bag.
+  const fs::path config = scratch("ros2_robot.yaml");
+  std::ofstream(config) << "robot:\n  type: sim\ncamera:\n  type: sim\nrun:\n  bag_image_topic: /camera/image_raw\n"
+                           "  bag_odom_topic: /odom\n";
+  const fs::path by_config = scratch("ros2_run_config");
+  std::string cli_out;
+  EXPECT_EQ(interop::run_shell(std::string("'") + VISNAV_TEST_CLI + "' convert " + interop::shell_quote(file.string()) + " " +
+                                   interop::shell_quote(by_config.string()) + " --config " + interop::shell_quote(config.string()),
+                               cli_out),
+            0)
+      << cli_out;
+  EXPECT_NE(cli_out.find("10 frames, 20 odometry samples"), std::string::npos) << cli_out;
+  EXPECT_NE(interop::run_shell(std::string("'") + VISNAV_TEST_CLI + "' convert " + interop::shell_quote(file.string()) + " " +
+                                   interop::shell_quote(scratch("ros2_run_default").string()),
+                               cli_out),
+            0);
+  EXPECT_NE(cli_out.find("no image messages on topic '/camera/image_raw/compressed'"), std::string::npos) << cli_out;
+  fs::remove_all(by_config);
+  fs::remove(config);
   // A topic that is not there: the error lists the bag's topics.
   topics.image = "/camera/missing";
   auto missing = mcap::mcap_to_run_folder(file.string(), scratch("ros2_run2").string(), topics);

@@ -192,7 +192,15 @@ void EvdevDecoder::apply(std::uint16_t type, std::uint16_t code, std::int32_t va
       return;
     }
   }
-  // EV_SYN, EV_MSC and unmapped codes carry nothing for teleop.
+  if (type == EV_SYN && code == SYN_DROPPED) {
+    // The kernel's buffer overflowed: events were lost, a deadman release among them perhaps.
+    // Every button counts as released until the device reports it again (the robot stops).
+    for (std::size_t i = 0; i < state_.buttons.size(); ++i) {
+      if (state_.buttons[i]) releases_.push_back(static_cast<int>(i));
+      state_.buttons[i] = false;
+    }
+  }
+  // Other EV_SYN, EV_MSC and unmapped codes carry nothing for teleop.
 }
 
 bool is_evdev_path(const std::string& device) {

@@ -151,6 +151,10 @@ TEST(EvdevDecoder, NumbersAxesAndButtonsLikeJoydevAndNormalisesWithTheDeviceRang
   d.feed(ev_event(EV_KEY, BTN_TL, 2).data(), EvdevDecoder::kEventBytes);
   EXPECT_TRUE(d.take_presses().empty());
   EXPECT_EQ(d.state().buttons.size(), 11U);
+  // Events lost (SYN_DROPPED): the held deadman counts as released.
+  d.feed(ev_event(EV_SYN, SYN_DROPPED, 0).data(), EvdevDecoder::kEventBytes);
+  EXPECT_FALSE(d.state().button(4));
+  EXPECT_EQ(d.take_releases(), (std::vector<int>{4}));
 }
 
 TEST(EvdevDecoder, DevicePathsChooseEvdevOrTheJoystickApi) {

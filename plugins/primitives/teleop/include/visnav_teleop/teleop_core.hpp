@@ -122,7 +122,8 @@ class JsEventDecoder {
 /// ABS_* codes, buttons in the order of their BTN_*/KEY_* codes from BTN_MISC up — so one
 /// mapping file serves js*, event* and sensor_msgs/Joy. Axes are normalised with the device's
 /// min/max to [-1, 1] and negated (up/left = +1), as joy_linux does. EV_KEY value 2 (autorepeat)
-/// is a held button, not a press. Codes not in the layout are ignored.
+/// is a held button, not a press. SYN_DROPPED (events lost) releases every button, so a lost
+/// deadman release cannot keep the robot moving. Codes not in the layout are ignored.
 class EvdevDecoder {
  public:
   struct Axis {

@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config
   libopencv-dev libopencv-contrib-dev libeigen3-dev
   cyclonedds-dev cyclonedds-tools libnlopt-cxx-dev libnlopt-dev
-  libtinyxml2-dev libyaml-cpp-dev libzstd-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libtinyxml2-dev libyaml-cpp-dev libzstd-dev liblz4-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3-skimage openssl)
 # `make fuzz` only (VISNAV_FUZZ=1): clang with the libFuzzer runtime.
 if [ "${VISNAV_FUZZ:-0}" = 1 ]; then packages+=(clang libclang-rt-14-dev); fi

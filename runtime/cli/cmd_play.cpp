@@ -32,9 +32,9 @@ constexpr const char* kUsage =
     "\n"
     "  RUN               recorded-run folder (also --run RUN), or an MCAP file: one written by\n"
     "                    `visnav record --format mcap`, or a ROS 2 bag (give --config C)\n"
-    "  --image-topic T   MCAP: topic of the images (sensor_msgs Image or CompressedImage;\n"
-    "                    default /camera/image_raw/compressed)\n"
-    "  --odom-topic T    MCAP: topic of nav_msgs/Odometry (default /odom)\n"
+    "  --image-topic T   MCAP: topic of the images (sensor_msgs Image or CompressedImage; default\n"
+    "                    run.bag_image_topic of --config, else /camera/image_raw/compressed)\n"
+    "  --odom-topic T    MCAP: topic of nav_msgs/Odometry (default run.bag_odom_topic, else /odom)\n"
     "  --tree T          mission tree\n"
     "  --bb key=value    blackboard entry before the first tick (after the recorded ones in run.yaml)\n"
     "  --config C        configuration to take detector/nodes/run settings from\n"
@@ -104,11 +104,13 @@ int play(const std::vector<std::string>& raw_args) {
   if (run_dir.empty()) run_dir = a.get("--run");
   if (run_dir.empty()) return visnav::cli::usage_error("play", "missing the recorded-run folder RUN");
   if (auto st = a.require({"--tree"}); !st) return visnav::cli::usage_error("play", st.error().message);
-  visnav::mcap::RunTopics topics;
-  topics.image = a.get("--image-topic", topics.image);
-  topics.odometry = a.get("--odom-topic", topics.odometry);
+  auto topics = visnav::cli::bag_topics(a, a.get("--config"), a.all("--set"));
+  if (!topics) {
+    std::cerr << "visnav play: " << topics.error().message << "\n";
+    return 1;
+  }
   visnav::cli::TempRun temp_run;
-  if (auto folder = visnav::cli::run_folder_of(run_dir, topics, temp_run); folder) {
+  if (auto folder = visnav::cli::run_folder_of(run_dir, topics->run, temp_run); folder) {
     run_dir = *folder;
   } else {
     std::cerr << "visnav play: " << folder.error().message << "\n";

@@ -27,13 +27,14 @@ namespace fs = std::filesystem;
 
 constexpr const char* kUsage =
     "usage: visnav record --config C -o RUN [--tree T] [--bb key=value]... [--duration-s S] [--map M [--create]] [--set k=v]...\n"
-    "                     [--format folder|mcap] [--image-format png|jpg] [--jpeg-quality Q] [--force]\n"
+    "                     [--format folder|mcap] [--compression zstd|lz4|none] [--image-format png|jpg]\n"
+    "                     [--jpeg-quality Q] [--force]\n"
     "                     [--plugin-path DIR]... [--log-level L]\n"
     "\n"
     "Builds the robot and camera named in the config C (any plugins: sim, v4l2, video, dds, ...)\n"
     "and records into the folder RUN (docs/recorded_runs.md): every frame the run used (PNG,\n"
-    "lossless, or JPEG), every odometry reading, one line per tick with the command sent, and the\n"
-    "simulator's ground truth when the robot is simulated. Every line and image is flushed as it\n"
+    "lossless, or JPEG), every odometry reading, one line per tick with the command sent, every\n"
+    "telemetry status the mission publishes, and the simulator's ground truth when the robot is simulated. Every line and image is flushed as it\n"
     "is written, so a killed recording keeps everything before the kill.\n"
     "\n"
     "With --tree the mission runs exactly as `visnav run` runs it and is recorded tick by tick;\n"
@@ -44,6 +45,7 @@ constexpr const char* kUsage =
     "  --format F           folder (default; lossless) or mcap: one ROS 2 bag file (CompressedImage,\n"
     "                       Odometry, Twist in CDR; `ros2 bag info`, Foxglove) that `visnav play`,\n"
     "                       `visnav evaluate` and `visnav convert` read back exactly\n"
+    "  --compression C      mcap: chunk compression zstd (default), lz4 or none\n"
     "  --tree T             mission tree to run while recording\n"
     "  --bb key=value       blackboard entry before the first tick (as `visnav run --bb`; kept in run.yaml)\n"
     "  --duration-s S       stop after S s of run time (0 = until the tree ends / Ctrl-C)\n"
@@ -95,6 +97,8 @@ class RunSink {
   virtual void odometry(const visnav::Odometry& o) = 0;
   virtual void command(std::uint64_t tick, double t_s, long frame_index, const visnav::Twist& c, std::uint64_t sent) = 0;
   virtual void truth(double t_s, const visnav::Pose2D& p) = 0;
+  /// A NavStatus the mission published at run-clock time t_s.
+  virtual void telemetry(double t_s, const visnav::NavStatus& s) = 0;
   /// Stores run.yaml (`complete` says whether this is the final one) and, at the end, finishes.
   virtual visnav::Status run_info(const std::string& text, bool complete) = 0;
   /// First write error of odometry/command/truth (they cannot fail the tick), or empty.
@@ -129,6 +133,7 @@ class RunWriter final : public RunSink {
     VISNAV_TRY(open("odometry.csv", "t_s,x_m,y_m,heading_rad,distance_m,linear_mps,angular_radps\n", w->odometry_));
     VISNAV_TRY(open("commands.csv", "tick,t_s,frame_index,linear_mps,angular_radps,commands_sent\n", w->commands_));
     if (with_truth) VISNAV_TRY(open("ground_truth.csv", "t_s,x_m,y_m,heading_rad\n", w->truth_));
+    VISNAV_TRY(open("telemetry.jsonl", "", w->telemetry_));
     return w;
   }
 
@@ -180,6 +185,11 @@ class RunWriter final : public RunSink {
     std::fflush(truth_.get());
   }
 
+  void telemetry(double t_s, const visnav::NavStatus& s) override {
+    std::fputs((visnav::mcap::telemetry_json(t_s, s) + "\n").c_str(), telemetry_.get());
+    std::fflush(telemetry_.get());
+  }
+
   visnav::Status run_info(const std::string& text, bool /*complete*/) override { return write_run_info(dir_, text); }
   [[nodiscard]] long frames() const override { return frame_index_; }
   [[nodiscard]] long odometry_rows() const override { return odometry_rows_; }
@@ -189,7 +199,7 @@ class RunWriter final : public RunSink {
   std::string dir_;
   std::string ext_;
   int jpeg_quality_ = 95;
-  FilePtr frames_, odometry_, commands_, truth_;
+  FilePtr frames_, odometry_, commands_, truth_, telemetry_;
   long frame_index_ = 0;
   long odometry_rows_ = 0;
   std::optional<std::pair<std::uint64_t, double>> last_frame_;
@@ -201,9 +211,13 @@ class RunWriter final : public RunSink {
 class McapSink final : public RunSink {
  public:
   static visnav::Result<std::unique_ptr<McapSink>> create(const std::string& path, const std::string& config_file,
-                                                          const std::string& image_format, int jpeg_quality, bool with_truth) {
+                                                          const std::string& image_format, int jpeg_quality, bool with_truth,
+                                                          const std::string& compression) {
     std::unique_ptr<McapSink> s(new McapSink());
-    VISNAV_ASSIGN(s->writer_, visnav::mcap::RunMcapWriter::create(path, with_truth));
+    visnav::mcap::WriterOptions options;
+    options.compress = compression != "none";
+    if (options.compress) options.compression = compression;
+    VISNAV_ASSIGN(s->writer_, visnav::mcap::RunMcapWriter::create(path, with_truth, options));
     std::ifstream in(config_file);
     std::stringstream text;
     text << in.rdbuf();
@@ -237,6 +251,7 @@ class McapSink final : public RunSink {
     last_t_s_ = t_s;
   }
   void truth(double t_s, const visnav::Pose2D& p) override { keep(writer_->truth(t_s, p)); }
+  void telemetry(double t_s, const visnav::NavStatus& s) override { keep(writer_->telemetry(t_s, s)); }
   visnav::Status run_info(const std::string& text, bool complete) override {
     if (!complete) return visnav::ok();  // the final run.yaml is attached at the end
     VISNAV_TRY(writer_->attach("config.yaml", config_text_, last_t_s_));
@@ -265,6 +280,28 @@ class McapSink final : public RunSink {
   std::string error_;
 };
 
+/// Records every NavStatus the mission publishes, passing it on to the session's own sinks
+/// (run.telemetry_file, DDS, the live view) while it exists.
+class TelemetryTap final : public visnav::Telemetry {
+ public:
+  TelemetryTap(visnav::Session& session, RunSink& sink)
+      : session_(session), sink_(sink), forward_(session.host().telemetry()) {
+    session_.host().set_telemetry(this);
+  }
+  ~TelemetryTap() override { session_.host().set_telemetry(forward_); }
+  TelemetryTap(const TelemetryTap&) = delete;
+  TelemetryTap& operator=(const TelemetryTap&) = delete;
+  void publish(const visnav::NavStatus& s) override {
+    if (forward_ != nullptr) forward_->publish(s);
+    sink_.telemetry(session_.clock().now_s(), s);
+  }
+
+ private:
+  visnav::Session& session_;
+  RunSink& sink_;
+  visnav::Telemetry* forward_;
+};
+
 /// Writes run.yaml crash-safely (temporary file + rename).
 visnav::Status write_run_info(const std::string& dir, const std::string& text) {
   const fs::path final_path = fs::path(dir) / "run.yaml";
@@ -287,7 +324,7 @@ int record(const std::vector<std::string>& args) {
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"-o", Opt::value}, {"--out", Opt::value}, {"--tree", Opt::value},
                                {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--create", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated},
                                {"--image-format", Opt::value}, {"--jpeg-quality", Opt::value}, {"--force", Opt::flag},
-                               {"--format", Opt::value},
+                               {"--format", Opt::value}, {"--compression", Opt::value},
                                {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
       !st)
     return visnav::cli::usage_error("record", st.error().message);
@@ -311,6 +348,10 @@ int record(const std::vector<std::string>& args) {
   const std::string format = a.get("--format", "folder");
   if (format != "folder" && format != "mcap")
     return visnav::cli::usage_error("record", "--format must be folder or mcap, got '" + format + "'");
+  const std::string compression = a.get("--compression", "zstd");
+  if (compression != "zstd" && compression != "lz4" && compression != "none")
+    return visnav::cli::usage_error("record", "--compression must be zstd, lz4 or none, got '" + compression + "'");
+  if (a.has("--compression") && format != "mcap") return visnav::cli::usage_error("record", "--compression needs --format mcap");
   std::error_code ec;
   if (format == "mcap" && fs::exists(out_dir, ec) && !a.has("--force")) {
     std::cerr << "visnav record: " << out_dir << " exists (use --force to overwrite it)\n";
@@ -350,7 +391,7 @@ int record(const std::vector<std::string>& args) {
   visnav::SimulationControl* sim = session.robot().simulation();
   std::unique_ptr<RunSink> sink;
   if (format == "mcap") {
-    auto made = McapSink::create(out_dir, config_file, image_format, jpeg_quality, sim != nullptr);
+    auto made = McapSink::create(out_dir, config_file, image_format, jpeg_quality, sim != nullptr, compression);
     if (!made) {
       std::cerr << "visnav record: " << made.error().message << "\n";
       return 1;
@@ -414,6 +455,7 @@ int record(const std::vector<std::string>& args) {
   const double start_s = session.clock().now_s();
   if (tree) {
     visnav::RunOptions ro;
+    TelemetryTap tap(session, writer);
     ro.after_tick = [&](const visnav::TickInfo& t) {
       if (!record_tick(t.tick, t.t_s, true)) return false;
       return !(duration_s > 0.0 && t.t_s - start_s >= duration_s);

@@ -33,10 +33,12 @@ constexpr const char* kUsage =
     "                     resume=true become blackboard entries (--bb wins), e.g. with\n"
     "                     trees/resume_route.xml, which relocalises before moving (docs/relocalisation.md)\n"
     "  --trace F          write every node status transition to F as JSON lines\n"
-    "  --view PORT        live view: serve the Foxglove WebSocket protocol on 127.0.0.1:PORT (camera,\n"
-    "                     pose, map, telemetry, tree statuses; open ws://localhost:PORT in Foxglove;\n"
-    "                     docs/live_view.md). VISNAV_VIEW_ALL_INTERFACES=1 listens on every interface\n"
-    "  --view-speed X     with --view in lock-step simulation: run X times real time so it can be\n"
+    "  --view PORT        live view: serve the Foxglove WebSocket protocol on 127.0.0.1:PORT (camera\n"
+    "                     with the primitive's overlays, pose, map, telemetry, tree statuses; open\n"
+    "                     ws://localhost:PORT in Foxglove;\n"
+    "                     docs/live_view.md); overrides run.view_port. VISNAV_VIEW_ALL_INTERFACES=1 listens\n"
+    "                     on every interface\n"
+    "  --view-speed X     with the live view in lock-step simulation: run X times real time so it can be\n"
     "                     watched (default 1; 0 = as fast as possible)\n"
     "  --plugin-path DIR  extra plugin directory (after VISNAV_PLUGIN_PATH and plugin_path)\n"
     "  --log-level L      overrides run.log_level\n"
@@ -48,20 +50,23 @@ constexpr const char* kUsage =
     "3 safety stop (stale data, sensor failure), 130 interrupted (SIGINT or an abort request:\n"
     "tree halted, robot stopped).\n";
 
-/// run_mission with the live view attached (same steps: prepare_mission, then run).
+/// run_mission, with the live view attached when --view or run.view_port asks for it (same
+/// steps: prepare_mission, then run).
 visnav::RunReport run_with_view(const visnav::MissionOptions& m, const std::string& port_text,
                                 const std::string& speed_text) {
   visnav::RunReport r;
   r.outcome = visnav::RunOutcome::error;
   r.exit_code = 1;
   int port = -1;
-  try {
-    port = std::stoi(port_text);
-  } catch (...) {
-  }
-  if (port < 0 || port > 65535) {
-    r.reason = "--view: '" + port_text + "' is not a port number 0..65535";
-    return r;
+  if (!port_text.empty()) {
+    try {
+      port = std::stoi(port_text);
+    } catch (...) {
+    }
+    if (port < 0 || port > 65535) {
+      r.reason = "--view: '" + port_text + "' is not a port number 0..65535";
+      return r;
+    }
   }
   double speed = -1.0;
   try {
@@ -79,6 +84,12 @@ visnav::RunReport run_with_view(const visnav::MissionOptions& m, const std::stri
   }
   visnav::Session& session = *prepared->session;
   visnav::bt::Tree& tree = *prepared->tree;
+  if (port < 0) port = session.config().run.view_port > 0 ? session.config().run.view_port : -1;
+  if (port < 0) {  // no live view
+    visnav::RunOptions ro;
+    ro.trace_file = m.trace_file;
+    return visnav::run_tree(session, tree, ro);
+  }
   const char* all = std::getenv("VISNAV_VIEW_ALL_INTERFACES");
   auto view = visnav::view::LiveView::create(port, session, all != nullptr && std::string(all) == "1");
   if (!view) {
@@ -139,7 +150,7 @@ int run(const std::vector<std::string>& args) {
     m.log_level = *level;
   }
   visnav::install_signal_handlers();
-  const visnav::RunReport r = a.has("--view") ? run_with_view(m, a.get("--view"), a.get("--view-speed", "1")) : visnav::run_mission(m);
+  const visnav::RunReport r = run_with_view(m, a.has("--view") ? a.get("--view") : std::string(), a.get("--view-speed", "1"));
   if (r.outcome == visnav::RunOutcome::error) {
     std::cerr << "visnav run: " << r.reason << "\n";
     return r.exit_code;

@@ -32,7 +32,8 @@ constexpr const char* kUsage =
     "                     default RUN/marks.csv\n"
     "  --primitive KIND   no marks: teach the whole drive as one edge of this kind (e.g. feature_segment)\n"
     "  --joy-topic T      MCAP RUN: the marks are the gamepad's primitive-button presses recorded on this\n"
-    "                     sensor_msgs/msg/Joy topic (e.g. /joy), bound by --mapping\n"
+    "                     sensor_msgs/msg/Joy topic (e.g. /joy), bound by --mapping (default\n"
+    "                     run.bag_joy_topic of --config, unless --marks or --primitive is given)\n"
     "  --mapping F        operator mapping with primitive_buttons (default config/teleop/gamepad.yaml)\n"
     "  --config C         configuration (detector, nodes); default the recording's config.yaml\n"
     "  --tree T           teaching tree (default trees/teach_recorded.xml of the source tree)\n"
@@ -41,7 +42,8 @@ constexpr const char* kUsage =
     "                     is stored before the playback runs out of data\n"
     "  --set, --bb        as `visnav play`; `nodes` is set to the teaching tree's plugins\n"
     "                     (navigation, feature_replay, path_following, teleop) before any --set\n"
-    "  --image-topic T, --odom-topic T   topics of a ROS 2 bag (as `visnav convert`)\n"
+    "  --image-topic T, --odom-topic T   topics of a ROS 2 bag (as `visnav convert`; default\n"
+    "                     run.bag_image_topic / run.bag_odom_topic of --config)\n"
     "\n"
     "Exit status: as `visnav play` (0 when the map was taught).\n";
 
@@ -71,11 +73,15 @@ int teach(const std::vector<std::string>& args) {
     return visnav::cli::usage_error("teach", "--end-margin-s needs a number");
   }
 
-  visnav::mcap::RunTopics topics;
-  topics.image = a.get("--image-topic", topics.image);
-  topics.odometry = a.get("--odom-topic", topics.odometry);
+  auto topics = visnav::cli::bag_topics(a, a.get("--config"), a.all("--set"));
+  if (!topics) {
+    std::cerr << "visnav teach: " << topics.error().message << "\n";
+    return 1;
+  }
+  // run.bag_joy_topic applies unless the switches are given another way.
+  if (a.has("--marks") || a.has("--primitive")) topics->joy.clear();
   visnav::cli::TempRun temp;
-  auto folder = visnav::cli::run_folder_of(a.get("--run"), topics, temp);
+  auto folder = visnav::cli::run_folder_of(a.get("--run"), topics->run, temp);
   if (!folder) {
     std::cerr << "visnav teach: " << folder.error().message << "\n";
     return 1;
@@ -107,7 +113,7 @@ int teach(const std::vector<std::string>& args) {
 
   std::string marks = a.get("--marks");
   fs::path generated;
-  if (a.has("--joy-topic")) {
+  if (!topics->joy.empty()) {
     // The gamepad's primitive buttons, as the Teleop node binds them.
     const std::string mapping =
         a.get("--mapping", (fs::path(VISNAV_SOURCE_DIR) / "config" / "teleop" / "gamepad.yaml").string());
@@ -133,7 +139,7 @@ int teach(const std::vector<std::string>& args) {
     } else {
       bindings = {{0, "feature_segment"}, {2, "path_following"}, {1, ""}};  // the Teleop defaults
     }
-    auto joy = visnav::mcap::joy_marks(a.get("--run"), a.get("--joy-topic"), bindings);
+    auto joy = visnav::mcap::joy_marks(a.get("--run"), topics->joy, bindings);
     if (!joy) {
       std::cerr << "visnav teach: " << joy.error().message << "\n";
       return 1;
@@ -144,7 +150,7 @@ int teach(const std::vector<std::string>& args) {
     out << "t_s,primitive\n";
     for (const auto& [t, kind] : *joy) out << t << "," << kind << "\n";
     marks = generated.string();
-    std::cout << "visnav teach: " << joy->size() << " primitive switches from " << a.get("--joy-topic") << "\n";
+    std::cout << "visnav teach: " << joy->size() << " primitive switches from " << topics->joy << "\n";
   } else if (a.has("--primitive")) {
     generated = fs::temp_directory_path() / ("visnav_marks_" + std::to_string(::getpid()) + ".csv");
     std::ofstream(generated) << "t_s,primitive\n-1e9," << a.get("--primitive") << "\n";

@@ -7,9 +7,33 @@
 #include <filesystem>
 #include <string>
 
+#include "args.hpp"
+#include "visnav/config.hpp"
 #include "visnav/mcap.hpp"
 
 namespace visnav::cli {
+
+/// Topics of a ROS 2 bag: the defaults, then run.bag_image_topic / bag_odom_topic /
+/// bag_joy_topic of `config_file` (when given, with its --set overrides), then the command's
+/// --image-topic / --odom-topic / --joy-topic. Errors: the config does not load.
+struct BagTopics {
+  mcap::RunTopics run;
+  std::string joy;  ///< empty: no gamepad marks
+};
+inline Result<BagTopics> bag_topics(const Args& a, const std::string& config_file,
+                                    const std::vector<std::string>& overrides = {}) {
+  BagTopics t;
+  if (!config_file.empty()) {
+    VISNAV_ASSIGN(RunConfig config, load_run_config(config_file, overrides));
+    t.run.image = config.run.bag_image_topic;
+    t.run.odometry = config.run.bag_odom_topic;
+    t.joy = config.run.bag_joy_topic;
+  }
+  t.run.image = a.get("--image-topic", t.run.image);
+  t.run.odometry = a.get("--odom-topic", t.run.odometry);
+  t.joy = a.get("--joy-topic", t.joy);
+  return t;
+}
 
 struct TempRun {
   std::string dir;

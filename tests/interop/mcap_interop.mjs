@@ -1,12 +1,17 @@
 // Checks visnav's MCAP files with the independent @mcap/core reader, and writes a ROS 2 bag with
 // @mcap/core's writer for visnav to read (tests/interop/test_mcap_interop.cpp).
 //   node mcap_interop.mjs read FILE    -> JSON summary on stdout (exit 1 with the error otherwise)
-//   node mcap_interop.mjs write FILE   -> a bag: /camera/image_raw (Image mono8), /odom, /cmd_vel
+//   node mcap_interop.mjs write FILE [lz4] -> a bag: /camera/image_raw (Image mono8), /odom, /cmd_vel
+//                                            (uncompressed chunks, or lz4 frames made by lz4js)
 import { McapIndexedReader, McapStreamReader, McapWriter } from "@mcap/core";
 import { decompress } from "fzstd";
+import lz4 from "lz4js";
 import { open, readFile } from "node:fs/promises";
 
-const decompressHandlers = { zstd: (buffer, size) => decompress(buffer, new Uint8Array(Number(size))) };
+const decompressHandlers = {
+  zstd: (buffer, size) => decompress(buffer, new Uint8Array(Number(size))),
+  lz4: (buffer, size) => Uint8Array.from(lz4.decompress(buffer, Number(size))),
+};
 
 async function read(path) {
   const bytes = await readFile(path);
@@ -20,6 +25,7 @@ async function read(path) {
   let messages = 0;
   const attachments = [];
   let firstTwist = null;
+  let firstStatus = null;
   for (let r; (r = stream.nextRecord()); ) {
     if (r.type === "Header") header = r;
     if (r.type === "Schema") schemas.set(r.id, r);
@@ -27,6 +33,7 @@ async function read(path) {
     if (r.type === "Attachment") attachments.push(r.name);
     if (r.type === "Message") {
       const ch = channels.get(r.channelId);
+      if (ch.topic === "/visnav/status" && firstStatus === null) firstStatus = JSON.parse(new TextDecoder().decode(r.data));
       const schema = schemas.get(ch.schemaId);
       const t = (topics[ch.topic] ??= { count: 0, schema: schema ? schema.name : "", encoding: ch.messageEncoding });
       t.count++;
@@ -72,6 +79,7 @@ async function read(path) {
     attachments,
     indexed_attachments: indexedAttachments,
     first_twist: firstTwist,
+    first_status: firstStatus,
   }));
 }
 
@@ -95,14 +103,17 @@ const TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n";
 const HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n" + SEP + TIME;
 const VEC3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n";
 
-async function write(path) {
+async function write(path, compression) {
   const handle = await open(path, "w");
   let position = 0n;
   const writable = {
     position: () => position,
     write: async (buffer) => { await handle.write(buffer); position += BigInt(buffer.byteLength); },
   };
-  const w = new McapWriter({ writable, chunkSize: 4096 });
+  const compressChunk = compression === "lz4"
+    ? (data) => ({ compression: "lz4", compressedData: Uint8Array.from(lz4.compress(data)) })
+    : undefined;
+  const w = new McapWriter({ writable, chunkSize: 4096, compressChunk });
   await w.start({ profile: "ros2", library: "mcap-interop-test" });
   const enc = (s) => new TextEncoder().encode(s);
   const imageSchema = await w.registerSchema({ name: "sensor_msgs/msg/Image", encoding: "ros2msg", data: enc(
@@ -139,10 +150,10 @@ async function write(path) {
   await handle.close();
 }
 
-const [mode, file] = process.argv.slice(2);
+const [mode, file, compression] = process.argv.slice(2);
 try {
   if (mode === "read") await read(file);
-  else if (mode === "write") await write(file);
+  else if (mode === "write") await write(file, compression);
   else throw new Error("usage: node mcap_interop.mjs read|write FILE");
 } catch (e) {
   console.error(`mcap_interop: ${e.stack ?? e}`);

@@ -1,9 +1,10 @@
-// `visnav run --view` against the independent @foxglove/ws-protocol client (npm): during a short
-// real-time simulator run, a client that never reads sits on every channel and another client
-// connects and disconnects 10 times; then the ws-protocol client subscribes to every advertised
-// channel, every message must decode, and the per-tick channels must arrive at the tick rate
-// (lock-step simulation paced at twice real time by --view-speed 2).
-// The run must still finish normally.
+// The live view (`visnav run`, here started by the config key run.view_port) against the
+// independent @foxglove/ws-protocol client (npm): a route is taught in the simulator, then during
+// its replay, paced at twice real time by --view-speed 2, a client that never reads sits on every
+// channel and another client connects and disconnects 10 times; then the ws-protocol client
+// subscribes to every advertised channel, every message must decode, the per-tick channels must
+// arrive at the tick rate, and the feature overlay (/camera/annotations) must carry the replay's
+// matched features. The run must still finish normally.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -88,11 +89,32 @@ TEST(ViewInterop, FoxgloveWsProtocolClientReceivesEveryChannelDuringARun) {
   std::ofstream(dir / "route.yaml")
       << "route:\n  name: s\n  world: straight6m\n  start: [0, 0, 0]\n"
          "  waypoints:\n    - {at: [0, 0], kind: feature}\n    - {at: [5, 0]}\n";
-  // --create: a new map folder is made only when asked, with --view as without it (one code path).
+  // Teach the route first (no view, as fast as lock-step goes).
+  std::string teach_out;
+  ASSERT_EQ(visnav::interop::run_shell(
+                std::string("'") + VISNAV_TEST_CLI + "' run --config " + (dir / "config.yaml").string() + " --map " +
+                    (dir / "map").string() + " --create --tree " + src + "/trees/teach_feature_edge.xml --bb route_file=" +
+                    (dir / "route.yaml").string() + " --bb style=segment --bb force_kind=feature_segment --bb close_loop=false",
+                teach_out),
+            0)
+      << teach_out;
+  // The view's port from the config key (a free port: bound, read back, released).
+  int view_port = 0;
+  {
+    const int s = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    ASSERT_EQ(::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    ASSERT_EQ(::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len), 0);
+    view_port = ntohs(a.sin_port);
+    ::close(s);
+  }
   const std::vector<std::string> args{VISNAV_TEST_CLI, "run", "--config", (dir / "config.yaml").string(), "--map",
-                                      (dir / "map").string(), "--create", "--tree", src + "/trees/teach_feature_edge.xml",
-                                      "--bb", "route_file=" + (dir / "route.yaml").string(), "--bb", "style=segment",
-                                      "--bb", "force_kind=feature_segment", "--bb", "close_loop=false", "--view", "0",
+                                      (dir / "map").string(), "--tree", src + "/trees/replay_feature_edge.xml",
+                                      "--bb", "start=start", "--bb", "goal=n1", "--bb", "loops=1", "--bb", "laps=1",
+                                      "--bb", "speed_mps=0.5", "--set", "run.view_port=" + std::to_string(view_port),
                                       "--view-speed", "2"};
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
@@ -118,7 +140,8 @@ TEST(ViewInterop, FoxgloveWsProtocolClientReceivesEveryChannelDuringARun) {
     ::waitpid(pid, nullptr, 0);
     FAIL() << "no live view port announced:\n" << slurp(log);
   }
-  const int stuck = stuck_client(port, 5);
+  EXPECT_EQ(port, view_port);
+  const int stuck = stuck_client(port, 7);
   std::string out;
   const int rc = visnav::interop::run_shell("cd " + visnav::interop::shell_quote(visnav::interop::kInteropDir.string()) +
                                                 " && node view_client.mjs " + std::to_string(port) + " 3 10",
@@ -130,20 +153,24 @@ TEST(ViewInterop, FoxgloveWsProtocolClientReceivesEveryChannelDuringARun) {
   std::printf("view client: %s\n", out.c_str());
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(log);
   EXPECT_NE(out.find("\"errors\":[]"), std::string::npos) << out;
-  for (const char* topic : {"/camera", "/robot/pose", "/bt", "/map", "/telemetry"}) {
+  for (const char* topic : {"/camera", "/robot/pose", "/bt", "/map", "/telemetry", "/camera/annotations", "/camera/overlay"}) {
     SCOPED_TRACE(topic);
     EXPECT_EQ(json_number(out, topic, "bad"), 0) << out;  // every message decoded
   }
   EXPECT_NE(out.find("\"schema\":\"foxglove.CompressedImage\""), std::string::npos) << out;
   EXPECT_NE(out.find("\"schema\":\"foxglove.SceneUpdate\""), std::string::npos) << out;
   // The per-tick channels at the tick rate: 10 Hz of simulated time at twice real time.
-  for (const char* topic : {"/camera", "/robot/pose", "/bt"}) {
+  for (const char* topic : {"/camera", "/robot/pose", "/bt", "/camera/annotations", "/camera/overlay"}) {
     SCOPED_TRACE(topic);
     const double rate = json_number(out, topic, "rate_hz");
     EXPECT_GT(rate, 14.0) << out;
     EXPECT_LT(rate, 26.0) << out;
   }
   EXPECT_GE(json_number(out, "/map", "count"), 1) << out;
+  // The replay's matched features are drawn over the camera image.
+  EXPECT_NE(out.find("\"schema\":\"foxglove.ImageAnnotations\""), std::string::npos) << out;
+  EXPECT_GE(json_number(out, "/camera/annotations", "features_max"), 10) << out;
+  EXPECT_NE(out.find("\"keys\":[\"circles\",\"points\",\"texts\"]"), std::string::npos) << out;
   EXPECT_NE(out.find("\"keys\":[\"data\",\"format\",\"frame_id\",\"timestamp\"]"), std::string::npos) << out;
   fs::remove_all(dir);
 }

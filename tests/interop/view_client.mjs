@@ -1,7 +1,8 @@
 // A live-view client built on the independent @foxglove/ws-protocol package
 // (tests/interop/test_view_interop.cpp): connects to ws://127.0.0.1:PORT, subscribes to every
 // advertised channel, decodes every message (JSON), and after SECONDS prints per channel the
-// schema, the count, the rate (Hz over the time it was subscribed) and the first message's keys.
+// schema, the count, the rate (Hz over the time it was subscribed), the first message's keys and,
+// for foxglove.ImageAnnotations, the most feature points (POINTS annotations) in one message.
 // Before that it connects and disconnects RECONNECTS times (the server must keep serving).
 //   node view_client.mjs PORT SECONDS RECONNECTS
 import wsProtocol from "@foxglove/ws-protocol";
@@ -40,7 +41,7 @@ async function watch() {
     start = performance.now();
     for (const ch of list) {
       const sub = client.subscribe(ch.id);
-      const entry = { topic: ch.topic, schema: ch.schemaName, encoding: ch.encoding, count: 0, bad: 0, keys: null };
+      const entry = { topic: ch.topic, schema: ch.schemaName, encoding: ch.encoding, count: 0, bad: 0, keys: null, features_max: 0 };
       channels.set(ch.topic, entry);
       bySub.set(sub, entry);
     }
@@ -51,6 +52,10 @@ async function watch() {
     try {
       const msg = JSON.parse(new TextDecoder().decode(data));
       if (entry.keys === null) entry.keys = Object.keys(msg).sort();
+      if (Array.isArray(msg.points)) {
+        const features = msg.points.filter((p) => p.type === 1).reduce((n, p) => n + p.points.length, 0);
+        entry.features_max = Math.max(entry.features_max, features);
+      }
       entry.count++;
     } catch {
       entry.bad++;

@@ -9,6 +9,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -64,6 +65,21 @@ class FrameBus {
   std::optional<Odometry> odometry_;
 };
 
+/// What a primitive saw in the frame a NavStatus is about, for the live view (`visnav run
+/// --view`, docs/live_view.md). Image coordinates in px of that frame (u right, v down).
+/// Non-owning: the spans and the mask belong to the primitive and are valid only during the
+/// Telemetry::publish() call that carries them; a sink that keeps them copies them.
+struct NavOverlay {
+  std::span<const cv::Point2f> matched_px;    ///< current-frame features that voted (feature primitives)
+  std::span<const cv::Point2f> reference_px;  ///< where each was taught (same order; may be empty)
+  std::span<const std::uint8_t> inlier;       ///< 1 = inside the winning heading bin (same order; may be empty)
+  std::span<const int> histogram;             ///< heading-histogram votes per bin (may be empty)
+  double histogram_bin_px = 0.0;              ///< bin width; bin i is centred on (i - size/2) * bin px
+  double offset_px = 0.0;                     ///< the chosen offset (current minus taught, + = right)
+  cv::Mat path_mask;                          ///< CV_8UC1, frame size, 255 = path (path following); may be empty
+  std::span<const cv::Point2f> path_middle_px;  ///< the path's centre line, one point per row (may be empty)
+};
+
 /// Per-tick navigation status, published as JSON lines and on the DDS telemetry topic.
 struct NavStatus {
   std::string node_path;      ///< behaviour-tree path of the active primitive
@@ -77,6 +93,8 @@ struct NavStatus {
   double confidence = 0.0;    ///< window-mean confidence of the primitive, [0, 1] (nav_health.hpp)
   double blind_m = 0.0;       ///< odometric distance since the route was last seen
   std::string status;         ///< short human-readable state ("replaying", "path lost", ...)
+  /// What the primitive saw (NavOverlay), or nullptr; valid only during publish().
+  const NavOverlay* overlay = nullptr;
 };
 
 class Telemetry {

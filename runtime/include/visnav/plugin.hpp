@@ -57,7 +57,8 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 ///    of bt/nav_health_ports.hpp are the primitive adapter's now) (issue 14).
 /// 4: a descriptor carries several kinds (TypeEntry::kind; PluginDescriptor lost its single
 ///    `kind`); VISNAV_PLUGIN takes a PluginInfo with named fields (issue 14).
-inline constexpr std::uint32_t kPluginAbiVersion = 4;
+/// 5: NavStatus and ReplayStep gained the live-view overlay (NavOverlay, issue 18).
+inline constexpr std::uint32_t kPluginAbiVersion = 5;
 
 /// What a plugin contributes. A library may contribute several kinds at once.
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };

@@ -115,6 +115,9 @@ struct ReplayStep {
   double offset_px = 0.0;
   std::string status;           ///< short state for telemetry ("steering", "path lost", ...)
   std::string failure;          ///< non-empty: the primitive's own reason to stop; the node fails with it
+  /// Optional: what the primitive saw in this frame, for the live view (host.hpp NavOverlay).
+  /// Owned by the replayer, valid until its next step(); the adapter puts it in the NavStatus.
+  const NavOverlay* overlay = nullptr;
 };
 
 /// Traverses one edge of its kind(s). Made by the adapter at every start from validated Params.

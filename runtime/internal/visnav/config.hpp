@@ -52,6 +52,14 @@ struct RunSettings {
   int bt_max_subtree_depth = 64;       ///< deepest SubTree nesting a tree may use (bt::LoadOptions)
   int bt_max_nodes = 100000;           ///< nodes the expanded tree may instantiate (bt::LoadOptions)
   int bt_max_tree_depth = 1000;        ///< deepest node, counted through SubTrees (bt::LoadOptions)
+  /// `visnav run` live view (docs/live_view.md): serve the Foxglove WebSocket protocol on this
+  /// port (as --view PORT, which wins); 0 = off. Read at start only.
+  int view_port = 0;
+  /// Topics of an MCAP bag recorded by a ROS 2 robot, for play / evaluate / teach --run /
+  /// convert (their --image-topic / --odom-topic / --joy-topic win; docs/recorded_runs.md).
+  std::string bag_image_topic = "/camera/image_raw/compressed";
+  std::string bag_odom_topic = "/odom";
+  std::string bag_joy_topic;           ///< teach --run: primitive buttons from this Joy topic; empty = off
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RunSettings>& schema();

@@ -2,8 +2,8 @@
 // recordings open in `ros2 bag`, Foxglove and every MCAP tool, and bags recorded on a ROS 2 robot
 // play back here. Written from the public specification; no MCAP library is used.
 //
-// Writer: Header (profile "ros2"), Schema/Channel records, Messages in Chunks (zstd-compressed
-// when the runtime was built with libzstd, else uncompressed) each followed by its Message Index
+// Writer: Header (profile "ros2"), Schema/Channel records, Messages in Chunks (zstd- or
+// lz4-compressed when the runtime was built with libzstd / liblz4, else uncompressed) each followed by its Message Index
 // records; Attachments; DataEnd; a Summary section (Schemas, Channels, Statistics, Chunk Indexes,
 // Attachment Indexes), Summary Offsets, Footer with the summary CRC. Chunk CRCs are CRC-32
 // (IEEE) of the uncompressed records.
@@ -31,6 +31,7 @@
 
 #include "visnav/dds.hpp"
 #include "visnav/dds_joy.hpp"
+#include "visnav/host.hpp"
 #include "visnav/result.hpp"
 #include "visnav/types.hpp"
 
@@ -41,6 +42,8 @@ namespace visnav::mcap {
 
 /// True when chunks can be written and read zstd-compressed (runtime built with libzstd).
 [[nodiscard]] bool zstd_available();
+/// True when chunks can be written and read lz4-compressed (runtime built with liblz4).
+[[nodiscard]] bool lz4_available();
 
 struct Schema {
   std::uint16_t id = 0;
@@ -76,7 +79,8 @@ struct Attachment {
 struct WriterOptions {
   std::string profile = "ros2";
   std::string library = "visnav";
-  bool compress = true;                          ///< zstd chunks when zstd_available()
+  bool compress = true;                          ///< compress chunks with `compression` when available
+  std::string compression = "zstd";              ///< "zstd" or "lz4" (validated by Writer::create)
   std::size_t chunk_size_bytes = 4 * 1024 * 1024;  ///< a chunk is closed once its records exceed this
 };
 
@@ -148,7 +152,9 @@ struct ReadReport {
 //   /odom                         nav_msgs/msg/Odometry            every odometry reading
 //   /cmd_vel                      geometry_msgs/msg/Twist          the command in force after each tick
 //   /visnav/ground_truth          nav_msgs/msg/Odometry            simulated robots only (world frame)
-//   /visnav/frame, /visnav/odometry, /visnav/tick, /visnav/truth   JSON: the folder format's rows with exact
+//   /visnav/telemetry             visnav/msg/Telemetry             each NavStatus of a mission (the DDS
+//                                 telemetry type, so a bag of rt/visnav/telemetry reads the same)
+//   /visnav/frame, /visnav/odometry, /visnav/tick, /visnav/truth, /visnav/status   JSON: the folder format's rows with exact
 //                                 (17-digit) times and the odometric distance, so a conversion
 //                                 back to a folder is exact
 //   attachments run.yaml and config.yaml (the last run.yaml attached wins).
@@ -164,6 +170,9 @@ class RunMcapWriter {
   Status odometry(const Odometry& o);
   Status tick(std::uint64_t tick, double t_s, long frame_index, const Twist& command, std::uint64_t commands_sent);
   Status truth(double t_s, const Pose2D& pose);
+  /// One NavStatus published at run-clock time `t_s` (CDR on /visnav/telemetry, and every field
+  /// including confidence and blind_m as JSON on /visnav/status).
+  Status telemetry(double t_s, const NavStatus& status);
   Status attach(const std::string& name, const std::string& text, double t_s);
   Status close();
 
@@ -171,7 +180,9 @@ class RunMcapWriter {
   RunMcapWriter() = default;
   std::unique_ptr<Writer> writer_;
   std::uint16_t image_ = 0, odom_ = 0, cmd_ = 0, truth_ = 0, frame_json_ = 0, odom_json_ = 0, tick_json_ = 0, truth_json_ = 0;
+  std::uint16_t telemetry_ = 0, status_json_ = 0;
   std::uint32_t seq_ = 0;
+  std::uint64_t telemetry_seq_ = 0;
 };
 
 /// Which topics of a bag hold what (a bag recorded by a ROS 2 robot names its own topics).
@@ -185,6 +196,7 @@ struct ConversionReport {
   long frames = 0;
   long odometry_samples = 0;
   long ticks = 0;
+  long telemetry = 0;      ///< NavStatus messages (telemetry.jsonl rows)
   bool exact = false;      ///< the bag carried visnav's /visnav/* channels (a visnav recording)
   bool truncated = false;  ///< the bag ended early (a killed recording)
 };
@@ -205,7 +217,12 @@ struct ConversionReport {
     const std::string& mcap_path, const std::string& joy_topic, const std::vector<std::pair<int, std::string>>& primitive_buttons);
 
 /// Writes a bag from a recorded-run folder (frames.csv, odometry.csv, commands.csv,
-/// ground_truth.csv, run.yaml, config.yaml).
+/// ground_truth.csv, telemetry.jsonl, run.yaml, config.yaml).
+/// One telemetry.jsonl line (the folder format's telemetry: a flat JSON object with t_s and the
+/// NavStatus fields, numbers with 17 digits) and back. parse errors name what is wrong.
+[[nodiscard]] std::string telemetry_json(double t_s, const NavStatus& status);
+[[nodiscard]] Result<std::pair<double, NavStatus>> parse_telemetry_json(std::string_view line);
+
 [[nodiscard]] Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::string& mcap_path,
                                                          WriterOptions options = {});
 

@@ -154,7 +154,16 @@ const ParamSchema<RunSettings>& RunSettings::schema() {
           .field("bt_max_nodes", &RunSettings::bt_max_nodes, "nodes a behaviour tree may instantiate, SubTrees expanded")
           .range(1, 10000000)
           .field("bt_max_tree_depth", &RunSettings::bt_max_tree_depth, "deepest behaviour-tree node, counted through SubTrees")
-          .range(2, 10000);
+          .range(2, 10000)
+          .field("view_port", &RunSettings::view_port,
+                 "visnav run: serve the live view (Foxglove WebSocket) on this port, as --view; 0 = off")
+          .range(0, 65535)
+          .field("bag_image_topic", &RunSettings::bag_image_topic,
+                 "MCAP bag of a ROS 2 robot: topic of the images (sensor_msgs Image or CompressedImage), as --image-topic")
+          .field("bag_odom_topic", &RunSettings::bag_odom_topic,
+                 "MCAP bag of a ROS 2 robot: topic of nav_msgs/Odometry, as --odom-topic")
+          .field("bag_joy_topic", &RunSettings::bag_joy_topic,
+                 "teach --run from an MCAP bag: primitive switches from this sensor_msgs/Joy topic, as --joy-topic; empty = off");
   return s;
 }
 

@@ -11,6 +11,9 @@
 #ifdef VISNAV_HAVE_ZSTD
 #include <zstd.h>
 #endif
+#ifdef VISNAV_HAVE_LZ4
+#include <lz4frame.h>
+#endif
 
 namespace visnav::mcap {
 namespace {
@@ -129,12 +132,74 @@ bool zstd_available() {
 #endif
 }
 
+bool lz4_available() {
+#ifdef VISNAV_HAVE_LZ4
+  return true;
+#else
+  return false;
+#endif
+}
+
+namespace {
+
+/// MCAP's "lz4" is the LZ4 frame format (not the raw block format).
+Result<std::string> lz4_compress(const std::string& plain) {
+#ifdef VISNAV_HAVE_LZ4
+  LZ4F_preferences_t prefs{};
+  prefs.frameInfo.contentSize = plain.size();  // lets a reader size its buffer
+  std::string out(LZ4F_compressFrameBound(plain.size(), &prefs), '\0');
+  const std::size_t n = LZ4F_compressFrame(out.data(), out.size(), plain.data(), plain.size(), &prefs);
+  if (LZ4F_isError(n) != 0U) return fail(std::string("lz4: ") + LZ4F_getErrorName(n));
+  out.resize(n);
+  return out;
+#else
+  (void)plain;
+  return fail("lz4 chunks, but visnav was built without liblz4 (install liblz4-dev)");
+#endif
+}
+
+Result<std::string> lz4_decompress(const std::string& frame, std::uint64_t uncompressed_size) {
+#ifdef VISNAV_HAVE_LZ4
+  LZ4F_dctx* dctx = nullptr;
+  if (LZ4F_isError(LZ4F_createDecompressionContext(&dctx, LZ4F_VERSION)) != 0U) return fail("lz4: no context");
+  std::string plain(uncompressed_size, '\0');
+  std::size_t in_pos = 0, out_pos = 0;
+  std::size_t hint = 1;
+  // A frame may hold several blocks (and the spec allows concatenated frames): decode until the
+  // input is used up or the decoder says the frame is done with nothing left.
+  while (in_pos < frame.size() && hint != 0) {
+    std::size_t out_n = plain.size() - out_pos;
+    std::size_t in_n = frame.size() - in_pos;
+    hint = LZ4F_decompress(dctx, plain.data() + out_pos, &out_n, frame.data() + in_pos, &in_n, nullptr);
+    if (LZ4F_isError(hint) != 0U) {
+      LZ4F_freeDecompressionContext(dctx);
+      return fail(std::string("lz4: ") + LZ4F_getErrorName(hint));
+    }
+    in_pos += in_n;
+    out_pos += out_n;
+    if (in_n == 0 && out_n == 0) break;  // no progress: output full or input malformed
+    if (hint == 0 && in_pos < frame.size()) hint = 1;  // another concatenated frame follows
+  }
+  LZ4F_freeDecompressionContext(dctx);
+  if (out_pos != uncompressed_size || in_pos != frame.size()) return fail("lz4 chunk does not decompress to its size");
+  return plain;
+#else
+  (void)frame;
+  (void)uncompressed_size;
+  return fail("lz4 chunk, but visnav was built without liblz4 (install liblz4-dev)");
+#endif
+}
+
+}  // namespace
+
 // ---- Writer ------------------------------------------------------------------------------
 
 Result<std::unique_ptr<Writer>> Writer::create(const std::string& path, WriterOptions options) {
   std::unique_ptr<Writer> w(new Writer());
   w->path_ = path;
   w->options_ = std::move(options);
+  if (w->options_.compression != "zstd" && w->options_.compression != "lz4")
+    return fail(ErrorCode::out_of_range, "MCAP compression '" + w->options_.compression + "' is not one of zstd, lz4");
   w->out_.open(path, std::ios::binary | std::ios::trunc);
   if (!w->out_) return fail(path + ": cannot create the MCAP file");
   std::string head(kMagic, sizeof kMagic);
@@ -207,8 +272,12 @@ Status Writer::flush_chunk() {
   const std::uint32_t crc = crc32(chunk_records_.data(), chunk_records_.size());
   std::string compression;
   std::string payload;
+  if (options_.compress && options_.compression == "lz4" && lz4_available()) {
+    VISNAV_ASSIGN(payload, lz4_compress(chunk_records_));
+    compression = "lz4";
+  }
 #ifdef VISNAV_HAVE_ZSTD
-  if (options_.compress) {
+  if (options_.compress && options_.compression == "zstd") {
     payload.resize(ZSTD_compressBound(chunk_records_.size()));
     const std::size_t n = ZSTD_compress(payload.data(), payload.size(), chunk_records_.data(), chunk_records_.size(), 3);
     if (ZSTD_isError(n) != 0U) return fail(path_ + ": zstd: " + ZSTD_getErrorName(n));
@@ -440,9 +509,14 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
 #else
         return fail(at(st.path, offset) + "zstd chunk, but visnav was built without libzstd (install libzstd-dev)");
 #endif
+      } else if (compression == "lz4") {
+        if (uncompressed_size > (std::uint64_t{1} << 34)) return fail(at(st.path, offset) + "chunk too large");
+        auto p = lz4_decompress(records, uncompressed_size);
+        if (!p) return fail(at(st.path, offset) + p.error().message);
+        plain = std::move(*p);
       } else {
         return fail(at(st.path, offset) + "chunk compression '" + compression +
-                    "' is not supported (visnav reads none and zstd; convert with `mcap convert --compression zstd`)");
+                    "' is not supported (visnav reads none, zstd and lz4; convert with `mcap convert --compression zstd`)");
       }
       if (crc != 0 && crc32(plain.data(), plain.size()) != crc)
         return fail(at(st.path, offset) + "chunk CRC mismatch (damaged file)");

@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "visnav/mcap.hpp"
+#include "visnav/runtime_host.hpp"  // json_escape
 
 namespace visnav::mcap {
 namespace fs = std::filesystem;
@@ -145,7 +146,112 @@ Result<std::unique_ptr<RunMcapWriter>> RunMcapWriter::create(const std::string& 
   w->frame_json_ = m.add_channel(json_schema, "/visnav/frame", "json");
   w->odom_json_ = m.add_channel(json_schema, "/visnav/odometry", "json");
   w->tick_json_ = m.add_channel(json_schema, "/visnav/tick", "json");
+  w->telemetry_ = m.add_channel(schema("visnav/msg/Telemetry"), "/visnav/telemetry", "cdr");
+  w->status_json_ = m.add_channel(json_schema, "/visnav/status", "json");
   return w;
+}
+
+std::string telemetry_json(double t_s, const NavStatus& s) {
+  return "{\"t_s\":" + num(t_s) + ",\"node_path\":\"" + json_escape(s.node_path) + "\",\"map_node\":\"" +
+         json_escape(s.map_node) + "\",\"edge\":\"" + json_escape(s.edge) + "\",\"distance_m\":" + num(s.distance_m) +
+         ",\"matches\":" + std::to_string(s.matches) + ",\"inliers\":" + std::to_string(s.inliers) +
+         ",\"offset_px\":" + num(s.offset_px) + ",\"linear_mps\":" + num(s.command.linear_mps) +
+         ",\"angular_radps\":" + num(s.command.angular_radps) + ",\"confidence\":" + num(s.confidence) +
+         ",\"blind_m\":" + num(s.blind_m) + ",\"status\":\"" + json_escape(s.status) + "\"}";
+}
+
+Result<std::pair<double, NavStatus>> parse_telemetry_json(std::string_view line) {
+  // A flat object of strings and numbers, as telemetry_json writes it.
+  std::map<std::string, std::string> strings;
+  std::map<std::string, double> numbers;
+  std::size_t i = 0;
+  auto skip = [&] { while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i; };
+  auto read_string = [&](std::string& out) -> bool {
+    if (i >= line.size() || line[i] != '"') return false;
+    for (++i; i < line.size(); ++i) {
+      const char c = line[i];
+      if (c == '"') { ++i; return true; }
+      if (c != '\\') { out.push_back(c); continue; }
+      if (++i >= line.size()) return false;
+      switch (line[i]) {
+        case 'n': out.push_back('\n'); break;
+        case 't': out.push_back('\t'); break;
+        case 'r': out.push_back('\r'); break;
+        case 'b': out.push_back('\b'); break;
+        case 'f': out.push_back('\f'); break;
+        case 'u': {
+          if (i + 4 >= line.size()) return false;
+          const unsigned long code = std::strtoul(std::string(line.substr(i + 1, 4)).c_str(), nullptr, 16);
+          if (code > 0x7F) return false;  // json_escape only escapes control characters
+          out.push_back(static_cast<char>(code));
+          i += 4;
+          break;
+        }
+        default: out.push_back(line[i]);
+      }
+    }
+    return false;
+  };
+  skip();
+  if (i >= line.size() || line[i++] != '{') return fail(ErrorCode::parse_error, "telemetry line: expected '{'");
+  for (;;) {
+    skip();
+    if (i < line.size() && line[i] == '}') break;
+    std::string key;
+    if (!read_string(key)) return fail(ErrorCode::parse_error, "telemetry line: expected a \"key\" at column " + std::to_string(i + 1));
+    skip();
+    if (i >= line.size() || line[i++] != ':') return fail(ErrorCode::parse_error, "telemetry line: expected ':' after '" + key + "'");
+    skip();
+    if (i < line.size() && line[i] == '"') {
+      std::string value;
+      if (!read_string(value)) return fail(ErrorCode::parse_error, "telemetry line: unterminated string for '" + key + "'");
+      strings[key] = std::move(value);
+    } else {
+      const std::string rest(line.substr(i));
+      char* end = nullptr;
+      const double v = std::strtod(rest.c_str(), &end);
+      if (end == rest.c_str()) return fail(ErrorCode::parse_error, "telemetry line: '" + key + "' is not a number or string");
+      numbers[key] = v;
+      i += static_cast<std::size_t>(end - rest.c_str());
+    }
+    skip();
+    if (i < line.size() && line[i] == ',') { ++i; continue; }
+    if (i < line.size() && line[i] == '}') break;
+    return fail(ErrorCode::parse_error, "telemetry line: expected ',' or '}' at column " + std::to_string(i + 1));
+  }
+  if (numbers.count("t_s") == 0) return fail(ErrorCode::missing, "telemetry line: no t_s");
+  NavStatus s;
+  s.node_path = strings["node_path"];
+  s.map_node = strings["map_node"];
+  s.edge = strings["edge"];
+  s.status = strings["status"];
+  s.distance_m = numbers["distance_m"];
+  s.matches = static_cast<int>(numbers["matches"]);
+  s.inliers = static_cast<int>(numbers["inliers"]);
+  s.offset_px = numbers["offset_px"];
+  s.command = {numbers["linear_mps"], numbers["angular_radps"]};
+  s.confidence = numbers["confidence"];
+  s.blind_m = numbers["blind_m"];
+  return std::make_pair(numbers["t_s"], std::move(s));
+}
+
+Status RunMcapWriter::telemetry(double t_s, const NavStatus& s) {
+  dds::msg::Telemetry m;
+  m.header = header_at(t_s, "");
+  m.sequence_number = ++telemetry_seq_;
+  m.node_path = s.node_path;
+  m.map_node = s.map_node;
+  m.edge = s.edge;
+  m.distance_m = s.distance_m;
+  m.matches = s.matches;
+  m.inliers = s.inliers;
+  m.offset_px = s.offset_px;
+  m.linear_mps = s.command.linear_mps;
+  m.angular_radps = s.command.angular_radps;
+  m.status = s.status;
+  const std::uint64_t ns = to_ns(t_s);
+  VISNAV_TRY(writer_->write({telemetry_, seq_++, ns, ns, ros2::encode(m)}));
+  return writer_->write({status_json_, seq_++, ns, ns, bytes(telemetry_json(t_s, s))});
 }
 
 Status RunMcapWriter::frame(long index, double t_s, std::uint64_t sequence, const std::vector<std::uint8_t>& encoded,
@@ -226,6 +332,7 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
   std::vector<OdomRow> odom, odom_json;
   std::vector<TickRow> ticks;
   std::vector<std::array<double, 4>> truth, truth_json;
+  std::vector<std::string> telemetry_lines;
   std::string run_yaml, config_yaml;
   std::set<std::string> seen_topics;
   long image_count = 0;
@@ -286,6 +393,8 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
       auto j = parse_flat_json(m.data);
       ticks.push_back({static_cast<std::uint64_t>(j["tick"]), j["t_s"], static_cast<long>(j["frame_index"]), j["linear_mps"],
                        j["angular_radps"], static_cast<std::uint64_t>(j["commands_sent"])});
+    } else if (ch.topic == "/visnav/status") {
+      telemetry_lines.emplace_back(m.data.begin(), m.data.end());
     } else if (ch.topic == "/visnav/truth") {
       auto j = parse_flat_json(m.data);
       truth_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"]});
@@ -352,6 +461,12 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
     for (const auto& t : truth) g << num(t[0]) << "," << num(t[1]) << "," << num(t[2]) << "," << num(t[3]) << "\n";
     VISNAV_TRY(write_text(fs::path(dir) / "ground_truth.csv", g.str()));
   }
+  if (!telemetry_lines.empty()) {
+    std::string text;
+    for (const auto& l : telemetry_lines) text += l + "\n";
+    VISNAV_TRY(write_text(fs::path(dir) / "telemetry.jsonl", text));
+  }
+  report.telemetry = static_cast<long>(telemetry_lines.size());
   if (run_yaml.empty())
     run_yaml = "format: visnav-recorded-run\nversion: 1\nsource: \"" + mcap_path + "\"\ncomplete: " +
                (read.truncated ? "false" : "true") + "\n";
@@ -399,11 +514,27 @@ Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::s
   VISNAV_ASSIGN(Table odom, read_table(d / "odometry.csv", true, {"t_s", "x_m", "y_m", "heading_rad"}));
   VISNAV_ASSIGN(Table ticks, read_table(d / "commands.csv", false, {}));
   VISNAV_ASSIGN(Table truth, read_table(d / "ground_truth.csv", false, {}));
+  std::vector<std::pair<double, NavStatus>> telemetry;
+  if (auto text = read_text(d / "telemetry.jsonl")) {
+    std::istringstream lines(*text);
+    int n = 0;
+    for (std::string line; std::getline(lines, line);) {
+      ++n;
+      if (line.empty()) continue;
+      auto row = parse_telemetry_json(line);
+      if (!row) {
+        if (lines.peek() == std::char_traits<char>::eof()) break;  // the cut last line of a killed recording
+        return fail(row.error().code, (d / "telemetry.jsonl").string() + ":" + std::to_string(n) + ": " + row.error().message);
+      }
+      telemetry.push_back(std::move(*row));
+    }
+  }
   VISNAV_ASSIGN(auto w, RunMcapWriter::create(mcap_path, !truth.rows.empty(), std::move(options)));
-  // Merge the four streams by time (stable: frames, odometry, ticks, truth at equal times, as
-  // `visnav record` writes them within a tick).
+  // Merge the five streams by time (stable: telemetry, frames, odometry, ticks, truth at equal
+  // times, as `visnav record` writes them: statuses during the tick, the rest after it).
   struct Item { double t_s; int kind; std::size_t row; };
   std::vector<Item> items;
+  for (std::size_t i = 0; i < telemetry.size(); ++i) items.push_back({telemetry[i].first, -1, i});
   for (std::size_t i = 0; i < frames.rows.size(); ++i) items.push_back({cell_d(frames, frames.rows[i], "t_s"), 0, i});
   for (std::size_t i = 0; i < odom.rows.size(); ++i) items.push_back({cell_d(odom, odom.rows[i], "t_s"), 1, i});
   for (std::size_t i = 0; i < ticks.rows.size(); ++i) items.push_back({cell_d(ticks, ticks.rows[i], "t_s"), 2, i});
@@ -415,7 +546,10 @@ Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::s
   report.exact = true;
   const int file_col = frames.column("file");
   for (const auto& it : items) {
-    if (it.kind == 0) {
+    if (it.kind == -1) {
+      VISNAV_TRY(w->telemetry(it.t_s, telemetry[it.row].second));
+      ++report.telemetry;
+    } else if (it.kind == 0) {
       const auto& row = frames.rows[it.row];
       const fs::path image = d / row[static_cast<std::size_t>(file_col)];
       VISNAV_ASSIGN(std::string data, read_text(image));

@@ -402,7 +402,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     status_.status = problem != nullptr ? "bad frame" : step.status;
     if (health != nullptr && (health->state == NavHealthState::slowing || health->must_stop()))
       status_.status += std::string(" | ") + to_string(health->state);
+    status_.overlay = problem != nullptr ? nullptr : step.overlay;  // valid during publish() only
     telemetry->publish(status_);
+    status_.overlay = nullptr;
   }
 
   NodeStatus failed(const std::string& message) {

@@ -32,6 +32,7 @@ std::string restart_keys(const RunConfig& next, const RunConfig& now) {
   if (next.run.lockstep != now.run.lockstep) keys.push_back("run.lockstep");
   if (next.run.trace_file != now.run.trace_file) keys.push_back("run.trace_file");
   if (next.run.telemetry_file != now.run.telemetry_file) keys.push_back("run.telemetry_file");
+  if (next.run.view_port != now.run.view_port) keys.push_back("run.view_port");
   if (!same_dds(next.dds, now.dds)) keys.push_back("dds");
   std::string out;
   for (const auto& k : keys) out += (out.empty() ? "" : ", ") + k;

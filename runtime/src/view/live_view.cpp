@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "visnav/map.hpp"
 #include "visnav/runtime_host.hpp"
@@ -13,7 +14,7 @@
 namespace visnav::view {
 namespace {
 
-enum Channel : std::uint32_t { kCamera = 1, kPose = 2, kMap = 3, kTelemetry = 4, kTree = 5 };
+enum Channel : std::uint32_t { kCamera = 1, kPose = 2, kMap = 3, kTelemetry = 4, kTree = 5, kAnnotations = 6, kOverlay = 7 };
 
 constexpr const char* kObjectSchema = "{\"type\":\"object\"}";
 
@@ -102,7 +103,9 @@ Result<std::unique_ptr<LiveView>> LiveView::create(int port, Session& session, b
       {"/robot/pose", "json", "foxglove.PoseInFrame", kObjectSchema, "jsonschema"},
       {"/map", "json", "foxglove.SceneUpdate", kObjectSchema, "jsonschema"},
       {"/telemetry", "json", "visnav.NavStatus", kObjectSchema, "jsonschema"},
-      {"/bt", "json", "visnav.TreeStatus", kObjectSchema, "jsonschema"}};
+      {"/bt", "json", "visnav.TreeStatus", kObjectSchema, "jsonschema"},
+      {"/camera/annotations", "json", "foxglove.ImageAnnotations", kObjectSchema, "jsonschema"},
+      {"/camera/overlay", "json", "foxglove.CompressedImage", kObjectSchema, "jsonschema"}};
   VISNAV_ASSIGN(v->server_, FoxgloveServer::create(port, std::move(channels), all_interfaces));
   v->session_ = &session;
   v->forward_ = session.host().telemetry();
@@ -116,6 +119,8 @@ LiveView::~LiveView() {
 
 void LiveView::publish(const NavStatus& s) {
   if (forward_ != nullptr) forward_->publish(s);
+  if (s.overlay != nullptr && (server_->has_subscribers(kAnnotations) || server_->has_subscribers(kOverlay)))
+    overlay_.copy_from(*s.overlay);  // the pointer dies with this call
   if (!server_->has_subscribers(kTelemetry)) return;
   const double t_s = session_->clock().now_s();
   const std::string json = "{\"t_s\":" + num(t_s) + ",\"tick\":" + std::to_string(tick_) + ",\"node_path\":\"" +
@@ -130,20 +135,34 @@ void LiveView::publish(const NavStatus& s) {
 void LiveView::after_tick(const TickInfo& tick, const bt::Tree& tree) {
   tick_ = tick.tick;
   const std::uint64_t ns = to_ns(tick.t_s);
-  if (server_->has_subscribers(kCamera)) {
+  const bool camera = server_->has_subscribers(kCamera);
+  const bool annotations = server_->has_subscribers(kAnnotations);
+  const bool overlay = server_->has_subscribers(kOverlay);
+  if (camera || annotations || overlay) {
     if (auto f = session_->frame_bus().latest_frame();
         f && !f->image.empty() && (f->sequence != last_frame_sequence_ || f->timestamp_s != last_frame_t_s_)) {
       last_frame_sequence_ = f->sequence;
       last_frame_t_s_ = f->timestamp_s;
-      std::vector<std::uint8_t> jpeg;
-      if (cv::imencode(".jpg", f->image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80})) {
+      auto publish_jpeg = [&](std::uint32_t channel, const cv::Mat& image) {
+        std::vector<std::uint8_t> jpeg;
+        if (!cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80})) return;
         const std::string data = base64(std::string(jpeg.begin(), jpeg.end()));
-        server_->publish(kCamera, to_ns(f->timestamp_s),
+        server_->publish(channel, to_ns(f->timestamp_s),
                          "{\"timestamp\":" + stamp(f->timestamp_s) + ",\"frame_id\":\"camera\",\"format\":\"jpeg\",\"data\":\"" +
                              data + "\"}");
+      };
+      if (camera) publish_jpeg(kCamera, f->image);
+      // Stamped like the frame, so Foxglove's Image panel pairs the annotations with it.
+      if (annotations) server_->publish(kAnnotations, to_ns(f->timestamp_s), annotations_json(overlay_, f->image.size(), f->timestamp_s));
+      if (overlay) {
+        if (f->image.channels() == 1) cv::cvtColor(f->image, drawn_, cv::COLOR_GRAY2BGR);
+        else f->image.copyTo(drawn_);
+        draw_overlay(drawn_, overlay_);
+        publish_jpeg(kOverlay, drawn_);
       }
     }
   }
+  overlay_.clear();  // an overlay belongs to the tick that produced it
   if (server_->has_subscribers(kPose)) {
     if (auto o = session_->frame_bus().latest_odometry()) {
       server_->publish(kPose, ns,

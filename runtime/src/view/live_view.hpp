@@ -1,6 +1,10 @@
 // `visnav run --view PORT`: the run as live channels of a Foxglove WebSocket server
 // (docs/live_view.md). Channels (JSON encoding; Foxglove's well-known schemas where one exists):
 //   /camera        foxglove.CompressedImage  every new camera frame (JPEG)
+//   /camera/annotations foxglove.ImageAnnotations  what the active primitive saw in that frame
+//                                            (matched features, heading histogram, path
+//                                            segmentation; view/overlay.hpp), same timestamp
+//   /camera/overlay foxglove.CompressedImage the frame with those overlays drawn in
 //   /robot/pose    foxglove.PoseInFrame      odometry pose (frame "odom"), every tick
 //   /map           foxglove.SceneUpdate      the map graph: nodes as spheres, edges as lines
 //                                            (colour by primitive), every 2 s
@@ -15,6 +19,7 @@
 #include <string>
 
 #include "view/foxglove_server.hpp"
+#include "view/overlay.hpp"
 #include "visnav/bt/tree.hpp"
 #include "visnav/host.hpp"
 #include "visnav/runner.hpp"
@@ -45,6 +50,8 @@ class LiveView final : public Telemetry {
   double last_frame_t_s_ = -1.0;
   double last_map_t_s_ = -1e9;
   std::uint64_t tick_ = 0;
+  OverlayCopy overlay_;  // the newest primitive overlay of this tick (copied only for subscribers)
+  cv::Mat drawn_;        // /camera/overlay buffer
 };
 
 }  // namespace visnav::view

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 
 #include <chrono>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -72,6 +73,20 @@ TEST(RecordPlay, RecordingWritesTheRunFolder) {
     omegas.insert(field);  // angular_radps
   }
   EXPECT_GT(omegas.size(), commands.size() / 2);
+  // Every NavStatus of the mission is in telemetry.jsonl, as run.telemetry_file saw it.
+  const auto live = lines_of(r.setup.dir + "/live.jsonl");
+  const auto recorded_tm = lines_of(r.run + "/telemetry.jsonl");
+  ASSERT_GT(live.size(), 30u);
+  ASSERT_EQ(recorded_tm.size(), live.size());
+  auto field = [](const std::string& line, const std::string& key) {
+    std::smatch m;
+    return std::regex_search(line, m, std::regex("\"" + key + "\":(\"[^\"]*\"|[-0-9.e]+)")) ? m[1].str() : std::string("?");
+  };
+  for (std::size_t i = 0; i < live.size(); ++i) {
+    EXPECT_EQ(field(recorded_tm[i], "edge"), field(live[i], "edge")) << i;
+    EXPECT_EQ(field(recorded_tm[i], "matches"), field(live[i], "matches")) << i;
+    EXPECT_EQ(field(recorded_tm[i], "status"), field(live[i], "status")) << i;
+  }
 }
 
 TEST(RecordPlay, PlaybackMakesTheSameDecisionsTickForTick) {

@@ -5,8 +5,10 @@
 
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "visnav/mcap.hpp"
 
@@ -41,9 +43,10 @@ Result<mcap::ReadReport> read_all(const fs::path& p, Seen& seen) {
   return mcap::read_file(p.string(), h);
 }
 
-void write_sample(const fs::path& p, bool compress, std::size_t chunk_bytes, int count) {
+void write_sample(const fs::path& p, bool compress, std::size_t chunk_bytes, int count, const std::string& compression = "zstd") {
   mcap::WriterOptions o;
   o.compress = compress;
+  o.compression = compression;
   o.chunk_size_bytes = chunk_bytes;
   auto w = mcap::Writer::create(p.string(), o);
   ASSERT_TRUE(w.ok()) << w.error().message;
@@ -88,6 +91,143 @@ TEST(Mcap, RoundTripThroughManyChunksCompressedAndNot) {
     EXPECT_EQ(seen.attachments[0].data, "format: x\n");
     fs::remove(p);
   }
+}
+
+/// The compression field of the first Chunk record (opcode 0x06) of a file.
+std::string first_chunk_compression(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  const std::string b((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::size_t pos = 8;  // magic
+  while (pos + 9 <= b.size()) {
+    const auto op = static_cast<std::uint8_t>(b[pos]);
+    std::uint64_t len = 0;
+    std::memcpy(&len, b.data() + pos + 1, 8);
+    if (op == 0x06) {
+      std::uint32_t n = 0;  // after start, end, uncompressed size (u64 each) and crc (u32)
+      std::memcpy(&n, b.data() + pos + 9 + 28, 4);
+      return b.substr(pos + 9 + 32, n);
+    }
+    pos += 9 + len;
+  }
+  return "?";
+}
+
+TEST(Mcap, Lz4ChunksRoundTripAndAreMarkedLz4) {
+  if (!mcap::lz4_available()) GTEST_SKIP() << "built without liblz4 (liblz4-dev)";
+  const fs::path p = temp_file("l.mcap");
+  write_sample(p, true, 200, 100, "lz4");
+  EXPECT_EQ(first_chunk_compression(p), "lz4");
+  Seen seen;
+  auto r = read_all(p, seen);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(seen.messages.size(), 200U);
+  for (int i = 0; i < 100; i += 33) {
+    auto t = ros2::decode_twist(seen.messages[2 * i].data);
+    ASSERT_TRUE(t.ok());
+    EXPECT_DOUBLE_EQ(t->linear.x, 0.1 * i);
+  }
+  // A damaged lz4 payload is an error naming the file, not a crash.
+  {
+    std::fstream f(p, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(200);
+    const char junk[16] = {'\x7f', '\x7f', '\x7f', '\x7f', '\x7f', '\x7f', '\x7f', '\x7f',
+                           '\x7f', '\x7f', '\x7f', '\x7f', '\x7f', '\x7f', '\x7f', '\x7f'};
+    f.write(junk, sizeof junk);
+  }
+  Seen bad;
+  r = read_all(p, bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find(p.string()), std::string::npos) << r.error().message;
+  fs::remove(p);
+}
+
+TEST(Mcap, UnknownCompressionIsRefusedWithItsCode) {
+  mcap::WriterOptions o;
+  o.compression = "brotli";
+  auto w = mcap::Writer::create(temp_file("x.mcap").string(), o);
+  ASSERT_FALSE(w.ok());
+  EXPECT_EQ(w.error().code, ErrorCode::out_of_range);
+}
+
+TEST(Mcap, TelemetryIsRecordedAsRos2CdrAndExactJsonAndConvertsBothWays) {
+  const fs::path bag = temp_file("t.mcap"), folder = temp_file("t_run"), again = temp_file("t2.mcap");
+  NavStatus s;
+  s.node_path = "Root/Replay \"x\"";
+  s.map_node = "n1";
+  s.edge = "e1";
+  s.distance_m = 1.0 / 3.0;
+  s.matches = 42;
+  s.inliers = 17;
+  s.offset_px = -12.25;
+  s.command = {0.4, -0.0123456789012345};
+  s.confidence = 0.875;
+  s.blind_m = 0.3;
+  s.status = "steering, ok\tnow";
+  {
+    auto w = mcap::RunMcapWriter::create(bag.string(), false);
+    ASSERT_TRUE(w.ok()) << w.error().message;
+    const std::vector<std::uint8_t> png = {0x89, 'P', 'N', 'G'};
+    ASSERT_TRUE((*w)->telemetry(0.1, s).ok());
+    ASSERT_TRUE((*w)->frame(0, 0.1, 7, png, "png").ok());
+    Odometry o;
+    o.timestamp_s = 0.1;
+    ASSERT_TRUE((*w)->odometry(o).ok());
+    ASSERT_TRUE((*w)->tick(1, 0.1, 0, s.command, 1).ok());
+    ASSERT_TRUE((*w)->attach("run.yaml", "format: visnav-recorded-run\n", 0.1).ok());
+    ASSERT_TRUE((*w)->close().ok());
+  }
+  Seen seen;
+  ASSERT_TRUE(read_all(bag, seen).ok());
+  bool cdr = false;
+  for (std::size_t i = 0; i < seen.messages.size(); ++i) {
+    if (seen.topics[i] != "/visnav/telemetry") continue;
+    cdr = true;
+    EXPECT_EQ(seen.schemas[i], "visnav/msg/Telemetry");
+    auto t = ros2::decode_telemetry(seen.messages[i].data);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    EXPECT_EQ(t->edge, "e1");
+    EXPECT_EQ(t->matches, 42);
+    EXPECT_DOUBLE_EQ(t->angular_radps, s.command.angular_radps);
+    EXPECT_EQ(t->status, s.status);
+  }
+  EXPECT_TRUE(cdr);
+  // MCAP -> folder (telemetry.jsonl) -> MCAP: every field exact, and the bag byte-identical.
+  auto r = mcap::mcap_to_run_folder(bag.string(), folder.string());
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->telemetry, 1);
+  std::ifstream lines(folder / "telemetry.jsonl");
+  std::string line;
+  ASSERT_TRUE(static_cast<bool>(std::getline(lines, line)));
+  auto parsed = mcap::parse_telemetry_json(line);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  EXPECT_EQ(parsed->first, 0.1);
+  EXPECT_EQ(parsed->second.node_path, s.node_path);
+  EXPECT_EQ(parsed->second.status, s.status);
+  EXPECT_EQ(parsed->second.distance_m, s.distance_m);
+  EXPECT_EQ(parsed->second.command.angular_radps, s.command.angular_radps);
+  EXPECT_EQ(parsed->second.confidence, 0.875);
+  EXPECT_EQ(parsed->second.blind_m, 0.3);
+  EXPECT_EQ(parsed->second.inliers, 17);
+  auto back = mcap::run_folder_to_mcap(folder.string(), again.string());
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->telemetry, 1);
+  std::ifstream a(bag, std::ios::binary), b(again, std::ios::binary);
+  const std::string ba((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+  const std::string bb((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(ba, bb);
+  // A broken line in the middle is an error naming file:line; a cut last line is dropped.
+  std::ofstream(folder / "telemetry.jsonl") << line << "\n{\"t_s\":0.2,\"edge\":\"e1\n" << line << "\n";
+  back = mcap::run_folder_to_mcap(folder.string(), again.string());
+  ASSERT_FALSE(back.ok());
+  EXPECT_EQ(back.error().code, ErrorCode::parse_error);
+  EXPECT_NE(back.error().message.find("telemetry.jsonl:2"), std::string::npos) << back.error().message;
+  std::ofstream(folder / "telemetry.jsonl") << line << "\n{\"t_s\":0.2,\"ed";
+  back = mcap::run_folder_to_mcap(folder.string(), again.string());
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->telemetry, 1);
+  fs::remove(bag);
+  fs::remove(again);
+  fs::remove_all(folder);
 }
 
 TEST(Mcap, FileCutShortReadsUpToItsLastCompleteChunk) {

@@ -343,6 +343,27 @@ class FeatureReplayer final : public EdgeReplayer {
   /// A closed multi-lap path has no single taught heading profile.
   [[nodiscard]] bool heading_check() const override { return segment_ || params_.localmaps.laps == 1; }
 
+  /// The live view's overlay: the votes of this frame (buffers reused from frame to frame).
+  const NavOverlay* fill_overlay(const HeadingEstimator& estimator, const Features& current, double offset_px) {
+    matched_px_.clear();
+    reference_px_.clear();
+    inlier_.clear();
+    for (const FeatureMatch& m : estimator.last_matches()) {
+      if (m.current_index < 0 || static_cast<std::size_t>(m.current_index) >= current.keypoints.size()) continue;
+      const cv::Point2f p = current.keypoints[static_cast<std::size_t>(m.current_index)].pt;
+      matched_px_.push_back(p);
+      reference_px_.emplace_back(p.x - m.du_px, p.y - m.dv_px);
+      inlier_.push_back(m.inlier ? 1 : 0);
+    }
+    overlay_.matched_px = matched_px_;
+    overlay_.reference_px = reference_px_;
+    overlay_.inlier = inlier_;
+    overlay_.histogram = estimator.last_histogram();
+    overlay_.histogram_bin_px = estimator.params().bin_width_px;
+    overlay_.offset_px = offset_px;
+    return &overlay_;
+  }
+
   ReplayStep step(const ReplayInput& in) override {
     const double width_px = in.frame.image.empty() ? 0.0 : static_cast<double>(in.frame.image.cols);
     ReplayStep out;
@@ -377,6 +398,7 @@ class FeatureReplayer final : public EdgeReplayer {
     out.matches = estimate.matches;
     out.inliers = estimate.inliers;
     out.offset_px = estimate.offset_px;
+    out.overlay = fill_overlay(segment_ ? segment_->estimator() : localmaps_->estimator(), *in.features, estimate.offset_px);
     out.confidence = in.frame_problem != nullptr ? 0.0 : estimate.confidence;
     out.status = to_string(state);
     if (state != last_state_ && (state == ReplayState::low_confidence || state == ReplayState::no_features ||
@@ -406,6 +428,9 @@ class FeatureReplayer final : public EdgeReplayer {
   std::optional<LocalMapReplayer> localmaps_;
   ReplayState last_state_ = ReplayState::steering;
   StartViewSearch search_;
+  NavOverlay overlay_;
+  std::vector<cv::Point2f> matched_px_, reference_px_;
+  std::vector<std::uint8_t> inlier_;
 };
 
 }  // namespace

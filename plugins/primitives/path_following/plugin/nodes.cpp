@@ -130,6 +130,11 @@ class PathReplayer final : public EdgeReplayer {
       out.command = estimate_.command;  // zero unless the path is seen
       offset_px_ = estimate_.mean_offset * in.frame.image.cols / 2.0;
       out.offset_px = offset_px_;
+      // The live view's overlay: the segmented path and its centre line (the follower's buffers).
+      overlay_.path_mask = estimate_.mask;
+      overlay_.path_middle_px = estimate_.middle_points;
+      overlay_.offset_px = offset_px_;
+      out.overlay = &overlay_;
     }
     if (verdict_ == PathLossMonitor::Verdict::lost) {
       const auto reason = monitor_.last_bad_status();
@@ -142,6 +147,7 @@ class PathReplayer final : public EdgeReplayer {
   }
 
  private:
+  NavOverlay overlay_;
   Params params_;
   std::optional<PathFollower> follower_;
   PathEstimate estimate_;

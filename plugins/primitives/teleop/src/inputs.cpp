@@ -1,6 +1,8 @@
 #include "inputs.hpp"
 
 #include <fcntl.h>
+#include <linux/input.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -60,14 +62,14 @@ class KeyboardInput final : public OperatorInput {
   KeyboardInput(const KeyboardInput&) = delete;
   KeyboardInput& operator=(const KeyboardInput&) = delete;
 
-  Result<TeleopAction> poll() override {
+  Result<TeleopAction> poll(double now_s) override {
     bytes_.clear();
     auto open = read_available(fd_, bytes_);
     if (!open) return fail("keyboard: read failed: " + open.error().message);
     keys_.clear();
     decoder_.feed(std::string_view(reinterpret_cast<const char*>(bytes_.data()), bytes_.size()), keys_);
-    for (const auto& k : keys_) (void)core_.apply_key(k);
-    return core_.update();
+    for (const auto& k : keys_) (void)core_.apply_key(k, now_s);
+    return core_.update(now_s);
   }
   [[nodiscard]] bool keyboard() const override { return true; }
 
@@ -83,17 +85,46 @@ class KeyboardInput final : public OperatorInput {
   std::vector<std::string> keys_;
 };
 
-// ---- Linux joystick ----------------------------------------------------------------------
+// ---- Linux joystick: joystick API (js*) or evdev (event*) ---------------------------------
 
+/// Asks an evdev device which axes and buttons it has, numbered as joydev numbers them (so the
+/// mapping of /dev/input/jsN fits /dev/input/eventN). A file that does not answer (a FIFO
+/// replaying events, a device without EV_ABS) gets the Xbox-style gamepad layout.
+EvdevDecoder::Layout evdev_layout(int fd) {
+  constexpr std::size_t kLongBits = sizeof(unsigned long) * 8;
+  auto has = [](const std::vector<unsigned long>& bits, std::size_t i) {
+    return (bits[i / kLongBits] >> (i % kLongBits)) & 1UL;
+  };
+  std::vector<unsigned long> abs_bits(ABS_CNT / kLongBits + 1, 0UL);
+  std::vector<unsigned long> key_bits(KEY_CNT / kLongBits + 1, 0UL);
+  if (::ioctl(fd, EVIOCGBIT(EV_ABS, abs_bits.size() * sizeof(unsigned long)), abs_bits.data()) < 0 ||
+      ::ioctl(fd, EVIOCGBIT(EV_KEY, key_bits.size() * sizeof(unsigned long)), key_bits.data()) < 0)
+    return EvdevDecoder::Layout::xbox_gamepad();
+  EvdevDecoder::Layout layout;
+  for (std::uint16_t code = 0; code < ABS_CNT; ++code) {
+    if (!has(abs_bits, code)) continue;
+    input_absinfo info{};
+    if (::ioctl(fd, EVIOCGABS(code), &info) < 0) continue;
+    layout.axes.push_back({code, info.minimum, info.maximum});
+  }
+  // joydev: BTN_MISC..KEY_MAX first, then 0..BTN_MISC-1.
+  for (std::uint16_t code = BTN_MISC; code < KEY_CNT; ++code)
+    if (has(key_bits, code)) layout.buttons.push_back(code);
+  for (std::uint16_t code = 0; code < BTN_MISC; ++code)
+    if (has(key_bits, code)) layout.buttons.push_back(code);
+  return layout;
+}
+
+template <typename Decoder>
 class JoystickInput final : public OperatorInput {
  public:
-  JoystickInput(std::string device, int fd, JoyTeleop core, int deadman)
-      : device_(std::move(device)), fd_(fd), core_(std::move(core)), deadman_(deadman) {}
+  JoystickInput(std::string device, int fd, JoyTeleop core, int deadman, Decoder decoder)
+      : device_(std::move(device)), fd_(fd), core_(std::move(core)), deadman_(deadman), decoder_(std::move(decoder)) {}
   ~JoystickInput() override { ::close(fd_); }
   JoystickInput(const JoystickInput&) = delete;
   JoystickInput& operator=(const JoystickInput&) = delete;
 
-  Result<TeleopAction> poll() override {
+  Result<TeleopAction> poll(double /*now_s*/) override {
     bytes_.clear();
     auto open = read_available(fd_, bytes_);
     // ENODEV: unplugged. The node stops the robot and fails with this message.
@@ -112,7 +143,7 @@ class JoystickInput final : public OperatorInput {
   int fd_;
   JoyTeleop core_;
   int deadman_;
-  JsEventDecoder decoder_;
+  Decoder decoder_;
   bool closed_ = false;
   std::vector<std::uint8_t> bytes_;
 };
@@ -145,7 +176,7 @@ class JoyTopicInput final : public OperatorInput {
                 std::unique_ptr<dds::Subscription<dds::msg::Joy>> subscription)
       : core_(std::move(core)), params_(params), queue_(std::move(queue)), subscription_(std::move(subscription)) {}
 
-  Result<TeleopAction> poll() override {
+  Result<TeleopAction> poll(double /*now_s*/) override {
     double last_receive_s = -1.0;
     auto samples = queue_->take(last_receive_s);
     std::vector<int> presses;
@@ -186,7 +217,7 @@ class TwistTopicInput final : public OperatorInput {
                   std::unique_ptr<dds::Subscription<dds::msg::Twist>> subscription)
       : params_(params), queue_(std::move(queue)), subscription_(std::move(subscription)) {}
 
-  Result<TeleopAction> poll() override {
+  Result<TeleopAction> poll(double /*now_s*/) override {
     double last_receive_s = -1.0;
     auto samples = queue_->take(last_receive_s);
     if (!samples.empty()) newest_ = Twist{samples.back().linear.x, samples.back().angular.z};
@@ -235,7 +266,11 @@ Result<std::unique_ptr<OperatorInput>> open_input(const InputSpec& spec, const T
     if (fd < 0)
       return fail("input 'joystick': cannot open '" + device + "': " + errno_text() +
                   " (is the pad plugged in? is the user in group 'input'?)");
-    return std::unique_ptr<OperatorInput>(new JoystickInput(device, fd, std::move(core), params.deadman_button));
+    if (is_evdev_path(device))
+      return std::unique_ptr<OperatorInput>(new JoystickInput<EvdevDecoder>(
+          device, fd, std::move(core), params.deadman_button, EvdevDecoder(evdev_layout(fd))));
+    return std::unique_ptr<OperatorInput>(
+        new JoystickInput<JsEventDecoder>(device, fd, std::move(core), params.deadman_button, JsEventDecoder{}));
   }
   if (spec.input == "joy") {
     VISNAV_ASSIGN(auto core, JoyTeleop::create(params));

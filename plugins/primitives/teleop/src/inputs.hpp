@@ -1,5 +1,5 @@
 // Operator input devices for the teleop nodes: the terminal keyboard, a Linux joystick
-// (/dev/input/js*), and the ROS 2 teleop topics over DDS (sensor_msgs/Joy, geometry_msgs/Twist).
+// (/dev/input/js* through the joystick API, /dev/input/event* through evdev), and the ROS 2 teleop topics over DDS (sensor_msgs/Joy, geometry_msgs/Twist).
 //
 // Each input is polled once per tick from the tick thread and reads everything that arrived
 // since, without blocking (files are opened O_NONBLOCK; DDS samples are queued by the
@@ -20,9 +20,10 @@ namespace visnav::teleop {
 class OperatorInput {
  public:
   virtual ~OperatorInput() = default;
-  /// Everything that arrived since the last poll, turned into this tick's action. An error
-  /// means the device is gone (unplugged, read error); the node then stops the robot.
-  virtual Result<TeleopAction> poll() = 0;
+  /// Everything that arrived since the last poll, turned into this tick's action; `now_s` is
+  /// the run clock (the keyboard deadman times key repeats with it). An error means the device
+  /// is gone (unplugged, read error); the node then stops the robot.
+  virtual Result<TeleopAction> poll(double now_s) = 0;
   /// True for the keyboard (the status line then lists the keys).
   [[nodiscard]] virtual bool keyboard() const { return false; }
 };
@@ -30,7 +31,7 @@ class OperatorInput {
 /// Where the operator's input comes from (the nodes' ports).
 struct InputSpec {
   std::string input = "keyboard";  ///< keyboard | joystick | joy | twist
-  std::string device;              ///< keyboard: "" = stdin, or a file/FIFO; joystick: /dev/input/jsN
+  std::string device;              ///< keyboard: "" = stdin, or a file/FIFO; joystick: /dev/input/jsN or eventN
   std::string topic;               ///< joy: "" = rt/joy; twist: "" = rt/cmd_vel_teleop
   int domain_id = 0;               ///< DDS domain of joy/twist
   bool start_manual = true;        ///< keyboard: drive from the start (Teleop) or after manual_key (TeleopOverride)

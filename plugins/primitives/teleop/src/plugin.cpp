@@ -26,7 +26,7 @@ using bt::NodeStatus;
 
 bt::PortsList input_ports() {
   return {bt::input_port<std::string>("input", "keyboard", "keyboard | joystick | joy (sensor_msgs/Joy) | twist (geometry_msgs/Twist)"),
-          bt::input_port<std::string>("device", "", "keyboard: '' = stdin or a file/FIFO; joystick: '' = /dev/input/js0"),
+          bt::input_port<std::string>("device", "", "keyboard: '' = stdin or a file/FIFO; joystick: '' = /dev/input/js0, or /dev/input/eventN (evdev)"),
           bt::input_port<std::string>("topic", "", "joy: '' = rt/joy; twist: '' = rt/cmd_vel_teleop (ROS /x = rt/x)"),
           bt::input_port<int>("domain_id", "0", "DDS domain of the joy/twist topic (ROS_DOMAIN_ID)"),
           bt::input_port<std::string>("mapping_file", "", "axes/buttons/keys mapping YAML (config/teleop/*.yaml); '' = defaults")};
@@ -102,7 +102,7 @@ class Teleop final : public bt::StatefulActionNode {
   }
 
   NodeStatus on_running() override {
-    auto action = input_->poll();
+    auto action = input_->poll(host_.clock().now_s());
     if (!action) {
       (void)host_.robot()->stop();
       return failed(action.error().message);
@@ -172,7 +172,7 @@ class TeleopOverride final : public bt::DecoratorNode {
       input_ = std::move(*input);
     }
     set_status(NodeStatus::running);
-    auto action = input_->poll();
+    auto action = input_->poll(host_.clock().now_s());
     if (!action) {
       halt_child();
       (void)host_.robot()->stop();
@@ -292,7 +292,7 @@ Status register_teleop_nodes(bt::NodeRegistry& registry, HostServices& host) {
       }));
   VISNAV_TRY(registry.register_node<Teleop>(
       "Teleop",
-      "Operator teaching on a real robot: drives from the keyboard, a joystick (/dev/input/js*) or ROS 2 "
+      "Operator teaching on a real robot: drives from the keyboard, a joystick (/dev/input/js* or event*) or ROS 2 "
       "Joy/Twist over DDS with a deadman, and publishes the primitive being taught and teach_done",
       [&host](const std::string& name, const bt::NodeConfig& config) {
         return std::make_unique<Teleop>(name, config, host);

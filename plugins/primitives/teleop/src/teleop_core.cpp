@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 #include <iomanip>
+
+#include <linux/input.h>
 #include <sstream>
 
 #include "visnav/config_node.hpp"
@@ -38,6 +40,13 @@ Status TeleopParams::validate() const {
     return fail("key 'manual_key': '" + manual_key + "' must be one character other than done_key");
   if (close_key.size() != 1 || close_key == done_key || close_key == manual_key)
     return fail("key 'close_key': '" + close_key + "' must be one character other than done_key and manual_key");
+  if (done_key == "+" || done_key == "-" || manual_key == "+" || manual_key == "-" || close_key == "+" || close_key == "-")
+    return fail("key 'done_key'/'manual_key'/'close_key': + and - change the hold-to-drive speed");
+  for (const auto& k : keys)
+    if (k.trigger == "+" || k.trigger == "-")
+      return fail("key 'primitive_keys': + and - change the hold-to-drive speed");
+  if (key_deadman_s > 0.0 && key_repeat_timeout_s > key_deadman_s)
+    return fail("key 'key_repeat_timeout_s': must not exceed key_deadman_s (" + std::to_string(key_deadman_s) + ")");
   if (reserved.find(done_key) != std::string::npos || reserved.find(manual_key) != std::string::npos ||
       reserved.find(close_key) != std::string::npos)
     return fail("key 'done_key'/'manual_key'/'close_key': w, a, s, d, space and q are driving keys");
@@ -56,6 +65,10 @@ const ParamSchema<TeleopParams>& TeleopParams::schema() {
           .field("done_button", &TeleopParams::done_button, "button that ends teaching").range(0, 255)
           .field("close_button", &TeleopParams::close_button, "button that closes the loop back at the start (then turn to face the first edge and press done)").range(0, 255)
           .field("primitive_buttons", &TeleopParams::primitive_buttons, "button=kind: switches the primitive being taught (kind '' = turning)")
+          .field("key_deadman_s", &TeleopParams::key_deadman_s, "keyboard deadman: > 0 hold-to-drive, no key event for this long (before autorepeat starts) stops; 0 = sticky throttle, no deadman").range(0, 5)
+          .field("key_repeat_timeout_s", &TeleopParams::key_repeat_timeout_s, "hold-to-drive: gap between autorepeats that means the key was released").range(0.02, 5)
+          .field("key_hold_linear_mps", &TeleopParams::key_hold_linear_mps, "hold-to-drive: speed of a held up/w, down/s, m/s").range(0.01, 3)
+          .field("key_hold_angular_radps", &TeleopParams::key_hold_angular_radps, "hold-to-drive: turn rate of a held left/a, right/d, rad/s").range(0.01, 6)
           .field("key_linear_step_mps", &TeleopParams::key_linear_step_mps, "keyboard: speed step per up/down key, m/s").range(0.01, 1)
           .field("key_angular_step_radps", &TeleopParams::key_angular_step_radps, "keyboard: turn-rate step per left/right key, rad/s").range(0.01, 2)
           .field("max_linear_mps", &TeleopParams::max_linear_mps, "keyboard/Twist speed limit, m/s").range(0.01, 3)
@@ -122,6 +135,78 @@ void JsEventDecoder::apply(std::uint8_t type, std::uint8_t number, std::int16_t 
     if (!init && !pressed && state_.buttons[n]) releases_.push_back(number);
     state_.buttons[n] = pressed;
   }
+}
+
+EvdevDecoder::Layout EvdevDecoder::Layout::xbox_gamepad() {
+  Layout l;
+  for (std::uint16_t code : {ABS_X, ABS_Y, ABS_Z, ABS_RX, ABS_RY, ABS_RZ}) l.axes.push_back({code, -32768, 32767});
+  l.axes[2] = {ABS_Z, 0, 1023};  // triggers: released = min (reads +1, as on js*), pulled = max
+  l.axes[5] = {ABS_RZ, 0, 1023};
+  l.axes.push_back({ABS_HAT0X, -1, 1});
+  l.axes.push_back({ABS_HAT0Y, -1, 1});
+  l.buttons = {BTN_SOUTH, BTN_EAST, BTN_NORTH, BTN_WEST, BTN_TL, BTN_TR,
+               BTN_SELECT, BTN_START, BTN_MODE, BTN_THUMBL, BTN_THUMBR};
+  return l;
+}
+
+const std::size_t EvdevDecoder::kEventBytes = sizeof(input_event);
+
+EvdevDecoder::EvdevDecoder(Layout layout) : layout_(std::move(layout)) {
+  state_.axes.assign(layout_.axes.size(), 0.0);
+  state_.buttons.assign(layout_.buttons.size(), false);
+  partial_.reserve(kEventBytes);
+}
+
+std::size_t EvdevDecoder::feed(const std::uint8_t* data, std::size_t size) {
+  std::size_t events = 0;
+  for (std::size_t i = 0; i < size; ++i) {
+    partial_.push_back(data[i]);
+    if (partial_.size() < kEventBytes) continue;
+    input_event e{};
+    std::memcpy(&e, partial_.data(), kEventBytes);
+    partial_.clear();
+    apply(e.type, e.code, e.value);
+    ++events;
+  }
+  return events;
+}
+
+void EvdevDecoder::apply(std::uint16_t type, std::uint16_t code, std::int32_t value) {
+  if (type == EV_ABS) {
+    for (std::size_t i = 0; i < layout_.axes.size(); ++i) {
+      const Axis& a = layout_.axes[i];
+      if (a.code != code) continue;
+      const double span = static_cast<double>(a.max) - static_cast<double>(a.min);
+      const double unit = span > 0.0 ? 2.0 * (static_cast<double>(value) - a.min) / span - 1.0 : 0.0;
+      state_.axes[i] = std::clamp(-unit, -1.0, 1.0);  // up/left = +1 (evdev: up/left = min)
+      return;
+    }
+  } else if (type == EV_KEY) {
+    for (std::size_t i = 0; i < layout_.buttons.size(); ++i) {
+      if (layout_.buttons[i] != code) continue;
+      const bool pressed = value != 0;  // 1 press, 2 autorepeat (still held), 0 release
+      const int number = static_cast<int>(i);
+      if (pressed && !state_.buttons[i]) presses_.push_back(number);
+      if (!pressed && state_.buttons[i]) releases_.push_back(number);
+      state_.buttons[i] = pressed;
+      return;
+    }
+  }
+  if (type == EV_SYN && code == SYN_DROPPED) {
+    // The kernel's buffer overflowed: events were lost, a deadman release among them perhaps.
+    // Every button counts as released until the device reports it again (the robot stops).
+    for (std::size_t i = 0; i < state_.buttons.size(); ++i) {
+      if (state_.buttons[i]) releases_.push_back(static_cast<int>(i));
+      state_.buttons[i] = false;
+    }
+  }
+  // Other EV_SYN, EV_MSC and unmapped codes carry nothing for teleop.
+}
+
+bool is_evdev_path(const std::string& device) {
+  const auto slash = device.find_last_of('/');
+  const std::string base = slash == std::string::npos ? device : device.substr(slash + 1);
+  return base.starts_with("event") || base.find("-event-") != std::string::npos;
 }
 
 void KeyDecoder::feed(std::string_view bytes, std::vector<std::string>& out) {
@@ -208,16 +293,43 @@ Result<KeyTeleop> KeyTeleop::create(const TeleopParams& params, bool start_manua
   return KeyTeleop(params, std::move(keys), start_manual);
 }
 
-bool KeyTeleop::apply_key(const std::string& key) {
+bool KeyTeleop::apply_hold_key(const std::string& key, double now_s) {
+  std::string drive;  // the motion, so "w" and the up arrow repeat as one key
+  Twist t;
+  if (key == "\x1b[A" || key == "w" || key == "W") { drive = "fwd"; t.linear_mps = hold_speed_.linear_mps; }
+  else if (key == "\x1b[B" || key == "s" || key == "S") { drive = "back"; t.linear_mps = -hold_speed_.linear_mps; }
+  else if (key == "\x1b[D" || key == "a" || key == "A") { drive = "left"; t.angular_radps = hold_speed_.angular_radps; }
+  else if (key == "\x1b[C" || key == "d" || key == "D") { drive = "right"; t.angular_radps = -hold_speed_.angular_radps; }
+  else if (key == "+" || key == "=" || key == "-") {
+    const double sign = key == "-" ? -1.0 : 1.0;
+    hold_speed_.linear_mps = std::clamp(hold_speed_.linear_mps + sign * params_.key_linear_step_mps,
+                                        params_.key_linear_step_mps, params_.max_linear_mps);
+    hold_speed_.angular_radps = std::clamp(hold_speed_.angular_radps + sign * params_.key_angular_step_radps,
+                                           params_.key_angular_step_radps, params_.max_angular_radps);
+    return true;
+  } else {
+    return false;
+  }
+  // A second event of the same key within the deadman is the terminal's autorepeat: from then
+  // on a short gap already means the key is up.
+  repeating_ = drive == held_key_ && now_s - last_key_s_ <= params_.key_deadman_s;
+  held_key_ = drive;
+  last_key_s_ = now_s;
+  target_ = clamp_twist(t, params_);
+  return true;
+}
+
+bool KeyTeleop::apply_key(const std::string& key, double now_s) {
   const auto& p = params_;
+  if (manual_ && hold_mode() && apply_hold_key(key, now_s)) return true;
   if (key == "\x1b[A" || key == "w" || key == "W") target_.linear_mps += p.key_linear_step_mps;
   else if (key == "\x1b[B" || key == "s" || key == "S") target_.linear_mps -= p.key_linear_step_mps;
   else if (key == "\x1b[D" || key == "a" || key == "A") target_.angular_radps += p.key_angular_step_radps;
   else if (key == "\x1b[C" || key == "d" || key == "D") target_.angular_radps -= p.key_angular_step_radps;
-  else if (key == " ") target_ = Twist{};
+  else if (key == " ") { target_ = Twist{}; held_key_.clear(); }
   else if (key == p.done_key) { done_ = true; target_ = Twist{}; }
   else if (key == p.close_key) { closing_ = true; target_ = Twist{}; }  // stop at the start, then turn
-  else if (key == p.manual_key) { manual_ = !manual_; target_ = Twist{}; }
+  else if (key == p.manual_key) { manual_ = !manual_; target_ = Twist{}; held_key_.clear(); }
   else {
     for (const auto& [k, kind] : keys_)
       if (k == key) { switched_ = kind; return true; }
@@ -229,7 +341,7 @@ bool KeyTeleop::apply_key(const std::string& key) {
   return true;
 }
 
-TeleopAction KeyTeleop::update() {
+TeleopAction KeyTeleop::update(double now_s) {
   TeleopAction a;
   a.primitive = std::exchange(switched_, std::nullopt);
   a.done = done_;
@@ -239,6 +351,15 @@ TeleopAction KeyTeleop::update() {
   } else if (done_) {
     a.reason = "teaching ended";
   } else {
+    if (hold_mode() && !held_key_.empty() &&
+        now_s - last_key_s_ > (repeating_ ? params_.key_repeat_timeout_s : params_.key_deadman_s)) {
+      // The keyboard deadman: the key is up. Zero, and forget the key so the next one starts
+      // from rest. Still engaged (manual): TeleopOverride keeps the mission waiting until the
+      // operator hands back with manual_key.
+      held_key_.clear();
+      repeating_ = false;
+      target_ = Twist{};
+    }
     a.engaged = true;
     a.command = target_;
   }
@@ -309,7 +430,7 @@ std::string status_line(const TeleopAction& action, const std::string& primitive
     << (primitive.empty() ? std::string("(turning, not recorded)") : primitive);
   if (!action.engaged) s << "  [stopped: " << action.reason << "]";
   if (keyboard) {
-    s << "  | arrows/WASD drive, space stop";
+    s << (params.key_deadman_s > 0.0 ? "  | hold arrows/WASD to drive, +/- speed, space stop" : "  | arrows/WASD drive, space stop");
     for (const auto& e : params.primitive_keys) s << ", " << e;
     s << ", " << params.close_key << " close loop, " << params.done_key << " end";
   }

@@ -3,6 +3,7 @@
 // (a FIFO carrying Linux js_event records), a keyboard FIFO and, with DDS, sensor_msgs/Joy and
 // geometry_msgs/Twist samples on a loopback domain.
 #include <fcntl.h>
+#include <linux/input.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -41,6 +42,27 @@ std::vector<std::uint8_t> js_event(std::uint8_t type, std::uint8_t number, std::
   return e;
 }
 constexpr std::uint8_t kButton = 0x01, kAxis = 0x02, kInit = 0x80;
+
+/// One Linux evdev record (struct input_event, as read from /dev/input/event*).
+std::vector<std::uint8_t> ev_event(std::uint16_t type, std::uint16_t code, std::int32_t value) {
+  input_event e{};
+  e.type = type;
+  e.code = code;
+  e.value = value;
+  std::vector<std::uint8_t> b(sizeof e);
+  std::memcpy(b.data(), &e, sizeof e);
+  return b;
+}
+std::vector<std::uint8_t> cat(std::initializer_list<std::vector<std::uint8_t>> parts) {
+  std::vector<std::uint8_t> out;
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+TeleopParams sticky_keys() {
+  TeleopParams p;
+  p.key_deadman_s = 0.0;
+  return p;
+}
 
 // ---- cores -------------------------------------------------------------------------------
 
@@ -109,8 +131,69 @@ TEST(JoyTeleop, DrivesOnlyWithTheDeadmanAndStopsForOneTickOnARelease) {
   EXPECT_TRUE(t->update(s, {}, true, false).done);
 }
 
+TEST(EvdevDecoder, NumbersAxesAndButtonsLikeJoydevAndNormalisesWithTheDeviceRange) {
+  EvdevDecoder d(EvdevDecoder::Layout::xbox_gamepad());
+  auto bytes = cat({ev_event(EV_ABS, ABS_Y, -32768), ev_event(EV_ABS, ABS_X, 32767), ev_event(EV_SYN, SYN_REPORT, 0),
+                    ev_event(EV_ABS, ABS_Z, 0), ev_event(EV_KEY, BTN_TL, 1), ev_event(EV_KEY, BTN_START, 1),
+                    ev_event(EV_KEY, BTN_START, 0), ev_event(EV_KEY, KEY_A, 1)});
+  // Split mid-record: nothing applied until a record is complete.
+  const std::size_t cut = EvdevDecoder::kEventBytes + 5;
+  EXPECT_EQ(d.feed(bytes.data(), cut), 1U);
+  EXPECT_DOUBLE_EQ(d.state().axis(1), 1.0);  // stick up (min) reads +1
+  EXPECT_EQ(d.feed(bytes.data() + cut, bytes.size() - cut), 7U);
+  EXPECT_DOUBLE_EQ(d.state().axis(0), -1.0);  // stick right (max) reads -1
+  EXPECT_DOUBLE_EQ(d.state().axis(2), 1.0);   // trigger released, as joy_linux reports it
+  EXPECT_TRUE(d.state().button(4));           // LB is joystick button 4, as on /dev/input/js0
+  EXPECT_FALSE(d.state().button(7));
+  EXPECT_EQ(d.take_presses(), (std::vector<int>{4, 7}));
+  EXPECT_EQ(d.take_releases(), (std::vector<int>{7}));
+  // Autorepeat (value 2) of a held button is not a new press; unmapped KEY_A was ignored.
+  d.feed(ev_event(EV_KEY, BTN_TL, 2).data(), EvdevDecoder::kEventBytes);
+  EXPECT_TRUE(d.take_presses().empty());
+  EXPECT_EQ(d.state().buttons.size(), 11U);
+  // Events lost (SYN_DROPPED): the held deadman counts as released.
+  d.feed(ev_event(EV_SYN, SYN_DROPPED, 0).data(), EvdevDecoder::kEventBytes);
+  EXPECT_FALSE(d.state().button(4));
+  EXPECT_EQ(d.take_releases(), (std::vector<int>{4}));
+}
+
+TEST(EvdevDecoder, DevicePathsChooseEvdevOrTheJoystickApi) {
+  EXPECT_TRUE(is_evdev_path("/dev/input/event3"));
+  EXPECT_TRUE(is_evdev_path("/dev/input/by-id/usb-Microsoft_X-Box_pad-event-joystick"));
+  EXPECT_FALSE(is_evdev_path("/dev/input/js0"));
+  EXPECT_FALSE(is_evdev_path("/dev/input/by-id/usb-Microsoft_X-Box_pad-joystick"));
+}
+
+TEST(KeyTeleop, HoldToDriveStopsWhenTheKeyRepeatsStop) {
+  TeleopParams p;  // default: hold-to-drive, 0.7 s before autorepeat, 0.1 s between repeats
+  auto k = KeyTeleop::create(p, true);
+  ASSERT_TRUE(k.ok());
+  EXPECT_TRUE(k->update(0.0).engaged);
+  EXPECT_EQ(k->update(0.0).command.linear_mps, 0.0);
+  k->apply_key("w", 1.0);
+  EXPECT_DOUBLE_EQ(k->update(1.0).command.linear_mps, p.key_hold_linear_mps);
+  // The terminal's autorepeat delay: no event for 0.5 s, still driving.
+  EXPECT_DOUBLE_EQ(k->update(1.5).command.linear_mps, p.key_hold_linear_mps);
+  for (double t = 1.5; t < 2.0; t += 0.04) k->apply_key("\x1b[A", t);  // repeats at 25 Hz (arrow = w)
+  EXPECT_DOUBLE_EQ(k->update(2.0).command.linear_mps, p.key_hold_linear_mps);
+  // Released after the last repeat (t ~ 1.98): zero 0.1 s later, not 0.7 s later.
+  EXPECT_GT(k->update(2.05).command.linear_mps, 0.0);
+  TeleopAction a = k->update(2.1);
+  EXPECT_EQ(a.command.linear_mps, 0.0);
+  EXPECT_TRUE(a.engaged);  // still manual: the command is a stop
+  // A first press that never repeats stops after key_deadman_s; the next key starts from rest.
+  k->apply_key("a", 3.0);
+  EXPECT_DOUBLE_EQ(k->update(3.6).command.angular_radps, p.key_hold_angular_radps);
+  EXPECT_EQ(k->update(3.75).command.angular_radps, 0.0);
+  // '+' raises both speeds by a step; a held s backs up.
+  k->apply_key("+", 4.0);
+  k->apply_key("s", 4.0);
+  EXPECT_NEAR(k->update(4.0).command.linear_mps, -(p.key_hold_linear_mps + p.key_linear_step_mps), 1e-12);
+  EXPECT_EQ(k->update(4.0).command.angular_radps, 0.0);
+}
+
 TEST(KeyTeleop, StepsClampsStopsAndSwitchesPrimitive) {
-  TeleopParams p;
+  TeleopParams p = sticky_keys();
   auto k = KeyTeleop::create(p, true);
   ASSERT_TRUE(k.ok());
   for (int i = 0; i < 20; ++i) k->apply_key("\x1b[A");
@@ -146,7 +229,7 @@ TEST(TeleopParams, CloseKeyAndButtonMustNotClashWithOtherControls) {
 }
 
 TEST(KeyTeleop, OverrideStartsAutomaticUntilTheManualKey) {
-  auto k = KeyTeleop::create(TeleopParams{}, false);
+  auto k = KeyTeleop::create(sticky_keys(), false);
   ASSERT_TRUE(k.ok());
   k->apply_key("w");
   EXPECT_FALSE(k->update().engaged);  // ignored: automatic
@@ -225,6 +308,8 @@ class TeleopNodes : public ::testing::Test {
     // O_RDWR never blocks on a FIFO and keeps a writer, so the node's reads see data, not EOF.
     writer_ = ::open(fifo_.c_str(), O_RDWR | O_NONBLOCK);
     ASSERT_GE(writer_, 0);
+    sticky_ = (dir_ / "sticky.yaml").string();
+    std::ofstream(sticky_) << "key_deadman_s: 0\n";
     host_.set_frame_bus(&bus_);
     host_.set_robot(&robot_);
     ASSERT_TRUE(test::register_plugin_nodes(loader_, "teleop", registry_, host_));
@@ -244,6 +329,7 @@ class TeleopNodes : public ::testing::Test {
 
   fs::path dir_;
   std::string fifo_;
+  std::string sticky_;  // mapping file: sticky-throttle keyboard (no key deadman)
   int writer_ = -1;
   PluginLoader loader_{std::vector<std::string>{VISNAV_TEST_PLUGIN_DIR}};
   StderrLogger logger_{LogLevel::error};
@@ -327,7 +413,7 @@ TEST_F(TeleopNodes, MissingJoystickDeviceFailsNamingIt) {
 }
 
 TEST_F(TeleopNodes, KeyboardDrivesSwitchesPrimitiveAndEndsTeaching) {
-  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ +
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ + "\" mapping_file=\"" + sticky_ +
                                            "\" initial_primitive=\"feature_segment\"/>",
                                        registry_, &clock_);
   EXPECT_EQ(tree.tick_once(), NodeStatus::running);
@@ -346,7 +432,7 @@ TEST_F(TeleopNodes, KeyboardDrivesSwitchesPrimitiveAndEndsTeaching) {
 // {teach_closing} (TeachRoute ends the last edge there); the operator then turns in place to face
 // the first edge (that turn is the closing turn TeachRoute records) and ends teaching.
 TEST_F(TeleopNodes, CloseKeySignalsTheClosingTurnThenTheOperatorTurnsAndEnds) {
-  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ +
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ + "\" mapping_file=\"" + sticky_ +
                                            "\" initial_primitive=\"feature_segment\"/>",
                                        registry_, &clock_);
   EXPECT_EQ(tree.tick_once(), NodeStatus::running);
@@ -369,6 +455,60 @@ TEST_F(TeleopNodes, CloseKeySignalsTheClosingTurnThenTheOperatorTurnsAndEnds) {
   EXPECT_TRUE(*tree.blackboard().get<bool>("teach_closing"));
 }
 
+TEST_F(TeleopNodes, KeyboardDeadmanStopsWithin100msOfTheLastAutorepeat) {
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + fifo_ + "\"/>", registry_, &clock_);
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  // A held key at 20 Hz ticks: the first event, the terminal's 0.5 s autorepeat delay, then a
+  // repeat every 40 ms (the run clock is the test's; two repeats per tick at most).
+  double last_key_s = 0.0;
+  for (int tick = 1; tick <= 30; ++tick) {
+    clock_.set(tick * 0.05);
+    if (tick == 1 || tick >= 11) { write_text(tick >= 11 ? "ww" : "w"); last_key_s = clock_.now_s(); }
+    tree.tick_once();
+    EXPECT_DOUBLE_EQ(robot_.command_.linear_mps, 0.3) << "tick " << tick;
+  }
+  // Released: the first tick more than 0.1 s after the last repeat sends zero.
+  double stopped_s = -1.0;
+  for (int tick = 31; tick <= 40 && stopped_s < 0.0; ++tick) {
+    clock_.set(tick * 0.05);
+    tree.tick_once();
+    if (robot_.command_.linear_mps == 0.0) stopped_s = clock_.now_s();
+  }
+  ASSERT_GT(stopped_s, 0.0);
+  std::printf("keyboard: last autorepeat -> zero command: %.0f ms of run clock at a 20 Hz tick\n",
+              (stopped_s - last_key_s) * 1e3);
+  EXPECT_LE(stopped_s - last_key_s, 0.1 + 0.05 + 1e-9);  // the timeout plus at most one tick
+}
+
+TEST_F(TeleopNodes, EvdevGamepadTeachesWithTheDeadmanLikeTheJoystickApi) {
+  // An evdev node (the FIFO's name says event*) replaying struct input_event records.
+  const std::string event_dev = (dir_ / "event7").string();
+  ASSERT_EQ(::mkfifo(event_dev.c_str(), 0600), 0);
+  const int w = ::open(event_dev.c_str(), O_RDWR | O_NONBLOCK);
+  ASSERT_GE(w, 0);
+  auto send = [&](const std::vector<std::uint8_t>& b) {
+    ASSERT_EQ(::write(w, b.data(), b.size()), static_cast<ssize_t>(b.size()));
+  };
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"joystick\" device=\"" + event_dev + "\"/>", registry_, &clock_);
+  send(cat({ev_event(EV_ABS, ABS_Y, -32768), ev_event(EV_SYN, SYN_REPORT, 0)}));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);  // no deadman yet
+  send(cat({ev_event(EV_KEY, BTN_TL, 1), ev_event(EV_KEY, BTN_SOUTH, 1), ev_event(EV_SYN, SYN_REPORT, 0)}));
+  tree.tick_once();
+  EXPECT_NEAR(robot_.command_.linear_mps, 0.5, 1e-9);
+  EXPECT_EQ(*tree.blackboard().get<std::string>("primitive"), "feature_segment");
+  // Deadman released and pressed again between two ticks: one tick of zero.
+  send(cat({ev_event(EV_KEY, BTN_TL, 0), ev_event(EV_SYN, SYN_REPORT, 0), ev_event(EV_KEY, BTN_TL, 1)}));
+  tree.tick_once();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  tree.tick_once();
+  EXPECT_NEAR(robot_.command_.linear_mps, 0.5, 1e-9);
+  send(ev_event(EV_KEY, BTN_START, 1));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::success);
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  ::close(w);
+}
+
 TEST_F(TeleopNodes, JoystickCloseButtonSetsTheClosingOutput) {
   bt::Tree tree = test::load_main_tree("<Teleop input=\"joystick\" device=\"" + fifo_ + "\"/>", registry_, &clock_);
   write_bytes(js_event(kAxis | kInit, 1, 0));
@@ -381,7 +521,8 @@ TEST_F(TeleopNodes, JoystickCloseButtonSetsTheClosingOutput) {
 
 TEST_F(TeleopNodes, OverridePausesTheMissionWhileTheOperatorDrives) {
   bt::Tree tree = test::load_main_tree(
-      "<TeleopOverride input=\"keyboard\" device=\"" + fifo_ + "\"><Mission/></TeleopOverride>", registry_, &clock_);
+      "<TeleopOverride input=\"keyboard\" device=\"" + fifo_ + "\" mapping_file=\"" + sticky_ + "\"><Mission/></TeleopOverride>",
+      registry_, &clock_);
   tree.tick_once();
   EXPECT_EQ(mission_ticks_, 1);
   EXPECT_EQ(robot_.command_.linear_mps, 1.0);

@@ -1,5 +1,5 @@
 // visnav teleop plugin — the pure cores behind the operator nodes (Teleop, TeleopOverride):
-// decoding a Linux joystick byte stream and terminal key sequences, and turning joystick,
+// decoding a Linux joystick byte stream (joystick API or evdev) and terminal key sequences, and turning joystick,
 // keyboard or teleop-Twist input into a velocity command, the primitive being taught and
 // "teaching done", with a deadman and an input timeout. No I/O, no clock: every function takes
 // the time it should assume (run clock, s). The node adapters (src/) own the devices.
@@ -43,8 +43,19 @@ struct TeleopParams {
   /// means "turning / not recording".
   std::vector<std::string> primitive_buttons{"0=feature_segment", "2=path_following", "1="};
   // --- keyboard ---
-  double key_linear_step_mps = 0.1;     ///< up/w, down/s change the speed by this much
-  double key_angular_step_radps = 0.15; ///< left/a, right/d change the turn rate by this much
+  /// Keyboard deadman. > 0: hold-to-drive (like teleop_twist_keyboard's key_timeout): a driving
+  /// key moves the robot only while the terminal keeps repeating it; no key event for this long
+  /// stops the robot. It must exceed the terminal's autorepeat delay (250-660 ms) so a held key
+  /// does not stutter before the repeats start. 0: sticky throttle (keys step a speed that
+  /// stays until space) — no deadman.
+  double key_deadman_s = 0.7;
+  /// Hold-to-drive: once the held key is repeating, a gap this long means it was released (at
+  /// 25-30 Hz autorepeat a repeat arrives every 33-40 ms). Release -> zero within this plus one tick.
+  double key_repeat_timeout_s = 0.1;
+  double key_hold_linear_mps = 0.3;     ///< hold-to-drive: speed of a held up/w, down/s (+/- change it)
+  double key_hold_angular_radps = 0.5;  ///< hold-to-drive: turn rate of a held left/a, right/d (+/- change it)
+  double key_linear_step_mps = 0.1;     ///< sticky: up/w, down/s change the speed by this much; hold: the +/- step
+  double key_angular_step_radps = 0.15; ///< sticky: left/a, right/d change the turn rate by this much; hold: the +/- step
   double max_linear_mps = 0.8;          ///< keyboard and Twist commands are clamped to these
   double max_angular_radps = 1.2;
   /// "key=kind" for the keyboard (single characters); kind "" = turning / not recording.
@@ -106,6 +117,51 @@ class JsEventDecoder {
   std::vector<int> releases_;
 };
 
+/// Linux evdev (/dev/input/event*, linux/input.h `struct input_event`) event stream -> JoyState,
+/// numbered like the joystick API (joydev) numbers the same pad — axes in the order of their
+/// ABS_* codes, buttons in the order of their BTN_*/KEY_* codes from BTN_MISC up — so one
+/// mapping file serves js*, event* and sensor_msgs/Joy. Axes are normalised with the device's
+/// min/max to [-1, 1] and negated (up/left = +1), as joy_linux does. EV_KEY value 2 (autorepeat)
+/// is a held button, not a press. SYN_DROPPED (events lost) releases every button, so a lost
+/// deadman release cannot keep the robot moving. Codes not in the layout are ignored.
+class EvdevDecoder {
+ public:
+  struct Axis {
+    std::uint16_t code = 0;  ///< ABS_* code
+    std::int32_t min = -32768;
+    std::int32_t max = 32767;
+  };
+  struct Layout {
+    std::vector<Axis> axes;               ///< in joystick-number order
+    std::vector<std::uint16_t> buttons;   ///< BTN_*/KEY_* codes in joystick-number order
+    /// The Linux gamepad layout of an Xbox-style pad (xpad): 8 axes (X, Y, Z=LT, RX, RY, RZ=RT,
+    /// HAT0X, HAT0Y) and 11 buttons (A, B, X, Y, LB, RB, Back, Start, Guide, LS, RS) — used
+    /// when the device does not answer the EVIOCGBIT/EVIOCGABS queries (e.g. a recorded FIFO).
+    static Layout xbox_gamepad();
+  };
+  explicit EvdevDecoder(Layout layout);
+  /// Feeds raw bytes (records of kEventBytes); returns the number of complete events applied.
+  std::size_t feed(const std::uint8_t* data, std::size_t size);
+  [[nodiscard]] const JoyState& state() const { return state_; }
+  std::vector<int> take_presses() { return std::exchange(presses_, {}); }
+  std::vector<int> take_releases() { return std::exchange(releases_, {}); }
+  [[nodiscard]] const Layout& layout() const { return layout_; }
+
+  static const std::size_t kEventBytes;  ///< sizeof(struct input_event): 24 on 64-bit Linux
+
+ private:
+  void apply(std::uint16_t type, std::uint16_t code, std::int32_t value);
+  Layout layout_;
+  JoyState state_;
+  std::vector<std::uint8_t> partial_;
+  std::vector<int> presses_;
+  std::vector<int> releases_;
+};
+
+/// True if `device` names an evdev node (/dev/input/eventN, or a by-id/by-path link ending in
+/// "-event-joystick"), false for the joystick API (/dev/input/jsN, "...-joystick").
+[[nodiscard]] bool is_evdev_path(const std::string& device);
+
 /// Splits terminal input into keys: a printable character, "\x1b[A".."\x1b[D" for the arrows,
 /// " " for space, "\n" for Enter (CR too). Unknown escape sequences are dropped whole.
 class KeyDecoder {
@@ -147,25 +203,42 @@ class JoyTeleop {
   bool closing_ = false;
 };
 
-/// Keyboard teleop (sticky speeds like a hand throttle): arrows/WASD step the commanded speed
-/// and turn rate, space zeroes both, the primitive keys switch primitive, `done_key` ends
-/// teaching, `manual_key` toggles manual mode (used by TeleopOverride; Teleop is always manual).
+/// Keyboard teleop, two modes (TeleopParams::key_deadman_s):
+///  * hold-to-drive (key_deadman_s > 0, the default): a held up/w, down/s drives forward/back at
+///    key_hold_linear_mps, a held left/a, right/d turns on the spot at key_hold_angular_radps;
+///    '+'/'-' change both by a step. The command holds while key events keep arriving (the
+///    terminal's autorepeat): key_deadman_s after a first press, key_repeat_timeout_s once
+///    repeats have been seen. No key: zero — the keyboard's deadman.
+///  * sticky throttle (key_deadman_s = 0): arrows/WASD step the commanded speed and turn rate,
+///    which stay until space; no deadman.
+/// In both, space stops, the primitive keys switch primitive, `done_key` ends teaching,
+/// `manual_key` toggles manual mode (used by TeleopOverride; Teleop is always manual).
+/// Times are on one clock (s), non-decreasing.
 class KeyTeleop {
  public:
   static Result<KeyTeleop> create(const TeleopParams& params, bool start_manual);
-  /// Applies one key (as KeyDecoder yields them). Returns false for a key that means nothing.
-  bool apply_key(const std::string& key);
-  /// The action after the keys applied since the last call.
-  TeleopAction update();
+  /// Applies one key (as KeyDecoder yields them) received at `now_s`. Returns false for a key
+  /// that means nothing.
+  bool apply_key(const std::string& key, double now_s = 0.0);
+  /// The action at `now_s` after the keys applied since the last call.
+  TeleopAction update(double now_s = 0.0);
   [[nodiscard]] const Twist& target() const { return target_; }
   [[nodiscard]] bool manual() const { return manual_; }
 
  private:
   KeyTeleop(const TeleopParams& params, std::vector<std::pair<std::string, std::string>> keys, bool manual)
-      : params_(params), keys_(std::move(keys)), manual_(manual) {}
+      : params_(params), keys_(std::move(keys)), manual_(manual) {
+    hold_speed_ = {params.key_hold_linear_mps, params.key_hold_angular_radps};
+  }
+  [[nodiscard]] bool hold_mode() const { return params_.key_deadman_s > 0.0; }
+  bool apply_hold_key(const std::string& key, double now_s);
   TeleopParams params_;
   std::vector<std::pair<std::string, std::string>> keys_;
   Twist target_;
+  Twist hold_speed_;             // hold-to-drive: magnitudes of a held key
+  std::string held_key_;         // hold-to-drive: the driving key of the last event
+  double last_key_s_ = -1e18;    // ... its newest event
+  bool repeating_ = false;       // ... autorepeat seen
   bool manual_ = true;
   bool done_ = false;
   bool closing_ = false;

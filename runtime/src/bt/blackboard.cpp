@@ -27,6 +27,14 @@ Blackboard::Blackboard(PrivateTag, Ptr parent) : parent_(std::move(parent)) {
   if (parent_) enums_ = parent_->enums_;
 }
 
+Blackboard::~Blackboard() {
+  Ptr p = std::move(parent_);
+  while (p && p.use_count() == 1) {
+    Ptr next = p->parent_;  // p's destructor then sees its parent shared and stops
+    p = std::move(next);
+  }
+}
+
 Blackboard::Ptr Blackboard::create(Ptr parent) { return std::make_shared<Blackboard>(PrivateTag{}, std::move(parent)); }
 
 Blackboard& Blackboard::root() noexcept {

@@ -1,11 +1,15 @@
-// StackSegments: switching to a fresh stack segment with ucontext (see bounded_stack.hpp).
-// swapcontext costs a system call (the signal mask), which is why switches happen only at
-// checkpoints and only past the budget: ordinary trees never pay it.
+// StackSegments: calling a function on a fresh stack segment (see bounded_stack.hpp).
+// On x86-64 the switch is four instructions (save the stack pointer in a callee-saved register,
+// load the segment's top, call, restore); elsewhere it uses ucontext, whose swapcontext costs
+// system calls (the signal mask). Either way switches happen only at checkpoints and only past
+// the budget: ordinary trees never switch.
 #include "bounded_stack.hpp"
 
 #include <sys/mman.h>
-#include <ucontext.h>
 #include <unistd.h>
+#if !defined(__x86_64__)
+#include <ucontext.h>
+#endif
 
 #include <cstdint>
 #include <exception>
@@ -29,28 +33,70 @@ struct Call {
   void (*fn)(void*) = nullptr;
   void* arg = nullptr;
   std::exception_ptr error;
-  ucontext_t caller{};
   const void* caller_stack_bottom = nullptr;  // for the ASan annotations
   std::size_t caller_stack_size = 0;
+#if !defined(__x86_64__)
+  ucontext_t caller{};
+#endif
 };
 
-// makecontext passes int arguments only: the Call pointer travels as two halves.
-void trampoline(unsigned hi, unsigned lo) {
-  auto* call = reinterpret_cast<Call*>((static_cast<std::uintptr_t>(hi) << 32) | static_cast<std::uintptr_t>(lo));
+// Runs on the segment: the call, with every exception caught (no unwinding may cross the
+// switch; it is rethrown on the caller's stack).
+void run_call(Call* call) {
 #ifdef VISNAV_ASAN_FIBERS
   __sanitizer_finish_switch_fiber(nullptr, &call->caller_stack_bottom, &call->caller_stack_size);
 #endif
   try {
     call->fn(call->arg);
   } catch (...) {
-    call->error = std::current_exception();  // rethrown on the caller's stack
+    call->error = std::current_exception();
   }
 #ifdef VISNAV_ASAN_FIBERS
-  // This fiber ends here (the segment is prepared afresh for its next use).
+  // This fiber ends here (the segment starts afresh on its next use).
   __sanitizer_start_switch_fiber(nullptr, call->caller_stack_bottom, call->caller_stack_size);
 #endif
+}
+
+#if defined(__x86_64__)
+extern "C" __attribute__((used)) void visnav_bt_segment_entry(void* call) { run_call(static_cast<Call*>(call)); }
+
+// Calls visnav_bt_segment_entry(call) with the stack pointer at `top` (16-byte aligned) and
+// returns on the original stack. rbx (callee-saved, so preserved by the callee) keeps the old
+// stack pointer; every caller-saved register is declared clobbered.
+void call_on_segment(Call* call, char* top) {
+  void* rdi = call;
+  void* rsi = top;
+  asm volatile(
+      "movq %%rsp, %%rbx\n\t"
+      "movq %%rsi, %%rsp\n\t"
+      "callq visnav_bt_segment_entry@PLT\n\t"
+      "movq %%rbx, %%rsp\n\t"
+      : "+D"(rdi), "+S"(rsi)
+      :
+      : "rbx", "rax", "rcx", "rdx", "r8", "r9", "r10", "r11", "memory", "cc", "xmm0", "xmm1", "xmm2", "xmm3", "xmm4",
+        "xmm5", "xmm6", "xmm7", "xmm8", "xmm9", "xmm10", "xmm11", "xmm12", "xmm13", "xmm14", "xmm15", "st", "st(1)",
+        "st(2)", "st(3)", "st(4)", "st(5)", "st(6)", "st(7)");
+}
+#else
+// makecontext passes int arguments only: the Call pointer travels as two halves.
+void trampoline(unsigned hi, unsigned lo) {
+  auto* call = reinterpret_cast<Call*>((static_cast<std::uintptr_t>(hi) << 32) | static_cast<std::uintptr_t>(lo));
+  run_call(call);
   setcontext(&call->caller);
 }
+
+void call_on_segment(Call* call, char* base, std::size_t size) {
+  ucontext_t target{};
+  getcontext(&target);
+  target.uc_stack.ss_sp = base;
+  target.uc_stack.ss_size = size;
+  target.uc_link = nullptr;  // trampoline() never returns; it resumes `call->caller`
+  const auto bits = reinterpret_cast<std::uintptr_t>(call);
+  makecontext(&target, reinterpret_cast<void (*)()>(&trampoline), 2, static_cast<unsigned>(bits >> 32),
+              static_cast<unsigned>(bits & 0xffffffffu));
+  swapcontext(&call->caller, &target);
+}
+#endif
 
 struct ResetTop {
   char*& top;
@@ -96,19 +142,15 @@ void StackSegments::run(void (*fn)(void*), void* arg) {
   Call call;
   call.fn = fn;
   call.arg = arg;
-  ucontext_t target{};
-  getcontext(&target);
-  target.uc_stack.ss_sp = segment.base;
-  target.uc_stack.ss_size = segment.size;
-  target.uc_link = nullptr;  // trampoline() never returns; it resumes `call.caller`
-  const auto bits = reinterpret_cast<std::uintptr_t>(&call);
-  makecontext(&target, reinterpret_cast<void (*)()>(&trampoline), 2, static_cast<unsigned>(bits >> 32),
-              static_cast<unsigned>(bits & 0xffffffffu));
 #ifdef VISNAV_ASAN_FIBERS
   void* fake_stack = nullptr;
   __sanitizer_start_switch_fiber(&fake_stack, segment.base, segment.size);
 #endif
-  swapcontext(&call.caller, &target);
+#if defined(__x86_64__)
+  call_on_segment(&call, segment.base + segment.size);
+#else
+  call_on_segment(&call, segment.base, segment.size);
+#endif
 #ifdef VISNAV_ASAN_FIBERS
   __sanitizer_finish_switch_fiber(fake_stack, nullptr, nullptr);
 #endif

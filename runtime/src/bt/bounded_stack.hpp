@@ -26,7 +26,7 @@ namespace visnav::bt::detail {
 
 class StackSegments {
  public:
-  static constexpr int kCheckpointInterval = 16;               ///< levels between checkpoints
+  static constexpr int kCheckpointInterval = 64;               ///< levels between checkpoints
   static constexpr std::size_t kBudgetBytes = 256 * 1024;       ///< stack used before switching
   static constexpr std::size_t kSegmentBytes = 8 * 1024 * 1024;  ///< as a default thread stack
 

@@ -1,6 +1,6 @@
 // StackSegments: calling a function on a fresh stack segment (see bounded_stack.hpp).
-// On x86-64 the switch is four instructions (save the stack pointer in a callee-saved register,
-// load the segment's top, call, restore); elsewhere it uses ucontext, whose swapcontext costs
+// On x86-64 the switch is a six-instruction assembly function (save the frame pointer, load
+// the segment's top, call, restore); elsewhere it uses ucontext, whose swapcontext costs
 // system calls (the signal mask). Either way switches happen only at checkpoints and only past
 // the budget: ordinary trees never switch.
 #include "bounded_stack.hpp"
@@ -23,6 +23,37 @@
 #endif
 #ifdef VISNAV_ASAN_FIBERS
 #include <sanitizer/common_interface_defs.h>
+#endif
+
+#if defined(__x86_64__)
+// visnav_bt_call_on_stack(arg, fn, top): calls fn(arg) with the stack pointer at `top` (16-byte
+// aligned) and returns on the original stack. A real function with call-frame information:
+// rbp holds the caller's frame, so debuggers, profilers and unwinders walk from the segment
+// back to the original stack.
+asm(R"(
+  .pushsection .text
+  .p2align 4
+  .globl visnav_bt_call_on_stack
+  .hidden visnav_bt_call_on_stack
+  .type visnav_bt_call_on_stack, @function
+visnav_bt_call_on_stack:
+  .cfi_startproc
+  pushq %rbp
+  .cfi_def_cfa_offset 16
+  .cfi_offset %rbp, -16
+  movq %rsp, %rbp
+  .cfi_def_cfa_register %rbp
+  movq %rdx, %rsp
+  callq *%rsi
+  movq %rbp, %rsp
+  popq %rbp
+  .cfi_def_cfa %rsp, 8
+  ret
+  .cfi_endproc
+  .size visnav_bt_call_on_stack, .-visnav_bt_call_on_stack
+  .popsection
+)");
+extern "C" __attribute__((visibility("hidden"))) void visnav_bt_call_on_stack(void* arg, void (*fn)(void*), char* top);
 #endif
 
 namespace visnav::bt::detail {
@@ -58,24 +89,8 @@ void run_call(Call* call) {
 }
 
 #if defined(__x86_64__)
-extern "C" __attribute__((used)) void visnav_bt_segment_entry(void* call) { run_call(static_cast<Call*>(call)); }
-
-// Calls visnav_bt_segment_entry(call) with the stack pointer at `top` (16-byte aligned) and
-// returns on the original stack. rbx (callee-saved, so preserved by the callee) keeps the old
-// stack pointer; every caller-saved register is declared clobbered.
 void call_on_segment(Call* call, char* top) {
-  void* rdi = call;
-  void* rsi = top;
-  asm volatile(
-      "movq %%rsp, %%rbx\n\t"
-      "movq %%rsi, %%rsp\n\t"
-      "callq visnav_bt_segment_entry@PLT\n\t"
-      "movq %%rbx, %%rsp\n\t"
-      : "+D"(rdi), "+S"(rsi)
-      :
-      : "rbx", "rax", "rcx", "rdx", "r8", "r9", "r10", "r11", "memory", "cc", "xmm0", "xmm1", "xmm2", "xmm3", "xmm4",
-        "xmm5", "xmm6", "xmm7", "xmm8", "xmm9", "xmm10", "xmm11", "xmm12", "xmm13", "xmm14", "xmm15", "st", "st(1)",
-        "st(2)", "st(3)", "st(4)", "st(5)", "st(6)", "st(7)");
+  visnav_bt_call_on_stack(call, [](void* c) { run_call(static_cast<Call*>(c)); }, top);
 }
 #else
 // makecontext passes int arguments only: the Call pointer travels as two halves.

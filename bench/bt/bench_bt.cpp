@@ -9,6 +9,9 @@
 //    (`n < 0`); the figure for trees that use scripting everywhere (no target).
 //  * BM_TickPreconditionAttributes: same shape, every leaf an AlwaysSuccess/AlwaysFailure
 //    carrying `_skipIf="n < 0"`: the cost of pre/post-condition attributes.
+//  * BM_TickDeepChain: a chain of ~10,000 nested Inverters (SubTrees of 95, limits raised):
+//    ns per node where ticking crosses the stack checkpoints and, past 256 KB of stack,
+//    switches to stack segments (runtime/src/bt/bounded_stack.hpp); no target.
 //  * BM_ParseValidate1000: parse + validate a generated 1000-node XML file (target <= 5 ms).
 //  * BM_Load1000: parse + validate + instantiate the same file.
 #include <benchmark/benchmark.h>
@@ -120,9 +123,10 @@ visnav::bt::NodeRegistry make_registry() {
   return r;
 }
 
-void run_tick_bench(benchmark::State& state, const std::string& xml, bool with_ports, double target_ns) {
+void run_tick_bench(benchmark::State& state, const std::string& xml, bool with_ports, double target_ns,
+                    const visnav::bt::LoadOptions& options = {}) {
   const auto registry = make_registry();
-  auto loaded = visnav::bt::load_tree_string(xml, registry);
+  auto loaded = visnav::bt::load_tree_string(xml, registry, options);
   if (!loaded) {
     state.SkipWithError(loaded.error().message.c_str());
     return;
@@ -131,8 +135,8 @@ void run_tick_bench(benchmark::State& state, const std::string& xml, bool with_p
   if (with_ports) tree.blackboard().set("count", 3);
   tree.blackboard().set("n", 0);
   const double nodes = static_cast<double>(tree.node_count());
-  if (tree.tick_once() != NodeStatus::success) {
-    state.SkipWithError("tree did not succeed");
+  if (const NodeStatus first = tree.tick_once(); first != NodeStatus::success && first != NodeStatus::failure) {
+    state.SkipWithError("tree did not complete");
     return;
   }
   const std::uint64_t allocs_before = g_allocations.load();
@@ -176,6 +180,27 @@ void BM_TickPreconditionAttributes(benchmark::State& state) {
                  0.0);
 }
 BENCHMARK(BM_TickPreconditionAttributes);
+
+/// D0 -> ... -> D(trees-1) -> AlwaysSuccess, each tree 95 nested Inverters around the next SubTree.
+std::string deep_chain_xml(int trees) {
+  std::string xml = "<root BTCPP_format=\"4\" main_tree_to_execute=\"D0\">\n";
+  for (int t = 0; t < trees; ++t) {
+    xml += "<BehaviorTree ID=\"D" + std::to_string(t) + "\">";
+    for (int i = 0; i < 95; ++i) xml += "<Inverter>";
+    xml += t + 1 < trees ? "<SubTree ID=\"D" + std::to_string(t + 1) + "\"/>" : "<AlwaysSuccess/>";
+    for (int i = 0; i < 95; ++i) xml += "</Inverter>";
+    xml += "</BehaviorTree>\n";
+  }
+  return xml + "</root>\n";
+}
+
+void BM_TickDeepChain(benchmark::State& state) {
+  visnav::bt::LoadOptions options;
+  options.max_subtree_depth = 200;
+  options.max_tree_depth = 20'000;
+  run_tick_bench(state, deep_chain_xml(105), false, 0.0, options);
+}
+BENCHMARK(BM_TickDeepChain);
 
 std::filesystem::path write_big_tree() {
   const auto path = std::filesystem::temp_directory_path() / "visnav_bench_bt_1000.xml";

@@ -27,6 +27,14 @@ Blackboard::Blackboard(PrivateTag, Ptr parent) : parent_(std::move(parent)) {
   if (parent_) enums_ = parent_->enums_;
 }
 
+Blackboard::~Blackboard() {
+  Ptr p = std::move(parent_);
+  while (p && p.use_count() == 1) {
+    Ptr next = p->parent_;  // p's destructor then sees its parent shared and stops
+    p = std::move(next);
+  }
+}
+
 Blackboard::Ptr Blackboard::create(Ptr parent) { return std::make_shared<Blackboard>(PrivateTag{}, std::move(parent)); }
 
 Blackboard& Blackboard::root() noexcept {
@@ -35,19 +43,31 @@ Blackboard& Blackboard::root() noexcept {
   return *b;
 }
 
+// A loop, not recursion: a remapped key may climb as many scopes as SubTrees nest.
 Blackboard::Entry* Blackboard::resolve(std::string_view key, bool create) {
-  if (!key.empty() && key.front() == '@') {
-    Blackboard& r = root();
-    return r.resolve(key.substr(1), create);
+  Blackboard* b = this;
+  for (;;) {
+    if (!key.empty() && key.front() == '@') {
+      b = &b->root();
+      key.remove_prefix(1);
+      continue;
+    }
+    if (auto it = b->storage_.find(key); it != b->storage_.end()) return it->second.get();
+    if (b->parent_) {
+      if (auto rm = b->remapping_.find(key); rm != b->remapping_.end()) {
+        key = rm->second;
+        b = b->parent_.get();
+        continue;
+      }
+      if (b->auto_remapping_ && (key.empty() || key.front() != '_')) {
+        b = b->parent_.get();
+        continue;
+      }
+    }
+    if (!create) return nullptr;
+    auto [it, inserted] = b->storage_.emplace(std::string(key), std::make_unique<Entry>());
+    return it->second.get();
   }
-  if (auto it = storage_.find(key); it != storage_.end()) return it->second.get();
-  if (parent_) {
-    if (auto rm = remapping_.find(key); rm != remapping_.end()) return parent_->resolve(rm->second, create);
-    if (auto_remapping_ && (key.empty() || key.front() != '_')) return parent_->resolve(key, create);
-  }
-  if (!create) return nullptr;
-  auto [it, inserted] = storage_.emplace(std::string(key), std::make_unique<Entry>());
-  return it->second.get();
 }
 
 Blackboard::Entry* Blackboard::find_entry(std::string_view key) {

@@ -1,6 +1,8 @@
 // Built-in control nodes (BehaviorTree.CPP v4 semantics).
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <optional>
 #include <string>
 
 #include "builtin_internal.hpp"
@@ -509,6 +511,85 @@ class Switch final : public ControlNode {
   int running_ = -1;
 };
 
+
+// ManualSelector: an operator picks which child runs. BehaviorTree.CPP shows a terminal menu,
+// which would block the tick thread of a robot; here the choice is the value of `selection`
+// (by default the blackboard entry manual_selection), written by whoever drives the robot (a
+// node fed by an operator topic, a Script, `--bb`). While no choice is there the node is
+// RUNNING (waiting). A choice read from the blackboard is consumed (the entry is unset), so
+// each decision is used once; with repeat_last_selection the previous one is reused without
+// waiting. A RUNNING child is resumed without a new choice.
+class ManualSelector final : public ControlNode {
+ public:
+  ManualSelector(const std::string& name, const NodeConfig& config) : ControlNode(name, config) {
+    selection_ = port("selection");
+  }
+  static PortsList provided_ports() {
+    return {input_port<std::string>("selection", "{manual_selection}",
+                                    "the choice: a child's name or 0-based index, or SUCCESS / FAILURE / SKIPPED / "
+                                    "RUNNING to return that status; empty or unset = wait (RUNNING)"),
+            input_port<bool>("repeat_last_selection", "false", "reuse the previous choice instead of waiting for one")};
+  }
+
+ protected:
+  NodeStatus tick() override {
+    set_status(S::running);
+    if (running_ >= 0) return tick_child(static_cast<std::size_t>(running_));
+    const auto repeat = get_input<bool>("repeat_last_selection");
+    if (!repeat) return S::failure;
+    if (!*repeat || !last_) {
+      std::optional<Choice> choice = read_choice();
+      if (!choice) return S::running;  // waiting for the operator
+      last_ = *choice;
+    }
+    if (last_->child < 0) return last_->status;
+    return tick_child(static_cast<std::size_t>(last_->child));
+  }
+  void halt() override {
+    running_ = -1;
+    ControlNode::halt();
+  }
+
+ private:
+  struct Choice {
+    int child = -1;                 ///< index, or -1 for a status choice
+    NodeStatus status = S::failure;  ///< returned when child < 0 (FAILURE also for a bad choice)
+  };
+
+  NodeStatus tick_child(std::size_t i) {
+    const S s = children_[i]->execute_tick();
+    if (s == S::running) {
+      running_ = static_cast<int>(i);
+    } else {
+      running_ = -1;
+      reset_children();
+    }
+    return s;
+  }
+
+  // The operator's choice, nullopt while there is none. Consumed when read from the blackboard.
+  std::optional<Choice> read_choice() {
+    auto text = get_input<std::string>("selection");
+    if (!text) return std::nullopt;  // entry not set yet
+    const std::string value(detail::trim(*text));
+    if (value.empty()) return std::nullopt;
+    if (selection_ != nullptr && selection_->source == PortBinding::Source::blackboard) blackboard().unset(selection_->key);
+    for (std::size_t i = 0; i < children_.size(); ++i)
+      if (children_[i]->name() == value) return Choice{static_cast<int>(i), S::failure};
+    if (value == "SUCCESS") return Choice{-1, S::success};
+    if (value == "FAILURE") return Choice{-1, S::failure};
+    if (value == "SKIPPED") return Choice{-1, S::skipped};
+    if (value == "RUNNING") return Choice{-1, S::running};
+    if (auto d = detail::parse_double(value); d && *d >= 0 && *d < static_cast<double>(children_.size()) && *d == std::trunc(*d))
+      return Choice{static_cast<int>(*d), S::failure};
+    return Choice{-1, S::failure};  // names no child: FAILURE (docs/bt.md)
+  }
+
+  const PortBinding* selection_ = nullptr;
+  std::optional<Choice> last_;
+  int running_ = -1;
+};
+
 }  // namespace
 
 Status register_builtin_controls(NodeRegistry& r) {
@@ -532,6 +613,8 @@ Status register_builtin_controls(NodeRegistry& r) {
   VISNAV_TRY(r.register_node<IfThenElse>("IfThenElse", "If child 1 succeeds tick child 2, else child 3"));
   VISNAV_TRY(r.register_node<WhileDoElse>(
       "WhileDoElse", "Re-checks child 1 every tick: on success tick child 2, on failure child 3"));
+  VISNAV_TRY(r.register_node<ManualSelector>(
+      "ManualSelector", "Ticks the child an operator chose through the blackboard (selection); RUNNING while none is chosen"));
   VISNAV_TRY(r.register_node<Switch<2>>("Switch2", "Ticks the child whose case equals variable, else the last child"));
   VISNAV_TRY(r.register_node<Switch<3>>("Switch3", "Ticks the child whose case equals variable, else the last child"));
   VISNAV_TRY(r.register_node<Switch<4>>("Switch4", "Ticks the child whose case equals variable, else the last child"));

@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 
+#include "bounded_stack.hpp"
 #include "node_scripts.hpp"
 #include "subtree_node.hpp"
 #include "visnav/bt/tree.hpp"
@@ -816,6 +817,7 @@ class Loader {
     std::shared_ptr<const NodePath> parent_path;
     std::size_t index;
     Blackboard::Ptr blackboard;
+    int depth;  // level in the expanded tree, root = 0
   };
   Result<TreeNode*> instantiate_main();
   Status instantiate_one(Work& w, std::vector<Work>& stack);
@@ -866,9 +868,15 @@ class Loader {
     if (!entry) entry = std::make_shared<NodeScripts>();
     entry->slots[static_cast<std::size_t>(slot)] = std::make_shared<const Script>(std::move(*script));
   }
-  std::shared_ptr<const NodeScripts> node_scripts(const XMLElement* el) const {
+  // The element's condition scripts; on a stack checkpoint level (bounded_stack.hpp) a copy
+  // marked as checkpoint (the same element may be instantiated at other depths).
+  std::shared_ptr<const NodeScripts> node_scripts(const XMLElement* el, int depth) const {
     auto it = scripts_.find(el);
-    return it == scripts_.end() ? nullptr : it->second;
+    std::shared_ptr<const NodeScripts> scripts = it == scripts_.end() ? nullptr : it->second;
+    if (depth % StackSegments::kCheckpointInterval != 0) return scripts;
+    auto marked = scripts ? std::make_shared<NodeScripts>(*scripts) : std::make_shared<NodeScripts>();
+    marked->checkpoint = true;
+    return marked;
   }
 
   const NodeRegistry& registry_;
@@ -941,7 +949,7 @@ Status Loader::instantiate_one(Work& w, std::vector<Work>& stack) {
   config.path = path;
   config.where = SourceLocation{def.file->display, el->GetLineNum()};
   config.context = context_;
-  config.scripts = node_scripts(el);
+  config.scripts = node_scripts(el, w.depth);
   const char* name_attr = el->Attribute("name");
   if (is_subtree) {
     Blackboard::Ptr child_bb = subtree_blackboard(el, w.blackboard);
@@ -954,7 +962,7 @@ Status Loader::instantiate_one(Work& w, std::vector<Work>& stack) {
     nodes_->push_back(std::move(node));
     VISNAV_TRY(attach(w, raw));
     const TreeDef& sub = trees_.at(target);
-    stack.push_back(Work{&sub, sub.element->FirstChildElement(), raw, std::move(path), 0, std::move(child_bb)});
+    stack.push_back(Work{&sub, sub.element->FirstChildElement(), raw, std::move(path), 0, std::move(child_bb), w.depth + 1});
     return ok();
   }
   std::shared_ptr<const NodeManifest> m = registry_.find_shared(id);
@@ -977,7 +985,7 @@ Status Loader::instantiate_one(Work& w, std::vector<Work>& stack) {
   const std::size_t first = stack.size();
   std::size_t i = 0;
   for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
-    stack.push_back(Work{w.def, c, node, path, i++, w.blackboard});
+    stack.push_back(Work{w.def, c, node, path, i++, w.blackboard, w.depth + 1});
   std::reverse(stack.begin() + static_cast<std::ptrdiff_t>(first), stack.end());  // document order
   return ok();
 }
@@ -985,7 +993,7 @@ Status Loader::instantiate_one(Work& w, std::vector<Work>& stack) {
 Result<TreeNode*> Loader::instantiate_main() {
   const TreeDef& def = trees_.at(main_tree_);
   std::vector<Work> stack;
-  stack.push_back(Work{&def, def.element->FirstChildElement(), nullptr, NodePath::make(nullptr, def.id), 0, root_blackboard_});
+  stack.push_back(Work{&def, def.element->FirstChildElement(), nullptr, NodePath::make(nullptr, def.id), 0, root_blackboard_, 0});
   while (!stack.empty()) {
     Work w = std::move(stack.back());
     stack.pop_back();
@@ -1027,6 +1035,7 @@ Result<Tree> run_load(const NodeRegistry& registry, const LoadOptions& options, 
   auto context = std::make_unique<TreeContext>();
   context->clock = options.clock;
   context->enums = registry.enums();
+  context->stacks = std::make_shared<StackSegments>();
   Blackboard::Ptr bb = options.blackboard ? options.blackboard : Blackboard::create();
   bb->set_enum_tables(registry.enums());
   return loader.build(std::move(context), std::move(bb));

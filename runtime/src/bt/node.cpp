@@ -47,7 +47,20 @@ std::string NodePath::str() const {
 }
 
 std::shared_ptr<const NodePath> NodePath::make(std::shared_ptr<const NodePath> parent, std::string component) {
-  return std::make_shared<const NodePath>(NodePath{std::move(parent), std::move(component)});
+  auto p = std::make_shared<NodePath>();
+  p->parent = std::move(parent);
+  p->component = std::move(component);
+  return p;
+}
+
+NodePath::~NodePath() {
+  // Each step copies the grandparent before dropping the parent, so the parent's destructor
+  // sees its own parent still shared and stops: constant stack depth.
+  std::shared_ptr<const NodePath> p = std::move(parent);
+  while (p && p.use_count() == 1) {
+    std::shared_ptr<const NodePath> next = p->parent;
+    p = std::move(next);
+  }
 }
 
 TreeNode::TreeNode(const std::string& name, const NodeConfig& config) : name_(name), config_(config) {

@@ -9,6 +9,8 @@
 // FAILURE; the message goes to the tree's last_script_error().
 #include "node_scripts.hpp"
 
+#include "bounded_stack.hpp"
+
 namespace visnav::bt::detail {
 
 namespace {
@@ -49,7 +51,8 @@ const char* script_attribute(ScriptSlot slot) noexcept {
   return slot < ScriptSlot::count ? kNames[static_cast<std::size_t>(slot)].data() : "?";
 }
 
-NodeStatus execute_tick_scripted(TreeNode& node, const NodeScripts& scripts) {
+namespace {
+NodeStatus tick_with_conditions(TreeNode& node, const NodeScripts& scripts) {
   std::optional<NodeStatus> pre;
   const NodeStatus before = node.status();
   if (before == NodeStatus::idle || before == NodeStatus::skipped) {
@@ -76,19 +79,45 @@ NodeStatus execute_tick_scripted(TreeNode& node, const NodeScripts& scripts) {
       pre = t ? NodeStatus::skipped : NodeStatus::failure;
     }
   }
-  NodeStatus s = pre ? *pre : node.tick();
+  NodeStatus s = pre ? *pre : NodeAccess::tick(node);
   if (s == NodeStatus::idle) s = NodeStatus::failure;
   if (is_completed(s)) {
     const ScriptSlot done = s == NodeStatus::success ? ScriptSlot::on_success : ScriptSlot::on_failure;
     if (scripts.get(done) != nullptr) (void)run(node, scripts, done);
     if (scripts.get(ScriptSlot::post) != nullptr) (void)run(node, scripts, ScriptSlot::post);
   }
-  node.set_status(s);
+  NodeAccess::set_status(node, s);
   return s;
 }
 
-void run_on_halted(TreeNode& node, const NodeScripts& scripts) {
+void halt_with_conditions(TreeNode& node, const NodeScripts& scripts) {
+  NodeAccess::halt(node);
   if (scripts.get(ScriptSlot::on_halted) != nullptr) (void)run(node, scripts, ScriptSlot::on_halted);
+}
+
+StackSegments* checkpoint_stacks(const TreeNode& node, const NodeScripts& scripts) {
+  if (!scripts.checkpoint || node.config().context == nullptr) return nullptr;
+  return node.config().context->stacks.get();
+}
+}  // namespace
+
+NodeStatus execute_tick_scripted(TreeNode& node, const NodeScripts& scripts) {
+  if (StackSegments* stacks = checkpoint_stacks(node, scripts)) [[unlikely]] {
+    NodeStatus s = NodeStatus::failure;
+    auto body = [&] { s = tick_with_conditions(node, scripts); };
+    stacks->run(body);
+    return s;
+  }
+  return tick_with_conditions(node, scripts);
+}
+
+void halt_scripted(TreeNode& node, const NodeScripts& scripts) {
+  if (StackSegments* stacks = checkpoint_stacks(node, scripts)) [[unlikely]] {
+    auto body = [&] { halt_with_conditions(node, scripts); };
+    stacks->run(body);
+    return;
+  }
+  halt_with_conditions(node, scripts);
 }
 
 }  // namespace visnav::bt::detail

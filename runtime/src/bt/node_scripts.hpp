@@ -23,9 +23,19 @@ std::optional<ScriptSlot> script_slot(std::string_view attribute) noexcept;
 /// Attribute name of a slot ("_skipIf", ...).
 const char* script_attribute(ScriptSlot slot) noexcept;
 
+/// The engine's access to a node's protected tick(), halt() and set_status().
+struct NodeAccess {
+  static NodeStatus tick(TreeNode& node) { return node.tick(); }
+  static void halt(TreeNode& node) { node.halt(); }
+  static void set_status(TreeNode& node, NodeStatus s) { node.set_status(s); }
+};
+
 class NodeScripts {
  public:
   std::array<std::shared_ptr<const Script>, static_cast<std::size_t>(ScriptSlot::count)> slots;
+  /// A stack checkpoint (bounded_stack.hpp): tick and halt of this node go through
+  /// StackSegments::run(). Set by the loader on every kCheckpointInterval-th level.
+  bool checkpoint = false;
 
   [[nodiscard]] const Script* get(ScriptSlot s) const noexcept { return slots[static_cast<std::size_t>(s)].get(); }
 };

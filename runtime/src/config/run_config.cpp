@@ -150,11 +150,11 @@ const ParamSchema<RunSettings>& RunSettings::schema() {
                  "allowed on top of odometry_max_speed_mps x dt between two readings (noise, latency)")
           .range(0.0, 100.0)
           .field("bt_max_subtree_depth", &RunSettings::bt_max_subtree_depth, "deepest SubTree nesting a behaviour tree may use")
-          .range(1, 1000)
+          .range(1, 100000)
           .field("bt_max_nodes", &RunSettings::bt_max_nodes, "nodes a behaviour tree may instantiate, SubTrees expanded")
           .range(1, 10000000)
           .field("bt_max_tree_depth", &RunSettings::bt_max_tree_depth, "deepest behaviour-tree node, counted through SubTrees")
-          .range(2, 10000)
+          .range(2, 10000000)
           .field("view_port", &RunSettings::view_port,
                  "visnav run: serve the live view (Foxglove WebSocket) on this port, as --view; 0 = off")
           .range(0, 65535)

@@ -108,6 +108,9 @@ class Blackboard {
 
   Blackboard(const Blackboard&) = delete;
   Blackboard& operator=(const Blackboard&) = delete;
+  /// Releases a chain of parents held only by this scope iteratively (SubTree depth is
+  /// configurable; destruction must not recurse once per level).
+  ~Blackboard();
 
   /// Writes `value` (stored as std::decay_t<T>; string literals as std::string).
   template <typename T>

@@ -63,6 +63,9 @@ struct NodePath {
 
   /// "MainTree/Sequence[0]/Replay" (components joined with '/'); O(depth).
   [[nodiscard]] std::string str() const;
+  /// Releases the chain of parents that only this path holds iteratively (a chain as long as
+  /// the tree is deep must not unwind through one destructor call per level).
+  ~NodePath();
   [[nodiscard]] static std::shared_ptr<const NodePath> make(std::shared_ptr<const NodePath> parent,
                                                             std::string component);
 };
@@ -72,6 +75,8 @@ struct NodePath {
 using StatusObserver = std::function<void(double t_s, const TreeNode& node, NodeStatus from, NodeStatus to)>;
 
 namespace detail {
+class StackSegments;  // runtime-internal
+struct NodeAccess;    // runtime-internal: calls tick()/halt()/set_status() for the engine
 /// State shared by all nodes of one tree (owned by the Tree).
 struct TreeContext {
   const Clock* clock = nullptr;
@@ -79,16 +84,19 @@ struct TreeContext {
   std::vector<std::pair<std::uint64_t, StatusObserver>> observers;
   std::uint64_t next_observer_id = 1;
   std::string last_script_error;  ///< last failed pre/post-condition script (file:line: path: attr: message)
+  /// Keeps tick/halt stack use bounded in deep trees (runtime-internal; set by the loader).
+  std::shared_ptr<StackSegments> stacks;
 
   void notify(const TreeNode& node, NodeStatus from, NodeStatus to) const;
 };
 /// Pre/post-condition scripts of one node instance (`_skipIf`, `_onSuccess`, ...; see
 /// docs/bt.md). Defined in the runtime; nodes only hold a pointer.
 class NodeScripts;
-/// Runs the node's conditions around tick() (out of line: the common no-script path stays inline).
+/// Runs the node's conditions around tick() (out of line: the common no-script path stays
+/// inline). Also the path of the loader's stack checkpoints (see TreeContext::stacks).
 NodeStatus execute_tick_scripted(TreeNode& node, const NodeScripts& scripts);
-/// Runs `_onHalted` (called after halt()).
-void run_on_halted(TreeNode& node, const NodeScripts& scripts);
+/// halt() of a RUNNING node that has a NodeScripts, then its `_onHalted`.
+void halt_scripted(TreeNode& node, const NodeScripts& scripts);
 /// Monotonic wall clock used when a node is not part of a tree with a clock.
 const Clock& fallback_clock() noexcept;
 }  // namespace detail
@@ -155,9 +163,11 @@ class TreeNode {
   /// Interrupts the node: halt() if RUNNING, then status IDLE.
   void halt_node() {
     if (status_ == NodeStatus::running) {
-      halt();
-      if (config_.scripts != nullptr) [[unlikely]]
-        detail::run_on_halted(*this, *config_.scripts);
+      if (config_.scripts != nullptr) [[unlikely]] {
+        detail::halt_scripted(*this, *config_.scripts);
+      } else {
+        halt();
+      }
     }
     set_status(NodeStatus::idle);
   }
@@ -192,7 +202,8 @@ class TreeNode {
 
  protected:
   friend NodeStatus detail::execute_tick_scripted(TreeNode&, const detail::NodeScripts&);
-  friend void detail::run_on_halted(TreeNode&, const detail::NodeScripts&);
+  friend void detail::halt_scripted(TreeNode&, const detail::NodeScripts&);
+  friend struct detail::NodeAccess;
   /// The node's work for one tick. Must not return idle.
   virtual NodeStatus tick() = 0;
   /// Stops asynchronous work. Called by halt_node() only while the node is RUNNING.

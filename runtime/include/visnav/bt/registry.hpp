@@ -175,7 +175,7 @@ class NodeRegistry {
 /// Registers the BehaviorTree.CPP v4 standard nodes:
 ///  Controls: Sequence, SequenceWithMemory, ReactiveSequence, AsyncSequence, Fallback,
 ///            ReactiveFallback, AsyncFallback, Parallel, ParallelAll, IfThenElse, WhileDoElse,
-///            TryCatch, Switch2..Switch6.
+///            TryCatch, ManualSelector, Switch2..Switch6.
 ///  Decorators: Inverter, ForceSuccess, ForceFailure, Repeat, RetryUntilSuccessful, Timeout,
 ///              Delay, RunOnce, KeepRunningUntilFailure, Precondition, SkipUnlessUpdated,
 ///              WaitValueUpdate, LoopInt, LoopDouble, LoopString, LoopBool.

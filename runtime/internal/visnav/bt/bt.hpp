@@ -1,7 +1,8 @@
-// visnav behaviour trees — umbrella header (ports, blackboard, nodes, registry, tree).
+// visnav behaviour trees — umbrella header (ports, blackboard, nodes, coroutine actions, registry, tree).
 #pragma once
 
 #include "visnav/bt/blackboard.hpp"
+#include "visnav/bt/coro_action.hpp"
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/ports.hpp"
 #include "visnav/bt/registry.hpp"

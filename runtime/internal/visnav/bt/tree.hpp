@@ -20,7 +20,9 @@
 //
 // Loading, validation and instantiation use explicit work stacks, not recursion: XML nesting
 // is capped at 100 per file by tinyxml2, SubTree nesting, expanded node count and expanded
-// depth by LoadOptions' limits.
+// depth by LoadOptions' limits. Ticking and halting recurse parent -> child, but the loader
+// places stack checkpoints that move deep calls onto separate stack segments, so the thread's
+// stack use stays bounded at any depth (runtime/src/bt/bounded_stack.hpp).
 //
 // Validation happens before anything is instantiated and collects every error: malformed XML,
 // wrong BTCPP_format / extra root attributes, unknown node ID, missing required port, unknown port attribute,
@@ -93,8 +95,9 @@ struct LoadOptions {
   int max_subtree_depth = 64;
   /// Nodes the expanded main tree may instantiate (SubTree nodes included). `run.bt_max_nodes`.
   std::size_t max_nodes = 100'000;
-  /// Deepest node (root = 1) counted through SubTrees: bounds the C++ stack used by tick()
-  /// and halt(), which recurse parent -> child. `run.bt_max_tree_depth`.
+  /// Deepest node (root = 1) counted through SubTrees; a sanity bound only: tick() and
+  /// halt() keep the thread's stack bounded at any depth (docs/bt.md, "Limits").
+  /// `run.bt_max_tree_depth`.
   int max_tree_depth = 1'000;
   /// `<include path>` must be relative and stay inside this folder (after resolving "..",
   /// symlinks included). Empty: the folder of the main file (load_tree_file) or base_dir

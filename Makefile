@@ -4,8 +4,9 @@
 #   make demo        build, then run the main job on the simulated robot and print the result
 #   make test        build, then run every test (ctest)
 #   make bench       build, then run the benchmarks
-#   make asan        build into build-asan with AddressSanitizer+UBSan and run the tests there
-#   make fuzz        build the libFuzzer targets with clang into build-fuzz, run each FUZZ_S s (default 60)
+#   make asan        clang build with AddressSanitizer+UBSan into build-asan, run the tests there
+#   make fuzz        build the libFuzzer targets (same build-asan), run each FUZZ_S s (default 60)
+#   make ci          what CI runs (.ci/run): make test WERROR=ON, make asan, make fuzz FUZZ_S=20
 #   make install     install runtime, SDK, plugins and CMake package (PREFIX=/usr/local)
 #   make clean       remove the build folders
 #
@@ -18,10 +19,11 @@ WERROR     ?= OFF
 PREFIX     ?= /usr/local
 CTEST_ARGS ?=
 FUZZ_S     ?= 60
+SAN_BUILD  ?= build-asan
 EXTRA_CMAKE ?=
 GENERATOR  := $(shell command -v ninja >/dev/null 2>&1 && echo "-G Ninja")
 
-.PHONY: all deps configure build test demo bench asan fuzz install clean
+.PHONY: all deps configure build test demo bench san-configure asan fuzz ci install clean
 
 all: build
 
@@ -48,20 +50,29 @@ demo: build
 bench: build
 	@scripts/bench.sh $(BUILD)
 
-asan:
-	$(MAKE) test BUILD=build-asan WERROR=$(WERROR) EXTRA_CMAKE="-DVISNAV_SANITIZE=ON -DVISNAV_BUILD_BENCHMARKS=OFF"
+# One clang build (cmake/sanitize.cmake: ASan+UBSan everywhere, libFuzzer instrumentation on every
+# library, tests and fuzzers on) serves both `make asan` and `make fuzz`. Needs clang and
+# libclang-rt-14-dev (VISNAV_FUZZ=1 install-deps.sh); `make test` never needs clang.
+SAN_CMAKE := -C $(CURDIR)/cmake/sanitize.cmake
 
-# Separate from `make test` (needs clang: Debian clang + libclang-rt-14-dev, see install-deps.sh).
-fuzz:
+san-configure:
 	@VISNAV_FUZZ=1 scripts/install-deps.sh
-	cmake -S . -B build-fuzz $(GENERATOR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
-	  -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link -DVISNAV_SANITIZE=ON \
-	  -DVISNAV_BUILD_FUZZERS=ON -DVISNAV_BUILD_TESTS=OFF -DVISNAV_BUILD_BENCHMARKS=OFF
-	cmake --build build-fuzz --target fuzzers -j $(JOBS)
-	scripts/fuzz.sh build-fuzz $(FUZZ_S)
+	@if [ -f $(SAN_BUILD)/CMakeCache.txt ] && ! grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang' $(SAN_BUILD)/CMakeCache.txt; then \
+	  echo "$(SAN_BUILD) was configured with another compiler (make asan now builds with clang): rm -rf $(SAN_BUILD)"; exit 1; fi
+	$(MAKE) configure BUILD=$(SAN_BUILD) WERROR=OFF EXTRA_CMAKE="$(SAN_CMAKE)"
+
+asan: san-configure
+	$(MAKE) test BUILD=$(SAN_BUILD) WERROR=OFF EXTRA_CMAKE="$(SAN_CMAKE)"
+
+fuzz: san-configure
+	cmake --build $(SAN_BUILD) --target fuzzers -j $(JOBS)
+	scripts/fuzz.sh $(SAN_BUILD) $(FUZZ_S)
+
+ci:
+	.ci/run
 
 install: build
 	cmake --install $(BUILD)
 
 clean:
-	rm -rf build build-asan build-fuzz
+	rm -rf build $(SAN_BUILD) build-fuzz

@@ -63,6 +63,11 @@ function(visnav_add_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
   endif()
+  if(VISNAV_SANITIZE)
+    # Sanitized code runs several times slower (a `visnav validate` 6x the CPU of the Release
+    # build), so the time limits, meant to catch hangs, scale with it.
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")
+  endif()
   include(GoogleTest)
   # gtest_discover_tests flattens list-valued properties (CMake 3.25 splits "a;b" into separate
   # set_tests_properties arguments), so several labels are joined into one: "closed_loop-dds".

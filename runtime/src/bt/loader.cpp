@@ -203,13 +203,10 @@ class Loader {
     return ec ? p.lexically_normal() : abs;
   }
 
-  // Records a diagnostic; `code` says what kind of problem it is (invalid_value when not given).
+  // Records a diagnostic; `code` says what kind of problem it is (every call site names one).
   void add(ErrorCode code, const ParsedFile* file, int line, std::string path, std::string message) {
     diags_.push_back(
         Diagnostic{file != nullptr ? file->display : std::string(), line, std::move(path), std::move(message), code});
-  }
-  void add(const ParsedFile* file, int line, std::string path, std::string message) {
-    add(ErrorCode::invalid_value, file, line, std::move(path), std::move(message));
   }
 
   void report_xml_error(const ParsedFile& pf) {
@@ -308,7 +305,7 @@ class Loader {
       return;
     }
     if (!valid_utf8(path)) {
-      add(pf, el->GetLineNum(), {}, "<include> path is not valid UTF-8");
+      add(ErrorCode::invalid_value, pf, el->GetLineNum(), {}, "<include> path is not valid UTF-8");
       return;
     }
     std::filesystem::path target(path);
@@ -320,7 +317,7 @@ class Loader {
     const std::filesystem::path key = normalized(target);
     const std::filesystem::path rel = normalized(std::filesystem::absolute(target)).lexically_relative(include_root_);
     if (rel.empty() || *rel.begin() == "..") {
-      add(pf, el->GetLineNum(), {}, "<include path=\"" + std::string(path) + "\"> resolves outside the tree folder '" + include_root_.string() + "'");
+      add(ErrorCode::invalid_value, pf, el->GetLineNum(), {}, "<include path=\"" + std::string(path) + "\"> resolves outside the tree folder '" + include_root_.string() + "'");
       return;
     }
     if (std::find(include_stack_.begin(), include_stack_.end(), key) != include_stack_.end()) {
@@ -355,7 +352,7 @@ class Loader {
   void validate_tree(const TreeDef& def) {
     const std::size_t n = element_children_count(def.element);
     if (n != 1) {
-      add(def.file, def.element->GetLineNum(), def.id,
+      add(ErrorCode::invalid_value, def.file, def.element->GetLineNum(), def.id,
           "BehaviorTree '" + def.id + "' must have exactly one root node, has " + std::to_string(n));
       if (n == 0) return;
     }
@@ -395,7 +392,7 @@ class Loader {
     bool ok = true;
     for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
       if (!valid_utf8(a->Name()) || !valid_utf8(a->Value())) {
-        add(def.file, el->GetLineNum(), path,
+        add(ErrorCode::invalid_value, def.file, el->GetLineNum(), path,
             "attribute '" + std::string(valid_utf8(a->Name()) ? a->Name() : "?") + "' is not valid UTF-8");
         ok = false;
       }
@@ -427,17 +424,17 @@ class Loader {
     const std::string what = is_default ? "default of port '" + port.name + "'" : "port '" + port.name + "'";
     const std::string_view t = detail::trim(value);
     if (!t.empty() && t.front() == '{' && t.back() == '}') {
-      if (!blackboard_key(t)) add(def.file, line, path, what + ": empty blackboard reference '" + std::string(value) + "'");
+      if (!blackboard_key(t)) add(ErrorCode::invalid_value, def.file, line, path, what + ": empty blackboard reference '" + std::string(value) + "'");
       return;
     }
     if (port.direction == PortDirection::output) {
-      add(def.file, line, path, what + " is an output port; its value must be a blackboard reference like {key}, not '" + std::string(value) + "'");
+      add(ErrorCode::invalid_value, def.file, line, path, what + " is an output port; its value must be a blackboard reference like {key}, not '" + std::string(value) + "'");
       return;
     }
     if (port.parse == nullptr) return;
     auto parsed = port.parse(value, registry_.enums().get());
     if (!parsed) {
-      add(def.file, line, path, what + ": bad value for type " + port.type_name + ": " + parsed.error().message);
+      add(ErrorCode::invalid_value, def.file, line, path, what + ": bad value for type " + port.type_name + ": " + parsed.error().message);
     } else if (port.check) {
       if (auto st = port.check(value); !st)
         add(st.error().with_default_code(ErrorCode::out_of_range).code, def.file, line, path,
@@ -500,7 +497,7 @@ class Loader {
       }
       const int n = static_cast<int>(n_children);
       if (n < m->min_children || (m->max_children >= 0 && n > m->max_children)) {
-        add(def.file, line, path,
+        add(ErrorCode::invalid_value, def.file, line, path,
             std::string(kind_word(m->kind)) + " " + id + " " + children_rule(*m) + ", has " + std::to_string(n));
       }
     }
@@ -525,7 +522,7 @@ class Loader {
       if (name == "ID" || name == "name") continue;
       if (name == "_autoremap") {
         if (!detail::parse_bool(a->Value()))
-          add(def.file, line, path, "_autoremap: '" + std::string(a->Value()) + "' is not a boolean (true/false)");
+          add(ErrorCode::invalid_value, def.file, line, path, "_autoremap: '" + std::string(a->Value()) + "' is not a boolean (true/false)");
         continue;
       }
       if (!name.empty() && name.front() == '_') {
@@ -534,9 +531,9 @@ class Loader {
       }
       const std::string_view v = detail::trim(a->Value());
       if (!v.empty() && v.front() == '{' && v.back() == '}' && !blackboard_key(v))
-        add(def.file, line, path, "port '" + std::string(name) + "': empty blackboard reference '" + std::string(a->Value()) + "'");
+        add(ErrorCode::invalid_value, def.file, line, path, "port '" + std::string(name) + "': empty blackboard reference '" + std::string(a->Value()) + "'");
     }
-    if (element_children_count(el) != 0) add(def.file, line, path, "<SubTree> cannot have children");
+    if (element_children_count(el) != 0) add(ErrorCode::invalid_value, def.file, line, path, "<SubTree> cannot have children");
   }
 
   // Iterative DFS over the SubTree graph (a chain of 50,000 SubTrees must not exhaust the C++
@@ -586,7 +583,7 @@ class Loader {
               cycle += *it->tree + " -> ";
             }
             cycle += r->to_tree;
-            add(r->file, r->line, r->path, "cyclic SubTree: " + cycle);
+            add(ErrorCode::invalid_value, r->file, r->line, r->path, "cyclic SubTree: " + cycle);
           }
         } else if (st == 0) {
           push(trees_.find(r->to_tree)->first);
@@ -736,7 +733,7 @@ class Loader {
     const std::string what = "port '" + p.name + "' reads {" + key + "} = '" + *text + "' from the blackboard";
     auto parsed = p.parse(*text, registry_.enums().get());
     if (!parsed) {
-      add(def.file, el->GetLineNum(), path, what + ": bad value for type " + p.type_name + ": " + parsed.error().message);
+      add(ErrorCode::invalid_value, def.file, el->GetLineNum(), path, what + ": bad value for type " + p.type_name + ": " + parsed.error().message);
       return true;
     }
     if (!p.check) return false;
@@ -786,7 +783,7 @@ class Loader {
           if (!key) continue;
           if (Blackboard::Entry* e = declare(*it.bb, *key, p)) {
             if (!reported.insert({it.el, p.name}).second) continue;
-            add(it.def->file, it.el->GetLineNum(), path->str(),
+            add(ErrorCode::inconsistent, it.def->file, it.el->GetLineNum(), path->str(),
                 "port '" + p.name + "' uses blackboard key '" + *key + "' as " + p.type_name + ", but it was declared " +
                     e->type_name + " by " + first[e]);
           } else if (reported.count({it.el, p.name}) == 0 && check_host_value(*it.def, it.el, path->str(), p, *key, *it.bb)) {
@@ -860,7 +857,7 @@ class Loader {
                     std::string_view text) {
     auto script = Script::parse(text);
     if (!script) {
-      add(def.file, line, path, std::string(script_attribute(slot)) + ": script error at " + script.error().message +
+      add(ErrorCode::parse_error, def.file, line, path, std::string(script_attribute(slot)) + ": script error at " + script.error().message +
                                     " in '" + std::string(text) + "'");
       return;
     }

@@ -62,7 +62,8 @@ TEST_F(Limits, ChainOf50000SubTreesAndA50000LongCycleValidateWithoutRecursion) {
   EXPECT_NE(d[0].message.find("SubTrees nest 49999 deep"), std::string::npos);
   const auto c = validate(subtree_chain(50000, true));
   ASSERT_EQ(c.size(), 1u) << (c.empty() ? "" : c[0].str());
-  EXPECT_NE(c[0].message.find("cyclic SubTree: T0 -> T1 -> "), std::string::npos);
+  EXPECT_EQ(c[0].code, visnav::ErrorCode::invalid_value) << c[0].str();
+  EXPECT_NE(c[0].message.find("cyclic SubTree: T0 -> T1 -> "), std::string::npos);  // names the cycle
   EXPECT_NE(c[0].message.find("... -> "), std::string::npos);  // long cycles are abbreviated
 }
 
@@ -89,6 +90,7 @@ TEST_F(Limits, ExponentialSubTreeFanOutIsRejectedBeforeAnythingIsBuilt) {
   options.max_subtree_depth = 64;
   const auto d = validate(xml);
   ASSERT_EQ(d.size(), 1u) << all(d);
+  EXPECT_EQ(d[0].code, visnav::ErrorCode::limit) << d[0].str();
   EXPECT_NE(d[0].message.find("the expanded tree would have 4398046511101 nodes, more than the limit 100000 (run.bt_max_nodes)"),
             std::string::npos)
       << d[0].str();
@@ -180,8 +182,10 @@ TEST_F(Limits, IncludeMustBeRelativeAndStayInsideTheTreeFolder) {
   const auto d = visnav::bt::validate_tree_file(main, registry, options);
   ASSERT_EQ(d.size(), 2u) << all(d);
   EXPECT_EQ(d[0].line, 2);
-  EXPECT_NE(d[0].message.find("resolves outside the tree folder"), std::string::npos) << d[0].str();
+  EXPECT_EQ(d[0].code, visnav::ErrorCode::invalid_value) << d[0].str();
+  EXPECT_NE(d[0].message.find("resolves outside the tree folder"), std::string::npos) << d[0].str();  // which rule
   EXPECT_EQ(d[1].line, 3);
+  EXPECT_EQ(d[1].code, visnav::ErrorCode::invalid_value) << d[1].str();
   EXPECT_NE(d[1].message.find("absolute paths are not allowed"), std::string::npos) << d[1].str();
   // An explicit include_root widens the allowed folder.
   options.include_root = dir.path();

@@ -280,26 +280,21 @@ class McapSink final : public RunSink {
   std::string error_;
 };
 
-/// Records every NavStatus the mission publishes, passing it on to the session's own sinks
-/// (run.telemetry_file, DDS, the live view) while it exists.
+/// Records every NavStatus the mission publishes: one more telemetry sink of the session, beside
+/// run.telemetry_file, DDS and the live view, while it exists.
 class TelemetryTap final : public visnav::Telemetry {
  public:
-  TelemetryTap(visnav::Session& session, RunSink& sink)
-      : session_(session), sink_(sink), forward_(session.host().telemetry()) {
-    session_.host().set_telemetry(this);
+  TelemetryTap(visnav::Session& session, RunSink& sink) : session_(session), sink_(sink) {
+    session_.add_telemetry_sink(this);
   }
-  ~TelemetryTap() override { session_.host().set_telemetry(forward_); }
+  ~TelemetryTap() override { session_.remove_telemetry_sink(this); }
   TelemetryTap(const TelemetryTap&) = delete;
   TelemetryTap& operator=(const TelemetryTap&) = delete;
-  void publish(const visnav::NavStatus& s) override {
-    if (forward_ != nullptr) forward_->publish(s);
-    sink_.telemetry(session_.clock().now_s(), s);
-  }
+  void publish(const visnav::NavStatus& s) override { sink_.telemetry(session_.clock().now_s(), s); }
 
  private:
   visnav::Session& session_;
   RunSink& sink_;
-  visnav::Telemetry* forward_;
 };
 
 /// Writes run.yaml crash-safely (temporary file + rename).

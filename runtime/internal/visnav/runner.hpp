@@ -143,8 +143,13 @@ class Session {
   [[nodiscard]] bt::NodeRegistry& registry() { return *registry_; }
   [[nodiscard]] bool lockstep() const { return lockstep_; }
   /// Number of NavStatus published through host().telemetry() (0 without a telemetry sink:
-  /// no `run.telemetry_file` and no DDS telemetry).
+  /// no `run.telemetry_file`, no DDS telemetry and no added sink).
   [[nodiscard]] std::uint64_t telemetry_published() const;
+  /// Adds a consumer of every NavStatus (the live view, a recording) beside the config's sinks;
+  /// borrowed until remove_telemetry_sink(). The host has a telemetry exactly while some sink
+  /// exists, so primitives build no status nobody reads.
+  void add_telemetry_sink(Telemetry* sink);
+  void remove_telemetry_sink(Telemetry* sink);
   /// DDS telemetry publisher (nullptr unless the `dds:` block enables telemetry).
   [[nodiscard]] dds::DdsTelemetry* dds_telemetry();
   /// DDS mission-control subscriber (nullptr unless the `dds:` block enables control); the run

@@ -109,6 +109,8 @@ class FanOutTelemetry final : public Telemetry {
   void add(Telemetry* sink) {
     if (sink != nullptr) sinks_.push_back(sink);
   }
+  /// Removes every occurrence of `sink`.
+  void remove(Telemetry* sink) { std::erase(sinks_, sink); }
   void publish(const NavStatus& status) override {
     ++published_;
     for (Telemetry* sink : sinks_) sink->publish(status);

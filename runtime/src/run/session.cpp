@@ -102,6 +102,16 @@ Session::~Session() {
 }
 
 std::uint64_t Session::telemetry_published() const { return links_->fan_out.published(); }
+
+void Session::add_telemetry_sink(Telemetry* sink) {
+  links_->fan_out.add(sink);
+  if (links_->fan_out.sinks() > 0) host_->set_telemetry(&links_->fan_out);
+}
+
+void Session::remove_telemetry_sink(Telemetry* sink) {
+  links_->fan_out.remove(sink);
+  if (links_->fan_out.sinks() == 0) host_->set_telemetry(nullptr);
+}
 dds::DdsTelemetry* Session::dds_telemetry() { return links_->dds.get(); }
 dds::ControlSubscriber* Session::control() { return links_->control.get(); }
 int Session::reloads_applied() const { return reload_ ? reload_->applied() : 0; }

@@ -108,17 +108,15 @@ Result<std::unique_ptr<LiveView>> LiveView::create(int port, Session& session, b
       {"/camera/overlay", "json", "foxglove.CompressedImage", kObjectSchema, "jsonschema"}};
   VISNAV_ASSIGN(v->server_, FoxgloveServer::create(port, std::move(channels), all_interfaces));
   v->session_ = &session;
-  v->forward_ = session.host().telemetry();
-  session.host().set_telemetry(v.get());
+  session.add_telemetry_sink(v.get());
   return v;
 }
 
 LiveView::~LiveView() {
-  if (session_ != nullptr) session_->host().set_telemetry(forward_);
+  if (session_ != nullptr) session_->remove_telemetry_sink(this);
 }
 
 void LiveView::publish(const NavStatus& s) {
-  if (forward_ != nullptr) forward_->publish(s);
   if (s.overlay != nullptr && (server_->has_subscribers(kAnnotations) || server_->has_subscribers(kOverlay)))
     overlay_.copy_from(*s.overlay);  // the pointer dies with this call
   if (!server_->has_subscribers(kTelemetry)) return;

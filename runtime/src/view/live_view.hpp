@@ -45,7 +45,6 @@ class LiveView final : public Telemetry {
   LiveView() = default;
   std::unique_ptr<FoxgloveServer> server_;
   Session* session_ = nullptr;
-  Telemetry* forward_ = nullptr;
   std::uint64_t last_frame_sequence_ = ~std::uint64_t{0};
   double last_frame_t_s_ = -1.0;
   double last_map_t_s_ = -1e9;

@@ -5,6 +5,8 @@
 //    map the live teach wrote, and `visnav evaluate --run DRIVE.mcap` against it is accurate.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "recorded_test_support.hpp"
 #include "visnav/map.hpp"
 
@@ -129,6 +131,22 @@ TEST(McapRuns, OfflineTeachFromARecordedDriveMatchesTheLiveTeach) {
   EXPECT_GT(frames, 40);
   EXPECT_GE(valid, frames * 9 / 10) << text;
   EXPECT_LT(median, 2.0) << text;
+
+  // The bag topics can come from a config (run.bag_image_topic); the command line still wins.
+  const std::string topics = s.dir + "/topics.yaml";
+  { std::ofstream(topics) << "robot: {type: sim}\ncamera: {type: sim}\nrun: {bag_image_topic: /no/such/images}\n"; }
+  const std::string wrong_log = s.dir + "/evaluate_wrong_topic.log";
+  EXPECT_EQ(shell("'" + s.cli + "' evaluate --map " + offline + " --run " + drive + " -o " + s.dir + "/eval2.csv --detector orb" +
+                      " --config " + topics,
+                  wrong_log),
+            1)
+      << slurp(wrong_log);
+  const std::string right_log = s.dir + "/evaluate_right_topic.log";
+  EXPECT_EQ(shell("'" + s.cli + "' evaluate --map " + offline + " --run " + drive + " -o " + s.dir + "/eval3.csv --detector orb" +
+                      " --config " + topics + " --image-topic /camera/image_raw/compressed",
+                  right_log),
+            0)
+      << slurp(right_log);
 }
 
 }  // namespace

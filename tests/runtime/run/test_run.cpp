@@ -197,6 +197,25 @@ TEST(Run, WritesTraceAndTelemetry) {
   EXPECT_EQ(static_cast<std::uint64_t>(std::count(tel.begin(), tel.end(), '\n')), r.ticks);
 }
 
+TEST(Run, AnAddedTelemetrySinkGetsOneStatusPerTickAndNoneAfterRemoval) {
+  // The live view and a recording are sinks added beside the config's (here: none). Each tick
+  // gives one status: the node's own while it publishes, else the runtime's.
+  struct Counter final : Telemetry {
+    std::uint64_t count = 0;
+    void publish(const NavStatus&) override { ++count; }
+  } counter;
+  Mission m;
+  ASSERT_TRUE(m.start(visnav::test::fixture_config()));
+  EXPECT_EQ(m.session->host().telemetry(), nullptr);  // nobody listens: primitives build no status
+  m.session->add_telemetry_sink(&counter);
+  EXPECT_NE(m.session->host().telemetry(), nullptr);
+  const RunReport r = m.run();
+  ASSERT_EQ(r.outcome, RunOutcome::success) << r.reason;
+  EXPECT_EQ(counter.count, r.ticks);
+  m.session->remove_telemetry_sink(&counter);
+  EXPECT_EQ(m.session->host().telemetry(), nullptr);
+}
+
 TEST(Run, RealTimeFixedRateMode) {
   Mission m;
   ASSERT_TRUE(m.start(visnav::test::fixture_config("{simulated: false}", "{frame_period_s: 0.01}",

@@ -4,10 +4,12 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "visnav/bt/registry.hpp"
+#include "visnav/config.hpp"
 #include "visnav/config_node.hpp"
 #include "visnav/evaluation/evaluate.hpp"
 #include "visnav/mcap.hpp"
@@ -20,6 +22,7 @@ using namespace visnav;
 const char* const kUsage =
     "usage: visnav evaluate --map M --run RUN -o out.csv [--plot out.png] [--detector D]\n"
     "                       [--param K=V]... [--set K=V]... [--edge ID]... [--start-offset-m D]\n"
+    "                       [--config C] [--image-topic T] [--odom-topic T]\n"
     "\n"
     "Compares the recorded traversal RUN (visnav record) with the taught map M frame by frame, like\n"
     "stroll_bearnav's map-vs-view evaluation: for every frame, the odometric distance along the\n"
@@ -28,8 +31,9 @@ const char* const kUsage =
     "\n"
     "  --map M             taught map folder\n"
     "  --run RUN           recorded-run folder, or an MCAP file (visnav record --format mcap, or a ROS 2 bag)\n"
-    "  --image-topic T     MCAP: topic of the images (default /camera/image_raw/compressed)\n"
-    "  --odom-topic T      MCAP: topic of nav_msgs/Odometry (default /odom)\n"
+    "  --config C          MCAP: take the topics from run.bag_image_topic / run.bag_odom_topic of C\n"
+    "  --image-topic T     MCAP: topic of the images (wins over --config; default /camera/image_raw/compressed)\n"
+    "  --odom-topic T      MCAP: topic of nav_msgs/Odometry (wins over --config; default /odom)\n"
     "  -o out.csv          per-frame CSV (docs/recorded_runs.md lists the columns)\n"
     "  --plot out.png      offset_px over the route distance\n"
     "  --detector D        detector type (default star_brief; falls back to orb); use the one the map was taught with\n"
@@ -63,6 +67,8 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
   std::vector<std::string> params, sets;
   evaluation::EvaluationOptions options;
   mcap::RunTopics topics;
+  std::string config_file;
+  std::optional<std::string> image_topic, odom_topic;  // the command line wins over --config
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](std::string& out) -> bool {
@@ -76,8 +82,9 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
       return 0;
     } else if (a == "--map") { if (!value(map_dir)) return usage("--map needs a value"); }
     else if (a == "--run") { if (!value(run_dir)) return usage("--run needs a value"); }
-    else if (a == "--image-topic") { if (!value(topics.image)) return usage("--image-topic needs a value"); }
-    else if (a == "--odom-topic") { if (!value(topics.odometry)) return usage("--odom-topic needs a value"); }
+    else if (a == "--image-topic") { if (!value(v)) return usage("--image-topic needs a value"); image_topic = v; }
+    else if (a == "--odom-topic") { if (!value(v)) return usage("--odom-topic needs a value"); odom_topic = v; }
+    else if (a == "--config") { if (!value(config_file)) return usage("--config needs a value"); }
     else if (a == "-o" || a == "--out") { if (!value(out_csv)) return usage("-o needs a value"); }
     else if (a == "--plot") { if (!value(plot)) return usage("--plot needs a value"); }
     else if (a == "--detector") { if (!value(detector)) return usage("--detector needs a value"); detector_given = true; }
@@ -90,6 +97,17 @@ int run_evaluate(int argc, char** argv, HostServices& host) {
     } else return usage("unknown argument '" + a + "'");
   }
   if (map_dir.empty() || run_dir.empty() || out_csv.empty()) return usage("--map, --run and -o are required");
+  if (!config_file.empty()) {
+    auto config = load_run_config(config_file, {});
+    if (!config) {
+      std::fprintf(stderr, "visnav evaluate: %s\n", config.error().message.c_str());
+      return 1;
+    }
+    topics.image = config->run.bag_image_topic;
+    topics.odometry = config->run.bag_odom_topic;
+  }
+  if (image_topic) topics.image = *image_topic;
+  if (odom_topic) topics.odometry = *odom_topic;
 
   auto heading_node = key_values(sets, "--set");
   if (!heading_node) return usage(heading_node.error().message);

@@ -428,6 +428,11 @@ Status fill_image_message(const cv::Mat& image, msg::Image& out);
 [[nodiscard]] double yaw_from_quaternion(const msg::Quaternion& q);
 [[nodiscard]] msg::Quaternion quaternion_from_yaw(double yaw_rad);
 
+/// Copies the fields of `status` that visnav/msg/Telemetry carries into `out` (header and
+/// sequence_number are the caller's; string capacities are reused). The one NavStatus-to-message
+/// mapping: DDS telemetry and MCAP recordings both use it.
+void fill_telemetry_message(const NavStatus& status, msg::Telemetry& out);
+
 // ------------------------------------------------------------------------------------------
 // Telemetry and mission control
 // ------------------------------------------------------------------------------------------

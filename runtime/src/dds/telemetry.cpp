@@ -50,16 +50,7 @@ void DdsTelemetry::publish(const NavStatus& status) {
   auto& s = impl_->sample;
   s.header = stamped_now("visnav");
   s.sequence_number = ++impl_->published;
-  s.node_path = status.node_path;
-  s.map_node = status.map_node;
-  s.edge = status.edge;
-  s.distance_m = status.distance_m;
-  s.matches = status.matches;
-  s.inliers = status.inliers;
-  s.offset_px = status.offset_px;
-  s.linear_mps = status.command.linear_mps;
-  s.angular_radps = status.command.angular_radps;
-  s.status = status.status;
+  fill_telemetry_message(status, s);
   auto st = impl_->writer.write(s);
   if (!st && impl_->limiter.allow(epoch_now_s())) impl_->logger->warn("dds.telemetry", st.error().message);
 }
@@ -216,6 +207,19 @@ Status ControlPublisher::send(msg::ControlCommand command, const std::string& ar
 
 bool ControlPublisher::wait_for_subscribers(int count, double timeout_s) const {
   return impl_->writer.wait_for_readers(count, timeout_s);
+}
+
+void fill_telemetry_message(const NavStatus& status, msg::Telemetry& out) {
+  out.node_path = status.node_path;
+  out.map_node = status.map_node;
+  out.edge = status.edge;
+  out.distance_m = status.distance_m;
+  out.matches = status.matches;
+  out.inliers = status.inliers;
+  out.offset_px = status.offset_px;
+  out.linear_mps = status.command.linear_mps;
+  out.angular_radps = status.command.angular_radps;
+  out.status = status.status;
 }
 
 }  // namespace visnav::dds

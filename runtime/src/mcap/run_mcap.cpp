@@ -239,16 +239,7 @@ Status RunMcapWriter::telemetry(double t_s, const NavStatus& s) {
   dds::msg::Telemetry m;
   m.header = header_at(t_s, "");
   m.sequence_number = ++telemetry_seq_;
-  m.node_path = s.node_path;
-  m.map_node = s.map_node;
-  m.edge = s.edge;
-  m.distance_m = s.distance_m;
-  m.matches = s.matches;
-  m.inliers = s.inliers;
-  m.offset_px = s.offset_px;
-  m.linear_mps = s.command.linear_mps;
-  m.angular_radps = s.command.angular_radps;
-  m.status = s.status;
+  dds::fill_telemetry_message(s, m);
   const std::uint64_t ns = to_ns(t_s);
   VISNAV_TRY(writer_->write({telemetry_, seq_++, ns, ns, ros2::encode(m)}));
   return writer_->write({status_json_, seq_++, ns, ns, bytes(telemetry_json(t_s, s))});

@@ -31,6 +31,7 @@
 #include "visnav/map.hpp"
 #include "visnav/runner.hpp"
 #include "visnav_sim/route.hpp"
+#include "temp_folder.hpp"
 
 namespace fs = std::filesystem;
 using namespace visnav;
@@ -81,23 +82,9 @@ class PursuitOperator final : public bt::StatefulActionNode {
   std::optional<sim::RouteFollower> follower_;
 };
 
-class TempFolder {
- public:
-  TempFolder() {
-    path_ = fs::temp_directory_path() /
-            ("visnav_fr_closed_loop_" + std::to_string(::getpid()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempFolder() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  [[nodiscard]] std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+/// The suite's temporary folders (tests/support/temp_folder.hpp).
+struct TempFolder : visnav::test::TempFolder {
+  TempFolder() : visnav::test::TempFolder("visnav_fr_closed_loop") {}
 };
 
 std::unique_ptr<Session> make_session(const std::string& map_dir, const std::vector<std::string>& overrides) {

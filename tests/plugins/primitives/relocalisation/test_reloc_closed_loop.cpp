@@ -27,6 +27,7 @@
 #include "visnav/bt/tree.hpp"
 #include "visnav/map.hpp"
 #include "visnav/runner.hpp"
+#include "temp_folder.hpp"
 
 namespace fs = std::filesystem;
 using namespace visnav;
@@ -35,22 +36,9 @@ namespace {
 
 const std::string kSource = VISNAV_TEST_SOURCE_DIR;
 
-class TempFolder {
- public:
-  TempFolder() {
-    path_ = fs::temp_directory_path() / ("visnav_reloc_loop_" + std::to_string(::getpid()) + "_" +
-                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempFolder() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  [[nodiscard]] std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+/// The suite's temporary folders (tests/support/temp_folder.hpp).
+struct TempFolder : visnav::test::TempFolder {
+  TempFolder() : visnav::test::TempFolder("visnav_reloc_loop") {}
 };
 
 std::unique_ptr<Session> make_session(const std::string& map_dir, const std::vector<std::string>& overrides) {

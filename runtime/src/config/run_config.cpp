@@ -10,15 +10,6 @@ namespace visnav {
 
 namespace {
 
-std::string join_lines(const std::vector<std::string>& lines) {
-  std::string out;
-  for (const auto& l : lines) {
-    if (!out.empty()) out += "\n";
-    out += l;
-  }
-  return out;
-}
-
 std::string join_lines(const std::vector<Error>& errors) {
   std::string out;
   for (const auto& e : errors) out += (out.empty() ? "" : "\n") + e.message;
@@ -181,12 +172,14 @@ namespace {
 
 /// The `dds.security` block: five file paths, relative ones resolved against the folder of the
 /// file that names them. Files are checked when the run starts (SecurityFiles::validate).
-Result<dds::SecurityFiles> parse_security_block(const ConfigNode& node) {
-  const std::string what = node.where().str() + ": 'dds.security'";
-  if (!node.is_map())
-    return fail(what + " must be a map with keys ca, identity_cert, private_key, governance, permissions");
+/// Problems are appended to `errors`, each with its code and the key's location.
+dds::SecurityFiles parse_security_block(const ConfigNode& node, std::vector<Error>& errors) {
   dds::SecurityFiles files;
-  std::vector<std::string> errors;
+  if (!node.is_map()) {
+    errors.push_back(problem(ErrorCode::invalid_value, node.where(), "dds.security",
+                             "'dds.security' must be a map with keys ca, identity_cert, private_key, governance, permissions"));
+    return files;
+  }
   std::pair<const char*, std::string*> keys[] = {{"ca", &files.ca},
                                                  {"identity_cert", &files.identity_cert},
                                                  {"private_key", &files.private_key},
@@ -197,12 +190,14 @@ Result<dds::SecurityFiles> parse_security_block(const ConfigNode& node) {
     for (auto& [name, field] : keys)
       if (key == name) target = field;
     if (target == nullptr) {
-      errors.push_back(value.where().str() + ": unknown key '" + key +
-                       "' in 'dds.security' (known keys: ca, identity_cert, private_key, governance, permissions)");
+      errors.push_back(problem(ErrorCode::unknown_key, value.where(), "dds.security." + key,
+                               "unknown key '" + key +
+                                   "' in 'dds.security' (known keys: ca, identity_cert, private_key, governance, permissions)"));
       continue;
     }
     if (!value.is_scalar() || value.scalar().empty()) {
-      errors.push_back(value.where().str() + ": key '" + key + "' in 'dds.security': expected a file path");
+      errors.push_back(problem(ErrorCode::invalid_value, value.where(), "dds.security." + key,
+                               "key '" + key + "' in 'dds.security': expected a file path"));
       continue;
     }
     std::filesystem::path p(value.scalar());
@@ -212,9 +207,17 @@ Result<dds::SecurityFiles> parse_security_block(const ConfigNode& node) {
     *target = p.lexically_normal().string();
   }
   for (const auto& [name, field] : keys)
-    if (field->empty()) errors.push_back(what + ": missing key '" + name + "'");
-  if (!errors.empty()) return fail(join_lines(errors));
+    if (field->empty())
+      errors.push_back(problem(ErrorCode::missing, node.where(), std::string("dds.security.") + name,
+                               "'dds.security': missing key '" + std::string(name) + "'"));
   return files;
+}
+
+/// A `dds:` endpoint parameter's error (the schema names the file, line and key) keyed under `dds.`.
+Error dds_endpoint_problem(Error e) {
+  e.where.key = e.where.key.empty() ? "dds" : "dds." + e.where.key;
+  e.message += " (in 'dds')";
+  return e;
 }
 
 }  // namespace
@@ -224,15 +227,15 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
   settings.enabled = true;
   settings.where = node.where();
   if (node.is_null()) return settings;
-  if (!node.is_map()) return fail(node.where().str() + ": 'dds' must be a map (keys: enabled, telemetry, control, "
-                                                       "domain_id, partition, telemetry_topic, control_topic)");
+  if (!node.is_map())
+    return problem(ErrorCode::invalid_value, node.where(), "dds",
+                   "'dds' must be a map (keys: enabled, telemetry, control, security, domain_id, partition, "
+                   "telemetry_topic, control_topic)");
   ConfigNode endpoints = ConfigNode::make_map(node.where());
-  std::vector<std::string> errors;
+  std::vector<Error> errors;
   for (const auto& [key, value] : node.entries()) {
     if (key == "security") {
-      auto parsed = parse_security_block(value);
-      if (!parsed) errors.push_back(parsed.error().message);
-      else settings.security = std::move(*parsed);
+      settings.security = parse_security_block(value, errors);
       continue;
     }
     bool* flag = key == "enabled" ? &settings.enabled
@@ -245,7 +248,8 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
     }
     auto parsed = value.is_scalar() ? detail::parse_bool(value.scalar()) : Result<bool>(fail("expected true or false"));
     if (!parsed) {
-      errors.push_back(value.where().str() + ": key '" + key + "': " + parsed.error().message + " (in 'dds')");
+      errors.push_back(problem(ErrorCode::invalid_value, value.where(), "dds." + key,
+                               "key '" + key + "': " + parsed.error().message + " (in 'dds')"));
       continue;
     }
     *flag = *parsed;
@@ -255,14 +259,15 @@ Result<DdsSettings> parse_dds_settings(const ConfigNode& node) {
     const std::string& name = key;  // (clang 14 cannot capture a structured binding)
     const bool known = std::any_of(docs.begin(), docs.end(), [&name](const ParamDoc& d) { return d.name == name; });
     if (!known)
-      errors.push_back(value.where().str() + ": unknown key '" + key + "' in 'dds' (known keys: " +
-                       key_list({"enabled", "telemetry", "control", "security", "domain_id", "partition",
-                                 "telemetry_topic", "control_topic"}) +
-                       ")");
+      errors.push_back(problem(ErrorCode::unknown_key, value.where(), "dds." + key,
+                               "unknown key '" + key + "' in 'dds' (known keys: " +
+                                   key_list({"enabled", "telemetry", "control", "security", "domain_id", "partition",
+                                             "telemetry_topic", "control_topic"}) +
+                                   ")"));
   }
-  if (!errors.empty()) return fail(join_lines(errors));
+  if (!errors.empty()) return Error{join_lines(errors), errors.front().code, errors.front().where};
   auto endpoints_parsed = dds::TelemetryParams::schema().parse(endpoints);
-  if (!endpoints_parsed) return fail(endpoints_parsed.error().message + " (in 'dds')");
+  if (!endpoints_parsed) return dds_endpoint_problem(endpoints_parsed.error());
   settings.endpoints = std::move(endpoints_parsed).value();
   return settings;
 }

@@ -143,9 +143,10 @@ std::optional<SecurityFiles> detail::default_security() {
 }
 
 Status TelemetryParams::validate() const {
-  if (telemetry_topic.empty()) return fail("telemetry_topic must not be empty");
-  if (control_topic.empty()) return fail("control_topic must not be empty");
-  if (telemetry_topic == control_topic) return fail("telemetry_topic and control_topic must differ");
+  if (telemetry_topic.empty()) return Error{"telemetry_topic must not be empty", ErrorCode::invalid_value, {{}, 0, "telemetry_topic"}};
+  if (control_topic.empty()) return Error{"control_topic must not be empty", ErrorCode::invalid_value, {{}, 0, "control_topic"}};
+  if (telemetry_topic == control_topic)
+    return Error{"telemetry_topic and control_topic must differ", ErrorCode::inconsistent, {{}, 0, "control_topic"}};
   return ok();
 }
 

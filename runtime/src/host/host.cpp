@@ -66,7 +66,7 @@ std::string json_escape(std::string_view text) {
 
 Result<std::unique_ptr<JsonLinesTelemetry>> JsonLinesTelemetry::open(const std::string& path, const Clock& clock) {
   std::FILE* f = std::fopen(path.c_str(), "w");
-  if (f == nullptr) return fail(path + ": cannot open telemetry file: " + std::strerror(errno));
+  if (f == nullptr) return fail(ErrorCode::io, {path}, std::string("cannot open telemetry file: ") + std::strerror(errno));
   return std::unique_ptr<JsonLinesTelemetry>(new JsonLinesTelemetry(f, clock));
 }
 

@@ -154,7 +154,7 @@ Result<std::string> lz4_compress(const std::string& plain) {
   return out;
 #else
   (void)plain;
-  return fail("lz4 chunks, but visnav was built without liblz4 (install liblz4-dev)");
+  return fail(ErrorCode::out_of_range, "lz4 chunks, but visnav was built without liblz4 (install liblz4-dev)");
 #endif
 }
 
@@ -173,7 +173,7 @@ Result<std::string> lz4_decompress(const std::string& frame, std::uint64_t uncom
     hint = LZ4F_decompress(dctx, plain.data() + out_pos, &out_n, frame.data() + in_pos, &in_n, nullptr);
     if (LZ4F_isError(hint) != 0U) {
       LZ4F_freeDecompressionContext(dctx);
-      return fail(std::string("lz4: ") + LZ4F_getErrorName(hint));
+      return fail(ErrorCode::parse_error, std::string("lz4: ") + LZ4F_getErrorName(hint));
     }
     in_pos += in_n;
     out_pos += out_n;
@@ -181,12 +181,12 @@ Result<std::string> lz4_decompress(const std::string& frame, std::uint64_t uncom
     if (hint == 0 && in_pos < frame.size()) hint = 1;  // another concatenated frame follows
   }
   LZ4F_freeDecompressionContext(dctx);
-  if (out_pos != uncompressed_size || in_pos != frame.size()) return fail("lz4 chunk does not decompress to its size");
+  if (out_pos != uncompressed_size || in_pos != frame.size()) return fail(ErrorCode::parse_error, "lz4 chunk does not decompress to its size");
   return plain;
 #else
   (void)frame;
   (void)uncompressed_size;
-  return fail("lz4 chunk, but visnav was built without liblz4 (install liblz4-dev)");
+  return fail(ErrorCode::out_of_range, "lz4 chunk, but visnav was built without liblz4 (install liblz4-dev)");
 #endif
 }
 
@@ -201,7 +201,7 @@ Result<std::unique_ptr<Writer>> Writer::create(const std::string& path, WriterOp
   if (w->options_.compression != "zstd" && w->options_.compression != "lz4")
     return fail(ErrorCode::out_of_range, "MCAP compression '" + w->options_.compression + "' is not one of zstd, lz4");
   w->out_.open(path, std::ios::binary | std::ios::trunc);
-  if (!w->out_) return fail(path + ": cannot create the MCAP file");
+  if (!w->out_) return fail(ErrorCode::io, {path}, "cannot create the MCAP file");
   std::string head(kMagic, sizeof kMagic);
   std::string c;
   put_str(c, w->options_.profile);
@@ -215,7 +215,7 @@ Writer::~Writer() { (void)close(); }
 
 Status Writer::put(const std::string& bytes) {
   out_.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  if (!out_) return fail(path_ + ": write failed at byte " + std::to_string(offset_) + " (disk full?)");
+  if (!out_) return fail(ErrorCode::io, {path_}, "write failed at byte " + std::to_string(offset_) + " (disk full?)");
   offset_ += bytes.size();
   return ok();
 }
@@ -418,7 +418,7 @@ Status Writer::close() {
   tail.append(kMagic, sizeof kMagic);
   VISNAV_TRY(put(tail));
   out_.close();
-  if (!out_) return fail(path_ + ": close failed");
+  if (!out_) return fail(ErrorCode::io, {path_}, "close failed");
   return ok();
 }
 
@@ -436,6 +436,12 @@ struct ScanState {
 
 std::string at(const std::string& path, std::uint64_t offset) { return path + ": byte " + std::to_string(offset) + ": "; }
 
+/// A damaged or unreadable record at byte `offset` of `path` (parse_error, located at the file).
+Error damaged(const std::string& path, std::uint64_t offset, const std::string& what,
+              ErrorCode code = ErrorCode::parse_error) {
+  return Error{at(path, offset) + what, code, {path}};
+}
+
 Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offset);
 
 Status parse_records(ScanState& st, const std::uint8_t* data, std::size_t size, std::uint64_t base_offset) {
@@ -445,7 +451,7 @@ Status parse_records(ScanState& st, const std::uint8_t* data, std::size_t size, 
     std::uint8_t op = 0;
     std::uint64_t len = 0;
     if (!c.get(op) || !c.get(len) || c.left() < len)
-      return fail(at(st.path, rec_offset) + "chunk record runs past the end of its chunk");
+      return damaged(st.path, rec_offset, "chunk record runs past the end of its chunk");
     VISNAV_TRY(parse_record(st, op, Cursor(c.here(), len), rec_offset));
     c.skip(len);
   }
@@ -457,7 +463,7 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
     case kSchema: {
       Schema s;
       if (!c.get(s.id) || !c.str(s.name) || !c.str(s.encoding) || !c.str(s.data))
-        return fail(at(st.path, offset) + "bad Schema record");
+        return damaged(st.path, offset, "bad Schema record");
       st.schemas[s.id] = std::move(s);
       return ok();
     }
@@ -465,11 +471,11 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
       Channel ch;
       std::string map;
       if (!c.get(ch.id) || !c.get(ch.schema_id) || !c.str(ch.topic) || !c.str(ch.message_encoding) || !c.str(map))
-        return fail(at(st.path, offset) + "bad Channel record");
+        return damaged(st.path, offset, "bad Channel record");
       Cursor m(reinterpret_cast<const std::uint8_t*>(map.data()), map.size());
       while (m.left() > 0) {
         std::string k, v;
-        if (!m.str(k) || !m.str(v)) return fail(at(st.path, offset) + "bad Channel metadata");
+        if (!m.str(k) || !m.str(v)) return damaged(st.path, offset, "bad Channel metadata");
         ch.metadata.emplace_back(std::move(k), std::move(v));
       }
       st.channels[ch.id] = std::move(ch);
@@ -478,11 +484,11 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
     case kMessage: {
       Message m;
       if (!c.get(m.channel_id) || !c.get(m.sequence) || !c.get(m.log_time_ns) || !c.get(m.publish_time_ns))
-        return fail(at(st.path, offset) + "bad Message record");
+        return damaged(st.path, offset, "bad Message record");
       m.data.assign(c.here(), c.here() + c.left());
       auto ch = st.channels.find(m.channel_id);
       if (ch == st.channels.end())
-        return fail(at(st.path, offset) + "message on channel " + std::to_string(m.channel_id) + " before its Channel record");
+        return damaged(st.path, offset, "message on channel " + std::to_string(m.channel_id) + " before its Channel record");
       const Schema* schema = nullptr;
       if (auto s = st.schemas.find(ch->second.schema_id); s != st.schemas.end()) schema = &s->second;
       ++st.report.messages;
@@ -495,38 +501,40 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
       std::string compression, records;
       if (!c.get(t0) || !c.get(t1) || !c.get(uncompressed_size) || !c.get(crc) || !c.str(compression) ||
           !c.bytes64(records))
-        return fail(at(st.path, offset) + "bad Chunk record");
+        return damaged(st.path, offset, "bad Chunk record");
       std::string plain;
       if (compression.empty()) {
         plain = std::move(records);
       } else if (compression == "zstd") {
 #ifdef VISNAV_HAVE_ZSTD
-        if (uncompressed_size > (std::uint64_t{1} << 34)) return fail(at(st.path, offset) + "chunk too large");
+        if (uncompressed_size > (std::uint64_t{1} << 34)) return damaged(st.path, offset, "chunk too large");
         plain.resize(uncompressed_size);
         const std::size_t n = ZSTD_decompress(plain.data(), plain.size(), records.data(), records.size());
         if (ZSTD_isError(n) != 0U || n != uncompressed_size)
-          return fail(at(st.path, offset) + "zstd chunk does not decompress to its size");
+          return damaged(st.path, offset, "zstd chunk does not decompress to its size");
 #else
-        return fail(at(st.path, offset) + "zstd chunk, but visnav was built without libzstd (install libzstd-dev)");
+        return damaged(st.path, offset, "zstd chunk, but visnav was built without libzstd (install libzstd-dev)");
 #endif
       } else if (compression == "lz4") {
-        if (uncompressed_size > (std::uint64_t{1} << 34)) return fail(at(st.path, offset) + "chunk too large");
+        if (uncompressed_size > (std::uint64_t{1} << 34)) return damaged(st.path, offset, "chunk too large");
         auto p = lz4_decompress(records, uncompressed_size);
-        if (!p) return fail(at(st.path, offset) + p.error().message);
+        if (!p) return damaged(st.path, offset, p.error().message, p.error().with_default_code(ErrorCode::parse_error).code);
         plain = std::move(*p);
       } else {
-        return fail(at(st.path, offset) + "chunk compression '" + compression +
-                    "' is not supported (visnav reads none, zstd and lz4; convert with `mcap convert --compression zstd`)");
+        return damaged(st.path, offset,
+                       "chunk compression '" + compression +
+                           "' is not supported (visnav reads none, zstd and lz4; convert with `mcap convert --compression zstd`)",
+                       ErrorCode::out_of_range);
       }
       if (crc != 0 && crc32(plain.data(), plain.size()) != crc)
-        return fail(at(st.path, offset) + "chunk CRC mismatch (damaged file)");
+        return damaged(st.path, offset, "chunk CRC mismatch (damaged file)");
       return parse_records(st, reinterpret_cast<const std::uint8_t*>(plain.data()), plain.size(), offset);
     }
     case kAttachment: {
       Attachment a;
       if (!c.get(a.log_time_ns) || !c.get(a.create_time_ns) || !c.str(a.name) || !c.str(a.media_type) ||
           !c.bytes64(a.data))
-        return fail(at(st.path, offset) + "bad Attachment record");
+        return damaged(st.path, offset, "bad Attachment record");
       if (st.handlers.on_attachment) return st.handlers.on_attachment(a);
       return ok();
     }
@@ -539,10 +547,10 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
 
 Result<ReadReport> read_file(const std::string& path, const ReadHandlers& handlers) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(path + ": cannot open");
+  if (!in) return fail(ErrorCode::io, {path}, "cannot open");
   char magic[8];
   if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0)
-    return fail(path + ": not an MCAP file (bad magic; a ROS 2 bag folder holds the .mcap file inside)");
+    return fail(ErrorCode::parse_error, {path}, "not an MCAP file (bad magic; a ROS 2 bag folder holds the .mcap file inside)");
   ScanState st{path, handlers, {}, {}, {}};
   std::uint64_t offset = 8;
   std::vector<std::uint8_t> content;
@@ -554,7 +562,7 @@ Result<ReadReport> read_file(const std::string& path, const ReadHandlers& handle
     }
     std::uint64_t len = 0;
     for (int i = 0; i < 8; ++i) len |= static_cast<std::uint64_t>(head[1 + i]) << (8 * i);
-    if (len > (std::uint64_t{1} << 36)) return fail(at(path, offset) + "record length " + std::to_string(len) + " is implausible");
+    if (len > (std::uint64_t{1} << 36)) return damaged(path, offset, "record length " + std::to_string(len) + " is implausible");
     content.resize(len);
     if (!in.read(reinterpret_cast<char*>(content.data()), static_cast<std::streamsize>(len))) {
       st.report.truncated = true;
@@ -562,7 +570,7 @@ Result<ReadReport> read_file(const std::string& path, const ReadHandlers& handle
     }
     if (head[0] == kHeader) {
       Cursor c(content.data(), content.size());
-      if (!c.str(st.report.profile)) return fail(at(path, offset) + "bad Header record");
+      if (!c.str(st.report.profile)) return damaged(path, offset, "bad Header record");
     } else if (head[0] == kDataEnd || head[0] == kFooter) {
       break;
     } else {

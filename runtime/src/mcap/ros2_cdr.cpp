@@ -47,15 +47,15 @@ class CdrIn {
  public:
   explicit CdrIn(const std::vector<std::uint8_t>& b) : buf_(b) {}
   Status start() {
-    if (buf_.size() < 4) return fail("CDR: shorter than the encapsulation header");
-    if (buf_[1] != 0x01) return fail("CDR: not little-endian CDR (encapsulation " + std::to_string(buf_[1]) + ")");
+    if (buf_.size() < 4) return fail(ErrorCode::parse_error, "CDR: shorter than the encapsulation header");
+    if (buf_[1] != 0x01) return fail(ErrorCode::parse_error, "CDR: not little-endian CDR (encapsulation " + std::to_string(buf_[1]) + ")");
     pos_ = 4;
     return ok();
   }
   template <typename T>
   Status get(T& v, const char* field) {
     while ((pos_ - 4) % sizeof(T) != 0) ++pos_;
-    if (pos_ + sizeof(T) > buf_.size()) return fail(std::string("CDR: field '") + field + "' runs past the end");
+    if (pos_ + sizeof(T) > buf_.size()) return Error{std::string("CDR: field '") + field + "' runs past the end", ErrorCode::parse_error, {{}, 0, field}};
     std::memcpy(&v, buf_.data() + pos_, sizeof(T));
     pos_ += sizeof(T);
     return ok();
@@ -63,7 +63,7 @@ class CdrIn {
   Status str(std::string& s, const char* field) {
     std::uint32_t n = 0;
     VISNAV_TRY(get(n, field));
-    if (n > buf_.size() - pos_) return fail(std::string("CDR: string '") + field + "' runs past the end");
+    if (n > buf_.size() - pos_) return Error{std::string("CDR: string '") + field + "' runs past the end", ErrorCode::parse_error, {{}, 0, field}};
     s.assign(reinterpret_cast<const char*>(buf_.data() + pos_), n > 0 ? n - 1 : 0);
     pos_ += n;
     return ok();
@@ -71,7 +71,7 @@ class CdrIn {
   Status bytes(std::vector<std::uint8_t>& b, const char* field) {
     std::uint32_t n = 0;
     VISNAV_TRY(get(n, field));
-    if (n > buf_.size() - pos_) return fail(std::string("CDR: sequence '") + field + "' runs past the end");
+    if (n > buf_.size() - pos_) return Error{std::string("CDR: sequence '") + field + "' runs past the end", ErrorCode::parse_error, {{}, 0, field}};
     b.assign(buf_.begin() + static_cast<std::ptrdiff_t>(pos_), buf_.begin() + static_cast<std::ptrdiff_t>(pos_ + n));
     pos_ += n;
     return ok();
@@ -204,11 +204,11 @@ Result<dds::msg::Joy> decode_joy(const std::vector<std::uint8_t>& cdr) {
   VISNAV_TRY(in.header(m.header));
   std::uint32_t n = 0;
   VISNAV_TRY(in.get(n, "axes"));
-  if (n > cdr.size() / 4) return fail("CDR: sequence 'axes' runs past the end");
+  if (n > cdr.size() / 4) return Error{"CDR: sequence 'axes' runs past the end", ErrorCode::parse_error, {{}, 0, "axes"}};
   m.axes.resize(n);
   for (float& a : m.axes) VISNAV_TRY(in.get(a, "axes"));
   VISNAV_TRY(in.get(n, "buttons"));
-  if (n > cdr.size() / 4) return fail("CDR: sequence 'buttons' runs past the end");
+  if (n > cdr.size() / 4) return Error{"CDR: sequence 'buttons' runs past the end", ErrorCode::parse_error, {{}, 0, "buttons"}};
   m.buttons.resize(n);
   for (std::int32_t& b : m.buttons) VISNAV_TRY(in.get(b, "buttons"));
   return m;

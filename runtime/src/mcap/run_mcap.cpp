@@ -80,7 +80,7 @@ Result<Table> read_table(const fs::path& p, bool required, const std::vector<std
   Table t;
   std::ifstream in(p);
   if (!in) {
-    if (required) return fail(p.string() + ": cannot open");
+    if (required) return fail(ErrorCode::io, {p.string()}, "cannot open");
     return t;
   }
   std::string line;
@@ -92,7 +92,7 @@ Result<Table> read_table(const fs::path& p, bool required, const std::vector<std
     if (t.columns.empty()) {
       t.columns = split(line);
       for (const auto& c : needed)
-        if (t.column(c) < 0) return fail(p.string() + ":" + std::to_string(n) + ": missing column '" + c + "'");
+        if (t.column(c) < 0) return fail(ErrorCode::missing, {p.string(), n, c}, "missing column '" + c + "'");
       continue;
     }
     auto cells = split(line);
@@ -109,7 +109,7 @@ double cell_d(const Table& t, const std::vector<std::string>& row, const std::st
 
 Result<std::string> read_text(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
-  if (!in) return fail(p.string() + ": cannot open");
+  if (!in) return fail(ErrorCode::io, {p.string()}, "cannot open");
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
@@ -118,7 +118,7 @@ Result<std::string> read_text(const fs::path& p) {
 Status write_text(const fs::path& p, const std::string& text) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);
   out << text;
-  if (!out) return fail(p.string() + ": cannot be written");
+  if (!out) return fail(ErrorCode::io, {p.string()}, "cannot be written");
   return ok();
 }
 
@@ -313,7 +313,7 @@ Status RunMcapWriter::close() { return writer_->close(); }
 Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const std::string& dir, const RunTopics& topics) {
   std::error_code ec;
   fs::create_directories(fs::path(dir) / "frames", ec);
-  if (ec) return fail(dir + ": cannot create the run folder: " + ec.message());
+  if (ec) return fail(ErrorCode::io, {dir}, "cannot create the run folder: " + ec.message());
 
   struct FrameRow { double t_s; std::uint64_t sequence; std::string file; };
   struct OdomRow { double t_s, x, y, h, d, v, w; };
@@ -333,34 +333,38 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
     seen_topics.insert(ch.topic + (schema != nullptr ? " (" + schema->name + ")" : std::string()));
     const std::string type = schema != nullptr ? schema->name : std::string();
     const double t_s = from_ns(m.log_time_ns);
-    auto where = [&] { return mcap_path + ": topic " + ch.topic + ": "; };
+    // A message's problem, located at the bag and its topic.
+    auto located = [&](const Error& e) {
+      return Error{mcap_path + ": topic " + ch.topic + ": " + e.message, e.with_default_code(ErrorCode::parse_error).code,
+                   {mcap_path, 0, ch.topic}};
+    };
     if (ch.topic == topics.image || (topics.image.empty() && type.find("Image") != std::string::npos)) {
       char name[40];
       std::vector<std::uint8_t> encoded;
       std::string ext = ".png";
       if (type == "sensor_msgs/msg/CompressedImage") {
         auto img = ros2::decode_compressed_image(m.data);
-        if (!img) return fail(where() + img.error().message);
+        if (!img) return located(img.error());
         encoded = std::move(img->data);
         if (img->format.find("jpeg") != std::string::npos || img->format.find("jpg") != std::string::npos) ext = ".jpg";
       } else if (type == "sensor_msgs/msg/Image") {
         auto img = ros2::decode_image(m.data);
-        if (!img) return fail(where() + img.error().message);
+        if (!img) return located(img.error());
         int cv_type = 0;
         if (img->encoding == "mono8") cv_type = CV_8UC1;
         else if (img->encoding == "bgr8" || img->encoding == "rgb8") cv_type = CV_8UC3;
-        else return fail(where() + "image encoding '" + img->encoding + "' is not supported (mono8, bgr8, rgb8)");
+        else return located(Error{"image encoding '" + img->encoding + "' is not supported (mono8, bgr8, rgb8)", ErrorCode::invalid_value});
         const std::size_t need = static_cast<std::size_t>(img->step) * img->height;
         if (img->data.size() < need || img->step < img->width * static_cast<std::uint32_t>(CV_ELEM_SIZE(cv_type)))
-          return fail(where() + "image data is shorter than step * height");
+          return located(Error{"image data is shorter than step * height", ErrorCode::invalid_value});
         cv::Mat view(static_cast<int>(img->height), static_cast<int>(img->width), cv_type, img->data.data(), img->step);
         cv::Mat bgr;
         if (img->encoding == "rgb8") cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
         else bgr = view;
         if (!cv::imencode(".png", bgr, encoded, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-          return fail(where() + "cannot encode the image as PNG");
+          return located(Error{"cannot encode the image as PNG", ErrorCode::invalid_value});
       } else {
-        return fail(where() + "type '" + type + "' is not sensor_msgs/msg/Image or CompressedImage");
+        return located(Error{"type '" + type + "' is not sensor_msgs/msg/Image or CompressedImage", ErrorCode::invalid_value});
       }
       std::snprintf(name, sizeof name, "frames/%06ld", image_count++);
       const std::string rel = name + ext;
@@ -369,9 +373,9 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
       if (!out) return fail((fs::path(dir) / rel).string() + ": cannot be written");
       frames.push_back({t_s, m.sequence, rel});
     } else if (ch.topic == topics.odometry) {
-      if (type != "nav_msgs/msg/Odometry") return fail(where() + "type '" + type + "' is not nav_msgs/msg/Odometry");
+      if (type != "nav_msgs/msg/Odometry") return located(Error{"type '" + type + "' is not nav_msgs/msg/Odometry", ErrorCode::invalid_value});
       auto o = ros2::decode_odometry(m.data);
-      if (!o) return fail(where() + o.error().message);
+      if (!o) return located(o.error());
       const auto& p = o->pose.pose;
       odom.push_back({t_s, p.position.x, p.position.y, dds::yaw_from_quaternion(p.orientation), 0.0,
                       o->twist.twist.linear.x, o->twist.twist.angular.z});
@@ -391,7 +395,7 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
       truth_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"]});
     } else if (ch.topic == "/visnav/ground_truth") {
       auto o = ros2::decode_odometry(m.data);
-      if (!o) return fail(where() + o.error().message);
+      if (!o) return located(o.error());
       truth.push_back({t_s, o->pose.pose.position.x, o->pose.pose.position.y, dds::yaw_from_quaternion(o->pose.pose.orientation)});
     }
     return ok();
@@ -409,8 +413,9 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
     return s.empty() ? std::string(" (none)") : s;
   };
   if (frames.empty())
-    return fail(mcap_path + ": no image messages on topic '" + topics.image + "' (choose it with --image-topic); the bag has:" +
-                list_topics());
+    return Error{mcap_path + ": no image messages on topic '" + topics.image + "' (choose it with --image-topic); the bag has:" +
+                     list_topics(),
+                 ErrorCode::not_found, {mcap_path, 0, topics.image}};
   ConversionReport report;
   report.truncated = read.truncated;
   report.exact = !frame_json.empty() && frame_json.size() == frames.size() && !odom_json.empty();
@@ -423,8 +428,9 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
     }
   } else {
     if (odom.empty())
-      return fail(mcap_path + ": no odometry on topic '" + topics.odometry + "' (choose it with --odom-topic); the bag has:" +
-                  list_topics());
+      return Error{mcap_path + ": no odometry on topic '" + topics.odometry + "' (choose it with --odom-topic); the bag has:" +
+                       list_topics(),
+                   ErrorCode::not_found, {mcap_path, 0, topics.odometry}};
     // Odometric distance: the path length of the positions (what a wheel odometer integrates).
     std::stable_sort(odom.begin(), odom.end(), [](const OdomRow& a, const OdomRow& b) { return a.t_s < b.t_s; });
     for (std::size_t i = 1; i < odom.size(); ++i)
@@ -480,7 +486,7 @@ Result<std::vector<std::pair<double, std::string>>> joy_marks(
   h.on_message = [&](const Channel& ch, const Schema*, const Message& m) -> Status {
     if (ch.topic != joy_topic) return ok();
     auto joy = ros2::decode_joy(m.data);
-    if (!joy) return fail(mcap_path + ": topic " + joy_topic + ": " + joy.error().message);
+    if (!joy) return Error{mcap_path + ": topic " + joy_topic + ": " + joy.error().message, ErrorCode::parse_error, {mcap_path, 0, joy_topic}};
     ++messages;
     for (const auto& [button, kind] : primitive_buttons) {
       const auto b = static_cast<std::size_t>(button);
@@ -492,7 +498,9 @@ Result<std::vector<std::pair<double, std::string>>> joy_marks(
     return ok();
   };
   VISNAV_TRY(read_file(mcap_path, h));
-  if (messages == 0) return fail(mcap_path + ": no sensor_msgs/msg/Joy messages on topic '" + joy_topic + "'");
+  if (messages == 0)
+    return Error{mcap_path + ": no sensor_msgs/msg/Joy messages on topic '" + joy_topic + "'", ErrorCode::not_found,
+                 {mcap_path, 0, joy_topic}};
   std::stable_sort(marks.begin(), marks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return marks;
 }
@@ -515,7 +523,7 @@ Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::s
       auto row = parse_telemetry_json(line);
       if (!row) {
         if (lines.peek() == std::char_traits<char>::eof()) break;  // the cut last line of a killed recording
-        return fail(row.error().code, (d / "telemetry.jsonl").string() + ":" + std::to_string(n) + ": " + row.error().message);
+        return fail(row.error().code, {(d / "telemetry.jsonl").string(), n}, row.error().message);
       }
       telemetry.push_back(std::move(*row));
     }
@@ -546,7 +554,7 @@ Result<ConversionReport> run_folder_to_mcap(const std::string& dir, const std::s
       VISNAV_ASSIGN(std::string data, read_text(image));
       const std::string ext = image.extension().string();
       const std::string format = ext == ".jpg" || ext == ".jpeg" ? "jpeg" : "png";
-      if (format == "png" && ext != ".png") return fail(image.string() + ": only .png and .jpg frames can go into MCAP");
+      if (format == "png" && ext != ".png") return fail(ErrorCode::invalid_value, {image.string()}, "only .png and .jpg frames can go into MCAP");
       const long index = frames.column("index") >= 0 ? static_cast<long>(cell_d(frames, row, "index")) : report.frames;
       VISNAV_TRY(w->frame(index, it.t_s, static_cast<std::uint64_t>(cell_d(frames, row, "sequence")),
                           std::vector<std::uint8_t>(data.begin(), data.end()), format));

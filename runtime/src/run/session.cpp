@@ -57,10 +57,15 @@ Status register_all_nodes(bt::NodeRegistry& registry, PluginLoader& loader, Host
           found = &p;
       if (found == nullptr) {
         auto loaded = loader.load_library(name);
-        if (!loaded) return loaded.error().with_context("nodes plugin '" + name + "'");
+        if (!loaded) {
+          Error e = loaded.error().with_context("nodes plugin '" + name + "'");
+          if (e.where.key.empty()) e.where.key = "nodes";
+          return e;
+        }
         if (!(*loaded)->provides(PluginKind::nodes))
-          return fail("nodes plugin '" + name + "': " + (*loaded)->path + " provides no behaviour-tree nodes (it provides: " +
-                      (*loaded)->kinds_text() + ")");
+          return Error{"nodes plugin '" + name + "': " + (*loaded)->path + " provides no behaviour-tree nodes (it provides: " +
+                           (*loaded)->kinds_text() + ")",
+                       ErrorCode::plugin, {{}, 0, "nodes"}};
         for (const auto& p : loader.nodes_plugins())
           if (p.library == *loaded) selected.push_back(p);
       } else {
@@ -176,7 +181,7 @@ Status Session::build_devices() {
     return st.error().with_context("dds block at " + config_.dds.where.str());
   {
     auto made = loader_.create<Robot>(config_.robot.type, config_.robot.params, *host_, config_.robot.plugin);
-    if (!made) return made.error().with_context(spec_label("robot", config_.robot));
+    if (!made) return spec_error(made.error(), "robot", config_.robot);
     robot_ = std::move(made).value();
   }
   guard_ = std::make_unique<GuardedRobot>(*robot_);
@@ -184,8 +189,8 @@ Status Session::build_devices() {
 
   SimulationControl* sim = robot_->simulation();
   if (config_.run.lockstep == "on" && sim == nullptr)
-    return fail(config_.robot.where.str() + ": run.lockstep is 'on' but robot '" + config_.robot.type +
-                "' is not simulated");
+    return Error{config_.robot.where.str() + ": run.lockstep is 'on' but robot '" + config_.robot.type + "' is not simulated",
+                 ErrorCode::inconsistent, {config_.file, 0, "run.lockstep"}};
   lockstep_ = sim != nullptr && config_.run.lockstep != "off";
   const bool uses_dds = config_.dds.enabled || config_.robot.type == "dds" || config_.camera.type == "dds";
   if (secure) {
@@ -204,12 +209,12 @@ Status Session::build_devices() {
   }
   {
     auto made = loader_.create<Camera>(config_.camera.type, config_.camera.params, *host_, config_.camera.plugin);
-    if (!made) return made.error().with_context(spec_label("camera", config_.camera));
+    if (!made) return spec_error(made.error(), "camera", config_.camera);
     camera_ = std::move(made).value();
   }
   if (config_.detector) {
     auto made = loader_.create<Detector>(config_.detector->type, config_.detector->params, *host_, config_.detector->plugin);
-    if (!made) return made.error().with_context(spec_label("detector", *config_.detector));
+    if (!made) return spec_error(made.error(), "detector", *config_.detector);
     install_detector(*host_, detector_, std::move(made).value());
   }
   return ok();

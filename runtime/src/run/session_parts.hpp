@@ -18,6 +18,21 @@ inline std::string spec_label(const char* section, const PluginSpec& spec) {
          " at " + spec.where.str();
 }
 
+/// A plugin's creation error in the context of its config section: the message gains
+/// spec_label(); the location becomes the config's. An error that names a params key (from the
+/// plugin's schema) is keyed `section.params.key`; one with no location (an unknown type, a
+/// library that would not load) is keyed `section.type` at the section's line.
+inline Error spec_error(const Error& e, const char* section, const PluginSpec& spec) {
+  Error out = e.with_context(spec_label(section, spec));
+  if (!out.where.key.empty()) {
+    out.where.key = std::string(section) + ".params." + out.where.key;
+    if (out.where.file.empty()) out.where.file = spec.where.file;
+  } else if (out.where.empty()) {
+    out.where = ErrorLocation{spec.where.file, spec.where.line, std::string(section) + ".type"};
+  }
+  return out;
+}
+
 /// Telemetry sinks behind one fan-out (the host's telemetry when it has a sink) and the DDS
 /// control subscriber. Member order is destruction order in reverse: control first, file last.
 struct Session::Links {
@@ -60,7 +75,7 @@ class Session::LiveReload {
   [[nodiscard]] int rejected() const { return rejected_; }
 
  private:
-  Error reject(const std::string& why);
+  Error reject(Error why);
   /// A new detector when `next` needs one (`changed`), else nullptr (params applied in place).
   Result<PluginPtr<Detector>> detector_for(const RunConfig& next, bool& changed);
   /// Robot and camera params, in place; `next` is left holding what was applied.

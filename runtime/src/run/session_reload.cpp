@@ -83,25 +83,31 @@ bool Session::LiveReload::poll(bool force) {
   return applied && *applied;
 }
 
-Error Session::LiveReload::reject(const std::string& why) {
+Error Session::LiveReload::reject(Error why) {
   ++rejected_;
-  p_.logger.error("config", "reload of " + p_.config.file + " rejected, keeping the running config: " + why);
-  return fail(why);
+  p_.logger.error("config", "reload of " + p_.config.file + " rejected, keeping the running config: " + why.message);
+  return why;
 }
 
 Result<bool> Session::LiveReload::reload() {
   RunConfig& config = p_.config;
   auto loaded = load_run_config(config.file, overrides_);
-  if (!loaded) return reject(loaded.error().message);
+  if (!loaded) return reject(loaded.error());
   RunConfig next = std::move(loaded).value();
   if (const std::string keys = restart_keys(next, config); !keys.empty())
-    return reject("changing " + keys + " needs a restart");
+  {
+    // The key is the first setting that changed ("robot" for robot.type/plugin); the message lists them all.
+    std::string first = keys.substr(0, keys.find(','));
+    if (first.find('/') != std::string::npos) first = first.substr(0, first.find('.'));
+    return reject(Error{config.file + ": changing " + keys + " needs a restart", ErrorCode::inconsistent,
+                        {config.file, 0, first}});
+  }
 
   // A new detector is created before anything is applied, so a failing factory rejects the
   // whole reload.
   bool detector_changed = false;
   auto new_detector = detector_for(next, detector_changed);
-  if (!new_detector) return reject(new_detector.error().message);
+  if (!new_detector) return reject(new_detector.error());
 
   bool changed = apply_device_params(next);
   if (detector_changed) {
@@ -138,7 +144,7 @@ Result<PluginPtr<Detector>> Session::LiveReload::detector_for(const RunConfig& n
     changed = true;
     if (!next.detector) return PluginPtr<Detector>{};
     auto made = p_.loader.create<Detector>(next.detector->type, next.detector->params, p_.host, next.detector->plugin);
-    if (!made) return made.error().with_context(spec_label("detector", *next.detector));
+    if (!made) return spec_error(made.error(), "detector", *next.detector);
     return std::move(made).value();
   }
   if (!next.detector || same_config(next.detector->params, config.detector->params)) return PluginPtr<Detector>{};
@@ -147,8 +153,9 @@ Result<PluginPtr<Detector>> Session::LiveReload::detector_for(const RunConfig& n
     // Cannot reconfigure in place: build a fresh one with the new params and swap.
     auto made = p_.loader.create<Detector>(next.detector->type, next.detector->params, p_.host, next.detector->plugin);
     if (!made)
-      return fail("detector '" + next.detector->type + "': reconfigure failed (" + st.error().message +
-                  ") and a new one could not be created (" + made.error().message + ")");
+      return Error{"detector '" + next.detector->type + "': reconfigure failed (" + st.error().message +
+                       ") and a new one could not be created (" + made.error().message + ")",
+                   made.error().code, spec_error(made.error(), "detector", *next.detector).where};
     replacement = std::move(made).value();
     changed = true;
   }

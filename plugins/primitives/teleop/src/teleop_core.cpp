@@ -14,42 +14,67 @@ namespace visnav::teleop {
 
 // ---- params ------------------------------------------------------------------------------
 
+namespace {
+/// A params problem of `key` (validate()'s contract: the key, no file; ParamSchema adds the line).
+Error param_problem(ErrorCode code, const char* key, std::string message) {
+  return Error{std::move(message), code, {{}, 0, key}};
+}
+}  // namespace
+
 Status TeleopParams::validate() const {
-  if (axis_linear == axis_angular) return fail("key 'axis_angular': must differ from axis_linear");
-  if (deadman_button == done_button) return fail("key 'done_button': must differ from deadman_button");
+  if (axis_linear == axis_angular)
+    return param_problem(ErrorCode::inconsistent, "axis_angular",
+                         "key 'axis_angular': must differ from axis_linear");
+  if (deadman_button == done_button)
+    return param_problem(ErrorCode::inconsistent, "done_button",
+                         "key 'done_button': must differ from deadman_button");
   if (close_button == deadman_button || close_button == done_button)
-    return fail("key 'close_button': must differ from deadman_button and done_button");
+    return param_problem(ErrorCode::inconsistent, "close_button",
+                         "key 'close_button': must differ from deadman_button and done_button");
   VISNAV_ASSIGN(auto buttons, parse_bindings(primitive_buttons, "primitive_buttons"));
   for (const auto& b : buttons) {
     auto n = detail::parse_int(b.trigger);
     if (!n || *n < 0 || *n > 255)
-      return fail("key 'primitive_buttons': '" + b.trigger + "' is not a button number 0..255");
+      return param_problem(ErrorCode::invalid_value, "primitive_buttons",
+                           "key 'primitive_buttons': '" + b.trigger + "' is not a button number 0..255");
     if (*n == deadman_button || *n == done_button || *n == close_button)
-      return fail("key 'primitive_buttons': button " + b.trigger + " is also the deadman, done or close button");
+      return param_problem(ErrorCode::inconsistent, "primitive_buttons",
+                           "key 'primitive_buttons': button " + b.trigger + " is also the deadman, done or close button");
   }
   VISNAV_ASSIGN(auto keys, parse_bindings(primitive_keys, "primitive_keys"));
   const std::string reserved = "wasd q";
   for (const auto& k : keys) {
-    if (k.trigger.size() != 1) return fail("key 'primitive_keys': '" + k.trigger + "' is not a single character");
+    if (k.trigger.size() != 1)
+      return param_problem(ErrorCode::invalid_value, "primitive_keys",
+                           "key 'primitive_keys': '" + k.trigger + "' is not a single character");
     if (reserved.find(k.trigger) != std::string::npos || k.trigger == done_key || k.trigger == manual_key ||
         k.trigger == close_key)
-      return fail("key 'primitive_keys': '" + k.trigger + "' is a driving, done, close or manual key");
+      return param_problem(ErrorCode::inconsistent, "primitive_keys",
+                           "key 'primitive_keys': '" + k.trigger + "' is a driving, done, close or manual key");
   }
-  if (done_key.size() != 1) return fail("key 'done_key': '" + done_key + "' is not a single character");
+  if (done_key.size() != 1)
+    return param_problem(ErrorCode::invalid_value, "done_key",
+                         "key 'done_key': '" + done_key + "' is not a single character");
   if (manual_key.size() != 1 || manual_key == done_key)
-    return fail("key 'manual_key': '" + manual_key + "' must be one character other than done_key");
+    return param_problem(ErrorCode::inconsistent, "manual_key",
+                         "key 'manual_key': '" + manual_key + "' must be one character other than done_key");
   if (close_key.size() != 1 || close_key == done_key || close_key == manual_key)
-    return fail("key 'close_key': '" + close_key + "' must be one character other than done_key and manual_key");
+    return param_problem(ErrorCode::inconsistent, "close_key",
+                         "key 'close_key': '" + close_key + "' must be one character other than done_key and manual_key");
   if (done_key == "+" || done_key == "-" || manual_key == "+" || manual_key == "-" || close_key == "+" || close_key == "-")
-    return fail("key 'done_key'/'manual_key'/'close_key': + and - change the hold-to-drive speed");
+    return param_problem(ErrorCode::inconsistent, "done_key",
+                         "key 'done_key'/'manual_key'/'close_key': + and - change the hold-to-drive speed");
   for (const auto& k : keys)
     if (k.trigger == "+" || k.trigger == "-")
-      return fail("key 'primitive_keys': + and - change the hold-to-drive speed");
+      return param_problem(ErrorCode::inconsistent, "primitive_keys",
+                           "key 'primitive_keys': + and - change the hold-to-drive speed");
   if (key_deadman_s > 0.0 && key_repeat_timeout_s > key_deadman_s)
-    return fail("key 'key_repeat_timeout_s': must not exceed key_deadman_s (" + std::to_string(key_deadman_s) + ")");
+    return param_problem(ErrorCode::inconsistent, "key_repeat_timeout_s",
+                         "key 'key_repeat_timeout_s': must not exceed key_deadman_s (" + std::to_string(key_deadman_s) + ")");
   if (reserved.find(done_key) != std::string::npos || reserved.find(manual_key) != std::string::npos ||
       reserved.find(close_key) != std::string::npos)
-    return fail("key 'done_key'/'manual_key'/'close_key': w, a, s, d, space and q are driving keys");
+    return param_problem(ErrorCode::inconsistent, "done_key",
+                         "key 'done_key'/'manual_key'/'close_key': w, a, s, d, space and q are driving keys");
   return ok();
 }
 
@@ -93,11 +118,13 @@ Result<std::vector<PrimitiveBinding>> parse_bindings(const std::vector<std::stri
   for (const auto& e : entries) {
     const auto eq = e.find('=');
     if (eq == std::string::npos || eq == 0)
-      return fail("key '" + std::string(what) + "': entry '" + e + "' is not trigger=kind");
+      return Error{"key '" + std::string(what) + "': entry '" + e + "' is not trigger=kind", ErrorCode::invalid_value,
+                   {{}, 0, std::string(what)}};
     PrimitiveBinding b{e.substr(0, eq), e.substr(eq + 1)};
     for (const auto& other : out)
       if (other.trigger == b.trigger)
-        return fail("key '" + std::string(what) + "': '" + b.trigger + "' is bound twice");
+        return Error{"key '" + std::string(what) + "': '" + b.trigger + "' is bound twice", ErrorCode::inconsistent,
+                     {{}, 0, std::string(what)}};
     out.push_back(std::move(b));
   }
   return out;
@@ -396,20 +423,21 @@ Result<std::vector<Mark>> parse_marks(const std::string& text, const std::string
       continue;
     }
     if (!header) {
-      if (line != "t_s,primitive") return fail(file + ":" + std::to_string(line_no) + ": expected the header 't_s,primitive'");
+      if (line != "t_s,primitive") return fail(ErrorCode::parse_error, {file, line_no}, "expected the header 't_s,primitive'");
       header = true;
       continue;
     }
     const auto comma = line.find(',');
-    if (comma == std::string::npos) return fail(file + ":" + std::to_string(line_no) + ": expected t_s,primitive");
+    if (comma == std::string::npos) return fail(ErrorCode::parse_error, {file, line_no}, "expected t_s,primitive");
     auto t = detail::parse_double(line.substr(0, comma));
-    if (!t) return fail(file + ":" + std::to_string(line_no) + ": t_s: " + t.error().message);
+    if (!t) return fail(ErrorCode::invalid_value, {file, line_no, "t_s"}, t.error().message);
     if (!marks.empty() && *t < marks.back().t_s)
-      return fail(file + ":" + std::to_string(line_no) + ": time " + line.substr(0, comma) + " is earlier than the previous mark");
+      return fail(ErrorCode::inconsistent, {file, line_no, "t_s"},
+                  "time " + line.substr(0, comma) + " is earlier than the previous mark");
     marks.push_back({*t, line.substr(comma + 1)});
     if (nl == text.size()) break;
   }
-  if (!header) return fail(file + ": empty marks file (expected the header 't_s,primitive')");
+  if (!header) return fail(ErrorCode::parse_error, {file}, "empty marks file (expected the header 't_s,primitive')");
   return marks;
 }
 

@@ -32,7 +32,8 @@ struct LineRobotParams {
 
   visnav::Status validate() const {
     if (command_path.empty() || odometry_path.empty())
-      return visnav::fail("keys 'command_path' and 'odometry_path' are required");
+      return visnav::fail(visnav::ErrorCode::missing, {{}, 0, command_path.empty() ? "command_path" : "odometry_path"},
+                          "keys 'command_path' and 'odometry_path' are required");
     return visnav::ok();
   }
   static const visnav::ParamSchema<LineRobotParams>& schema() {
@@ -54,11 +55,11 @@ class LineRobot final : public visnav::Robot {
     VISNAV_TRY(p.validate());
     // Non-blocking both ways: a base that stops reading or writing must not stall the tick.
     const int out = ::open(p.command_path.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC);
-    if (out < 0) return visnav::fail(p.command_path + ": " + std::strerror(errno));
+    if (out < 0) return visnav::fail(visnav::ErrorCode::io, {p.command_path}, std::strerror(errno));
     const int in = ::open(p.odometry_path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (in < 0) {
       ::close(out);
-      return visnav::fail(p.odometry_path + ": " + std::strerror(errno));
+      return visnav::fail(visnav::ErrorCode::io, {p.odometry_path}, std::strerror(errno));
     }
     return std::unique_ptr<LineRobot>(new LineRobot(p, out, in));
   }

@@ -313,187 +313,218 @@ visnav::Status write_run_info(const std::string& dir, const std::string& text) {
   return visnav::ok();
 }
 
-int record(const std::vector<std::string>& args) {
-  using visnav::cli::Opt;
-  visnav::cli::Args a;
-  if (auto st = a.parse(args, {{"--config", Opt::value}, {"-o", Opt::value}, {"--out", Opt::value}, {"--tree", Opt::value},
-                               {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--create", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated},
-                               {"--image-format", Opt::value}, {"--jpeg-quality", Opt::value}, {"--force", Opt::flag},
-                               {"--format", Opt::value}, {"--compression", Opt::value},
-                               {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}});
-      !st)
-    return visnav::cli::usage_error("record", st.error().message);
-  if (auto st = a.require({"--config"}); !st) return visnav::cli::usage_error("record", st.error().message);
-  const std::string out_dir = a.get("-o", a.get("--out"));
-  if (out_dir.empty()) return visnav::cli::usage_error("record", "missing required option: -o RUN");
-  double duration_s = 0.0;
+/// The command line of `visnav record`, checked.
+struct RecordOptions {
+  std::string out_dir;
+  std::string config_file;
+  std::vector<std::string> overrides;  ///< --set
+  std::vector<std::string> bb;         ///< --bb
+  std::string tree_file;               ///< empty: record without a mission
+  double duration_s = 0.0;             ///< 0: until the tree ends / Ctrl-C
   int jpeg_quality = 95;
+  std::string image_format = "png";    ///< png | jpg
+  std::string format = "folder";       ///< folder | mcap
+  std::string compression = "zstd";    ///< mcap: zstd | lz4 | none
+  bool force = false;
+};
+
+/// Parses and checks the options; an error is a usage error (exit 2).
+visnav::Result<RecordOptions> parse_record_options(const std::vector<std::string>& args, visnav::cli::Args& a) {
+  using visnav::cli::Opt;
+  VISNAV_TRY(a.parse(args, {{"--config", Opt::value}, {"-o", Opt::value}, {"--out", Opt::value}, {"--tree", Opt::value},
+                            {"--duration-s", Opt::value}, {"--map", Opt::value}, {"--create", Opt::flag}, {"--set", Opt::repeated},
+                            {"--bb", Opt::repeated}, {"--image-format", Opt::value}, {"--jpeg-quality", Opt::value},
+                            {"--force", Opt::flag}, {"--format", Opt::value}, {"--compression", Opt::value},
+                            {"--plugin-path", Opt::repeated}, {"--log-level", Opt::value}}));
+  VISNAV_TRY(a.require({"--config"}));
+  RecordOptions o;
+  o.out_dir = a.get("-o", a.get("--out"));
+  if (o.out_dir.empty()) return visnav::fail(visnav::ErrorCode::missing, "missing required option: -o RUN");
   try {
-    duration_s = std::stod(a.get("--duration-s", "0"));
-    jpeg_quality = std::stoi(a.get("--jpeg-quality", "95"));
+    o.duration_s = std::stod(a.get("--duration-s", "0"));
+    o.jpeg_quality = std::stoi(a.get("--jpeg-quality", "95"));
   } catch (...) {
-    return visnav::cli::usage_error("record", "--duration-s and --jpeg-quality need numbers");
+    return visnav::fail(visnav::ErrorCode::invalid_value, "--duration-s and --jpeg-quality need numbers");
   }
-  if (duration_s < 0.0) return visnav::cli::usage_error("record", "--duration-s must be >= 0");
-  if (jpeg_quality < 1 || jpeg_quality > 100) return visnav::cli::usage_error("record", "--jpeg-quality must be in [1, 100]");
-  const std::string image_format = a.get("--image-format", "png");
-  if (image_format != "png" && image_format != "jpg")
-    return visnav::cli::usage_error("record", "--image-format must be png or jpg, got '" + image_format + "'");
+  using visnav::ErrorCode;
+  if (o.duration_s < 0.0) return visnav::fail(ErrorCode::out_of_range, "--duration-s must be >= 0");
+  if (o.jpeg_quality < 1 || o.jpeg_quality > 100) return visnav::fail(ErrorCode::out_of_range, "--jpeg-quality must be in [1, 100]");
+  o.image_format = a.get("--image-format", "png");
+  if (o.image_format != "png" && o.image_format != "jpg")
+    return visnav::fail(ErrorCode::out_of_range, "--image-format must be png or jpg, got '" + o.image_format + "'");
+  o.format = a.get("--format", "folder");
+  if (o.format != "folder" && o.format != "mcap")
+    return visnav::fail(ErrorCode::out_of_range, "--format must be folder or mcap, got '" + o.format + "'");
+  o.compression = a.get("--compression", "zstd");
+  if (o.compression != "zstd" && o.compression != "lz4" && o.compression != "none")
+    return visnav::fail(ErrorCode::out_of_range, "--compression must be zstd, lz4 or none, got '" + o.compression + "'");
+  if (a.has("--compression") && o.format != "mcap") return visnav::fail(ErrorCode::inconsistent, "--compression needs --format mcap");
+  if (a.has("--log-level")) VISNAV_TRY(visnav::parse_log_level(a.get("--log-level")));
+  o.config_file = a.get("--config");
+  o.overrides = a.all("--set");
+  o.bb = a.all("--bb");
+  o.tree_file = a.get("--tree");
+  o.force = a.has("--force");
+  return o;
+}
 
-  const std::string format = a.get("--format", "folder");
-  if (format != "folder" && format != "mcap")
-    return visnav::cli::usage_error("record", "--format must be folder or mcap, got '" + format + "'");
-  const std::string compression = a.get("--compression", "zstd");
-  if (compression != "zstd" && compression != "lz4" && compression != "none")
-    return visnav::cli::usage_error("record", "--compression must be zstd, lz4 or none, got '" + compression + "'");
-  if (a.has("--compression") && format != "mcap") return visnav::cli::usage_error("record", "--compression needs --format mcap");
+/// The output must not overwrite an earlier recording unless --force.
+visnav::Status check_output_free(const RecordOptions& o) {
   std::error_code ec;
-  if (format == "mcap" && fs::exists(out_dir, ec) && !a.has("--force")) {
-    std::cerr << "visnav record: " << out_dir << " exists (use --force to overwrite it)\n";
-    return 1;
-  }
-  if (format == "folder" && fs::exists(out_dir, ec) && !fs::is_empty(out_dir, ec) && !a.has("--force")) {
-    std::cerr << "visnav record: " << out_dir << " exists and is not empty (use --force to record into it)\n";
-    return 1;
-  }
+  if (o.force || !fs::exists(o.out_dir, ec)) return visnav::ok();
+  if (o.format == "mcap") return visnav::fail(o.out_dir + " exists (use --force to overwrite it)");
+  if (!fs::is_empty(o.out_dir, ec))
+    return visnav::fail(o.out_dir + " exists and is not empty (use --force to record into it)");
+  return visnav::ok();
+}
 
-  const std::string config_file = a.get("--config");
-  const std::vector<std::string> overrides = a.all("--set");
-  if (a.has("--log-level"))
-    if (auto level = visnav::parse_log_level(a.get("--log-level")); !level)
-      return visnav::cli::usage_error("record", level.error().message);
-  const std::string tree_file = a.get("--tree");
-  auto session_made = visnav::cli::open_session(a, config_file, overrides);
-  if (!session_made) {
-    std::cerr << "visnav record: " << session_made.error().message << "\n";
-    return 1;
+/// The sink of the chosen format; the folder format also keeps a copy of the config.
+visnav::Result<std::unique_ptr<RunSink>> make_sink(const RecordOptions& o, bool with_truth) {
+  if (o.format == "mcap") {
+    VISNAV_ASSIGN(auto made, McapSink::create(o.out_dir, o.config_file, o.image_format, o.jpeg_quality, with_truth, o.compression));
+    return std::unique_ptr<RunSink>(std::move(made));
   }
-  visnav::Session& session = **session_made;
-  std::optional<visnav::bt::Tree> tree;
-  if (!tree_file.empty()) {
-    auto loaded = session.load_tree(tree_file);
-    if (!loaded) {
-      std::cerr << "visnav record: " << loaded.error().message << "\n";
-      return 1;
-    }
-    tree.emplace(std::move(*loaded));
-    if (auto st = visnav::set_blackboard_values(*tree, a.all("--bb")); !st) {
-      std::cerr << "visnav record: " << st.error().message << "\n";
-      return 1;
-    }
-  }
+  VISNAV_ASSIGN(auto made, RunWriter::create(o.out_dir, o.image_format, o.jpeg_quality, with_truth));
+  // The configuration used, so `visnav play RUN` can rebuild the same detector and nodes.
+  std::error_code ec;
+  fs::copy_file(o.config_file, fs::path(o.out_dir) / "config.yaml", fs::copy_options::overwrite_existing, ec);
+  if (ec) return visnav::fail(visnav::ErrorCode::io, "cannot copy " + o.config_file + " into " + o.out_dir + ": " + ec.message());
+  return std::unique_ptr<RunSink>(std::move(made));
+}
 
-  visnav::SimulationControl* sim = session.robot().simulation();
-  std::unique_ptr<RunSink> sink;
-  if (format == "mcap") {
-    auto made = McapSink::create(out_dir, config_file, image_format, jpeg_quality, sim != nullptr, compression);
-    if (!made) {
-      std::cerr << "visnav record: " << made.error().message << "\n";
-      return 1;
-    }
-    sink = std::move(*made);
-  } else {
-    auto made = RunWriter::create(out_dir, image_format, jpeg_quality, sim != nullptr);
-    if (!made) {
-      std::cerr << "visnav record: " << made.error().message << "\n";
-      return 1;
-    }
-    sink = std::move(*made);
-    // The configuration used, so `visnav play RUN` can rebuild the same detector and nodes.
-    fs::copy_file(config_file, fs::path(out_dir) / "config.yaml", fs::copy_options::overwrite_existing, ec);
-    if (ec) {
-      std::cerr << "visnav record: cannot copy " << config_file << " into " << out_dir << ": " << ec.message() << "\n";
-      return 1;
-    }
-  }
-  RunSink& writer = *sink;
+/// run.yaml's fixed part: what was recorded and how.
+std::string run_info_header(const RecordOptions& o, const visnav::Session& session) {
   std::ostringstream info;
   info << "format: visnav-recorded-run\nversion: 1\ncreated: " << iso_now() << "\n"
-       << "config: " << yaml_quote(fs::absolute(config_file).lexically_normal().string()) << "\n"
+       << "config: " << yaml_quote(fs::absolute(o.config_file).lexically_normal().string()) << "\n"
        << "overrides: [";
-  for (std::size_t i = 0; i < overrides.size(); ++i) info << (i ? ", " : "") << yaml_quote(overrides[i]);
+  for (std::size_t i = 0; i < o.overrides.size(); ++i) info << (i ? ", " : "") << yaml_quote(o.overrides[i]);
   info << "]\nblackboard: [";
-  const std::vector<std::string> bb = a.all("--bb");
-  for (std::size_t i = 0; i < bb.size(); ++i) info << (i ? ", " : "") << yaml_quote(bb[i]);
+  for (std::size_t i = 0; i < o.bb.size(); ++i) info << (i ? ", " : "") << yaml_quote(o.bb[i]);
   info << "]\n"
        << "robot: " << yaml_quote(session.config().robot.type) << "\ncamera: " << yaml_quote(session.config().camera.type) << "\n"
-       << "tree: " << yaml_quote(tree_file.empty() ? std::string() : fs::absolute(tree_file).lexically_normal().string()) << "\n"
+       << "tree: " << yaml_quote(o.tree_file.empty() ? std::string() : fs::absolute(o.tree_file).lexically_normal().string())
+       << "\n"
        << "lockstep: " << (session.lockstep() ? "true" : "false") << "\n"
-       << "image_format: " << image_format << "\n";
-  const std::string header = info.str();
-  if (auto st = writer.run_info(header + "complete: false\n", false); !st) {
-    std::cerr << "visnav record: " << st.error().message << "\n";
-    return 1;
-  }
+       << "image_format: " << o.image_format << "\n";
+  return info.str();
+}
 
-  visnav::install_signal_handlers();
-  std::string write_error;
-  auto record_tick = [&](std::uint64_t tick, double t_s, bool with_command) -> bool {
-    visnav::FrameBus& bus = session.frame_bus();
+/// Writes what the run used this tick: the newest frame and odometry, the command (with a
+/// mission) and the simulator's ground truth. False when a frame could not be written.
+class TickRecorder {
+ public:
+  TickRecorder(visnav::Session& session, RunSink& sink) : session_(session), sink_(sink), sim_(session.robot().simulation()) {}
+  bool record(std::uint64_t tick, double t_s, bool with_command) {
+    visnav::FrameBus& bus = session_.frame_bus();
     long frame_index = -1;
     if (auto f = bus.latest_frame()) {
-      auto idx = writer.frame(*f);
+      auto idx = sink_.frame(*f);
       if (!idx) {
-        write_error = idx.error().message;
+        error_ = idx.error().message;
         return false;
       }
       frame_index = *idx;
     }
-    if (auto o = bus.latest_odometry()) writer.odometry(*o);
+    if (auto o = bus.latest_odometry()) sink_.odometry(*o);
     if (with_command)
-      writer.command(tick, t_s, frame_index, session.robot().last_command(), session.robot().commands_sent());
-    if (sim != nullptr) writer.truth(sim->time_s(), sim->ground_truth_pose());
+      sink_.command(tick, t_s, frame_index, session_.robot().last_command(), session_.robot().commands_sent());
+    if (sim_ != nullptr) sink_.truth(sim_->time_s(), sim_->ground_truth_pose());
     return true;
-  };
+  }
+  [[nodiscard]] const std::string& error() const { return error_; }
 
+ private:
+  visnav::Session& session_;
+  RunSink& sink_;
+  visnav::SimulationControl* sim_;
+  std::string error_;
+};
+
+/// No mission: grab and record until the duration, the camera's end or a signal.
+visnav::RunReport record_without_mission(visnav::Session& session, RunSink& sink, TickRecorder& recorder, double duration_s) {
   visnav::RunReport report;
+  visnav::Camera& camera = session.camera();
+  visnav::SimulationControl* sim = session.robot().simulation();
   const double start_s = session.clock().now_s();
+  const double period_s = 1.0 / session.config().run.rate_hz;
+  report.outcome = visnav::RunOutcome::stopped;
+  report.exit_code = 0;
+  for (;;) {
+    if (visnav::signal_flag().load() != 0) {
+      report.outcome = visnav::RunOutcome::interrupted;
+      report.exit_code = 128 + visnav::signal_flag().load();
+      break;
+    }
+    if (duration_s > 0.0 && session.clock().now_s() - start_s >= duration_s) break;
+    if (session.lockstep()) {
+      if (auto st = sim->step(period_s); !st) {
+        report.reason = "simulation step failed: " + st.error().message;
+        break;
+      }
+    }
+    auto grabbed = camera.grab(session.lockstep() ? 0.0 : 0.05);
+    if (!grabbed) {
+      report.reason = "camera: " + grabbed.error().message;  // e.g. the end of a video
+      break;
+    }
+    auto odo = session.robot().latest_odometry();
+    if (odo) session.frame_bus().publish_odometry(*odo);
+    if (grabbed->has_value() && odo) {
+      session.frame_bus().publish_frame(std::move(**grabbed));
+      ++report.ticks;
+      if (!recorder.record(report.ticks, session.clock().now_s(), false)) break;
+    } else if (odo) {
+      sink.odometry(*odo);
+    }
+  }
+  report.run_time_s = session.clock().now_s() - start_s;
+  (void)session.robot().stop();
+  return report;
+}
+
+int record(const std::vector<std::string>& args) {
+  visnav::cli::Args a;
+  auto parsed = parse_record_options(args, a);
+  if (!parsed) return visnav::cli::usage_error("record", parsed.error().message);
+  const RecordOptions& o = *parsed;
+  auto report_error = [](const visnav::Error& e) {
+    std::cerr << "visnav record: " << e.message << "\n";
+    return 1;
+  };
+  if (auto st = check_output_free(o); !st) return report_error(st.error());
+  auto session_made = visnav::cli::open_session(a, o.config_file, o.overrides);
+  if (!session_made) return report_error(session_made.error());
+  visnav::Session& session = **session_made;
+  std::optional<visnav::bt::Tree> tree;
+  if (!o.tree_file.empty()) {
+    auto loaded = session.load_tree(o.tree_file);
+    if (!loaded) return report_error(loaded.error());
+    tree.emplace(std::move(*loaded));
+    if (auto st = visnav::set_blackboard_values(*tree, o.bb); !st) return report_error(st.error());
+  }
+  auto sink = make_sink(o, session.robot().simulation() != nullptr);
+  if (!sink) return report_error(sink.error());
+  RunSink& writer = **sink;
+  const std::string header = run_info_header(o, session);
+  if (auto st = writer.run_info(header + "complete: false\n", false); !st) return report_error(st.error());
+
+  visnav::install_signal_handlers();
+  TickRecorder recorder(session, writer);
+  visnav::RunReport report;
   if (tree) {
+    const double start_s = session.clock().now_s();
     visnav::RunOptions ro;
     TelemetryTap tap(session, writer);
     ro.after_tick = [&](const visnav::TickInfo& t) {
-      if (!record_tick(t.tick, t.t_s, true)) return false;
-      return !(duration_s > 0.0 && t.t_s - start_s >= duration_s);
+      if (!recorder.record(t.tick, t.t_s, true)) return false;
+      return !(o.duration_s > 0.0 && t.t_s - start_s >= o.duration_s);
     };
     report = visnav::run_tree(session, *tree, ro);
   } else {
-    // No mission: grab and record until the duration or a signal.
-    visnav::Camera& camera = session.camera();
-    const double period_s = 1.0 / session.config().run.rate_hz;
-    report.outcome = visnav::RunOutcome::stopped;
-    report.exit_code = 0;
-    for (;;) {
-      if (visnav::signal_flag().load() != 0) {
-        report.outcome = visnav::RunOutcome::interrupted;
-        report.exit_code = 128 + visnav::signal_flag().load();
-        break;
-      }
-      if (duration_s > 0.0 && session.clock().now_s() - start_s >= duration_s) break;
-      if (session.lockstep()) {
-        if (auto st = sim->step(period_s); !st) {
-          report.reason = "simulation step failed: " + st.error().message;
-          break;
-        }
-      }
-      auto grabbed = camera.grab(session.lockstep() ? 0.0 : 0.05);
-      if (!grabbed) {
-        report.reason = "camera: " + grabbed.error().message;  // e.g. the end of a video
-        break;
-      }
-      auto odo = session.robot().latest_odometry();
-      if (odo) session.frame_bus().publish_odometry(*odo);
-      if (grabbed->has_value() && odo) {
-        session.frame_bus().publish_frame(std::move(**grabbed));
-        ++report.ticks;
-        if (!record_tick(report.ticks, session.clock().now_s(), false)) break;
-      } else if (odo) {
-        writer.odometry(*odo);
-      }
-    }
-    report.run_time_s = session.clock().now_s() - start_s;
-    (void)session.robot().stop();
+    report = record_without_mission(session, writer, recorder, o.duration_s);
   }
-  if (write_error.empty()) write_error = writer.error();
+  std::string write_error = recorder.error().empty() ? writer.error() : recorder.error();
   if (!write_error.empty()) {
     std::cerr << "visnav record: " << write_error << "\n";
     report.exit_code = 1;
@@ -505,7 +536,7 @@ int record(const std::vector<std::string>& args) {
   if (auto st = writer.run_info(summary.str(), true); !st) std::cerr << "visnav record: " << st.error().message << "\n";
   std::cout << "visnav record: " << visnav::to_string(report.outcome) << ", " << writer.frames() << " frames, "
             << writer.odometry_rows() << " odometry samples, " << report.ticks << " ticks, " << report.run_time_s
-            << " s run time -> " << out_dir << "\n";
+            << " s run time -> " << o.out_dir << "\n";
   if (!report.reason.empty()) std::cerr << "visnav record: " << report.reason << "\n";
   return report.exit_code;
 }

@@ -55,7 +55,7 @@ inline Result<double> parse_double(const std::string& text) {
   const char* b = text.data();
   const char* e = b + text.size();
   auto [p, ec] = std::from_chars(b, e, v);
-  if (ec != std::errc{} || p != e || !std::isfinite(v)) return fail("'" + text + "' is not a number");
+  if (ec != std::errc{} || p != e || !std::isfinite(v)) return fail(ErrorCode::invalid_value, "'" + text + "' is not a number");
   return v;
 }
 inline Result<int> parse_int(const std::string& text) {
@@ -64,15 +64,15 @@ inline Result<int> parse_int(const std::string& text) {
   const char* e = b + text.size();
   if (b != e && *b == '+') ++b;
   auto [p, ec] = std::from_chars(b, e, v);
-  if (ec != std::errc{} || p != e || b == e) return fail("'" + text + "' is not an integer");
+  if (ec != std::errc{} || p != e || b == e) return fail(ErrorCode::invalid_value, "'" + text + "' is not an integer");
   if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-    return fail("'" + text + "' is out of the int range");
+    return fail(ErrorCode::out_of_range, "'" + text + "' is out of the int range");
   return static_cast<int>(v);
 }
 inline Result<bool> parse_bool(const std::string& text) {
   if (text == "true" || text == "True" || text == "TRUE" || text == "yes" || text == "on" || text == "1") return true;
   if (text == "false" || text == "False" || text == "FALSE" || text == "no" || text == "off" || text == "0") return false;
-  return fail("'" + text + "' is not a boolean (true/false)");
+  return fail(ErrorCode::invalid_value, "'" + text + "' is not a boolean (true/false)");
 }
 inline std::vector<std::string> split_list(const std::string& text) {
   std::vector<std::string> out;
@@ -111,13 +111,13 @@ Result<T> convert(const ConfigNode& node) {
     std::vector<std::string> texts;
     if (node.is_sequence()) {
       for (const auto& item : node.items()) {
-        if (!item.is_scalar()) return fail("expected a list of scalars");
+        if (!item.is_scalar()) return fail(ErrorCode::invalid_value, "expected a list of scalars");
         texts.push_back(item.scalar());
       }
     } else if (node.is_scalar()) {
       texts = split_list(node.scalar());
     } else {
-      return fail("expected a list");
+      return fail(ErrorCode::invalid_value, "expected a list");
     }
     T out;
     for (const auto& t : texts) {
@@ -131,7 +131,7 @@ Result<T> convert(const ConfigNode& node) {
     }
     return out;
   } else {
-    if (!node.is_scalar()) return fail(std::string("expected a scalar of type ") + TypeName<T>::value);
+    if (!node.is_scalar()) return fail(ErrorCode::invalid_value, std::string("expected a scalar of type ") + TypeName<T>::value);
     const std::string& s = node.scalar();
     if constexpr (std::is_same_v<T, int>) return parse_int(s);
     else if constexpr (std::is_same_v<T, double>) return parse_double(s);

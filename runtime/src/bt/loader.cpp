@@ -1028,7 +1028,11 @@ Result<Tree> run_load(const NodeRegistry& registry, const LoadOptions& options, 
   Loader loader(registry, options);
   load(loader);
   loader.validate();
-  if (!loader.diagnostics().empty()) return fail(to_string(loader.diagnostics()));
+  if (!loader.diagnostics().empty()) {
+    // Every diagnostic is in the message; the first one gives the code and location.
+    const Diagnostic& first = loader.diagnostics().front();
+    return Error{to_string(loader.diagnostics()), first.code, {first.file, first.line, first.node_path}};
+  }
   auto context = std::make_unique<TreeContext>();
   context->clock = options.clock;
   context->enums = registry.enums();

@@ -22,7 +22,7 @@ Result<NodeStatus> PortConverter<NodeStatus>::parse(std::string_view text, const
   const std::string_view t = detail::trim(text);
   for (NodeStatus s : {NodeStatus::idle, NodeStatus::running, NodeStatus::success, NodeStatus::failure, NodeStatus::skipped})
     if (t == to_string(s)) return s;
-  return fail(detail::quoted(text) + " is not a status (SUCCESS, FAILURE, SKIPPED, RUNNING, IDLE)");
+  return fail(ErrorCode::invalid_value, detail::quoted(text) + " is not a status (SUCCESS, FAILURE, SKIPPED, RUNNING, IDLE)");
 }
 
 const char* to_string(NodeKind kind) noexcept {
@@ -46,7 +46,7 @@ const char* to_string(PortDirection direction) noexcept {
 }
 
 Status EnumTables::add(std::type_index type, std::string type_name, std::vector<std::pair<std::string, int>> values) {
-  if (find(type) != nullptr) return fail("enum type '" + type_name + "' is already registered");
+  if (find(type) != nullptr) return fail(ErrorCode::inconsistent, "enum type '" + type_name + "' is already registered");
   if (values.empty()) return fail("enum type '" + type_name + "' has no values");
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::string& name = values[i].first;
@@ -101,9 +101,9 @@ Result<int> parse_int(std::string_view text) {
   if (b != e && *b == '+') ++b;
   long long v = 0;
   auto [p, ec] = std::from_chars(b, e, v);
-  if (b == e || ec != std::errc{} || p != e) return fail(quoted(text) + " is not an integer");
+  if (b == e || ec != std::errc{} || p != e) return fail(ErrorCode::invalid_value, quoted(text) + " is not an integer");
   if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-    return fail(quoted(text) + " is out of the int range");
+    return fail(ErrorCode::out_of_range, quoted(text) + " is out of the int range");
   return static_cast<int>(v);
 }
 
@@ -112,11 +112,11 @@ Result<unsigned> parse_unsigned(std::string_view text) {
   const char* b = t.data();
   const char* e = b + t.size();
   if (b != e && *b == '+') ++b;
-  if (b != e && *b == '-') return fail(quoted(text) + " is negative (the port is unsigned)");
+  if (b != e && *b == '-') return fail(ErrorCode::invalid_value, quoted(text) + " is negative (the port is unsigned)");
   unsigned long long v = 0;
   auto [p, ec] = std::from_chars(b, e, v);
-  if (b == e || ec != std::errc{} || p != e) return fail(quoted(text) + " is not an unsigned integer");
-  if (v > std::numeric_limits<unsigned>::max()) return fail(quoted(text) + " is out of the unsigned int range");
+  if (b == e || ec != std::errc{} || p != e) return fail(ErrorCode::invalid_value, quoted(text) + " is not an unsigned integer");
+  if (v > std::numeric_limits<unsigned>::max()) return fail(ErrorCode::out_of_range, quoted(text) + " is out of the unsigned int range");
   return static_cast<unsigned>(v);
 }
 
@@ -127,7 +127,7 @@ Result<double> parse_double(std::string_view text) {
   if (b != e && *b == '+') ++b;
   double v = 0.0;
   auto [p, ec] = std::from_chars(b, e, v);
-  if (b == e || ec != std::errc{} || p != e || !std::isfinite(v)) return fail(quoted(text) + " is not a number");
+  if (b == e || ec != std::errc{} || p != e || !std::isfinite(v)) return fail(ErrorCode::invalid_value, quoted(text) + " is not a number");
   return v;
 }
 
@@ -135,7 +135,7 @@ Result<bool> parse_bool(std::string_view text) {
   std::string_view t = trim(text);
   if (t == "true" || t == "True" || t == "TRUE" || t == "1") return true;
   if (t == "false" || t == "False" || t == "FALSE" || t == "0") return false;
-  return fail(quoted(text) + " is not a boolean (true/false)");
+  return fail(ErrorCode::invalid_value, quoted(text) + " is not a boolean (true/false)");
 }
 
 std::vector<std::string_view> split_list(std::string_view text) {
@@ -165,7 +165,7 @@ Result<int> parse_enum(std::string_view text, std::type_index type, const EnumTa
   }
   std::string names;
   for (const auto& [name, value] : table->values) names += (names.empty() ? "" : ", ") + name;
-  return fail(quoted(text) + " is not a value of enum " + table->type_name + " (one of: " + names + ")");
+  return fail(ErrorCode::invalid_value, quoted(text) + " is not a value of enum " + table->type_name + " (one of: " + names + ")");
 }
 
 }  // namespace detail

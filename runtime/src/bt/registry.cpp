@@ -39,7 +39,8 @@ Status check_manifest(const NodeManifest& m, const EnumTables* enums) {
       if (!is_ref && p.parse != nullptr && enums != nullptr && !(p.type_name == "enum")) {
         auto parsed = p.parse(*p.default_value, enums);
         if (!parsed)
-          return fail("node '" + m.id + "': default of port '" + p.name + "': " + parsed.error().message);
+          return Error{"node '" + m.id + "': default of port '" + p.name + "': " + parsed.error().message,
+                       parsed.error().with_default_code(ErrorCode::invalid_value).code, {{}, 0, p.name}};
       }
     }
   }
@@ -54,7 +55,7 @@ Status NodeRegistry::register_manifest(NodeManifest manifest, NodeFactory factor
   if (!factory) return fail("node '" + manifest.id + "': no factory");
   VISNAV_TRY(check_manifest(manifest, enums_.get()));
   if (entries_.find(manifest.id) != entries_.end())
-    return fail("node ID '" + manifest.id + "' is already registered");
+    return Error{"node ID '" + manifest.id + "' is already registered", ErrorCode::inconsistent, {{}, 0, manifest.id}};
   manifest.builtin = registering_builtins_;
   std::string id = manifest.id;
   entries_.emplace(std::move(id), Entry{std::make_shared<const NodeManifest>(std::move(manifest)), std::move(factory)});

@@ -124,7 +124,7 @@ void Tree::remove_observer(std::uint64_t id) {
 
 Result<std::unique_ptr<TraceWriter>> TraceWriter::attach(Tree& tree, const std::filesystem::path& file) {
   std::FILE* f = std::fopen(file.string().c_str(), "w");
-  if (f == nullptr) return fail("cannot open trace file '" + file.string() + "' for writing");
+  if (f == nullptr) return fail(ErrorCode::io, {file.string()}, "cannot open the trace file for writing");
   return std::unique_ptr<TraceWriter>(new TraceWriter(tree, f));
 }
 

@@ -21,16 +21,22 @@ double wrap_rad(double a) { return std::remainder(a, 2.0 * std::numbers::pi); }
 }  // namespace
 
 Status LostPolicy::validate() const {
-  if (!(min_confidence >= 0.0 && min_confidence <= 1.0)) return fail("lost policy: min_confidence must be in [0, 1]");
-  if (window_frames < 1 || window_frames > 64) return fail("lost policy: window_frames must be in [1, 64]");
-  if (!(slow_after_m >= 0.0)) return fail("lost policy: slow_after_m must be >= 0");
-  if (!(slow_speed_factor > 0.0 && slow_speed_factor <= 1.0)) return fail("lost policy: slow_speed_factor must be in (0, 1]");
+  if (!(min_confidence >= 0.0 && min_confidence <= 1.0))
+    return Error{"lost policy: min_confidence must be in [0, 1]", ErrorCode::out_of_range, {{}, 0, "min_confidence"}};
+  if (window_frames < 1 || window_frames > 64)
+    return Error{"lost policy: window_frames must be in [1, 64]", ErrorCode::out_of_range, {{}, 0, "window_frames"}};
+  if (!(slow_after_m >= 0.0))
+    return Error{"lost policy: slow_after_m must be >= 0", ErrorCode::out_of_range, {{}, 0, "slow_after_m"}};
+  if (!(slow_speed_factor > 0.0 && slow_speed_factor <= 1.0))
+    return Error{"lost policy: slow_speed_factor must be in (0, 1]", ErrorCode::out_of_range, {{}, 0, "slow_speed_factor"}};
   if (!(max_blind_m > 0.0) || max_blind_m < slow_after_m)
-    return fail("lost policy: max_blind_m must be > 0 and >= slow_after_m");
-  if (!(max_frozen_m > 0.0)) return fail("lost policy: max_frozen_m must be > 0");
-  if (!(max_saturated_m > 0.0)) return fail("lost policy: max_saturated_m must be > 0");
+    return Error{"lost policy: max_blind_m must be > 0 and >= slow_after_m", ErrorCode::inconsistent, {{}, 0, "max_blind_m"}};
+  if (!(max_frozen_m > 0.0))
+    return Error{"lost policy: max_frozen_m must be > 0", ErrorCode::out_of_range, {{}, 0, "max_frozen_m"}};
+  if (!(max_saturated_m > 0.0))
+    return Error{"lost policy: max_saturated_m must be > 0", ErrorCode::out_of_range, {{}, 0, "max_saturated_m"}};
   if (!(max_heading_deviation_rad >= 0.0 && max_heading_deviation_rad <= std::numbers::pi))
-    return fail("lost policy: max_heading_deviation must be in [0, 180] deg");
+    return Error{"lost policy: max_heading_deviation must be in [0, 180] deg", ErrorCode::out_of_range, {{}, 0, "max_heading_deviation"}};
   return ok();
 }
 

@@ -283,7 +283,7 @@ void apply_endpoint_qos(const Qos& q, dds_qos_t* qos) {
 }
 
 Status check_options(const EndpointOptions& options) {
-  if (options.topic.empty()) return fail("empty DDS topic name");
+  if (options.topic.empty()) return fail(ErrorCode::invalid_value, {{}, 0, "topic"}, "empty DDS topic name");
   if (options.qos.history_depth < 0) return fail("topic '" + options.topic + "': history depth must be >= 0");
   if (options.qos.deadline_s < 0.0) return fail("topic '" + options.topic + "': deadline must be >= 0");
   return ok();

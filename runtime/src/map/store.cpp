@@ -422,7 +422,8 @@ const EdgeRecord* MapStore::find_edge(std::string_view id) const {
 Result<const NodeRecord*> MapStore::resolve_node(std::string_view id_or_name) const {
   if (const auto* n = find_node(id_or_name)) return n;
   if (const auto* n = find_node_by_name(id_or_name)) return n;
-  return fail(ErrorCode::not_found, impl_->dir + ": no node with id or name '" + std::string(id_or_name) + "'");
+  return Error{impl_->dir + ": no node with id or name '" + std::string(id_or_name) + "'", ErrorCode::not_found,
+               {impl_->dir, 0, std::string(id_or_name)}};
 }
 
 std::vector<const EdgeRecord*> MapStore::outgoing(std::string_view node_id) const {

@@ -13,6 +13,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "error_expect.hpp"
 #include "visnav/loader.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/runtime_host.hpp"
@@ -61,6 +62,11 @@ struct OutOfTreeBuild {
   [[nodiscard]] std::string visnav() const { return (prefix / "bin/visnav").string(); }
   bool ok = false;
 };
+
+using visnav::ErrorCode;
+using visnav::test::At;
+using visnav::test::fails_with;
+using visnav::test::key_only;
 
 TEST(OutOfTreePlugin, BuildsAgainstTheInstalledSdkAndLoadsThroughConfig) {
   const OutOfTreeBuild oot("out_of_tree_plugin");
@@ -183,8 +189,7 @@ TEST(OutOfTreePlugin, ExampleDevicesPluginCarriesARobotAndADetector) {
   auto missing = visnav::parse_yaml_string("{command_path: /nonexistent/tty, odometry_path: /nonexistent/tty}", "r.yaml");
   ASSERT_TRUE(missing.ok());
   auto refused = loader.create<visnav::Robot>("line_robot", *missing, host);
-  ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.error().message.find("/nonexistent/tty"), std::string::npos) << refused.error().message;
+  EXPECT_TRUE(fails_with(refused, ErrorCode::io, At{"/nonexistent/tty"}));
 
   auto detector_node = visnav::parse_yaml_string("{threshold: 20, max_keypoints: 50}", "detector.yaml");
   ASSERT_TRUE(detector_node.ok());
@@ -204,6 +209,5 @@ TEST(OutOfTreePlugin, ExampleDevicesPluginCarriesARobotAndADetector) {
   auto bad = visnav::parse_yaml_string("{threshold: 0}", "detector.yaml");
   ASSERT_TRUE(bad.ok());
   auto rejected = loader.create<visnav::Detector>("fast_orb", *bad, host);
-  ASSERT_FALSE(rejected.ok());
-  EXPECT_NE(rejected.error().message.find("threshold"), std::string::npos) << rejected.error().message;
+  EXPECT_TRUE(fails_with(rejected, ErrorCode::out_of_range, At{"detector.yaml", 1, "threshold"}));
 }

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <limits>
 
+#include "error_expect.hpp"
 #include "map_test_util.hpp"
 
 namespace visnav {
@@ -35,6 +36,11 @@ class RouteMap : public ::testing::Test {
   TempDir tmp_;
   std::unique_ptr<MapStore> map_;
 };
+
+using visnav::ErrorCode;
+using visnav::test::At;
+using visnav::test::fails_with;
+using visnav::test::key_only;
 
 TEST_F(RouteMap, ShortestByLength) {
   auto r = plan_route(*map_, "A", "D");
@@ -89,8 +95,7 @@ TEST_F(RouteMap, UnreachableGoalAndForbiddenKinds) {
 
 TEST_F(RouteMap, UnknownNodesAndInvalidCosts) {
   auto r = plan_route(*map_, "A", "mars");
-  ASSERT_FALSE(r);
-  EXPECT_NE(r.error().message.find("'mars'"), std::string::npos);
+  EXPECT_TRUE(fails_with(r, ErrorCode::not_found, key_only("mars")));
   EXPECT_FALSE(plan_route(*map_, "", "A"));
   RouteCost bad;
   bad.kind_multiplier["feature_segment"] = 0.0;

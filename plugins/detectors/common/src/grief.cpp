@@ -13,8 +13,10 @@ namespace visnav::detectors {
 
 namespace {
 
-Error at(const ConfigNode& node, const std::string& message) {
-  return Error{node.where().str() + ": " + message};
+/// A problem of the pairs file at `node` (its file and line), keyed `key` when one is known.
+Error at(const ConfigNode& node, const std::string& message, ErrorCode code = ErrorCode::invalid_value,
+         std::string key = {}) {
+  return Error{node.where().str() + ": " + message, code, {node.where().file, node.where().line, std::move(key)}};
 }
 
 Result<int> integer(const ConfigNode& node, const std::string& what) {
@@ -30,7 +32,7 @@ Result<int> integer(const ConfigNode& node, const std::string& what) {
 
 Result<PairsFile> read_pairs_file(const std::string& path) {
   VISNAV_ASSIGN(const ConfigNode root, parse_yaml_file(path));
-  if (!root.is_map()) return fail(root.where().str() + ": a pairs file is a map with keys patch_size_px, pairs");
+  if (!root.is_map()) return at(root, "a pairs file is a map with keys patch_size_px, pairs");
   PairsFile out;
   const ConfigNode* pairs = nullptr;
   const ConfigNode* patch = nullptr;
@@ -38,19 +40,21 @@ Result<PairsFile> read_pairs_file(const std::string& path) {
     if (key == "patch_size_px") patch = &value;
     else if (key == "pairs") pairs = &value;
     else if (key == "training") out.training = value;
-    else return at(value, "unknown key '" + key + "' (expected patch_size_px, pairs, training)");
+    else return at(value, "unknown key '" + key + "' (expected patch_size_px, pairs, training)", ErrorCode::unknown_key, key);
   }
-  if (patch == nullptr) return fail(path + ": missing key 'patch_size_px'");
-  if (pairs == nullptr) return fail(path + ": missing key 'pairs'");
+  if (patch == nullptr) return fail(ErrorCode::missing, {path, 0, "patch_size_px"}, "missing key 'patch_size_px'");
+  if (pairs == nullptr) return fail(ErrorCode::missing, {path, 0, "pairs"}, "missing key 'pairs'");
   VISNAV_ASSIGN(out.patch_size_px, integer(*patch, "key 'patch_size_px'"));
   BriefParams bp;
   bp.patch_size_px = out.patch_size_px;
-  if (auto st = bp.validate(); !st) return at(*patch, "key 'patch_size_px': " + st.error().message);
+  if (auto st = bp.validate(); !st)
+    return at(*patch, "key 'patch_size_px': " + st.error().message, ErrorCode::out_of_range, "patch_size_px");
   if (!pairs->is_sequence()) return at(*pairs, "key 'pairs': expected a list of [x1, y1, x2, y2]");
   const auto& items = pairs->items();
   if (items.size() != static_cast<std::size_t>(BriefExtractor::kBits))
     return at(*pairs, "key 'pairs': expected exactly " + std::to_string(BriefExtractor::kBits) + " pairs, got " +
-                          std::to_string(items.size()));
+                          std::to_string(items.size()),
+              ErrorCode::out_of_range, "pairs");
   out.pairs.reserve(items.size());
   for (std::size_t i = 0; i < items.size(); ++i) {
     const ConfigNode& item = items[i];
@@ -67,7 +71,7 @@ Result<PairsFile> read_pairs_file(const std::string& path) {
     if (auto st = BriefExtractor::validate_pattern(one, out.patch_size_px); !st) {
       std::string msg = st.error().message;
       if (msg.rfind("pair 0", 0) == 0) msg = what + msg.substr(6);
-      return at(item, msg);
+      return at(item, msg, ErrorCode::out_of_range, "pairs");
     }
   }
   return out;

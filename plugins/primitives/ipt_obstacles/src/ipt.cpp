@@ -12,7 +12,7 @@ Status IptCamera::validate() const {
     return Error{"no ground visible: the horizon row " + std::to_string(v_h) + " px is at or below the bottom row " +
                      std::to_string(height_px - 1) + " (pitch_rad " + std::to_string(pitch_rad) +
                      " looks too far up for fy_px " + std::to_string(fy_px) + ")",
-                 ErrorCode::out_of_range};
+                 ErrorCode::out_of_range, {{}, 0, "pitch_rad"}};
   return ok();
 }
 

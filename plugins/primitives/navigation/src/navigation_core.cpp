@@ -28,7 +28,8 @@ std::string trim(std::string_view text) {
 
 Result<std::pair<std::string, std::string>> split_entry(const std::string& entry) {
   const auto eq = entry.find('=');
-  if (eq == std::string::npos) return fail("entry '" + entry + "' is not of the form kind=value");
+  if (eq == std::string::npos)
+    return Error{"entry '" + entry + "' is not of the form kind=value", ErrorCode::invalid_value, {{}, 0, entry}};
   std::string key = trim(std::string_view(entry).substr(0, eq));
   std::string value = trim(std::string_view(entry).substr(eq + 1));
   if (key.empty() || value.empty()) return fail("entry '" + entry + "' has an empty kind or value");
@@ -194,7 +195,8 @@ Result<Route> plan_cycle(const MapStore& map, std::string_view node, const Route
     }
     if (!best || candidate.cost < best->cost) best = std::move(candidate);
   }
-  if (!best) return fail("node '" + std::string(node) + "' lies on no closed route");
+  if (!best)
+    return Error{"node '" + std::string(node) + "' lies on no closed route", ErrorCode::not_found, {{}, 0, std::string(node)}};
   return std::move(*best);
 }
 

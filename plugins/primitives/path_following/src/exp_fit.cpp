@@ -45,7 +45,7 @@ Result<ExpDecayFit> fit_exponential_decay(std::span<const double> x, std::span<c
   if (x.size() < 3) return fail("fit_exponential_decay: needs at least 3 points, got " + std::to_string(x.size()));
   for (std::size_t i = 0; i < x.size(); ++i)
     if (!std::isfinite(x[i]) || !std::isfinite(y[i]))
-      return fail("fit_exponential_decay: point " + std::to_string(i) + " is not finite");
+      return fail(ErrorCode::invalid_value, "fit_exponential_decay: point " + std::to_string(i) + " is not finite");
   const auto [xmin_it, xmax_it] = std::minmax_element(x.begin(), x.end());
   const double x_span = *xmax_it - *xmin_it;
   if (!(x_span > 0.0)) return fail("fit_exponential_decay: all x values are equal");

@@ -78,7 +78,8 @@ Result<std::vector<std::string>> appearance_overrides(const std::string& name) {
                                     "camera.params.shadow_direction_deg=120"};
   if (name == "overcast")
     return std::vector<std::string>{"camera.params.gain=0.8", "camera.params.color_gain_bgr=1.05;1;0.95"};
-  return fail("unknown appearance '" + name + "' (known: same, winter, autumn, dusk, low_sun, overcast)");
+  return Error{"unknown appearance '" + name + "' (known: same, winter, autumn, dusk, low_sun, overcast)",
+               ErrorCode::out_of_range, {{}, 0, name}};
 }
 
 std::vector<std::string> ideal_overrides() {

@@ -66,13 +66,16 @@ double quantile(std::vector<double>& v, double q) {
 
 Status ScenarioRanges::validate() const {
   if (!(curvature_min_per_m > 0.0 && curvature_min_per_m <= curvature_max_per_m && std::isfinite(curvature_max_per_m)))
-    return fail("curvature range must satisfy 0 < min <= max, got [" + num(curvature_min_per_m) + ", " +
-                num(curvature_max_per_m) + "] 1/m");
+    return Error{"curvature range must satisfy 0 < min <= max, got [" + num(curvature_min_per_m) + ", " +
+                     num(curvature_max_per_m) + "] 1/m",
+                 ErrorCode::out_of_range, {{}, 0, "curvature_min_per_m"}};
   if (!(landmark_min_m > 0.0 && landmark_min_m <= landmark_max_m && std::isfinite(landmark_max_m)))
-    return fail("landmark distance range must satisfy 0 < min <= max, got [" + num(landmark_min_m) + ", " +
-                num(landmark_max_m) + "] m");
+    return Error{"landmark distance range must satisfy 0 < min <= max, got [" + num(landmark_min_m) + ", " +
+                     num(landmark_max_m) + "] m",
+                 ErrorCode::out_of_range, {{}, 0, "landmark_min_m"}};
   if (!(initial_error_max_m >= 0.0 && std::isfinite(initial_error_max_m)))
-    return fail("initial_error_max_m must be >= 0, got " + num(initial_error_max_m));
+    return Error{"initial_error_max_m must be >= 0, got " + num(initial_error_max_m), ErrorCode::out_of_range,
+                 {{}, 0, "initial_error_max_m"}};
   if (!(odom_error_max >= 0.0 && odom_error_max < 0.5)) return fail("odom_error_max must be in [0, 0.5), got " + num(odom_error_max));
   if (!(heading_error_max_deg >= 0.0 && heading_error_max_deg < 45.0))
     return fail("heading_error_max_deg must be in [0, 45), got " + num(heading_error_max_deg));

@@ -294,8 +294,8 @@ Result<ObjectiveBreakdown> objective_from_summary(const std::string& json_text, 
     ++scored;
   }
   if (scored == 0)
-    return fail(w.style.empty() ? std::string("summary.json: \"styles\" is empty")
-                                : "summary.json: no style '" + w.style + "'");
+    return Error{w.style.empty() ? std::string("summary.json: \"styles\" is empty") : "summary.json: no style '" + w.style + "'",
+                 ErrorCode::not_found, {"summary.json", 0, w.style.empty() ? std::string("styles") : w.style}};
   total.eps_acc_m /= scored;
   total.eps_rep_m /= scored;
   total.failed_share /= scored;

@@ -85,6 +85,42 @@ class KeyboardInput final : public OperatorInput {
   std::vector<std::string> keys_;
 };
 
+/// A keyboard on evdev: key presses, autorepeats and releases (KeyTeleop::release_key), so letting
+/// go of a driving key stops at the next tick. Reading /dev/input/event* needs group `input`.
+class EvdevKeyboardInput final : public OperatorInput {
+ public:
+  EvdevKeyboardInput(std::string device, int fd, KeyTeleop core) : device_(std::move(device)), fd_(fd), core_(std::move(core)) {}
+  ~EvdevKeyboardInput() override { ::close(fd_); }
+  EvdevKeyboardInput(const EvdevKeyboardInput&) = delete;
+  EvdevKeyboardInput& operator=(const EvdevKeyboardInput&) = delete;
+
+  Result<TeleopAction> poll(double now_s) override {
+    bytes_.clear();
+    auto open = read_available(fd_, bytes_);
+    if (!open) return fail(ErrorCode::io, {device_}, "keyboard: read failed: " + open.error().message);
+    events_.clear();
+    decoder_.feed(bytes_.data(), bytes_.size(), events_);
+    for (const auto& e : events_) {
+      if (e.released) core_.release_key(e.key);
+      else (void)core_.apply_key(e.key, now_s);
+    }
+    if (!*open) {
+      // The device went away (unplugged, FIFO writer closed): nothing is held any more.
+      core_.release_all();
+    }
+    return core_.update(now_s);
+  }
+  [[nodiscard]] bool keyboard() const override { return true; }
+
+ private:
+  std::string device_;
+  int fd_;
+  KeyTeleop core_;
+  EvdevKeyDecoder decoder_;
+  std::vector<std::uint8_t> bytes_;
+  std::vector<EvdevKeyDecoder::Event> events_;
+};
+
 // ---- Linux joystick: joystick API (js*) or evdev (event*) ---------------------------------
 
 /// Asks an evdev device which axes and buttons it has, numbered as joydev numbers them (so the
@@ -256,7 +292,11 @@ Result<std::unique_ptr<OperatorInput>> open_input(const InputSpec& spec, const T
       return std::unique_ptr<OperatorInput>(new KeyboardInput(STDIN_FILENO, false, std::move(core)));
     }
     const int fd = ::open(spec.device.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) return fail("input 'keyboard': cannot open device '" + spec.device + "': " + errno_text());
+    if (fd < 0)
+      return fail(ErrorCode::io, {spec.device}, "input 'keyboard': cannot open the device: " + errno_text() +
+                                                    (is_evdev_path(spec.device) ? " (is the user in group 'input'?)" : ""));
+    if (is_evdev_path(spec.device))
+      return std::unique_ptr<OperatorInput>(new EvdevKeyboardInput(spec.device, fd, std::move(core)));
     return std::unique_ptr<OperatorInput>(new KeyboardInput(fd, true, std::move(core)));
   }
   if (spec.input == "joystick") {

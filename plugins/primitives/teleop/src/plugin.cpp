@@ -26,7 +26,7 @@ using bt::NodeStatus;
 
 bt::PortsList input_ports() {
   return {bt::input_port<std::string>("input", "keyboard", "keyboard | joystick | joy (sensor_msgs/Joy) | twist (geometry_msgs/Twist)"),
-          bt::input_port<std::string>("device", "", "keyboard: '' = stdin or a file/FIFO; joystick: '' = /dev/input/js0, or /dev/input/eventN (evdev)"),
+          bt::input_port<std::string>("device", "", "keyboard: '' = stdin, a file/FIFO, or /dev/input/eventN (evdev: reports key releases); joystick: '' = /dev/input/js0, or /dev/input/eventN (evdev)"),
           bt::input_port<std::string>("topic", "", "joy: '' = rt/joy; twist: '' = rt/cmd_vel_teleop (ROS /x = rt/x)"),
           bt::input_port<int>("domain_id", "0", "DDS domain of the joy/twist topic (ROS_DOMAIN_ID)"),
           bt::input_port<std::string>("mapping_file", "", "axes/buttons/keys mapping YAML (config/teleop/*.yaml); '' = defaults")};

@@ -230,6 +230,59 @@ void EvdevDecoder::apply(std::uint16_t type, std::uint16_t code, std::int32_t va
   // Other EV_SYN, EV_MSC and unmapped codes carry nothing for teleop.
 }
 
+std::string EvdevKeyDecoder::key_name(std::uint16_t code) {
+  switch (code) {
+    case KEY_UP: return "\x1b[A";
+    case KEY_DOWN: return "\x1b[B";
+    case KEY_RIGHT: return "\x1b[C";
+    case KEY_LEFT: return "\x1b[D";
+    case KEY_SPACE: return " ";
+    case KEY_ENTER: return "\n";
+    case KEY_MINUS: case KEY_KPMINUS: return "-";
+    case KEY_EQUAL: return "=";
+    case KEY_KPPLUS: return "+";
+    default: break;
+  }
+  // Letters and digits, as the lower-case character a terminal would send for them.
+  static constexpr std::pair<std::uint16_t, char> kChars[] = {
+      {KEY_A, 'a'}, {KEY_B, 'b'}, {KEY_C, 'c'}, {KEY_D, 'd'}, {KEY_E, 'e'}, {KEY_F, 'f'}, {KEY_G, 'g'},
+      {KEY_H, 'h'}, {KEY_I, 'i'}, {KEY_J, 'j'}, {KEY_K, 'k'}, {KEY_L, 'l'}, {KEY_M, 'm'}, {KEY_N, 'n'},
+      {KEY_O, 'o'}, {KEY_P, 'p'}, {KEY_Q, 'q'}, {KEY_R, 'r'}, {KEY_S, 's'}, {KEY_T, 't'}, {KEY_U, 'u'},
+      {KEY_V, 'v'}, {KEY_W, 'w'}, {KEY_X, 'x'}, {KEY_Y, 'y'}, {KEY_Z, 'z'}, {KEY_0, '0'}, {KEY_1, '1'},
+      {KEY_2, '2'}, {KEY_3, '3'}, {KEY_4, '4'}, {KEY_5, '5'}, {KEY_6, '6'}, {KEY_7, '7'}, {KEY_8, '8'},
+      {KEY_9, '9'}};
+  for (const auto& [c, ch] : kChars)
+    if (c == code) return std::string(1, ch);
+  return {};
+}
+
+void EvdevKeyDecoder::feed(const std::uint8_t* data, std::size_t size, std::vector<Event>& out) {
+  for (std::size_t i = 0; i < size; ++i) {
+    partial_.push_back(data[i]);
+    if (partial_.size() < EvdevDecoder::kEventBytes) continue;
+    input_event e{};
+    std::memcpy(&e, partial_.data(), EvdevDecoder::kEventBytes);
+    partial_.clear();
+    if (e.type == EV_SYN && e.code == SYN_DROPPED) {
+      // Events were lost (a release among them, perhaps): every held key counts as let go.
+      for (auto& k : held_) out.push_back({std::move(k), true});
+      held_.clear();
+      continue;
+    }
+    if (e.type != EV_KEY) continue;
+    std::string key = key_name(e.code);
+    if (key.empty()) continue;
+    const auto it = std::find(held_.begin(), held_.end(), key);
+    if (e.value == 0) {
+      if (it != held_.end()) held_.erase(it);
+      out.push_back({std::move(key), true});
+    } else {  // 1 press, 2 autorepeat
+      if (it == held_.end()) held_.push_back(key);
+      out.push_back({std::move(key), false});
+    }
+  }
+}
+
 bool is_evdev_path(const std::string& device) {
   const auto slash = device.find_last_of('/');
   const std::string base = slash == std::string::npos ? device : device.substr(slash + 1);
@@ -344,6 +397,26 @@ bool KeyTeleop::apply_hold_key(const std::string& key, double now_s) {
   last_key_s_ = now_s;
   target_ = clamp_twist(t, params_);
   return true;
+}
+
+void KeyTeleop::release_key(const std::string& key) {
+  if (!manual_ || !hold_mode() || held_key_.empty()) return;
+  const std::string drive = key == "\x1b[A" || key == "w"   ? "fwd"
+                            : key == "\x1b[B" || key == "s" ? "back"
+                            : key == "\x1b[D" || key == "a" ? "left"
+                            : key == "\x1b[C" || key == "d" ? "right"
+                                                             : "";
+  if (drive != held_key_) return;  // another key let go while the driving one is still down
+  held_key_.clear();
+  repeating_ = false;
+  target_ = Twist{};
+}
+
+void KeyTeleop::release_all() {
+  if (!hold_mode() || held_key_.empty()) return;
+  held_key_.clear();
+  repeating_ = false;
+  target_ = Twist{};
 }
 
 bool KeyTeleop::apply_key(const std::string& key, double now_s) {

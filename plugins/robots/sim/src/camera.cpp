@@ -184,12 +184,13 @@ Status SimCamera::bind() {
   std::shared_ptr<RobotCore> robot = robot_;
   if (!robot) {
     Robot* run_robot = host_ != nullptr ? host_->robot() : nullptr;
-    if (run_robot == nullptr) return fail("sim camera: the run has no robot yet (the sim camera renders a `sim` robot's world)");
+    if (run_robot == nullptr)
+      return fail(ErrorCode::not_found, "sim camera: the run has no robot yet (the sim camera renders a `sim` robot's world)");
     // The host's robot may wrap the plugin's (the run's command guard); its simulation interface
     // is the sim robot itself.
     auto* sim_robot = dynamic_cast<SimRobot*>(run_robot->simulation());
     if (sim_robot == nullptr)
-      return fail("sim camera: the run's robot is not a `sim` robot (the sim camera can only ride on one)");
+      return fail(ErrorCode::inconsistent, "sim camera: the run's robot is not a `sim` robot (the sim camera can only ride on one)");
     robot = sim_robot->core();
   }
   std::shared_ptr<const World> world = robot->world();

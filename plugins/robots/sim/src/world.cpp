@@ -216,7 +216,8 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
         ring.push_back(c + radius_m * cv::Point2d(std::cos(a), std::sin(a)));
       }
     } else {
-      return node_error(*o.find("kind"), name + ": unknown kind '" + kind + "' (known: box, post, van)");
+      return node_error(*o.find("kind"), name + ": unknown kind '" + kind + "' (known: box, post, van)", ErrorCode::out_of_range,
+                        "kind");
     }
     for (std::size_t i = 0; i < ring.size(); ++i)
       VISNAV_TRY(add_wall(world, ring[i], ring[(i + 1) % ring.size()], 0.0, height_m, texture, LabelClass::obstacle,

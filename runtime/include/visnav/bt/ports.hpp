@@ -135,7 +135,7 @@ struct PortConverter<std::vector<T>> {
     if (detail::trim(text).empty()) return out;
     for (std::string_view item : detail::split_list(text)) {
       auto v = PortConverter<T>::parse(std::is_same_v<T, std::string> ? item : detail::trim(item), enums);
-      if (!v) return Error{"list item " + detail::quoted(item) + ": " + v.error().message};
+      if (!v) return Error{"list item " + detail::quoted(item) + ": " + v.error().message, v.error().code, v.error().where};
       out.push_back(std::move(*v));
     }
     return out;

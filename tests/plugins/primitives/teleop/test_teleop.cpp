@@ -219,6 +219,39 @@ TEST(KeyTeleop, StepsClampsStopsAndSwitchesPrimitive) {
   EXPECT_FALSE(a.engaged);
 }
 
+TEST(EvdevKeyDecoder, SpellsKeysAsATerminalDoesAndReportsReleases) {
+  EvdevKeyDecoder d;
+  std::vector<EvdevKeyDecoder::Event> events;
+  const auto bytes = cat({ev_event(EV_KEY, KEY_UP, 1), ev_event(EV_SYN, SYN_REPORT, 0), ev_event(EV_KEY, KEY_Q, 1),
+                          ev_event(EV_KEY, KEY_UP, 2), ev_event(EV_KEY, KEY_UP, 0), ev_event(EV_KEY, KEY_F1, 1),
+                          ev_event(EV_MSC, MSC_SCAN, 17)});
+  // Fed in two pieces that split a record: the partial one waits for its rest.
+  d.feed(bytes.data(), 30, events);
+  d.feed(bytes.data() + 30, bytes.size() - 30, events);
+  ASSERT_EQ(events.size(), 4U);  // F1 and the scan code mean nothing to teleop
+  EXPECT_EQ(events[0].key, "\x1b[A");
+  EXPECT_FALSE(events[0].released);
+  EXPECT_EQ(events[1].key, "q");
+  EXPECT_FALSE(events[2].released);  // autorepeat
+  EXPECT_TRUE(events[3].released);
+  events.clear();
+  d.feed(ev_event(EV_SYN, SYN_DROPPED, 0).data(), EvdevDecoder::kEventBytes, events);
+  ASSERT_EQ(events.size(), 1U);  // q is still held: lost events release it
+  EXPECT_EQ(events[0].key, "q");
+  EXPECT_TRUE(events[0].released);
+}
+
+TEST(KeyTeleop, ReleasingTheDrivingKeyStopsAtOnceAndOtherReleasesDoNot) {
+  auto k = KeyTeleop::create(TeleopParams{}, true);
+  ASSERT_TRUE(k.ok());
+  k->apply_key("w", 0.0);
+  EXPECT_GT(k->update(0.01).command.linear_mps, 0.0);
+  k->release_key("a");  // not the key that drives
+  EXPECT_GT(k->update(0.02).command.linear_mps, 0.0);
+  k->release_key("w");
+  EXPECT_EQ(k->update(0.03).command.linear_mps, 0.0);  // 30 ms: long before any timeout
+}
+
 TEST(TeleopParams, CloseKeyAndButtonMustNotClashWithOtherControls) {
   TeleopParams p;
   p.close_key = p.done_key;
@@ -478,6 +511,47 @@ TEST_F(TeleopNodes, KeyboardDeadmanStopsWithin100msOfTheLastAutorepeat) {
   std::printf("keyboard: last autorepeat -> zero command: %.0f ms of run clock at a 20 Hz tick\n",
               (stopped_s - last_key_s) * 1e3);
   EXPECT_LE(stopped_s - last_key_s, 0.1 + 0.05 + 1e-9);  // the timeout plus at most one tick
+}
+
+TEST_F(TeleopNodes, EvdevKeyboardStopsAtTheTickAfterTheDrivingKeyIsLetGo) {
+  // A keyboard on evdev reports releases: the deadman does not wait for a timeout.
+  const std::string event_dev = (dir_ / "event4").string();
+  ASSERT_EQ(::mkfifo(event_dev.c_str(), 0600), 0);
+  const int w = ::open(event_dev.c_str(), O_RDWR | O_NONBLOCK);
+  ASSERT_GE(w, 0);
+  auto send = [&](const std::vector<std::uint8_t>& b) {
+    ASSERT_EQ(::write(w, b.data(), b.size()), static_cast<ssize_t>(b.size()));
+  };
+  bt::Tree tree = test::load_main_tree("<Teleop input=\"keyboard\" device=\"" + event_dev + "\"/>", registry_, &clock_);
+  clock_.set(0.0);
+  send(cat({ev_event(EV_KEY, KEY_W, 1), ev_event(EV_SYN, SYN_REPORT, 0)}));
+  EXPECT_EQ(tree.tick_once(), NodeStatus::running);
+  EXPECT_GT(robot_.command_.linear_mps, 0.0);
+  // Held through the kernel's autorepeat (value 2) for a while.
+  for (int tick = 1; tick <= 10; ++tick) {
+    clock_.set(tick * 0.05);
+    send(cat({ev_event(EV_KEY, KEY_W, 2), ev_event(EV_SYN, SYN_REPORT, 0)}));
+    tree.tick_once();
+    EXPECT_GT(robot_.command_.linear_mps, 0.0) << "tick " << tick;
+  }
+  // Let go 10 ms after the last repeat; the next tick (40 ms later) sends zero.
+  send(cat({ev_event(EV_KEY, KEY_W, 0), ev_event(EV_SYN, SYN_REPORT, 0)}));
+  const double released_s = 0.51;
+  clock_.set(0.55);
+  tree.tick_once();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  std::printf("evdev keyboard: key release -> zero command: %.0f ms of run clock at a 20 Hz tick\n",
+              (clock_.now_s() - released_s) * 1e3);
+  // A held turn key, then lost events (SYN_DROPPED): counted as let go.
+  send(cat({ev_event(EV_KEY, KEY_LEFT, 1), ev_event(EV_SYN, SYN_REPORT, 0)}));
+  clock_.set(0.60);
+  tree.tick_once();
+  EXPECT_GT(robot_.command_.angular_radps, 0.0);
+  send(ev_event(EV_SYN, SYN_DROPPED, 0));
+  clock_.set(0.65);
+  tree.tick_once();
+  EXPECT_EQ(robot_.command_.angular_radps, 0.0);
+  ::close(w);
 }
 
 TEST_F(TeleopNodes, EvdevGamepadTeachesWithTheDeadmanLikeTheJoystickApi) {

@@ -173,6 +173,26 @@ class KeyDecoder {
   std::string pending_;
 };
 
+/// A keyboard on evdev (/dev/input/eventN): unlike a terminal it reports key releases, so a
+/// held driving key stops the robot at the tick after it is let go, not after a timeout.
+/// Keys come out spelled as KeyDecoder spells them ("w", "\x1b[A" for up, " " for space).
+class EvdevKeyDecoder {
+ public:
+  struct Event {
+    std::string key;
+    bool released = false;  ///< false: pressed or autorepeat
+  };
+  /// Feeds raw bytes (input_event records); appends the key events found to `out`. A lost-events
+  /// marker (SYN_DROPPED) releases every key held.
+  void feed(const std::uint8_t* data, std::size_t size, std::vector<Event>& out);
+  /// The name of an evdev key code ("" for a key teleop has no use for).
+  static std::string key_name(std::uint16_t code);
+
+ private:
+  std::vector<std::uint8_t> partial_;
+  std::vector<std::string> held_;
+};
+
 /// What the operator asks for this tick.
 struct TeleopAction {
   Twist command;                         ///< zero unless `engaged`
@@ -220,6 +240,11 @@ class KeyTeleop {
   /// Applies one key (as KeyDecoder yields them) received at `now_s`. Returns false for a key
   /// that means nothing.
   bool apply_key(const std::string& key, double now_s = 0.0);
+  /// A key reported as let go (evdev keyboards only): in hold-to-drive, releasing the driving
+  /// key zeroes the command at once. Other keys' releases mean nothing.
+  void release_key(const std::string& key);
+  /// Every key let go (the device went away or lost events): a held driving key stops.
+  void release_all();
   /// The action at `now_s` after the keys applied since the last call.
   TeleopAction update(double now_s = 0.0);
   [[nodiscard]] const Twist& target() const { return target_; }

@@ -9,6 +9,7 @@
 #include "command.hpp"
 #include "mcap_input.hpp"
 #include "visnav/config.hpp"
+#include "visnav/params.hpp"
 
 namespace {
 
@@ -53,6 +54,104 @@ const visnav::cli::Command* find_command(const std::string& name) {
   return nullptr;
 }
 
+/// The run-clock time of the recording's last frame (teaching ends a margin before it).
+visnav::Result<double> last_frame_time(const fs::path& run, const std::string& run_arg) {
+  std::ifstream frames(run / "frames.csv");
+  if (!frames) return visnav::fail(visnav::ErrorCode::not_found, {run_arg}, "not a recorded run (no frames.csv)");
+  double last_t_s = 0.0;
+  bool any = false;
+  for (std::string line; std::getline(frames, line);) {
+    if (line.empty() || line[0] == '#' || line.rfind("index", 0) == 0) continue;
+    const auto c1 = line.find(',');
+    if (c1 == std::string::npos) continue;
+    try {
+      last_t_s = std::stod(line.substr(c1 + 1));
+      any = true;
+    } catch (...) {
+    }
+  }
+  if (!any) return visnav::fail(visnav::ErrorCode::missing, {run_arg}, "has no frames");
+  return last_t_s;
+}
+
+/// The gamepad's primitive buttons as the Teleop node binds them (`primitive_buttons` of the
+/// operator mapping file, or the Teleop defaults when the file has none).
+visnav::Result<std::vector<std::pair<int, std::string>>> gamepad_bindings(const std::string& mapping) {
+  VISNAV_ASSIGN(const visnav::ConfigNode root, visnav::parse_yaml_file(mapping));
+  const visnav::ConfigNode* list = root.is_map() ? root.find("primitive_buttons") : nullptr;
+  if (list == nullptr || !list->is_sequence()) return std::vector<std::pair<int, std::string>>{{0, "feature_segment"}, {2, "path_following"}, {1, ""}};
+  std::vector<std::pair<int, std::string>> bindings;
+  for (const auto& item : list->items()) {
+    const std::string e = item.is_scalar() ? item.scalar() : std::string();
+    const auto eq = e.find('=');
+    auto button = eq == std::string::npos ? visnav::Result<int>(visnav::fail("no '='")) : visnav::detail::parse_int(e.substr(0, eq));
+    if (!button)
+      return visnav::fail(visnav::ErrorCode::invalid_value, {mapping, item.where().line, "primitive_buttons"},
+                          "entry '" + e + "' is not button=kind");
+    bindings.emplace_back(*button, e.substr(eq + 1));
+  }
+  return bindings;
+}
+
+/// The marks file teaching follows, and whether it was written here (removed afterwards).
+struct Marks {
+  std::string path;
+  fs::path generated;  ///< empty: the user's file
+};
+
+fs::path temporary_marks_path() { return fs::temp_directory_path() / ("visnav_marks_" + std::to_string(::getpid()) + ".csv"); }
+
+/// --joy-topic (from the gamepad presses in the bag), --primitive (one edge), --marks or RUN/marks.csv.
+visnav::Result<Marks> marks_for(const visnav::cli::Args& a, const std::string& joy_topic, const fs::path& run) {
+  Marks m{a.get("--marks"), {}};
+  if (!joy_topic.empty()) {
+    VISNAV_ASSIGN(auto bindings,
+                  gamepad_bindings(a.get("--mapping", (fs::path(VISNAV_SOURCE_DIR) / "config" / "teleop" / "gamepad.yaml").string())));
+    VISNAV_ASSIGN(auto joy, visnav::mcap::joy_marks(a.get("--run"), joy_topic, bindings));
+    m.generated = temporary_marks_path();
+    std::ofstream out(m.generated);
+    out.precision(17);
+    out << "t_s,primitive\n";
+    for (const auto& [t, kind] : joy) out << t << "," << kind << "\n";
+    m.path = m.generated.string();
+    std::cout << "visnav teach: " << joy.size() << " primitive switches from " << joy_topic << "\n";
+  } else if (a.has("--primitive")) {
+    m.generated = temporary_marks_path();
+    std::ofstream(m.generated) << "t_s,primitive\n-1e9," << a.get("--primitive") << "\n";
+    m.path = m.generated.string();
+  } else if (m.path.empty()) {
+    m.path = (run / "marks.csv").string();
+  }
+  std::error_code ec;
+  if (!fs::exists(m.path, ec))
+    return visnav::fail(visnav::ErrorCode::not_found, {m.path},
+                        "no marks file: give --marks F (CSV t_s,primitive) or --primitive KIND for a single-primitive drive");
+  return m;
+}
+
+/// The `visnav play` command line that teaches: the teaching tree, the map, the marks and the end.
+std::vector<std::string> play_arguments(const visnav::cli::Args& a, const fs::path& run, const std::string& marks, double end_s) {
+  std::ostringstream end;
+  end.precision(17);
+  end << end_s;
+  std::vector<std::string> play{run.string(), "--tree",
+                                a.get("--tree", (fs::path(VISNAV_SOURCE_DIR) / "trees" / "teach_recorded.xml").string()),
+                                "--map", a.get("--map"), "--create", "--no-compare",
+                                "--bb", "marks_file=" + fs::absolute(marks).string(),
+                                "--bb", "end_time_s=" + end.str(),
+                                "--bb", std::string("close_loop=") + (a.has("--close-loop") ? "true" : "false")};
+  auto add = [&play](const char* option, const std::string& value) {
+    play.push_back(option);
+    play.push_back(value);
+  };
+  if (a.has("--config")) add("--config", a.get("--config"));
+  add("--set", "nodes=[navigation,feature_replay,path_following,teleop]");  // a later --set nodes=... replaces it
+  for (const auto& s : a.all("--set")) add("--set", s);
+  for (const auto& b : a.all("--bb")) add("--bb", b);
+  if (a.has("--log-level")) add("--log-level", a.get("--log-level"));
+  return play;
+}
+
 int teach(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
@@ -66,140 +165,31 @@ int teach(const std::vector<std::string>& args) {
   if (auto st = a.require({"--run", "--map"}); !st) return visnav::cli::usage_error("teach", st.error().message);
   if (static_cast<int>(a.has("--marks")) + static_cast<int>(a.has("--primitive")) + static_cast<int>(a.has("--joy-topic")) > 1)
     return visnav::cli::usage_error("teach", "give one of --marks, --primitive and --joy-topic");
-  double margin_s = 0.5;
-  try {
-    margin_s = std::stod(a.get("--end-margin-s", "0.5"));
-  } catch (...) {
-    return visnav::cli::usage_error("teach", "--end-margin-s needs a number");
-  }
+  auto margin_s = visnav::detail::parse_double(a.get("--end-margin-s", "0.5"));
+  if (!margin_s) return visnav::cli::usage_error("teach", "--end-margin-s needs a number");
+  auto report_error = [](const visnav::Error& e) {
+    std::cerr << "visnav teach: " << e.message << "\n";
+    return 1;
+  };
 
   auto topics = visnav::cli::bag_topics(a, a.get("--config"), a.all("--set"));
-  if (!topics) {
-    std::cerr << "visnav teach: " << topics.error().message << "\n";
-    return 1;
-  }
+  if (!topics) return report_error(topics.error());
   // run.bag_joy_topic applies unless the switches are given another way.
   if (a.has("--marks") || a.has("--primitive")) topics->joy.clear();
   visnav::cli::TempRun temp;
   auto folder = visnav::cli::run_folder_of(a.get("--run"), topics->run, temp);
-  if (!folder) {
-    std::cerr << "visnav teach: " << folder.error().message << "\n";
-    return 1;
-  }
+  if (!folder) return report_error(folder.error());
   const fs::path run(*folder);
+  auto last_t_s = last_frame_time(run, a.get("--run"));
+  if (!last_t_s) return report_error(last_t_s.error());
+  auto marks = marks_for(a, topics->joy, run);
+  if (!marks) return report_error(marks.error());
 
-  // The end of the recording: the last frame's time.
-  std::ifstream frames(run / "frames.csv");
-  if (!frames) {
-    std::cerr << "visnav teach: " << a.get("--run") << ": not a recorded run (no frames.csv)\n";
-    return 1;
-  }
-  double last_t_s = 0.0;
-  bool any = false;
-  for (std::string line; std::getline(frames, line);) {
-    if (line.empty() || line[0] == '#' || line.rfind("index", 0) == 0) continue;
-    const auto c1 = line.find(',');
-    if (c1 == std::string::npos) continue;
-    try {
-      last_t_s = std::stod(line.substr(c1 + 1));
-      any = true;
-    } catch (...) {
-    }
-  }
-  if (!any) {
-    std::cerr << "visnav teach: " << a.get("--run") << " has no frames\n";
-    return 1;
-  }
-
-  std::string marks = a.get("--marks");
-  fs::path generated;
-  if (!topics->joy.empty()) {
-    // The gamepad's primitive buttons, as the Teleop node binds them.
-    const std::string mapping =
-        a.get("--mapping", (fs::path(VISNAV_SOURCE_DIR) / "config" / "teleop" / "gamepad.yaml").string());
-    auto root = visnav::parse_yaml_file(mapping);
-    if (!root) {
-      std::cerr << "visnav teach: " << root.error().message << "\n";
-      return 1;
-    }
-    std::vector<std::pair<int, std::string>> bindings;
-    if (const visnav::ConfigNode* list = root->is_map() ? root->find("primitive_buttons") : nullptr;
-        list != nullptr && list->is_sequence()) {
-      for (const auto& item : list->items()) {
-        const std::string e = item.is_scalar() ? item.scalar() : std::string();
-        const auto eq = e.find('=');
-        try {
-          if (eq == std::string::npos) throw 0;
-          bindings.emplace_back(std::stoi(e.substr(0, eq)), e.substr(eq + 1));
-        } catch (...) {
-          std::cerr << "visnav teach: " << mapping << ": primitive_buttons entry '" << e << "' is not button=kind\n";
-          return 1;
-        }
-      }
-    } else {
-      bindings = {{0, "feature_segment"}, {2, "path_following"}, {1, ""}};  // the Teleop defaults
-    }
-    auto joy = visnav::mcap::joy_marks(a.get("--run"), topics->joy, bindings);
-    if (!joy) {
-      std::cerr << "visnav teach: " << joy.error().message << "\n";
-      return 1;
-    }
-    generated = fs::temp_directory_path() / ("visnav_marks_" + std::to_string(::getpid()) + ".csv");
-    std::ofstream out(generated);
-    out.precision(17);
-    out << "t_s,primitive\n";
-    for (const auto& [t, kind] : *joy) out << t << "," << kind << "\n";
-    marks = generated.string();
-    std::cout << "visnav teach: " << joy->size() << " primitive switches from " << topics->joy << "\n";
-  } else if (a.has("--primitive")) {
-    generated = fs::temp_directory_path() / ("visnav_marks_" + std::to_string(::getpid()) + ".csv");
-    std::ofstream(generated) << "t_s,primitive\n-1e9," << a.get("--primitive") << "\n";
-    marks = generated.string();
-  } else if (marks.empty()) {
-    marks = (run / "marks.csv").string();
-  }
-  std::error_code ec;
-  if (!fs::exists(marks, ec)) {
-    std::cerr << "visnav teach: no marks file " << marks
-              << ": give --marks F (CSV t_s,primitive) or --primitive KIND for a single-primitive drive\n";
-    return 1;
-  }
-
-  std::ostringstream end;
-  end.precision(17);
-  end << last_t_s - margin_s;
-  std::vector<std::string> play{run.string(), "--tree",
-                                a.get("--tree", (fs::path(VISNAV_SOURCE_DIR) / "trees" / "teach_recorded.xml").string()),
-                                "--map", a.get("--map"), "--create", "--no-compare",
-                                "--bb", "marks_file=" + fs::absolute(marks).string(),
-                                "--bb", "end_time_s=" + end.str(),
-                                "--bb", std::string("close_loop=") + (a.has("--close-loop") ? "true" : "false")};
-  if (a.has("--config")) {
-    play.push_back("--config");
-    play.push_back(a.get("--config"));
-  }
-  // The teaching tree's nodes (a later --set nodes=... replaces this).
-  play.push_back("--set");
-  play.push_back("nodes=[navigation,feature_replay,path_following,teleop]");
-  for (const auto& s : a.all("--set")) {
-    play.push_back("--set");
-    play.push_back(s);
-  }
-  for (const auto& b : a.all("--bb")) {
-    play.push_back("--bb");
-    play.push_back(b);
-  }
-  if (a.has("--log-level")) {
-    play.push_back("--log-level");
-    play.push_back(a.get("--log-level"));
-  }
   const visnav::cli::Command* p = find_command("play");
-  if (p == nullptr) {
-    std::cerr << "visnav teach: the play command is missing from this build\n";
-    return 1;
-  }
-  const int rc = p->run(play);
-  if (!generated.empty()) fs::remove(generated, ec);
+  if (p == nullptr) return report_error(visnav::fail("the play command is missing from this build"));
+  const int rc = p->run(play_arguments(a, run, marks->path, *last_t_s - *margin_s));
+  std::error_code ec;
+  if (!marks->generated.empty()) fs::remove(marks->generated, ec);
   if (rc == 0) std::cout << "visnav teach: map " << a.get("--map") << " taught from " << a.get("--run") << "\n";
   return rc;
 }

@@ -310,16 +310,15 @@ Status RunMcapWriter::close() { return writer_->close(); }
 
 // ---- MCAP -> folder ----------------------------------------------------------------------
 
-Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const std::string& dir, const RunTopics& topics) {
-  std::error_code ec;
-  fs::create_directories(fs::path(dir) / "frames", ec);
-  if (ec) return fail(ErrorCode::io, {dir}, "cannot create the run folder: " + ec.message());
+namespace {
 
+/// What a bag holds that the folder format stores, as read (times in s of the run clock).
+struct BagContents {
   struct FrameRow { double t_s; std::uint64_t sequence; std::string file; };
   struct OdomRow { double t_s, x, y, h, d, v, w; };
   struct TickRow { std::uint64_t tick; double t_s; long frame; double v, w; std::uint64_t sent; };
   std::vector<FrameRow> frames;
-  std::vector<std::map<std::string, double>> frame_json;
+  std::vector<std::map<std::string, double>> frame_json;  ///< /visnav/frame: exact times of a visnav bag
   std::vector<OdomRow> odom, odom_json;
   std::vector<TickRow> ticks;
   std::vector<std::array<double, 4>> truth, truth_json;
@@ -328,150 +327,180 @@ Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const 
   std::set<std::string> seen_topics;
   long image_count = 0;
 
-  ReadHandlers h;
-  h.on_message = [&](const Channel& ch, const Schema* schema, const Message& m) -> Status {
-    seen_topics.insert(ch.topic + (schema != nullptr ? " (" + schema->name + ")" : std::string()));
-    const std::string type = schema != nullptr ? schema->name : std::string();
-    const double t_s = from_ns(m.log_time_ns);
-    // A message's problem, located at the bag and its topic.
-    auto located = [&](const Error& e) {
-      return Error{mcap_path + ": topic " + ch.topic + ": " + e.message, e.with_default_code(ErrorCode::parse_error).code,
-                   {mcap_path, 0, ch.topic}};
-    };
-    if (ch.topic == topics.image || (topics.image.empty() && type.find("Image") != std::string::npos)) {
-      char name[40];
-      std::vector<std::uint8_t> encoded;
-      std::string ext = ".png";
-      if (type == "sensor_msgs/msg/CompressedImage") {
-        auto img = ros2::decode_compressed_image(m.data);
-        if (!img) return located(img.error());
-        encoded = std::move(img->data);
-        if (img->format.find("jpeg") != std::string::npos || img->format.find("jpg") != std::string::npos) ext = ".jpg";
-      } else if (type == "sensor_msgs/msg/Image") {
-        auto img = ros2::decode_image(m.data);
-        if (!img) return located(img.error());
-        int cv_type = 0;
-        if (img->encoding == "mono8") cv_type = CV_8UC1;
-        else if (img->encoding == "bgr8" || img->encoding == "rgb8") cv_type = CV_8UC3;
-        else return located(Error{"image encoding '" + img->encoding + "' is not supported (mono8, bgr8, rgb8)", ErrorCode::invalid_value});
-        const std::size_t need = static_cast<std::size_t>(img->step) * img->height;
-        if (img->data.size() < need || img->step < img->width * static_cast<std::uint32_t>(CV_ELEM_SIZE(cv_type)))
-          return located(Error{"image data is shorter than step * height", ErrorCode::invalid_value});
-        cv::Mat view(static_cast<int>(img->height), static_cast<int>(img->width), cv_type, img->data.data(), img->step);
-        cv::Mat bgr;
-        if (img->encoding == "rgb8") cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
-        else bgr = view;
-        if (!cv::imencode(".png", bgr, encoded, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-          return located(Error{"cannot encode the image as PNG", ErrorCode::invalid_value});
-      } else {
-        return located(Error{"type '" + type + "' is not sensor_msgs/msg/Image or CompressedImage", ErrorCode::invalid_value});
-      }
-      std::snprintf(name, sizeof name, "frames/%06ld", image_count++);
-      const std::string rel = name + ext;
-      std::ofstream out(fs::path(dir) / rel, std::ios::binary);
-      out.write(reinterpret_cast<const char*>(encoded.data()), static_cast<std::streamsize>(encoded.size()));
-      if (!out) return fail((fs::path(dir) / rel).string() + ": cannot be written");
-      frames.push_back({t_s, m.sequence, rel});
-    } else if (ch.topic == topics.odometry) {
-      if (type != "nav_msgs/msg/Odometry") return located(Error{"type '" + type + "' is not nav_msgs/msg/Odometry", ErrorCode::invalid_value});
-      auto o = ros2::decode_odometry(m.data);
-      if (!o) return located(o.error());
-      const auto& p = o->pose.pose;
-      odom.push_back({t_s, p.position.x, p.position.y, dds::yaw_from_quaternion(p.orientation), 0.0,
-                      o->twist.twist.linear.x, o->twist.twist.angular.z});
-    } else if (ch.topic == "/visnav/frame") {
-      frame_json.push_back(parse_flat_json(m.data));
-    } else if (ch.topic == "/visnav/odometry") {
-      auto j = parse_flat_json(m.data);
-      odom_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"], j["distance_m"], j["linear_mps"], j["angular_radps"]});
-    } else if (ch.topic == "/visnav/tick") {
-      auto j = parse_flat_json(m.data);
-      ticks.push_back({static_cast<std::uint64_t>(j["tick"]), j["t_s"], static_cast<long>(j["frame_index"]), j["linear_mps"],
-                       j["angular_radps"], static_cast<std::uint64_t>(j["commands_sent"])});
-    } else if (ch.topic == "/visnav/status") {
-      telemetry_lines.emplace_back(m.data.begin(), m.data.end());
-    } else if (ch.topic == "/visnav/truth") {
-      auto j = parse_flat_json(m.data);
-      truth_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"]});
-    } else if (ch.topic == "/visnav/ground_truth") {
-      auto o = ros2::decode_odometry(m.data);
-      if (!o) return located(o.error());
-      truth.push_back({t_s, o->pose.pose.position.x, o->pose.pose.position.y, dds::yaw_from_quaternion(o->pose.pose.orientation)});
-    }
-    return ok();
-  };
-  h.on_attachment = [&](const Attachment& a) -> Status {
-    if (a.name == "run.yaml") run_yaml = a.data;
-    if (a.name == "config.yaml") config_yaml = a.data;
-    return ok();
-  };
-  VISNAV_ASSIGN(ReadReport read, read_file(mcap_path, h));
-
-  auto list_topics = [&] {
+  /// The topics seen, one per line, for an error that names a missing one.
+  [[nodiscard]] std::string topic_list() const {
     std::string s;
     for (const auto& t : seen_topics) s += "\n  " + t;
     return s.empty() ? std::string(" (none)") : s;
-  };
-  if (frames.empty())
-    return Error{mcap_path + ": no image messages on topic '" + topics.image + "' (choose it with --image-topic); the bag has:" +
-                     list_topics(),
-                 ErrorCode::not_found, {mcap_path, 0, topics.image}};
-  ConversionReport report;
-  report.truncated = read.truncated;
-  report.exact = !frame_json.empty() && frame_json.size() == frames.size() && !odom_json.empty();
-  if (report.exact) {
-    odom = std::move(odom_json);
-    if (truth_json.size() == truth.size()) truth = std::move(truth_json);
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-      frames[i].t_s = frame_json[i]["t_s"];
-      frames[i].sequence = static_cast<std::uint64_t>(frame_json[i]["sequence"]);
-    }
-  } else {
-    if (odom.empty())
-      return Error{mcap_path + ": no odometry on topic '" + topics.odometry + "' (choose it with --odom-topic); the bag has:" +
-                       list_topics(),
-                   ErrorCode::not_found, {mcap_path, 0, topics.odometry}};
-    // Odometric distance: the path length of the positions (what a wheel odometer integrates).
-    std::stable_sort(odom.begin(), odom.end(), [](const OdomRow& a, const OdomRow& b) { return a.t_s < b.t_s; });
-    for (std::size_t i = 1; i < odom.size(); ++i)
-      odom[i].d = odom[i - 1].d + std::hypot(odom[i].x - odom[i - 1].x, odom[i].y - odom[i - 1].y);
-    std::stable_sort(frames.begin(), frames.end(), [](const FrameRow& a, const FrameRow& b) { return a.t_s < b.t_s; });
   }
+};
 
+/// An image message as the bytes of a file (.png or .jpg). Errors carry no location.
+Result<std::pair<std::vector<std::uint8_t>, std::string>> image_file_bytes(const std::string& type,
+                                                                          const std::vector<std::uint8_t>& data) {
+  if (type == "sensor_msgs/msg/CompressedImage") {
+    VISNAV_ASSIGN(auto img, ros2::decode_compressed_image(data));
+    const bool jpeg = img.format.find("jpeg") != std::string::npos || img.format.find("jpg") != std::string::npos;
+    return std::make_pair(std::move(img.data), std::string(jpeg ? ".jpg" : ".png"));
+  }
+  if (type != "sensor_msgs/msg/Image")
+    return Error{"type '" + type + "' is not sensor_msgs/msg/Image or CompressedImage", ErrorCode::invalid_value};
+  VISNAV_ASSIGN(auto img, ros2::decode_image(data));
+  int cv_type = 0;
+  if (img.encoding == "mono8") cv_type = CV_8UC1;
+  else if (img.encoding == "bgr8" || img.encoding == "rgb8") cv_type = CV_8UC3;
+  else return Error{"image encoding '" + img.encoding + "' is not supported (mono8, bgr8, rgb8)", ErrorCode::invalid_value};
+  const std::size_t need = static_cast<std::size_t>(img.step) * img.height;
+  if (img.data.size() < need || img.step < img.width * static_cast<std::uint32_t>(CV_ELEM_SIZE(cv_type)))
+    return Error{"image data is shorter than step * height", ErrorCode::invalid_value};
+  cv::Mat view(static_cast<int>(img.height), static_cast<int>(img.width), cv_type, img.data.data(), img.step);
+  cv::Mat bgr;
+  if (img.encoding == "rgb8") cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
+  else bgr = view;
+  std::vector<std::uint8_t> encoded;
+  if (!cv::imencode(".png", bgr, encoded, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+    return Error{"cannot encode the image as PNG", ErrorCode::invalid_value};
+  return std::make_pair(std::move(encoded), std::string(".png"));
+}
+
+/// Takes one message into `c` (an image is written into `dir`/frames at once).
+Status take_message(BagContents& c, const std::string& dir, const RunTopics& topics, const Channel& ch, const Schema* schema,
+                    const Message& m) {
+  c.seen_topics.insert(ch.topic + (schema != nullptr ? " (" + schema->name + ")" : std::string()));
+  const std::string type = schema != nullptr ? schema->name : std::string();
+  const double t_s = from_ns(m.log_time_ns);
+  if (ch.topic == topics.image || (topics.image.empty() && type.find("Image") != std::string::npos)) {
+    VISNAV_ASSIGN(auto file, image_file_bytes(type, m.data));
+    char name[40];
+    std::snprintf(name, sizeof name, "frames/%06ld", c.image_count++);
+    const std::string rel = name + file.second;
+    std::ofstream out(fs::path(dir) / rel, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(file.first.data()), static_cast<std::streamsize>(file.first.size()));
+    if (!out) return fail(ErrorCode::io, {(fs::path(dir) / rel).string()}, "cannot be written");
+    c.frames.push_back({t_s, m.sequence, rel});
+  } else if (ch.topic == topics.odometry) {
+    if (type != "nav_msgs/msg/Odometry") return Error{"type '" + type + "' is not nav_msgs/msg/Odometry", ErrorCode::invalid_value};
+    VISNAV_ASSIGN(auto o, ros2::decode_odometry(m.data));
+    const auto& p = o.pose.pose;
+    c.odom.push_back({t_s, p.position.x, p.position.y, dds::yaw_from_quaternion(p.orientation), 0.0, o.twist.twist.linear.x,
+                      o.twist.twist.angular.z});
+  } else if (ch.topic == "/visnav/frame") {
+    c.frame_json.push_back(parse_flat_json(m.data));
+  } else if (ch.topic == "/visnav/odometry") {
+    auto j = parse_flat_json(m.data);
+    c.odom_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"], j["distance_m"], j["linear_mps"], j["angular_radps"]});
+  } else if (ch.topic == "/visnav/tick") {
+    auto j = parse_flat_json(m.data);
+    c.ticks.push_back({static_cast<std::uint64_t>(j["tick"]), j["t_s"], static_cast<long>(j["frame_index"]), j["linear_mps"],
+                       j["angular_radps"], static_cast<std::uint64_t>(j["commands_sent"])});
+  } else if (ch.topic == "/visnav/status") {
+    c.telemetry_lines.emplace_back(m.data.begin(), m.data.end());
+  } else if (ch.topic == "/visnav/truth") {
+    auto j = parse_flat_json(m.data);
+    c.truth_json.push_back({j["t_s"], j["x_m"], j["y_m"], j["heading_rad"]});
+  } else if (ch.topic == "/visnav/ground_truth") {
+    VISNAV_ASSIGN(auto o, ros2::decode_odometry(m.data));
+    c.truth.push_back({t_s, o.pose.pose.position.x, o.pose.pose.position.y, dds::yaw_from_quaternion(o.pose.pose.orientation)});
+  }
+  return ok();
+}
+
+/// A visnav bag's exact rows replace the ones rebuilt from ROS messages; a foreign bag gets its
+/// odometric distance integrated and its frames sorted. Returns whether the rows are exact.
+Result<bool> settle_rows(BagContents& c, const std::string& mcap_path, const RunTopics& topics) {
+  const bool exact = !c.frame_json.empty() && c.frame_json.size() == c.frames.size() && !c.odom_json.empty();
+  if (exact) {
+    c.odom = std::move(c.odom_json);
+    if (c.truth_json.size() == c.truth.size()) c.truth = std::move(c.truth_json);
+    for (std::size_t i = 0; i < c.frames.size(); ++i) {
+      c.frames[i].t_s = c.frame_json[i]["t_s"];
+      c.frames[i].sequence = static_cast<std::uint64_t>(c.frame_json[i]["sequence"]);
+    }
+    return true;
+  }
+  if (c.odom.empty())
+    return Error{mcap_path + ": no odometry on topic '" + topics.odometry + "' (choose it with --odom-topic); the bag has:" +
+                     c.topic_list(),
+                 ErrorCode::not_found, {mcap_path, 0, topics.odometry}};
+  // Odometric distance: the path length of the positions (what a wheel odometer integrates).
+  using OdomRow = BagContents::OdomRow;
+  using FrameRow = BagContents::FrameRow;
+  std::stable_sort(c.odom.begin(), c.odom.end(), [](const OdomRow& a, const OdomRow& b) { return a.t_s < b.t_s; });
+  for (std::size_t i = 1; i < c.odom.size(); ++i)
+    c.odom[i].d = c.odom[i - 1].d + std::hypot(c.odom[i].x - c.odom[i - 1].x, c.odom[i].y - c.odom[i - 1].y);
+  std::stable_sort(c.frames.begin(), c.frames.end(), [](const FrameRow& a, const FrameRow& b) { return a.t_s < b.t_s; });
+  return false;
+}
+
+/// Writes the folder format's CSV, telemetry and YAML files from `c`.
+Status write_run_files(const BagContents& c, const std::string& dir, const std::string& mcap_path, bool truncated) {
   std::ostringstream fcsv, ocsv, ccsv;
   fcsv << "index,t_s,sequence,file\n";
-  for (std::size_t i = 0; i < frames.size(); ++i)
-    fcsv << i << "," << num(frames[i].t_s) << "," << frames[i].sequence << "," << frames[i].file << "\n";
+  for (std::size_t i = 0; i < c.frames.size(); ++i)
+    fcsv << i << "," << num(c.frames[i].t_s) << "," << c.frames[i].sequence << "," << c.frames[i].file << "\n";
   ocsv << "t_s,x_m,y_m,heading_rad,distance_m,linear_mps,angular_radps\n";
-  for (const auto& o : odom)
+  for (const auto& o : c.odom)
     ocsv << num(o.t_s) << "," << num(o.x) << "," << num(o.y) << "," << num(o.h) << "," << num(o.d) << "," << num(o.v) << ","
          << num(o.w) << "\n";
   ccsv << "tick,t_s,frame_index,linear_mps,angular_radps,commands_sent\n";
-  for (const auto& t : ticks)
+  for (const auto& t : c.ticks)
     ccsv << t.tick << "," << num(t.t_s) << "," << t.frame << "," << num(t.v) << "," << num(t.w) << "," << t.sent << "\n";
   VISNAV_TRY(write_text(fs::path(dir) / "frames.csv", fcsv.str()));
   VISNAV_TRY(write_text(fs::path(dir) / "odometry.csv", ocsv.str()));
   VISNAV_TRY(write_text(fs::path(dir) / "commands.csv", ccsv.str()));
-  if (!truth.empty()) {
+  if (!c.truth.empty()) {
     std::ostringstream g;
     g << "t_s,x_m,y_m,heading_rad\n";
-    for (const auto& t : truth) g << num(t[0]) << "," << num(t[1]) << "," << num(t[2]) << "," << num(t[3]) << "\n";
+    for (const auto& t : c.truth) g << num(t[0]) << "," << num(t[1]) << "," << num(t[2]) << "," << num(t[3]) << "\n";
     VISNAV_TRY(write_text(fs::path(dir) / "ground_truth.csv", g.str()));
   }
-  if (!telemetry_lines.empty()) {
+  if (!c.telemetry_lines.empty()) {
     std::string text;
-    for (const auto& l : telemetry_lines) text += l + "\n";
+    for (const auto& l : c.telemetry_lines) text += l + "\n";
     VISNAV_TRY(write_text(fs::path(dir) / "telemetry.jsonl", text));
   }
-  report.telemetry = static_cast<long>(telemetry_lines.size());
-  if (run_yaml.empty())
-    run_yaml = "format: visnav-recorded-run\nversion: 1\nsource: \"" + mcap_path + "\"\ncomplete: " +
-               (read.truncated ? "false" : "true") + "\n";
+  const std::string run_yaml = !c.run_yaml.empty() ? c.run_yaml
+                                                   : "format: visnav-recorded-run\nversion: 1\nsource: \"" + mcap_path +
+                                                         "\"\ncomplete: " + (truncated ? "false" : "true") + "\n";
   VISNAV_TRY(write_text(fs::path(dir) / "run.yaml", run_yaml));
-  if (!config_yaml.empty()) VISNAV_TRY(write_text(fs::path(dir) / "config.yaml", config_yaml));
-  report.frames = static_cast<long>(frames.size());
-  report.odometry_samples = static_cast<long>(odom.size());
-  report.ticks = static_cast<long>(ticks.size());
+  if (!c.config_yaml.empty()) VISNAV_TRY(write_text(fs::path(dir) / "config.yaml", c.config_yaml));
+  return ok();
+}
+
+}  // namespace
+
+Result<ConversionReport> mcap_to_run_folder(const std::string& mcap_path, const std::string& dir, const RunTopics& topics) {
+  std::error_code ec;
+  fs::create_directories(fs::path(dir) / "frames", ec);
+  if (ec) return fail(ErrorCode::io, {dir}, "cannot create the run folder: " + ec.message());
+  BagContents c;
+  ReadHandlers h;
+  h.on_message = [&](const Channel& ch, const Schema* schema, const Message& m) -> Status {
+    auto taken = take_message(c, dir, topics, ch, schema, m);
+    if (taken || !taken.error().where.file.empty()) return taken;
+    // A message's problem, located at the bag and its topic.
+    const Error& e = taken.error();
+    return Error{mcap_path + ": topic " + ch.topic + ": " + e.message, e.with_default_code(ErrorCode::parse_error).code,
+                 {mcap_path, 0, ch.topic}};
+  };
+  h.on_attachment = [&](const Attachment& a) -> Status {
+    if (a.name == "run.yaml") c.run_yaml = a.data;
+    if (a.name == "config.yaml") c.config_yaml = a.data;
+    return ok();
+  };
+  VISNAV_ASSIGN(ReadReport read, read_file(mcap_path, h));
+  if (c.frames.empty())
+    return Error{mcap_path + ": no image messages on topic '" + topics.image + "' (choose it with --image-topic); the bag has:" +
+                     c.topic_list(),
+                 ErrorCode::not_found, {mcap_path, 0, topics.image}};
+  ConversionReport report;
+  report.truncated = read.truncated;
+  VISNAV_ASSIGN(report.exact, settle_rows(c, mcap_path, topics));
+  VISNAV_TRY(write_run_files(c, dir, mcap_path, read.truncated));
+  report.telemetry = static_cast<long>(c.telemetry_lines.size());
+  report.frames = static_cast<long>(c.frames.size());
+  report.odometry_samples = static_cast<long>(c.odom.size());
+  report.ticks = static_cast<long>(c.ticks.size());
   return report;
 }
 

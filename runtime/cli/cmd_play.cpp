@@ -86,6 +86,71 @@ std::vector<std::string> read_lines(const std::string& path) {
   return lines;
 }
 
+/// This run's decisions, one line per tick in the columns of RUN/commands.csv.
+class DecisionLog {
+ public:
+  explicit DecisionLog(visnav::Session& session) : session_(session) {
+    lines_.emplace_back("tick,t_s,frame_index,linear_mps,angular_radps,commands_sent");
+  }
+  void after_tick(const visnav::TickInfo& t) {
+    if (auto f = session_.frame_bus().latest_frame()) {
+      if (!last_frame_ || last_frame_->first != f->sequence || last_frame_->second != f->timestamp_s) ++frame_index_;
+      last_frame_ = std::make_pair(f->sequence, f->timestamp_s);
+    }
+    const visnav::Twist c = session_.robot().last_command();
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%llu,%.17g,%ld,%.17g,%.17g,%llu", static_cast<unsigned long long>(t.tick), t.t_s,
+                  frame_index_, c.linear_mps, c.angular_radps, static_cast<unsigned long long>(session_.robot().commands_sent()));
+    lines_.emplace_back(buf);
+  }
+  [[nodiscard]] const std::vector<std::string>& lines() const { return lines_; }
+
+ private:
+  visnav::Session& session_;
+  std::vector<std::string> lines_;
+  std::optional<std::pair<std::uint64_t, double>> last_frame_;
+  long frame_index_ = -1;
+};
+
+/// Prints how many ticks decided as the recording did; true when every one did.
+bool compare_decisions(const std::vector<std::string>& recorded, const std::vector<std::string>& decisions) {
+  const std::size_t n = std::min(recorded.size(), decisions.size());
+  std::size_t same = 0;
+  std::size_t first_diff = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    if (recorded[i] == decisions[i]) ++same;
+    else if (first_diff == 0) first_diff = i;
+  }
+  const std::size_t total = std::max(recorded.size(), decisions.size()) - 1;
+  if (first_diff == 0 && recorded.size() != decisions.size()) first_diff = n;
+  std::cout << "decisions: " << same << " of " << total << " ticks identical to the recording";
+  if (first_diff != 0) std::cout << " (first difference at tick " << first_diff << ")";
+  std::cout << "\n";
+  return first_diff == 0;
+}
+
+/// The configuration a playback runs: the recording's (with its overrides) unless --config, then
+/// --set, then the recorded robot and camera in place of the live ones, in lock-step.
+visnav::Result<std::pair<std::string, std::vector<std::string>>> playback_config(const visnav::cli::Args& a,
+                                                                                 const std::string& run_dir) {
+  const std::string abs_run = fs::absolute(run_dir).lexically_normal().string();
+  std::string config_file = a.get("--config");
+  std::vector<std::string> overrides;
+  if (config_file.empty()) {
+    config_file = (fs::path(run_dir) / "config.yaml").string();
+    std::error_code ec;
+    if (!fs::exists(config_file, ec))
+      return visnav::fail(visnav::ErrorCode::not_found, {config_file}, "is missing; give the configuration with --config C");
+    overrides = recorded_list(run_dir, "overrides");
+  }
+  for (const auto& s : a.all("--set")) overrides.push_back(s);
+  // Replace the robot and camera sections by the recorded ones (plugin pins and params included).
+  overrides.push_back("robot={type: recorded, params: {run_dir: " + yaml_quote(abs_run) + "}}");
+  overrides.push_back("camera={type: recorded, params: {run_dir: " + yaml_quote(abs_run) + "}}");
+  overrides.push_back("run.lockstep=on");
+  return std::make_pair(config_file, overrides);
+}
+
 int play(const std::vector<std::string>& raw_args) {
   using visnav::cli::Opt;
   std::vector<std::string> args = raw_args;
@@ -104,78 +169,39 @@ int play(const std::vector<std::string>& raw_args) {
   if (run_dir.empty()) run_dir = a.get("--run");
   if (run_dir.empty()) return visnav::cli::usage_error("play", "missing the recorded-run folder RUN");
   if (auto st = a.require({"--tree"}); !st) return visnav::cli::usage_error("play", st.error().message);
-  auto topics = visnav::cli::bag_topics(a, a.get("--config"), a.all("--set"));
-  if (!topics) {
-    std::cerr << "visnav play: " << topics.error().message << "\n";
-    return 1;
-  }
-  visnav::cli::TempRun temp_run;
-  if (auto folder = visnav::cli::run_folder_of(run_dir, topics->run, temp_run); folder) {
-    run_dir = *folder;
-  } else {
-    std::cerr << "visnav play: " << folder.error().message << "\n";
-    return 1;
-  }
-  std::error_code ec;
-  if (!fs::is_directory(run_dir, ec) || !fs::exists(fs::path(run_dir) / "frames.csv", ec)) {
-    std::cerr << "visnav play: " << run_dir << ": not a recorded-run folder (no frames.csv; see docs/recorded_runs.md)\n";
-    return 1;
-  }
-  const std::string abs_run = fs::absolute(run_dir).lexically_normal().string();
-  std::string config_file = a.get("--config");
-  std::vector<std::string> overrides;
-  if (config_file.empty()) {
-    config_file = (fs::path(run_dir) / "config.yaml").string();
-    if (!fs::exists(config_file, ec)) {
-      std::cerr << "visnav play: " << config_file << " is missing; give the configuration with --config C\n";
-      return 1;
-    }
-    overrides = recorded_list(run_dir, "overrides");
-  }
-  for (const auto& s : a.all("--set")) overrides.push_back(s);
-  // Replace the robot and camera sections by the recorded ones (plugin pins and params included).
-  overrides.push_back("robot={type: recorded, params: {run_dir: " + yaml_quote(abs_run) + "}}");
-  overrides.push_back("camera={type: recorded, params: {run_dir: " + yaml_quote(abs_run) + "}}");
-  overrides.push_back("run.lockstep=on");
-
   if (a.has("--log-level"))
     if (auto level = visnav::parse_log_level(a.get("--log-level")); !level)
       return visnav::cli::usage_error("play", level.error().message);
-  auto session_made = visnav::cli::open_session(a, config_file, overrides);
-  if (!session_made) {
-    std::cerr << "visnav play: " << session_made.error().message << "\n";
+  auto report_error = [](const visnav::Error& e) {
+    std::cerr << "visnav play: " << e.message << "\n";
     return 1;
-  }
+  };
+  auto topics = visnav::cli::bag_topics(a, a.get("--config"), a.all("--set"));
+  if (!topics) return report_error(topics.error());
+  visnav::cli::TempRun temp_run;
+  auto folder = visnav::cli::run_folder_of(run_dir, topics->run, temp_run);
+  if (!folder) return report_error(folder.error());
+  run_dir = *folder;
+  std::error_code ec;
+  if (!fs::is_directory(run_dir, ec) || !fs::exists(fs::path(run_dir) / "frames.csv", ec))
+    return report_error(visnav::fail(visnav::ErrorCode::not_found, {run_dir},
+                                     "not a recorded-run folder (no frames.csv; see docs/recorded_runs.md)"));
+  auto config = playback_config(a, run_dir);
+  if (!config) return report_error(config.error());
+  auto session_made = visnav::cli::open_session(a, config->first, config->second);
+  if (!session_made) return report_error(session_made.error());
   visnav::Session& session = **session_made;
   auto tree = session.load_tree(a.get("--tree"));
-  if (!tree) {
-    std::cerr << "visnav play: " << tree.error().message << "\n";
-    return 1;
-  }
+  if (!tree) return report_error(tree.error());
   std::vector<std::string> bb = recorded_list(run_dir, "blackboard");
   for (const auto& v : a.all("--bb")) bb.push_back(v);
-  if (auto st = visnav::set_blackboard_values(*tree, bb); !st) {
-    std::cerr << "visnav play: " << st.error().message << "\n";
-    return 1;
-  }
+  if (auto st = visnav::set_blackboard_values(*tree, bb); !st) return report_error(st.error());
 
-  // This run's decisions, in the columns of RUN/commands.csv.
-  std::vector<std::string> decisions;
-  decisions.emplace_back("tick,t_s,frame_index,linear_mps,angular_radps,commands_sent");
-  std::optional<std::pair<std::uint64_t, double>> last_frame;
-  long frame_index = -1;
+  DecisionLog decisions(session);
   visnav::RunOptions ro;
   ro.trace_file = a.get("--trace");
   ro.after_tick = [&](const visnav::TickInfo& t) {
-    if (auto f = session.frame_bus().latest_frame()) {
-      if (!last_frame || last_frame->first != f->sequence || last_frame->second != f->timestamp_s) ++frame_index;
-      last_frame = std::make_pair(f->sequence, f->timestamp_s);
-    }
-    const visnav::Twist c = session.robot().last_command();
-    char buf[256];
-    std::snprintf(buf, sizeof buf, "%llu,%.17g,%ld,%.17g,%.17g,%llu", static_cast<unsigned long long>(t.tick), t.t_s,
-                  frame_index, c.linear_mps, c.angular_radps, static_cast<unsigned long long>(session.robot().commands_sent()));
-    decisions.emplace_back(buf);
+    decisions.after_tick(t);
     return true;
   };
   visnav::install_signal_handlers();
@@ -183,7 +209,7 @@ int play(const std::vector<std::string>& raw_args) {
 
   if (a.has("--commands-out")) {
     std::ofstream out(a.get("--commands-out"), std::ios::trunc);
-    for (const auto& l : decisions) out << l << "\n";
+    for (const auto& l : decisions.lines()) out << l << "\n";
     if (!out) std::cerr << "visnav play: cannot write " << a.get("--commands-out") << "\n";
   }
   std::cout << "visnav play: " << visnav::to_string(r.outcome) << " after " << r.ticks << " ticks, " << r.run_time_s
@@ -195,21 +221,8 @@ int play(const std::vector<std::string>& raw_args) {
   if (r.outcome == visnav::RunOutcome::safety_stop && r.reason.find("end of the recorded run") != std::string::npos)
     exit_code = 0;
   const std::vector<std::string> recorded = read_lines((fs::path(run_dir) / "commands.csv").string());
-  if (recorded.size() > 1 && !a.has("--no-compare")) {
-    const std::size_t n = std::min(recorded.size(), decisions.size());
-    std::size_t same = 0;
-    std::size_t first_diff = 0;
-    for (std::size_t i = 1; i < n; ++i) {
-      if (recorded[i] == decisions[i]) ++same;
-      else if (first_diff == 0) first_diff = i;
-    }
-    const std::size_t total = std::max(recorded.size(), decisions.size()) - 1;
-    if (first_diff == 0 && recorded.size() != decisions.size()) first_diff = n;
-    std::cout << "decisions: " << same << " of " << total << " ticks identical to the recording";
-    if (first_diff != 0) std::cout << " (first difference at tick " << first_diff << ")";
-    std::cout << "\n";
-    if (first_diff != 0 && exit_code == 0) exit_code = 4;
-  }
+  if (recorded.size() > 1 && !a.has("--no-compare") && !compare_decisions(recorded, decisions.lines()) && exit_code == 0)
+    exit_code = 4;
   return exit_code;
 }
 

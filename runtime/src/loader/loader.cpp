@@ -204,10 +204,13 @@ Result<const PluginLibraryInfo*> PluginLoader::load_library(std::string_view pat
   return load_path(*path);
 }
 
-Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path) {
-  for (const auto& l : loaded_)
-    if (l->info.path == path) return &l->info;
+namespace {
 
+using OpenedPlugin = std::pair<std::shared_ptr<detail::LibraryHandle>, const PluginDescriptor*>;
+
+/// dlopen, the entry symbol and the checks made before any other field is read: the ABI
+/// version, the descriptor's size and its name. The library stays open while the handle lives.
+Result<OpenedPlugin> open_plugin(const std::string& path) {
   dlerror();  // clear
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
@@ -244,18 +247,11 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
   }
   if (descriptor->name == nullptr || descriptor->name[0] == '\0') return fail(ErrorCode::plugin, {path}, "descriptor has no name");
 
-  auto loaded = std::make_unique<Loaded>();
-  loaded->library = library;
-  loaded->descriptor = descriptor;
-  PluginLibraryInfo& info = loaded->info;
-  info.path = path;
-  info.file_name = fs::path(path).filename().string();
-  info.library_name = library_name_of(info.file_name);
-  info.name = descriptor->name;
-  info.version = descriptor->version != nullptr ? descriptor->version : "";
-  info.description = descriptor->description != nullptr ? descriptor->description : "";
-  info.abi_version = abi;
+  return OpenedPlugin{library, descriptor};
+}
 
+/// The descriptor's type, command and payload-check tables, checked, into `info`.
+Status read_tables(const PluginDescriptor* descriptor, const std::string& path, PluginLibraryInfo& info) {
   if (descriptor->type_count > 0 && descriptor->types == nullptr)
     return fail(ErrorCode::plugin, {path}, "descriptor declares " + std::to_string(descriptor->type_count) + " types but no table");
   for (std::size_t i = 0; i < descriptor->type_count; ++i) {
@@ -291,6 +287,29 @@ Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path
     if (c.kind == nullptr || !map_format::valid_kind(c.kind) || c.check == nullptr)
       return fail(ErrorCode::plugin, {path}, "payload check #" + std::to_string(i) + " has no valid edge kind or no check function");
   }
+
+  return ok();
+}
+
+}  // namespace
+
+Result<const PluginLibraryInfo*> PluginLoader::load_path(const std::string& path) {
+  for (const auto& l : loaded_)
+    if (l->info.path == path) return &l->info;
+  VISNAV_ASSIGN(OpenedPlugin opened, open_plugin(path));
+  const PluginDescriptor* descriptor = opened.second;
+  auto loaded = std::make_unique<Loaded>();
+  loaded->library = std::move(opened.first);
+  loaded->descriptor = descriptor;
+  PluginLibraryInfo& info = loaded->info;
+  info.path = path;
+  info.file_name = fs::path(path).filename().string();
+  info.library_name = library_name_of(info.file_name);
+  info.name = descriptor->name;
+  info.version = descriptor->version != nullptr ? descriptor->version : "";
+  info.description = descriptor->description != nullptr ? descriptor->description : "";
+  info.abi_version = descriptor->abi_version;
+  VISNAV_TRY(read_tables(descriptor, path, info));
 
   // Report type clashes with libraries loaded earlier (both stay loaded; see find_type).
   for (const auto& type : info.types) {

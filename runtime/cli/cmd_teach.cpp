@@ -180,7 +180,7 @@ int teach(const std::vector<std::string>& args) {
   }
   // The teaching tree's nodes (a later --set nodes=... replaces this).
   play.push_back("--set");
-  play.push_back("nodes=[navigation,feature_replay,path_following,teleop]");
+  play.push_back("nodes=[navigation,feature_replay,path_following,teleop,relocalisation]");
   for (const auto& s : a.all("--set")) {
     play.push_back("--set");
     play.push_back(s);

@@ -72,6 +72,7 @@ struct Options {
   double look_around_deg = 0.0;
   double creep_m = 0.0;
   std::string reloc_attrs;  // extra Relocalise attributes (--reloc K=V), ' K="V"' each
+  std::string reloc_names = "look_around_deg|creep_m";  // the attributes the experiment sets
   std::string out = "/tmp/visnav_reloc_experiment";
 };
 
@@ -159,9 +160,12 @@ Result<Options> parse(int argc, char** argv) {
     } else if (a == "--reloc") {
       VISNAV_ASSIGN(const std::string kv, in.value());
       const auto eq = kv.find('=');
-      if (eq == std::string::npos || eq == 0 || kv.find_first_of("\"<>& ") != std::string::npos)
+      if (eq == std::string::npos || eq == 0 ||
+          kv.find_first_not_of("abcdefghijklmnopqrstuvwxyz_0123456789") < eq ||
+          kv.find_first_of("\"<>& ") != std::string::npos)
         return fail(ErrorCode::invalid_value, "--reloc: '" + kv + "' is not PORT=VALUE");
       o.reloc_attrs += " " + kv.substr(0, eq) + "=\"" + kv.substr(eq + 1) + "\"";
+      o.reloc_names += "|" + kv.substr(0, eq);
     } else if (a == "--creep-m") {
       VISNAV_ASSIGN(o.creep_m, in.number(0, 5));
     } else if (a == "--seed") {
@@ -312,12 +316,12 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     } else {
       std::ifstream in(project_file("trees/replay_from_here.xml"));
       std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-      // Drop the tree's own settings of the two attributes, then set the experiment's.
-      xml = std::regex_replace(xml, std::regex(R"( (look_around_deg|creep_m)="[^"]*")"), "");
+      // Drop the tree's own settings of the attributes the experiment sets, then set them.
+      xml = std::regex_replace(xml, std::regex(" (" + o.reloc_names + ")=\"[^\"]*\""), "");
       std::ostringstream attrs;
       attrs << "<Relocalise look_around_deg=\"" << o.look_around_deg << "\" creep_m=\"" << o.creep_m << "\""
             << o.reloc_attrs << " ";
-      xml = std::regex_replace(xml, std::regex("<Relocalise "), attrs.str());
+      xml = std::regex_replace(xml, std::regex(R"(<Relocalise\s)"), attrs.str());
       std::ofstream(reloc_xml) << xml;
     }
     auto tree = (*session)->load_tree(reloc_xml.string());

@@ -41,6 +41,7 @@ struct RelocaliseNodeParams {
   double horizontal_fov_deg = 60.0;
   double creep_m = 0.0;
   double creep_speed_mps = 0.2;
+  int creep_unrecognised = 0;
 
   [[nodiscard]] Status validate() const {
     VISNAV_TRY(schema().check(*this));
@@ -75,7 +76,10 @@ struct RelocaliseNodeParams {
                    "while taking frames, and answer only then (0 = never drive forward), m")
             .range(0.0, 5.0)
             .field("creep_speed_mps", &P::creep_speed_mps, "forward speed while creeping, m/s")
-            .range(0.02, 1.0);
+            .range(0.02, 1.0)
+            .field("creep_unrecognised", &P::creep_unrecognised,
+                   "1: creep even when no place was verified in the first frames (else not_on_map at once)")
+            .range(0, 1);
     return s;
   }
 };
@@ -271,7 +275,7 @@ class Relocalise final : public bt::StatefulActionNode {
     }
     have_sequence_ = false;
     creep_ = params_.creep_m > 0.0 ? Creep::waiting : Creep::none;
-    relocaliser_->hold(creep_ == Creep::waiting);
+    relocaliser_->hold(creep_ == Creep::waiting, params_.creep_unrecognised != 0);
     steer_offset_rad_.reset();
     last_blank_.clear();
     sweep_ = 0;
@@ -374,7 +378,10 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
       : SyncActionNode(name, config), host_(host) {}
   static bt::PortsList provided_ports() {
     return {bt::input_port<bool>("only_if_missing", "false",
-                                 "keep an existing index that matches the map (a damaged or stale one is rebuilt)")};
+                                 "keep an existing index that matches the map (a damaged or stale one is rebuilt)"),
+            bt::input_port<bool>("required", "true",
+                                 "false: a map that cannot be indexed (e.g. float descriptors) is a warning and the "
+                                 "node succeeds (the end of a teach tree: the taught map is kept either way)")};
   }
 
  protected:
@@ -383,8 +390,18 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
     if (map == nullptr) return failed("BuildPlaceIndex needs a map (visnav run --map M)");
     auto keep = get_input<bool>("only_if_missing");
     if (!keep) return failed(keep.error().message);
+    auto required = get_input<bool>("required");
+    if (!required) return failed(required.error().message);
+    required_ = *required;
     if (*keep)
       if (auto loaded = load_place_index(map->dir()); loaded && loaded->matches(*map)) return NodeStatus::success;
+    // A map without feature edges (only path-following or visual-memory edges) has nothing to
+    // index: not an error at the end of a teach.
+    if (std::none_of(map->edges().begin(), map->edges().end(), [](const EdgeRecord& e) { return indexable_kind(e.kind); })) {
+      host_.logger().info(path(), "no feature edge to index (the place index covers feature_segment and "
+                                  "feature_localmaps edges)");
+      return NodeStatus::success;
+    }
     if (auto st = map->flush(); !st) return failed(st.error().message);
     const auto t0 = std::chrono::steady_clock::now();
     auto built = build_place_index(*map, PlaceIndexParams{});
@@ -399,10 +416,15 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
 
  private:
   NodeStatus failed(const std::string& message) {
+    if (!required_) {
+      host_.logger().warn(path(), "no place index: " + message + " (Relocalise cannot use this map)");
+      return NodeStatus::success;
+    }
     host_.logger().error(path(), message);
     return NodeStatus::failure;
   }
   HostServices& host_;
+  bool required_ = true;
 };
 
 }  // namespace

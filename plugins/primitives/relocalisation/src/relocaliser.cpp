@@ -151,6 +151,7 @@ RelocAnswer Relocaliser::decide() const {
   }
   const int usable = frame_index;
   if (votes.empty()) {
+    if (held_ && hold_unseen_) return answer;
     answer.status = RelocStatus::not_on_map;
     answer.reason = "not on the map: no place of the map was verified in " + std::to_string(usable) + " frames";
     return answer;

@@ -34,7 +34,7 @@
 //
 // Held (hold(true), while the robot still has to creep forward): only the answers that must stop
 // the robot before it moves are given (camera_blocked; not_on_map when no place was verified at
-// all); everything else stays pending. A pending answer with a best place carries it in edge /
+// all, unless held even_unseen); everything else stays pending. A pending answer with a best place carries it in edge /
 // distance_m / heading_offset_rad (provisional, e.g. to steer the creep; has_best) — never an
 // answer.
 //
@@ -122,7 +122,12 @@ class Relocaliser {
   void set_prior(std::uint32_t edge, double distance_m);
   void add(FrameVotes frame);
   /// Holds the decision (see the file comment) while the robot still creeps; release with false.
-  void hold(bool on) { held_ = on; }
+  /// `even_unseen`: also hold not_on_map when no place was verified yet (the creep may bring one
+  /// into view).
+  void hold(bool on, bool even_unseen = false) {
+    held_ = on;
+    hold_unseen_ = even_unseen;
+  }
   /// The answer from the frames so far (pending while more frames are needed).
   [[nodiscard]] RelocAnswer decide() const;
   /// Signed route distance from (a, da) to (b, db): along one edge, or over one node; nullopt farther.
@@ -134,6 +139,7 @@ class Relocaliser {
   std::optional<std::pair<std::uint32_t, double>> prior_;
   std::vector<FrameVotes> frames_;
   bool held_ = false;
+  bool hold_unseen_ = false;
 };
 
 }  // namespace visnav::reloc

@@ -12,6 +12,8 @@
 //    when it creeps forward (both ends advance alike); with the odometry prior of where the
 //    robot stopped it answers the right leg. This map is taught with trees/teach_hybrid_route.xml,
 //    which builds the place index at its end.
+//  * BuildPlaceIndex as the teach trees use it (required="false") on a path-only map and on a
+//    map of float descriptors: the teach never fails for want of an index.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -27,6 +29,7 @@
 
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/tree.hpp"
+#include "visnav/feature_replay/local_map.hpp"
 #include "visnav/map.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/runner.hpp"
@@ -277,4 +280,65 @@ TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {
     ASSERT_TRUE(d.ok());
     EXPECT_NEAR(*d, 1.5 * 1.03, 1.0);
   }
+}
+
+TEST(RelocClosedLoopSim, BuildPlaceIndexAtTheEndOfATeachNeverLosesTheTaughtMap) {
+  // The shipped teach trees end with <BuildPlaceIndex required="false"/>: a map with nothing to
+  // index succeeds without an index, a map that cannot be indexed (float descriptors) fails only
+  // when the index is required.
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  auto node = [](const std::string& name) {
+    NodeRecord n;
+    n.name = name;
+    return n;
+  };
+  auto edge = [](const std::string& from, const std::string& to, const std::string& kind, double length_m) {
+    EdgeRecord e;
+    e.from = from;
+    e.to = to;
+    e.kind = kind;
+    e.length_m = length_m;
+    return e;
+  };
+  std::string a, b;
+  {
+    auto map = MapStore::create(map_dir, "path only");
+    ASSERT_TRUE(map.ok()) << map.error().message;
+    auto na = map->add_node(node("a"));
+    auto nb = map->add_node(node("b"));
+    ASSERT_TRUE(na.ok() && nb.ok());
+    a = *na;
+    b = *nb;
+    ASSERT_TRUE(map->add_edge(edge(a, b, "path_following", 3.0), std::vector<std::uint8_t>{1, 2, 3}).ok());
+  }
+  auto tick_once = [&](const std::string& attributes) {
+    auto session = make_session(map_dir, {});
+    EXPECT_NE(session, nullptr);
+    if (!session) return RunOutcome::failure;
+    const std::string xml = tmp.file("build.xml");
+    std::ofstream(xml) << R"(<root BTCPP_format="4" main_tree_to_execute="B"><BehaviorTree ID="B">
+  <BuildPlaceIndex )" << attributes << R"(/>
+</BehaviorTree></root>)";
+    auto tree = session->load_tree(xml);
+    EXPECT_TRUE(tree.ok()) << tree.error().message;
+    if (!tree) return RunOutcome::failure;
+    return run_tree(*session, *tree).outcome;
+  };
+  EXPECT_EQ(tick_once(""), RunOutcome::success) << "nothing to index is not an error";
+  EXPECT_FALSE(fs::exists(map_dir + "/place_index.bin"));
+
+  {
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok()) << map.error().message;
+    feature_replay::LocalMapPath path;
+    feature_replay::LocalMap m;
+    m.descriptors = cv::Mat::ones(300, 16, CV_32FC1);
+    m.positions_px.assign(300, cv::Point2f(5.f, 5.f));
+    path.maps.push_back(m);
+    ASSERT_TRUE(map->add_edge(edge(b, a, "feature_localmaps", 0.0), path.serialize()).ok());
+  }
+  EXPECT_EQ(tick_once(""), RunOutcome::failure) << "float descriptors cannot be indexed";
+  EXPECT_EQ(tick_once(R"(required="false")"), RunOutcome::success) << "a warning at the end of a teach";
+  EXPECT_FALSE(fs::exists(map_dir + "/place_index.bin"));
 }

@@ -42,7 +42,7 @@ constexpr const char* kUsage =
     "  --end-margin-s S   teaching ends S s before the recording does (default 0.5), so the last edge\n"
     "                     is stored before the playback runs out of data\n"
     "  --set, --bb        as `visnav play`; `nodes` is set to the teaching tree's plugins\n"
-    "                     (navigation, feature_replay, path_following, teleop) before any --set\n"
+    "                     (navigation, feature_replay, path_following, teleop, relocalisation) before any --set\n"
     "  --image-topic T, --odom-topic T   topics of a ROS 2 bag (as `visnav convert`; default\n"
     "                     run.bag_image_topic / run.bag_odom_topic of --config)\n"
     "\n"
@@ -145,7 +145,7 @@ std::vector<std::string> play_arguments(const visnav::cli::Args& a, const fs::pa
     play.push_back(value);
   };
   if (a.has("--config")) add("--config", a.get("--config"));
-  add("--set", "nodes=[navigation,feature_replay,path_following,teleop]");  // a later --set nodes=... replaces it
+  add("--set", "nodes=[navigation,feature_replay,path_following,teleop,relocalisation]");  // a later --set nodes=... replaces it
   for (const auto& s : a.all("--set")) add("--set", s);
   for (const auto& b : a.all("--bb")) add("--bb", b);
   if (a.has("--log-level")) add("--log-level", a.get("--log-level"));

@@ -7,11 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <mutex>
 #include <numbers>
 #include <optional>
 #include <random>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -29,7 +31,8 @@ namespace {
 
 const char* const kUsage =
     "usage: visnav reloc-experiment [--trials N] [--replays R] [--appearance A] [--route R] [--config C]\n"
-    "                               [--lateral-m L] [--heading-deg H] [--look-around-deg D] [--seed S] [--out DIR]\n"
+    "                               [--lateral-m L] [--heading-deg H] [--look-around-deg D] [--creep-m C] [--seed S]\n"
+    "                               [--reloc PORT=VALUE ...] [--out DIR]\n"
     "\n"
     "Relocalisation from random start poses (issue 21). Teaches ROUTE in the simulator with every leg\n"
     "as a feature_segment edge (the place index covers feature edges), then for each trial starts a\n"
@@ -49,6 +52,9 @@ const char* const kUsage =
     "  --lateral-m L    lateral offset bound (default 0.5)\n"
     "  --heading-deg H  heading offset bound (default 30)\n"
     "  --look-around-deg D  Relocalise's look_around_deg (default 0: stand still)\n"
+    "  --creep-m C      Relocalise's creep_m (default 0: no creeping forward); the truth is where the\n"
+    "                   robot is when it answers\n"
+    "  --reloc P=V      another Relocalise port, e.g. --reloc min_answer_confidence=0.3 (repeatable)\n"
     "  --seed S         random seed of the start poses and error models (default 1)\n"
     "  --out DIR        output folder: map/, trials.csv, run.log (default /tmp/visnav_reloc_experiment)\n"
     "\n"
@@ -64,6 +70,9 @@ struct Options {
   double heading_deg = 30.0;
   int seed = 1;
   double look_around_deg = 0.0;
+  double creep_m = 0.0;
+  std::string reloc_attrs;  // extra Relocalise attributes (--reloc K=V), ' K="V"' each
+  std::string reloc_names = "look_around_deg|creep_m";  // the attributes the experiment sets
   std::string out = "/tmp/visnav_reloc_experiment";
 };
 
@@ -148,6 +157,17 @@ Result<Options> parse(int argc, char** argv) {
       VISNAV_ASSIGN(o.heading_deg, in.number(0, 180));
     } else if (a == "--look-around-deg") {
       VISNAV_ASSIGN(o.look_around_deg, in.number(0, 180));
+    } else if (a == "--reloc") {
+      VISNAV_ASSIGN(const std::string kv, in.value());
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos || eq == 0 ||
+          kv.find_first_not_of("abcdefghijklmnopqrstuvwxyz_0123456789") < eq ||
+          kv.find_first_of("\"<>& ") != std::string::npos)
+        return fail(ErrorCode::invalid_value, "--reloc: '" + kv + "' is not PORT=VALUE");
+      o.reloc_attrs += " " + kv.substr(0, eq) + "=\"" + kv.substr(eq + 1) + "\"";
+      o.reloc_names += "|" + kv.substr(0, eq);
+    } else if (a == "--creep-m") {
+      VISNAV_ASSIGN(o.creep_m, in.number(0, 5));
     } else if (a == "--seed") {
       VISNAV_ASSIGN(const double v, in.number(0, 1e9));
       o.seed = static_cast<int>(v);
@@ -247,7 +267,7 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
   auto appearance = appearance_overrides(o.appearance);
   std::ofstream csv(dir / "trials.csv");
   csv << "trial,truth_edge,truth_distance_m,lateral_m,heading_deg,status,edge,distance_m,along_error_m,verdict,"
-         "relocalise_wall_s,replay\n";
+         "confidence,relocalise_wall_s,replay\n";
   int correct = 0, wrong = 0, ambiguous = 0, not_on_map = 0, blocked = 0, other = 0;
   int replays_run = 0, replays_completed = 0;
   double relocalise_wall_s = 0.0;
@@ -266,8 +286,6 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       }
       at_m = along(rng);
     }
-    const TaughtEdge& truth_edge = taught[k];
-    const double truth_d = at_m - truth_edge.start_m;
     const auto sample = std::min_element(samples.begin(), samples.end(), [&](const TeachSample& a, const TeachSample& b) {
       return std::abs(a.odom_m - at_m) < std::abs(b.odom_m - at_m);
     });
@@ -287,14 +305,26 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     auto session = session_for(overrides, map_dir.string());
     if (!session) return setup_error(session.error().message);
     const bool replay = replays_run < o.replays;
-    const std::string tree_file = replay ? "trees/replay_from_here.xml" : "";
-    // Relocalise alone, or the whole replay_from_here tree for the trials that replay.
-    const fs::path reloc_xml = dir / "relocalise.xml";
-    if (!replay)
+    // Relocalise alone, or the whole replay_from_here tree (its Relocalise given the experiment's
+    // look_around_deg and creep_m) for the trials that replay.
+    const fs::path reloc_xml = dir / (replay ? "replay_from_here.xml" : "relocalise.xml");
+    if (!replay) {
       std::ofstream(reloc_xml) << "<root BTCPP_format=\"4\" main_tree_to_execute=\"R\"><BehaviorTree ID=\"R\">\n"
-                                  "  <Relocalise look_around_deg=\"" << o.look_around_deg << "\" edge=\"{reloc_edge}\" distance_m=\"{reloc_distance_m}\" "
+                                  "  <Relocalise look_around_deg=\"" << o.look_around_deg << "\" creep_m=\"" << o.creep_m
+                               << "\"" << o.reloc_attrs << " edge=\"{reloc_edge}\" distance_m=\"{reloc_distance_m}\" "
                                   "status=\"{reloc_status}\" reason=\"{reloc_reason}\"/>\n</BehaviorTree></root>\n";
-    auto tree = (*session)->load_tree(replay ? project_file(tree_file) : reloc_xml.string());
+    } else {
+      std::ifstream in(project_file("trees/replay_from_here.xml"));
+      std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      // Drop the tree's own settings of the attributes the experiment sets, then set them.
+      xml = std::regex_replace(xml, std::regex(" (" + o.reloc_names + ")=\"[^\"]*\""), "");
+      std::ostringstream attrs;
+      attrs << "<Relocalise look_around_deg=\"" << o.look_around_deg << "\" creep_m=\"" << o.creep_m << "\""
+            << o.reloc_attrs << " ";
+      xml = std::regex_replace(xml, std::regex(R"(<Relocalise\s)"), attrs.str());
+      std::ofstream(reloc_xml) << xml;
+    }
+    auto tree = (*session)->load_tree(reloc_xml.string());
     if (!tree) return setup_error(tree.error().message);
     // The goal of a replay: the end node of the edge after the one the robot is on.
     const std::size_t next = (k + 1) % taught.size();
@@ -302,13 +332,17 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     if (const EdgeRecord* rec = (*session)->map()->find_edge(taught[next].id)) goal_node = rec->to;
     tree->blackboard().set("goal", goal_node);
     // Relocalise's own wall time: from the first tick to its answer.
+    // Where the robot is when it answers (it may have crept forward): the ground truth then.
     std::optional<std::chrono::steady_clock::time_point> t_answer;
+    SimulationControl* sim = (*session)->robot().simulation();
+    Pose2D at_answer = start;
     const auto t0 = std::chrono::steady_clock::now();
     tree->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-      if (node.registration_id() == "Relocalise" && (to == bt::NodeStatus::success || to == bt::NodeStatus::failure))
+      if (node.registration_id() == "Relocalise" && (to == bt::NodeStatus::success || to == bt::NodeStatus::failure)) {
         t_answer = std::chrono::steady_clock::now();
+        if (sim != nullptr) at_answer = sim->ground_truth_pose();
+      }
     });
-    SimulationControl* sim = (*session)->robot().simulation();
     RunOptions ro;
     ro.after_tick = [&](const TickInfo& t) { return t.t_s < 400.0; };
     const RunReport report = run_tree(**session, *tree, ro);
@@ -318,6 +352,30 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       auto v = tree->blackboard().get<std::string>(key);
       return v ? *v : std::string();
     };
+    // The truth at the answer: the taught sample nearest the robot then (within a few metres of
+    // the start along the route), plus the remainder projected on its heading.
+    double truth_at_m = at_m;
+    {
+      const TeachSample* near = nullptr;
+      double near_d = 1e9;
+      for (const TeachSample& s : samples) {
+        if (std::abs(s.odom_m - at_m) > o.creep_m + 3.0) continue;
+        const double dd = std::hypot(s.truth.x_m - at_answer.x_m, s.truth.y_m - at_answer.y_m);
+        if (dd < near_d) {
+          near_d = dd;
+          near = &s;
+        }
+      }
+      if (near != nullptr)
+        truth_at_m = near->odom_m + (at_answer.x_m - near->truth.x_m) * std::cos(near->truth.heading_rad) +
+                     (at_answer.y_m - near->truth.y_m) * std::sin(near->truth.heading_rad);
+    }
+    std::size_t k_now = k;
+    for (std::size_t i = 0; i < taught.size(); ++i)
+      if (truth_at_m >= taught[i].start_m && truth_at_m <= taught[i].start_m + taught[i].length_m) k_now = i;
+    const TaughtEdge& truth_edge = taught[k_now];
+    const double truth_d = truth_at_m - truth_edge.start_m;
+    const std::size_t next_now = (k_now + 1) % taught.size();
     const std::string status = bb("reloc_status");
     const std::string edge = bb("reloc_edge");
     const double d = tree->blackboard().get<double>("reloc_distance_m").value_or(-1.0);
@@ -327,9 +385,9 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       // The same spot may be named on either side of a node.
       std::optional<double> error;
       if (edge == truth_edge.id) error = d - truth_d;
-      if (k > 0 && edge == taught[k - 1].id) error = -((taught[k - 1].length_m - d) + truth_d);
-      if (k == 0 && edge == taught.back().id) error = -((taught.back().length_m - d) + truth_d);
-      if (edge == taught[next].id) error = (truth_edge.length_m - truth_d) + d;
+      if (k_now > 0 && edge == taught[k_now - 1].id) error = -((taught[k_now - 1].length_m - d) + truth_d);
+      if (k_now == 0 && edge == taught.back().id) error = -((taught.back().length_m - d) + truth_d);
+      if (edge == taught[next_now].id) error = (truth_edge.length_m - truth_d) + d;
       if (error && std::abs(*error) <= 1.0) {
         verdict = "correct";
         ++correct;
@@ -365,7 +423,8 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     }
     csv << trial << ',' << truth_edge.id << ',' << fixed(truth_d, 3) << ',' << fixed(lateral_m, 3) << ','
         << fixed(heading_rad * 180.0 / std::numbers::pi, 1) << ',' << status << ',' << edge << ',' << fixed(d, 3) << ','
-        << fixed(along_error_m, 3) << ',' << verdict << ',' << fixed(wall_s, 3) << ",\"" << replay_result << "\"\n";
+        << fixed(along_error_m, 3) << ',' << verdict << ','
+        << fixed(tree->blackboard().get<double>("reloc_confidence").value_or(0.0), 3) << ',' << fixed(wall_s, 3) << ",\"" << replay_result << "\"\n";
     std::printf("trial %3d: truth %s at %5.2f m (lateral %+.2f m, heading %+5.1f deg): %-14s %s %s -> %s%s%s\n", trial + 1,
                 truth_edge.id.c_str(), truth_d, lateral_m, heading_rad * 180.0 / std::numbers::pi, status.c_str(),
                 edge.c_str(), status == "localised" ? fixed(d, 2).c_str() : "", verdict.c_str(),

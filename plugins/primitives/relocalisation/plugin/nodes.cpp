@@ -1,6 +1,7 @@
 // Relocalise and BuildPlaceIndex: thin adapters over the relocalisation core (see nodes.hpp).
 #include "nodes.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,6 +39,9 @@ struct RelocaliseNodeParams {
   double look_around_deg = 0.0;
   double turn_speed_radps = 0.3;
   double horizontal_fov_deg = 60.0;
+  double creep_m = 0.0;
+  double creep_speed_mps = 0.2;
+  int creep_unrecognised = 0;
 
   [[nodiscard]] Status validate() const {
     VISNAV_TRY(schema().check(*this));
@@ -66,7 +70,16 @@ struct RelocaliseNodeParams {
             .range(0.05, 2.0)
             .field("horizontal_fov_deg", &P::horizontal_fov_deg,
                    "camera horizontal field of view (converts image offsets to heading offsets), deg")
-            .range(1.0, 360.0);
+            .range(1.0, 360.0)
+            .field("creep_m", &P::creep_m,
+                   "after `frames` frames, creep this far forward (steering to the best place's taught heading) "
+                   "while taking frames, and answer only then (0 = never drive forward), m")
+            .range(0.0, 5.0)
+            .field("creep_speed_mps", &P::creep_speed_mps, "forward speed while creeping, m/s")
+            .range(0.02, 1.0)
+            .field("creep_unrecognised", &P::creep_unrecognised,
+                   "1: creep even when no place was verified in the first frames (else not_on_map at once)")
+            .range(0, 1);
     return s;
   }
 };
@@ -171,7 +184,7 @@ class Relocalise final : public bt::StatefulActionNode {
     const auto odom = bus.latest_odometry();
     const auto frame = bus.latest_frame();
     if (!odom) return failed("no odometry");
-    const Twist turn = look_around(*odom);
+    const Twist turn = motion(*odom);
     if (!frame || (have_sequence_ && frame->sequence == last_sequence_)) return send(turn);
     have_sequence_ = true;
     last_sequence_ = frame->sequence;
@@ -199,7 +212,16 @@ class Relocalise final : public bt::StatefulActionNode {
     const RelocAnswer a = relocaliser_->decide();
     publish(a, turn, vote_count);
     if (a.status == RelocStatus::pending) {
-      // Looking around: keep turning until the sweep is done; an early answer still ends it.
+      if (a.has_best) steer_offset_rad_ = a.heading_offset_rad;
+      // Enough frames standing (and the look-around sweep done): creep forward for the sequence
+      // check over the robot's own motion.
+      if (creep_ == Creep::waiting && a.usable_frames >= params_.decision.frames && sweep_done()) {
+        creep_ = Creep::creeping;
+        creep_start_m_ = odom->distance_m;
+        creep_start_s_ = odom->timestamp_s;
+        host_.logger().info(path(), "creeping " + fmt(params_.creep_m, 2) + " m forward for the sequence check");
+      }
+      // Looking around or creeping: keep moving until done; an early final answer still ends it.
       return send(turn);
     }
     stop();
@@ -252,6 +274,9 @@ class Relocalise final : public bt::StatefulActionNode {
                     "'" + prior_edge + "' is not a feature edge of the place index");
     }
     have_sequence_ = false;
+    creep_ = params_.creep_m > 0.0 ? Creep::waiting : Creep::none;
+    relocaliser_->hold(creep_ == Creep::waiting, params_.creep_unrecognised != 0);
+    steer_offset_rad_.reset();
     last_blank_.clear();
     sweep_ = 0;
     turned_rad_ = 0.0;
@@ -259,6 +284,27 @@ class Relocalise final : public bt::StatefulActionNode {
     (void)set_output("status", std::string("pending"));
     stop();
     return ok();
+  }
+
+  [[nodiscard]] bool sweep_done() const { return params_.look_around_deg <= 0.0 || sweep_ >= 3; }
+
+  /// This tick's command: the look-around turn, then the creep (forward, steering the best
+  /// place's heading offset to zero); ends the creep (releasing the decision) once it has
+  /// covered creep_m, or after three times its expected duration (a robot that cannot move).
+  Twist motion(const Odometry& odom) {
+    const Twist turn = look_around(odom);
+    if (creep_ != Creep::creeping) return turn;
+    const double covered_m = std::abs(odom.distance_m - creep_start_m_);
+    const double limit_s = 3.0 * params_.creep_m / params_.creep_speed_mps + 2.0;
+    if (covered_m >= params_.creep_m || odom.timestamp_s - creep_start_s_ > limit_s) {
+      creep_ = Creep::done;
+      relocaliser_->hold(false);
+      return Twist{};
+    }
+    const double steer = steer_offset_rad_ ? std::clamp(-*steer_offset_rad_, -params_.turn_speed_radps,
+                                                        params_.turn_speed_radps)
+                                           : 0.0;
+    return Twist{params_.creep_speed_mps, steer};
   }
 
   /// The look-around command: left to +look_around_deg, right to -look_around_deg, back to 0.
@@ -316,6 +362,11 @@ class Relocalise final : public bt::StatefulActionNode {
   std::string last_blank_;
   int sweep_ = 0;
   double turned_rad_ = 0.0;
+  enum class Creep : std::uint8_t { none, waiting, creeping, done };
+  Creep creep_ = Creep::none;
+  double creep_start_m_ = 0.0;
+  double creep_start_s_ = 0.0;
+  std::optional<double> steer_offset_rad_;
   std::optional<double> last_heading_;
 };
 
@@ -327,7 +378,10 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
       : SyncActionNode(name, config), host_(host) {}
   static bt::PortsList provided_ports() {
     return {bt::input_port<bool>("only_if_missing", "false",
-                                 "keep an existing index that matches the map (a damaged or stale one is rebuilt)")};
+                                 "keep an existing index that matches the map (a damaged or stale one is rebuilt)"),
+            bt::input_port<bool>("required", "true",
+                                 "false: a map that cannot be indexed (e.g. float descriptors) is a warning and the "
+                                 "node succeeds (the end of a teach tree: the taught map is kept either way)")};
   }
 
  protected:
@@ -336,8 +390,18 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
     if (map == nullptr) return failed("BuildPlaceIndex needs a map (visnav run --map M)");
     auto keep = get_input<bool>("only_if_missing");
     if (!keep) return failed(keep.error().message);
+    auto required = get_input<bool>("required");
+    if (!required) return failed(required.error().message);
+    required_ = *required;
     if (*keep)
       if (auto loaded = load_place_index(map->dir()); loaded && loaded->matches(*map)) return NodeStatus::success;
+    // A map without feature edges (only path-following or visual-memory edges) has nothing to
+    // index: not an error at the end of a teach.
+    if (std::none_of(map->edges().begin(), map->edges().end(), [](const EdgeRecord& e) { return indexable_kind(e.kind); })) {
+      host_.logger().info(path(), "no feature edge to index (the place index covers feature_segment and "
+                                  "feature_localmaps edges)");
+      return NodeStatus::success;
+    }
     if (auto st = map->flush(); !st) return failed(st.error().message);
     const auto t0 = std::chrono::steady_clock::now();
     auto built = build_place_index(*map, PlaceIndexParams{});
@@ -352,10 +416,15 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
 
  private:
   NodeStatus failed(const std::string& message) {
+    if (!required_) {
+      host_.logger().warn(path(), "no place index: " + message + " (Relocalise cannot use this map)");
+      return NodeStatus::success;
+    }
     host_.logger().error(path(), message);
     return NodeStatus::failure;
   }
   HostServices& host_;
+  bool required_ = true;
 };
 
 }  // namespace

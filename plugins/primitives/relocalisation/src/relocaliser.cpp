@@ -140,13 +140,18 @@ RelocAnswer Relocaliser::decide() const {
     const double moved_m = newest->odom_distance_m - f.odom_distance_m;
     const double turned_rad = wrap(newest->odom_heading_rad - f.odom_heading_rad);
     for (const auto& v : f.votes)
-      if (v.edge < edges_.size() && v.confidence >= params_.min_confidence)
-        votes.push_back({v.edge, v.distance_m + moved_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
+      if (v.edge < edges_.size() && v.confidence >= params_.min_confidence) {
+        // Along the edge: the path travelled projected with the mean of the vote's heading offset
+        // then and now (a robot creeping 30 deg off the taught heading advances 0.87 m per metre).
+        const double along_m = moved_m * std::cos(v.heading_offset_rad + 0.5 * turned_rad);
+        votes.push_back({v.edge, v.distance_m + along_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
                          v.score > 0.0 ? v.score : v.confidence, frame_index});
+      }
     ++frame_index;
   }
   const int usable = frame_index;
   if (votes.empty()) {
+    if (held_ && hold_unseen_) return answer;
     answer.status = RelocStatus::not_on_map;
     answer.reason = "not on the map: no place of the map was verified in " + std::to_string(usable) + " frames";
     return answer;
@@ -217,7 +222,7 @@ RelocAnswer Relocaliser::decide() const {
     return "edge " + edges_[h.edge].id + " at " + fmt(std::clamp(h.centre_m, 0.0, edges_[h.edge].length_m)) + " m";
   };
   if (!(best.score > 0.0)) {
-    answer.status = usable >= params_.max_frames ? RelocStatus::not_on_map : RelocStatus::pending;
+    answer.status = usable >= params_.max_frames && !held_ ? RelocStatus::not_on_map : RelocStatus::pending;
     answer.reason = "not on the map: the places seen are outside the odometry prior (" +
                     fmt(params_.prior_sigma_m) + " m)";
     return answer;
@@ -234,6 +239,12 @@ RelocAnswer Relocaliser::decide() const {
   const double ratio = runner_up != nullptr ? runner_up->score / best.score : 0.0;
   const bool final_frame = usable >= params_.max_frames;
   answer.support = best.support;
+  // The best place so far (provisional while pending).
+  answer.has_best = true;
+  answer.edge = best.edge;
+  answer.distance_m = std::clamp(best.centre_m, 0.0, edges_[best.edge].length_m);
+  answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
+  if (held_) return answer;
   if (ratio > params_.max_runner_up_ratio) {
     if (!final_frame) return answer;
     answer.status = RelocStatus::ambiguous;

@@ -8,8 +8,12 @@
 //    turns to the taught heading and drives the rest of the route back to the start.
 //    The same start with the lens covered (camera gain 0) is refused and the robot does not move.
 //  * repetitive_loop: the same rectangle in a point-symmetric courtyard, where the first and the
-//    third leg look alike: without a prior Relocalise answers ambiguous (never a guess); with the
-//    odometry prior of where the robot stopped it answers the right leg.
+//    third leg look alike: without a prior Relocalise answers ambiguous (never a guess), also
+//    when it creeps forward (both ends advance alike); with the odometry prior of where the
+//    robot stopped it answers the right leg. This map is taught with trees/teach_hybrid_route.xml,
+//    which builds the place index at its end.
+//  * BuildPlaceIndex as the teach trees use it (required="false") on a path-only map and on a
+//    map of float descriptors: the teach never fails for want of an index.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -25,7 +29,9 @@
 
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/tree.hpp"
+#include "visnav/feature_replay/local_map.hpp"
 #include "visnav/map.hpp"
+#include "visnav/relocalisation/place_index.hpp"
 #include "visnav/runner.hpp"
 #include "temp_folder.hpp"
 
@@ -57,11 +63,13 @@ std::unique_ptr<Session> make_session(const std::string& map_dir, const std::vec
   return std::move(*session);
 }
 
-/// Teaches `route` (four feature_segment legs of a closed rectangle) into `map_dir`.
-void teach(const std::string& map_dir, const std::string& world, const std::string& route) {
+/// Teaches `route` (four feature_segment legs of a closed rectangle) into `map_dir` with
+/// trees/`teach_tree`.
+void teach(const std::string& map_dir, const std::string& world, const std::string& route,
+           const std::string& teach_tree = "teach_feature_edge.xml") {
   auto session = make_session(map_dir, {"robot.params.world=" + world});
   ASSERT_NE(session, nullptr);
-  auto tree = session->load_tree(kSource + "/trees/teach_feature_edge.xml");
+  auto tree = session->load_tree(kSource + "/trees/" + teach_tree);
   ASSERT_TRUE(tree.ok()) << tree.error().message;
   tree->blackboard().set("route_file", kSource + "/config/routes/" + route + ".yaml");
   tree->blackboard().set("style", std::string("segment"));
@@ -115,20 +123,27 @@ TEST(RelocClosedLoopSim, ReplaysTheRestOfTheRouteFromTheMiddleOfAnEdge) {
   ASSERT_TRUE(tree.ok()) << tree.error().message;
   tree->blackboard().set("goal", std::string("start"));
   SimulationControl* sim = session->robot().simulation();
+  // The tree's Relocalise creeps 1 m forward before answering: the truth is where it answers.
+  Pose2D at_answer{};
+  tree->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+    if (node.registration_id() == "Relocalise" && to == bt::NodeStatus::success) at_answer = sim->ground_truth_pose();
+  });
   RunOptions run;
   run.after_tick = [](const TickInfo& t) { return t.t_s < 300.0; };
   const RunReport report = run_tree(*session, *tree, run);
   EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason << " / " << bb_string(*tree, "reloc_reason");
+  const double truth_m = (at_answer.y_m + 2.0) * 1.03;  // the leg runs north from (3, -2); odometric metres
+  EXPECT_GT(at_answer.y_m, -0.5 + 0.7) << "crept forward before answering";
   EXPECT_TRUE(fs::exists(map_dir + "/place_index.bin")) << "built on demand and kept in the map folder";
   EXPECT_EQ(bb_string(*tree, "reloc_edge"), second_edge) << bb_string(*tree, "reloc_reason");
   auto d = tree->blackboard().get<double>("reloc_distance_m");
   ASSERT_TRUE(d.ok());
-  EXPECT_NEAR(*d, 1.5 * 1.03, 1.0) << "along-track error within 1 m (odometric map distances)";
+  EXPECT_NEAR(*d, truth_m, 1.0) << "along-track error within 1 m (odometric map distances)";
   const Pose2D end = sim->ground_truth_pose();
   const double error_m = std::hypot(end.x_m + 3.0, end.y_m + 2.0);
   std::printf("relocalised on %s at %.2f m (truth ~%.2f m); replay ended at (%.2f, %.2f), %.2f m from the start, "
               "%.0f s simulated, %.1f s wall\n",
-              bb_string(*tree, "reloc_edge").c_str(), *d, 1.5 * 1.03, end.x_m, end.y_m, error_m, report.run_time_s,
+              bb_string(*tree, "reloc_edge").c_str(), *d, truth_m, end.x_m, end.y_m, error_m, report.run_time_s,
               report.wall_time_s);
   EXPECT_LT(error_m, 0.8) << "the rest of the route is driven to the start node";
   EXPECT_FALSE(fs::exists(map_dir + "/progress.yaml")) << "a finished route leaves no checkpoint to resume";
@@ -193,8 +208,18 @@ TEST(RelocClosedLoopSim, ResumesAStoppedMissionFromItsCheckpointAfterRelocalisin
 TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {
   TempFolder tmp;
   const std::string map_dir = tmp.file("map");
-  teach(map_dir, "repetitive_loop", "repetitive_loop");
+  teach(map_dir, "repetitive_loop", "repetitive_loop", "teach_hybrid_route.xml");
   if (HasFatalFailure()) return;
+  {
+    // The shipped teach tree builds the place index at its end.
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok());
+    auto index = reloc::load_place_index(map_dir);
+    ASSERT_TRUE(index.ok()) << index.error().message;
+    EXPECT_TRUE(index->matches(*map).ok());
+    EXPECT_EQ(index->edges.size(), 4u);
+  }
+  const std::string creep = R"(creep_m="1" creep_unrecognised="1" min_answer_confidence="0.35")";
   std::string first_edge, third_edge;
   {
     auto map = MapStore::open(map_dir);
@@ -212,11 +237,24 @@ TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {
     const Pose2D before = session->robot().simulation()->ground_truth_pose();
     std::optional<bt::Tree> holder;
     bt::Tree* tree = nullptr;
-    const RunReport report = relocalise_only(*session, tmp, "", &tree, holder);
+    const RunReport report = relocalise_only(*session, tmp, creep, &tree, holder);
     EXPECT_EQ(report.outcome, RunOutcome::failure);
     EXPECT_EQ(bb_string(*tree, "reloc_status"), "camera_blocked") << bb_string(*tree, "reloc_reason");
     const Pose2D after = session->robot().simulation()->ground_truth_pose();
-    EXPECT_LT(std::hypot(after.x_m - before.x_m, after.y_m - before.y_m), 0.01) << "a refused answer never moves";
+    EXPECT_LT(std::hypot(after.x_m - before.x_m, after.y_m - before.y_m), 0.01)
+        << "a blocked camera never creeps, even when asked to";
+  }
+  {
+    // Creeping does not separate the two ends of a point-symmetric loop: they advance alike.
+    auto session = make_session(map_dir, at);
+    ASSERT_NE(session, nullptr);
+    std::optional<bt::Tree> holder;
+    bt::Tree* tree = nullptr;
+    const RunReport report = relocalise_only(*session, tmp, creep, &tree, holder);
+    std::printf("no prior, creeping: %s: %s\n", bb_string(*tree, "reloc_status").c_str(),
+                bb_string(*tree, "reloc_reason").c_str());
+    EXPECT_EQ(report.outcome, RunOutcome::failure);
+    EXPECT_EQ(bb_string(*tree, "reloc_status"), "ambiguous") << bb_string(*tree, "reloc_reason");
   }
   {
     auto session = make_session(map_dir, at);
@@ -242,4 +280,65 @@ TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {
     ASSERT_TRUE(d.ok());
     EXPECT_NEAR(*d, 1.5 * 1.03, 1.0);
   }
+}
+
+TEST(RelocClosedLoopSim, BuildPlaceIndexAtTheEndOfATeachNeverLosesTheTaughtMap) {
+  // The shipped teach trees end with <BuildPlaceIndex required="false"/>: a map with nothing to
+  // index succeeds without an index, a map that cannot be indexed (float descriptors) fails only
+  // when the index is required.
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  auto node = [](const std::string& name) {
+    NodeRecord n;
+    n.name = name;
+    return n;
+  };
+  auto edge = [](const std::string& from, const std::string& to, const std::string& kind, double length_m) {
+    EdgeRecord e;
+    e.from = from;
+    e.to = to;
+    e.kind = kind;
+    e.length_m = length_m;
+    return e;
+  };
+  std::string a, b;
+  {
+    auto map = MapStore::create(map_dir, "path only");
+    ASSERT_TRUE(map.ok()) << map.error().message;
+    auto na = map->add_node(node("a"));
+    auto nb = map->add_node(node("b"));
+    ASSERT_TRUE(na.ok() && nb.ok());
+    a = *na;
+    b = *nb;
+    ASSERT_TRUE(map->add_edge(edge(a, b, "path_following", 3.0), std::vector<std::uint8_t>{1, 2, 3}).ok());
+  }
+  auto tick_once = [&](const std::string& attributes) {
+    auto session = make_session(map_dir, {});
+    EXPECT_NE(session, nullptr);
+    if (!session) return RunOutcome::failure;
+    const std::string xml = tmp.file("build.xml");
+    std::ofstream(xml) << R"(<root BTCPP_format="4" main_tree_to_execute="B"><BehaviorTree ID="B">
+  <BuildPlaceIndex )" << attributes << R"(/>
+</BehaviorTree></root>)";
+    auto tree = session->load_tree(xml);
+    EXPECT_TRUE(tree.ok()) << tree.error().message;
+    if (!tree) return RunOutcome::failure;
+    return run_tree(*session, *tree).outcome;
+  };
+  EXPECT_EQ(tick_once(""), RunOutcome::success) << "nothing to index is not an error";
+  EXPECT_FALSE(fs::exists(map_dir + "/place_index.bin"));
+
+  {
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok()) << map.error().message;
+    feature_replay::LocalMapPath path;
+    feature_replay::LocalMap m;
+    m.descriptors = cv::Mat::ones(300, 16, CV_32FC1);
+    m.positions_px.assign(300, cv::Point2f(5.f, 5.f));
+    path.maps.push_back(m);
+    ASSERT_TRUE(map->add_edge(edge(b, a, "feature_localmaps", 0.0), path.serialize()).ok());
+  }
+  EXPECT_EQ(tick_once(""), RunOutcome::failure) << "float descriptors cannot be indexed";
+  EXPECT_EQ(tick_once(R"(required="false")"), RunOutcome::success) << "a warning at the end of a teach";
+  EXPECT_FALSE(fs::exists(map_dir + "/place_index.bin"));
 }

@@ -147,3 +147,59 @@ TEST(Relocaliser, BlankFramesAreACameraProblemAndNoVotesAreNotOnTheMap) {
   }
   EXPECT_EQ(weak.decide().status, RelocStatus::ambiguous) << weak.decide().reason;
 }
+
+TEST(Relocaliser, CreepingSeparatesALookAlikeThatDoesNotAdvanceWithTheRobot) {
+  // Standing still, 4 m and 7 m into e0 match equally well (far scenery): ambiguous.
+  RelocaliseParams p;
+  Relocaliser still(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) still.add(frame({{0, 4.0, 0.9, 0.0}, {0, 7.0, 0.9, 0.0}}));
+  EXPECT_EQ(still.decide().status, RelocStatus::ambiguous);
+
+  // Creeping 0.1 m per frame: the true place advances with the robot, the look-alike's best
+  // match slides backwards (0.3 m per frame) and no longer gathers the frames into one place.
+  Relocaliser creep(p, loop());
+  creep.hold(true);
+  const int n = 21;
+  for (int i = 0; i < n; ++i) {
+    const double moved = 0.1 * i;
+    creep.add(frame({{0, 4.0 + moved, 0.9, 0.0}, {0, 9.0 - 3.0 * moved, 0.9, 0.0}}, moved));
+    const RelocAnswer held = creep.decide();
+    EXPECT_EQ(held.status, RelocStatus::pending) << "held while creeping, frame " << i + 1;
+    if (i + 1 >= p.frames) {
+      EXPECT_TRUE(held.has_best);
+    }
+  }
+  creep.hold(false);
+  const RelocAnswer a = creep.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_EQ(a.edge, 0u);
+  EXPECT_NEAR(a.distance_m, 6.0, 0.05);
+}
+
+TEST(Relocaliser, HoldStillStopsARobotThatRecognisesNothing) {
+  // Held for a creep, a robot that verified no place (or sees nothing) is answered at once, so it
+  // never drives forward off the map.
+  RelocaliseParams p;
+  Relocaliser off(p, loop());
+  off.hold(true);
+  for (int i = 0; i < p.frames; ++i) off.add(frame({}));
+  EXPECT_EQ(off.decide().status, RelocStatus::not_on_map);
+  Relocaliser covered(p, loop());
+  covered.hold(true);
+  for (int i = 0; i < p.frames; ++i) covered.add(blank());
+  EXPECT_EQ(covered.decide().status, RelocStatus::camera_blocked);
+}
+
+TEST(Relocaliser, MotionIsProjectedOnTheEdgeWithTheHeadingOffset) {
+  // Driving 2 m at 0.5 rad to the taught heading advances 2 cos(0.5) = 1.755 m along the edge.
+  RelocaliseParams p;
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.frames; ++i) {
+    const double moved = 0.5 * i;
+    r.add(frame({{0, 3.0 + moved * std::cos(0.5), 0.7, 0.5}}, moved));
+  }
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_NEAR(a.distance_m, 3.0 + 2.0 * std::cos(0.5), 0.01);
+  EXPECT_EQ(a.support, p.frames);
+}

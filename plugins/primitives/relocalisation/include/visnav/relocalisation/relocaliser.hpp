@@ -3,10 +3,12 @@
 // Each frame contributes votes: the places the index proposed whose reference features the
 // feature primitive's histogram voting verified (confidence >= min_confidence), each with the
 // place's edge and distance and the heading offset the histogram found. Votes of earlier frames
-// are moved to the newest frame with the robot's own odometric motion (distance travelled is
-// added along the edge, the heading change to the offset), so a sequence taken while the robot
-// creeps or turns in place is compared in one frame of reference (the SeqSLAM idea: a place is
-// accepted only when a sequence of frames agrees with the motion between them).
+// are moved to the newest frame with the robot's own odometric motion (the distance travelled,
+// projected on the edge with the vote's heading offset, is added along the edge; the heading
+// change is added to the offset), so a sequence taken while the robot creeps forward or turns in
+// place is compared in one frame of reference (the SeqSLAM idea: a place is accepted only when a
+// sequence of frames agrees with the motion between them; votes for a look-alike place that do
+// not advance with the robot spread out and stop supporting one place).
 //
 // Votes are grouped into hypotheses: votes on one edge within place_tolerance_m, and places at
 // the two sides of a node (end of one edge, start of the next) within place_tolerance_m of it
@@ -29,6 +31,12 @@
 //     answered ambiguous at max_frames: in the campus experiment the answers below 0.5 were
 //     wrong as often as right).
 // Never from one frame: `frames` >= 3.
+//
+// Held (hold(true), while the robot still has to creep forward): only the answers that must stop
+// the robot before it moves are given (camera_blocked; not_on_map when no place was verified at
+// all, unless held even_unseen); everything else stays pending. A pending answer with a best place carries it in edge /
+// distance_m / heading_offset_rad (provisional, e.g. to steer the creep; has_best) — never an
+// answer.
 //
 // Frames: distances in metres along an edge from its start; heading offsets in radians, the
 // robot's heading minus the taught heading at that place (CCW positive).
@@ -103,6 +111,7 @@ struct RelocAnswer {
   int usable_frames = 0;
   int blank_frames = 0;
   std::string reason;                 ///< one line: why this answer (names the places for ambiguous)
+  bool has_best = false;              ///< edge / distance_m / heading_offset_rad name the best place so far
 };
 
 class Relocaliser {
@@ -112,6 +121,13 @@ class Relocaliser {
   /// The robot is believed to be at (edge, distance_m) (odometry prior; used when prior_sigma_m > 0).
   void set_prior(std::uint32_t edge, double distance_m);
   void add(FrameVotes frame);
+  /// Holds the decision (see the file comment) while the robot still creeps; release with false.
+  /// `even_unseen`: also hold not_on_map when no place was verified yet (the creep may bring one
+  /// into view).
+  void hold(bool on, bool even_unseen = false) {
+    held_ = on;
+    hold_unseen_ = even_unseen;
+  }
   /// The answer from the frames so far (pending while more frames are needed).
   [[nodiscard]] RelocAnswer decide() const;
   /// Signed route distance from (a, da) to (b, db): along one edge, or over one node; nullopt farther.
@@ -122,6 +138,8 @@ class Relocaliser {
   std::vector<RouteEdge> edges_;
   std::optional<std::pair<std::uint32_t, double>> prior_;
   std::vector<FrameVotes> frames_;
+  bool held_ = false;
+  bool hold_unseen_ = false;
 };
 
 }  // namespace visnav::reloc

@@ -9,9 +9,11 @@
 //    crash, are reported in telemetry and keep the recorded command (style B) / drive straight
 //    (style A) instead of steering on noise.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -504,4 +506,52 @@ TEST_F(FeatureExperiences, ADamagedExperienceFileFailsTheEdgeNamingTheFileBefore
   EXPECT_NE(logger_.text().find("edge " + id), std::string::npos) << logger_.text();
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
   EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+namespace {
+
+/// Runs the visnav command line; returns (exit status, stdout + stderr).
+std::pair<int, std::string> run_cli(const std::string& args) {
+  const std::string cmd = std::string(VISNAV_TEST_CLI) + " " + args + " 2>&1";
+  std::string out;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return {-1, out};
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p) != nullptr) out += buf;
+  const int status = ::pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+}  // namespace
+
+TEST_F(FeatureExperiences, MapExperiencesListsThemAndMapValidateChecksThem) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  {
+    const auto [rc, out] = run_cli("map experiences " + dir_.string());
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("edge " + id + " (feature_localmaps, 3.00 m): 1 experience\n"), std::string::npos) << out;
+    EXPECT_NE(out.find("0 learned experiences"), std::string::npos) << out;
+  }
+  ASSERT_EQ(replay(id, "learn_experiences=\"true\"", scene_.view(0.f)), NodeStatus::success) << logger_.text();
+  {
+    const auto [rc, out] = run_cli("map experiences " + dir_.string());
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("edge " + id + " (feature_localmaps, 3.00 m): 2 experiences\n"), std::string::npos) << out;
+    EXPECT_NE(out.find("  1  learned "), std::string::npos) << out;
+    EXPECT_NE(out.find("local maps"), std::string::npos) << out;
+    const auto [vrc, vout] = run_cli("map validate " + dir_.string());
+    EXPECT_EQ(vrc, 0) << vout;
+  }
+  {
+    std::fstream f(experience_file(id), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-20, std::ios::end);
+    f.put('\x33');
+  }
+  const auto [rc, out] = run_cli("map-experiences " + dir_.string() + " --check");
+  EXPECT_EQ(rc, 1) << out;
+  EXPECT_NE(out.find("experiences/" + id + ".bin"), std::string::npos) << out;
+  const auto [vrc, vout] = run_cli("map validate " + dir_.string());
+  EXPECT_EQ(vrc, 1) << vout;
+  EXPECT_NE(vout.find("experiences/" + id + ".bin"), std::string::npos) << vout;
+  EXPECT_NE(vout.find("INVALID"), std::string::npos) << vout;
 }

@@ -578,9 +578,6 @@ class FeatureReplayer final : public EdgeReplayer {
     return ok();
   }
 
-  /// Experiences in use (1 = the taught payload only) and the one that matched the last frame.
-  [[nodiscard]] int experience_count() const { return selector_.count(); }
-
  private:
   /// Local maps learned keep as many features as the taught ones hold at most (bounded size).
   [[nodiscard]] int max_local_map_features() const {

@@ -158,6 +158,7 @@ struct FeatureReplayParams {
   double start_max_offset = 0.15;
   int min_expected_features = 15;
   bool learn_experiences = false;
+  double learn_hold_m = 1.0;
   int max_experiences = 4;
   double experience_recheck_below = 0.5;
 
@@ -203,6 +204,11 @@ struct FeatureReplayParams {
             .field("learn_experiences", &P::learn_experiences,
                    "multi-experience maps: after the edge succeeds, store this replay's view of it as a new appearance "
                    "experience of the edge (<map>/experiences/<edge>.bin; docs/feature_replay.md)")
+            .field("learn_hold_m", &P::learn_hold_m,
+                   "multi-experience maps, learning: a frame without a confident match is stored with the last "
+                   "confident offset for up to this distance, m; above 1 the edge start also counts as aligned, so "
+                   "a stretch where nothing matches is learned as seen on odometry (pair with a longer max_blind_m)")
+            .range(0.0, 1000.0)
             .field("max_experiences", &P::max_experiences,
                    "multi-experience maps: experiences kept per edge, the taught one included; learning one more "
                    "evicts the oldest learned one")
@@ -400,7 +406,7 @@ class FeatureReplayer final : public EdgeReplayer {
 
     lap_seen_ = 0;
     learning_ = params_.learn_experiences && !map_dir_.empty();
-    registrar_.reset();
+    registrar_.reset(params_.learn_hold_m, params_.learn_hold_m > 1.0);
     learned_frames_ = 0;
     if (learning_) {
       if (!segments_.empty()) {

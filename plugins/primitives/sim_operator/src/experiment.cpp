@@ -128,6 +128,8 @@ constexpr const char* kUsage =
     "  --learn-loops N       multi-experience maps: before the measured replay, drive N loops in the\n"
     "                        replay conditions learning each feature edge's view as a new appearance\n"
     "                        experience (trees/patrol_loop_learning.xml); not measured (default 0)\n"
+    "  --learn-blind-m M     learning loops: learn frames without a confident match for up to M m\n"
+    "                        (as seen on odometry) and allow M m blind (default: 1 m / 5 m, the replay's)\n"
     "  --config C            run configuration (default config/sim_experiment.yaml)\n"
     "  --out DIR             output folder (default out/experiment)\n"
     "  --set k=v             config override for both runs, e.g. --set robot.params.odom_scale_error_sd_pct=5\n"
@@ -165,6 +167,7 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--radius") { VISNAV_ASSIGN(o.success_radius_m, in.number(0.01, 100)); }
     else if (arg == "--ideal") { o.ideal = true; }
     else if (arg == "--learn-loops") { VISNAV_ASSIGN(double n, in.number(0, 100)); o.learn_loops = static_cast<int>(n); }
+    else if (arg == "--learn-blind-m") { VISNAV_ASSIGN(o.learn_blind_m, in.number(0, 100)); }
     else if (arg == "--teach-appearance") {
       VISNAV_ASSIGN(o.teach_appearance, in.value());
       VISNAV_TRY(appearance_overrides(o.teach_appearance));
@@ -492,7 +495,11 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
       r.setup_error = learn.error().message;
       return done();
     }
-    if (auto st = set_blackboard_values(*learn, {"start=start", "loops=" + std::to_string(o.learn_loops)}); !st) {
+    const std::string hold_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "1";
+    const std::string blind_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "5";
+    if (auto st = set_blackboard_values(*learn, {"start=start", "loops=" + std::to_string(o.learn_loops),
+                                                 "learn_hold_m=" + hold_m, "learn_max_blind_m=" + blind_m});
+        !st) {
       r.setup_error = st.error().message;
       return done();
     }

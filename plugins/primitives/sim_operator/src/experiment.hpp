@@ -66,6 +66,10 @@ struct ExperimentOptions {
   /// on, in the replay conditions (trees/patrol_loop_learning.xml), before the measured replay;
   /// not measured. 0 = none.
   int learn_loops = 0;
+  /// Learning loops: how far a frame is learned without a confident match and the lost policy's
+  /// blind distance (patrol_loop_learning.xml's learn_hold_m / learn_max_blind_m); 0 = the
+  /// replay's defaults (1 m / 5 m).
+  double learn_blind_m = 0.0;
   bool progress = true;                    ///< progress line on stderr
   /// Called after every replay tick with the simulator, the robot and the odometric distance
   /// driven since the replay started: disturbances for tests (kidnapping, outside commands).

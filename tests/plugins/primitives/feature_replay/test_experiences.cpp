@@ -177,6 +177,17 @@ TEST(ViewRegistrar, MovesTheFrameOntoTheReferenceHeadingAndHoldsTheOffsetBriefly
   ASSERT_NE(r, nullptr);
   EXPECT_FLOAT_EQ(r->keypoints[0].pt.x, 75.f);
   EXPECT_EQ(registrar.add(1.6, f, unsure), nullptr) << "beyond hold_m the heading is unknown";
+
+  // Learning on odometry (learn_hold_m > 1): an edge where nothing matches is learned from an
+  // aligned start, up to hold_m.
+  registrar.reset(5.0, true);
+  r = registrar.add(0.2, f, unsure);
+  ASSERT_NE(r, nullptr);
+  EXPECT_FLOAT_EQ(r->keypoints[0].pt.x, 100.f);
+  EXPECT_NE(registrar.add(4.9, f, unsure), nullptr);
+  EXPECT_EQ(registrar.add(5.1, f, unsure), nullptr);
+  registrar.reset(5.0, false);
+  EXPECT_EQ(registrar.add(0.2, f, unsure), nullptr);
 }
 
 }  // namespace

@@ -133,10 +133,19 @@ class ExperienceSelector {
 /// during a replay is stored as if seen on the reference heading: keypoints are moved by the
 /// frame's offset (u - offset_px) when the estimate is valid; frames without a valid estimate use
 /// the last valid offset while the distance since it is at most `hold_m`, else they are not
-/// registered (nullptr). Buffers are reused (one Features kept).
+/// registered (nullptr). With `assume_aligned_at_start`, the edge start counts as a valid offset
+/// of 0 at distance 0 (the robot starts on the reference heading), so an edge on which nothing
+/// matches is still learned, as seen from the odometric heading, for hold_m. Buffers are reused
+/// (one Features kept).
 class ViewRegistrar {
  public:
   explicit ViewRegistrar(double hold_m = 1.0) : hold_m_(hold_m) {}
+  void reset(double hold_m, bool assume_aligned_at_start) {
+    hold_m_ = hold_m;
+    have_offset_ = assume_aligned_at_start;
+    offset_px_ = 0.0;
+    offset_at_m_ = 0.0;
+  }
   void reset() { have_offset_ = false; }
   /// The registered features (valid until the next call), or nullptr.
   const Features* add(double distance_m, const Features& current, const HeadingEstimate& estimate);

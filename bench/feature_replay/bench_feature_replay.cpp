@@ -6,6 +6,8 @@
 //   * match_vote/plain and match_vote/ours: the matching + voting part alone; ours uses the
 //     vertical gate (±50 px), the plain pipeline compares every pair, so a like-for-like row
 //     (match_vote/ours_like_for_like_no_gate_ratio_0.7: no gate, same ratio) is printed too.
+//   * experiences/star_brief_3_*: star_brief + the multi-experience selector over 3 experiences
+//     (one matching, two of other appearance): the per-frame cost of multi-experience maps.
 // Every `ours` row reports ms_per_frame and plain_over_ours = (plain cycle time) / (this cycle
 // time); targets (issue 4): star_brief <= 10 ms per cycle and plain_over_ours >= 1.5.
 // Single-threaded (cv::setNumThreads(1)). The frame pair is a real photo (skimage "coffee",
@@ -26,6 +28,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "visnav/feature_replay/experience.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #ifdef VISNAV_HAVE_DETECTOR_CORE
 #include "visnav/detectors/detector_types.hpp"
@@ -233,6 +236,59 @@ void BM_ours_detector(benchmark::State& state, std::string type) {
   state.counters["features"] = static_cast<double>(cur.keypoints.size());
   if (cycle_ms().count("plain") != 0) state.counters["plain_over_ours"] = cycle_ms()["plain"] / cycle_ms()["ours_" + type];
 }
+
+// Multi-experience maps (issue 13 part 3): star_brief + ExperienceSelector over 3 experiences of
+// the place: the matching reference and two of other appearance (the photo blurred and darkened,
+// and mirrored). `recheck_below` 0.5 (the default): the last winner is confident, one experience
+// is matched per frame; 1.0: every experience is matched every frame (the worst case, e.g. a
+// place where none matches well). experiences_over_single = this cycle / ours_star_brief.
+void BM_experiences(benchmark::State& state, double recheck_below) {
+  cv::setNumThreads(1);
+  const auto& f = frames();
+  auto made = visnav::detectors::create_detector("star_brief", visnav::detectors::make_params({{"target_keypoints", "500"}}));
+  if (!made) {
+    state.SkipWithError(made.error().message.c_str());
+    return;
+  }
+  auto& det = *made;
+  cv::Mat dark, mirrored;
+  cv::GaussianBlur(f.reference, dark, cv::Size(0, 0), 1.5);
+  dark.convertTo(dark, -1, 0.6, 10.0);
+  cv::flip(f.reference, mirrored, 1);
+  std::vector<visnav::Features> experiences(3);
+  const cv::Mat* images[3] = {&f.reference, &dark, &mirrored};
+  for (int k = 0; k < 3; ++k) {
+    for (int i = 0; i < 8; ++i) (void)det->detect(*images[k], experiences[static_cast<std::size_t>(k)]);
+    if (!det->detect(*images[k], experiences[static_cast<std::size_t>(k)])) {
+      state.SkipWithError("detect failed");
+      return;
+    }
+  }
+  std::vector<fr::HeadingEstimator> est(3);
+  std::vector<fr::HeadingEstimate> out(3);
+  fr::ExperienceSelector selector(3, recheck_below);
+  visnav::Features cur;
+  int chosen = 0;
+  double evaluations = 0.0;
+  const std::string key = recheck_below < 1.0 ? "exp3_star_brief" : "exp3_all_star_brief";
+  timed_loop(state, key, [&] {
+    (void)det->detect(f.current, cur);
+    chosen = selector.select([&](int i) {
+      const auto k = static_cast<std::size_t>(i);
+      auto r = est[k].estimate(experiences[k], cur, 640.0);
+      out[k] = r.ok() ? *r : fr::HeadingEstimate{};
+      return fr::ExperienceSelector::Score{out[k].confidence, out[k].inliers};
+    });
+    evaluations += selector.evaluations();
+    benchmark::DoNotOptimize(chosen);
+  });
+  state.counters["chosen"] = chosen;
+  state.counters["offset_px"] = out[static_cast<std::size_t>(chosen)].offset_px;
+  state.counters["experiences_matched_per_frame"] = evaluations / static_cast<double>(state.iterations());
+  if (cycle_ms().count("ours_star_brief") != 0)
+    state.counters["experiences_over_single"] = cycle_ms()[key] / cycle_ms()["ours_star_brief"];
+  if (cycle_ms().count("plain") != 0) state.counters["plain_over_ours"] = cycle_ms()["plain"] / cycle_ms()[key];
+}
 #endif
 
 }  // namespace
@@ -249,6 +305,9 @@ int main(int argc, char** argv) {
 #ifdef VISNAV_HAVE_DETECTOR_CORE
   for (const auto& type : visnav::detectors::detector_type_names())
     benchmark::RegisterBenchmark(("ours/" + type).c_str(), BM_ours_detector, type)->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("experiences/star_brief_3_recheck_0.5", BM_experiences, 0.5)->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("experiences/star_brief_3_all_every_frame", BM_experiences, 1.0)
+      ->Unit(benchmark::kMillisecond);
 #else
   std::fprintf(stderr, "bench_feature_replay: visnav_detector_core not built; only OpenCV ORB rows\n");
 #endif

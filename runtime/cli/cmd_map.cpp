@@ -13,6 +13,7 @@
 #include "map/render.hpp"
 #include "visnav/loader.hpp"
 #include "visnav/map.hpp"
+#include "visnav/runtime_host.hpp"
 
 namespace {
 
@@ -27,7 +28,10 @@ constexpr const char* kUsage =
     "       visnav map route M FROM TO [--cost KIND=MULT ...] [--default-cost MULT]\n"
     "                                         cheapest route (Dijkstra; cost = length_m x multiplier of the kind;\n"
     "                                         MULT 'inf' forbids a kind)\n"
-    "M is a map folder (graph.yaml + edges/). FROM/TO are node ids or names.\n"
+    "       visnav map SUB M ...              a subcommand contributed by a plugin as command map-SUB, e.g.\n"
+    "                                         `visnav map experiences M` (feature_replay: appearance experiences)\n"
+    "M is a map folder (graph.yaml + edges/). FROM/TO are node ids or names. validate also runs every\n"
+    "plugin command map-SUB as `map-SUB M --check` (files a primitive keeps beside its payloads).\n"
     "Exit status: 0 ok, 1 failure (problems printed), 2 usage error.\n";
 
 std::string human_bytes(double b) {
@@ -82,6 +86,27 @@ int info(const visnav::MapStore& map) {
   return 0;
 }
 
+/// Runs plugin command `command` with `args` (argv[0] = its name); exceptions are its failure.
+int run_plugin_map_command(const visnav::PluginCommandInfo& command, std::vector<std::string> args,
+                           visnav::PluginLoader& loader) {
+  visnav::StderrLogger logger(visnav::LogLevel::info);
+  visnav::WallClock clock;
+  visnav::RuntimeHost host(loader, logger, clock);
+  args.insert(args.begin(), command.name);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::fflush(stdout);
+  try {
+    const int rc = command.run(static_cast<int>(args.size()), argv.data(), host);
+    std::fflush(stdout);
+    return rc;
+  } catch (...) {
+    std::cerr << "visnav map: plugin command " << command.name << " threw (" << command.library_path << ")\n";
+  }
+  return 1;
+}
+
 int validate(const std::string& dir, const std::vector<std::string>& rest) {
   std::vector<std::string> plugin_dirs;
   bool use_plugins = true;
@@ -115,8 +140,18 @@ int validate(const std::string& dir, const std::vector<std::string>& rest) {
   for (const auto& kind : unchecked)
     std::cerr << "visnav map validate: warning: no plugin provides a reader for edge kind '" << kind
               << "': its payload bodies are checked by checksum only\n";
-  const auto problems = map->validate();
+  auto problems = map->validate();
   for (const auto& p : problems) std::cout << p << "\n";
+  // Files a primitive keeps beside its payloads (e.g. learned experiences) are checked by its
+  // map-SUB command; it prints its own problems.
+  if (use_plugins) {
+    for (const auto& c : loader.commands()) {
+      if (c.name.rfind("map-", 0) != 0) continue;
+      std::cout.flush();
+      if (run_plugin_map_command(c, {dir, "--check"}, loader) != 0)
+        problems.push_back("map " + c.name.substr(4) + " --check failed");
+    }
+  }
   if (!problems.empty()) {
     std::cerr << "visnav map validate: " << dir << ": INVALID (" << problems.size() << " problem"
               << (problems.size() == 1 ? "" : "s") << ")\n";
@@ -209,7 +244,14 @@ int run_map(const std::vector<std::string>& args) {
   if (sub == "validate") {
     return validate(dir, rest);
   }
-  if (sub != "info" && sub != "render" && sub != "route") return usage_error("unknown subcommand '" + sub + "'");
+  if (sub != "info" && sub != "render" && sub != "route") {
+    // A subcommand a plugin contributes as command map-SUB (e.g. `map experiences`).
+    auto loader = visnav::PluginLoader::with_default_path();
+    if (auto scanned = loader.scan(); !scanned) std::cerr << "visnav map: " << scanned.error().message << "\n";
+    for (const auto& c : loader.commands())
+      if (c.name == "map-" + sub) return run_plugin_map_command(c, std::vector<std::string>(args.begin() + 1, args.end()), loader);
+    return usage_error("unknown subcommand '" + sub + "'");
+  }
   std::string out;
   int width_px = 1200;
   if (sub == "render") {

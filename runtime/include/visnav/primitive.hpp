@@ -132,6 +132,10 @@ class EdgeReplayer {
   /// False: the edge has no single taught heading profile (e.g. a closed path driven in laps),
   /// the lost policy's heading check is off. Called after begin().
   [[nodiscard]] virtual bool heading_check() const { return true; }
+  /// Called once when the edge ended in success (a step() reported finished and the lost policy
+  /// let the node succeed), before the node returns SUCCESS: e.g. to store what the replay
+  /// learned about the edge. An error is logged as a warning; the node still succeeds.
+  virtual Status succeeded() { return ok(); }
 };
 
 // ------------------------------------------------------------------------------------- teach

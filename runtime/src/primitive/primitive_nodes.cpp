@@ -302,6 +302,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     if (step.finished) {
       (void)robot.stop();
       last_command_ = Twist{};
+      if (auto st = replayer_->succeeded(); !st) host_.logger().warn(path(), "edge " + edge_id_ + ": " + st.error().message);
       replayer_.reset();
       return NodeStatus::success;
     }

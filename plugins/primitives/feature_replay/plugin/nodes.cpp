@@ -12,6 +12,10 @@
 #include <utility>
 #include <vector>
 
+#include <chrono>
+#include <ctime>
+
+#include "visnav/feature_replay/experience.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/local_map.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
@@ -153,6 +157,10 @@ struct FeatureReplayParams {
   double scan_speed_radps = 0.4;
   double start_max_offset = 0.15;
   int min_expected_features = 15;
+  bool learn_experiences = false;
+  double learn_hold_m = 1.0;
+  int max_experiences = 4;
+  double experience_recheck_below = 0.5;
 
   [[nodiscard]] Status validate() const {
     VISNAV_TRY(schema().check(*this));
@@ -192,7 +200,23 @@ struct FeatureReplayParams {
             .field("min_expected_features", &P::min_expected_features,
                    "lost policy: where the map holds fewer landmarks/features than this at the current distance, a "
                    "frame without a match does not count as blind (nothing was seen there when teaching either)")
-            .range(0, 1000000);
+            .range(0, 1000000)
+            .field("learn_experiences", &P::learn_experiences,
+                   "multi-experience maps: after the edge succeeds, store this replay's view of it as a new appearance "
+                   "experience of the edge (<map>/experiences/<edge>.bin; docs/feature_replay.md)")
+            .field("learn_hold_m", &P::learn_hold_m,
+                   "multi-experience maps, learning: a frame without a confident match is stored with the last "
+                   "confident offset for up to this distance, m; above 1 the edge start also counts as aligned, so "
+                   "a stretch where nothing matches is learned as seen on odometry (pair with a longer max_blind_m)")
+            .range(0.0, 1000.0)
+            .field("max_experiences", &P::max_experiences,
+                   "multi-experience maps: experiences kept per edge, the taught one included; learning one more "
+                   "evicts the oldest learned one")
+            .range(1, 64)
+            .field("experience_recheck_below", &P::experience_recheck_below,
+                   "multi-experience maps: the experience that matched the last frame is tried first; the others are "
+                   "tried too only when its confidence is below this (1 = try all every frame)")
+            .range(0.0, 1.0);
     return s;
   }
 };
@@ -314,26 +338,86 @@ class StartViewSearch {
   double probe_offset_sum_ = 0.0;   // sum of |offset| / width (1 for a frame without a match)
 };
 
+std::string utc_now_iso() {
+  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+/// Replays a feature edge of either style against each of its appearance experiences (the taught
+/// payload and those learned by earlier replays, experience.hpp): per frame the selector picks
+/// the experience that matches best, trying the last frame's winner first. With
+/// learn_experiences, the frames of this replay (registered to the reference heading) are taught
+/// into a new map of the edge's style as they come and stored as a new experience when the edge
+/// succeeds.
 class FeatureReplayer final : public EdgeReplayer {
  public:
   using Params = FeatureReplayParams;
   static constexpr bool kUsesDetector = true;
-  explicit FeatureReplayer(const Params& params) : params_(params) {}
+  explicit FeatureReplayer(const Params& params, HostServices* host = nullptr) : params_(params), host_(host) {}
 
   Status begin(const ReplayStart& start) override {
     logger_ = &start.logger;
     who_ = std::string(start.node_path);
     edge_id_ = start.edge.id;
-    if (start.edge.kind == kSegmentKind) {
-      VISNAV_ASSIGN(SegmentMap map, SegmentMap::deserialize(start.payload));
-      segment_.emplace(std::make_shared<const SegmentMap>(std::move(map)), params_.segment, params_.heading);
-      if (!segment_->map_valid()) return fail("invalid segment map");
-      segment_->begin(start.origin_m);
-    } else {
-      VISNAV_ASSIGN(LocalMapPath path, LocalMapPath::deserialize(start.payload));
-      localmaps_.emplace(std::make_shared<const LocalMapPath>(std::move(path)), params_.localmaps, params_.heading);
-      if (!localmaps_->path_valid()) return fail("invalid local-map path");
-      localmaps_->begin(start.origin_m);
+    MapStore* map = host_ != nullptr ? host_->map() : nullptr;
+    map_dir_ = map != nullptr ? map->dir() : std::string();
+    experiences_ = ExperienceSet{};
+    experience_numbers_ = {0};
+    if (!map_dir_.empty()) {
+      VISNAV_ASSIGN(experiences_, load_experiences(map_dir_, edge_id_, start.payload));
+      for (const Experience& e : experiences_.learned) experience_numbers_.push_back(e.number);
+    }
+    segments_.clear();
+    localmaps_.clear();
+    // Experience 0 is the taught payload; a learned body that does not decode names its file.
+    auto add_body = [&](std::span<const std::uint8_t> body, std::size_t k) -> Status {
+      auto where = [&](const Error& e) {
+        return k == 0 ? e
+                      : fail(ErrorCode::parse_error, ErrorLocation(experience_path(map_dir_, edge_id_), 0, edge_id_),
+                             "experience " + std::to_string(experience_numbers_[k]) + ": " + e.message);
+      };
+      if (start.edge.kind == kSegmentKind) {
+        auto map_body = SegmentMap::deserialize(body);
+        if (!map_body) return where(map_body.error());
+        segments_.emplace_back(std::make_shared<const SegmentMap>(std::move(*map_body)), params_.segment, params_.heading);
+        if (!segments_.back().map_valid()) return where(Error{"invalid segment map"});
+        segments_.back().begin(start.origin_m);
+      } else {
+        auto path = LocalMapPath::deserialize(body);
+        if (!path) return where(path.error());
+        localmaps_.emplace_back(std::make_shared<const LocalMapPath>(std::move(*path)), params_.localmaps, params_.heading);
+        if (!localmaps_.back().path_valid()) return where(Error{"invalid local-map path"});
+        localmaps_.back().begin(start.origin_m);
+      }
+      return ok();
+    };
+    VISNAV_TRY(add_body(start.payload, 0));
+    for (std::size_t k = 0; k < experiences_.learned.size(); ++k) VISNAV_TRY(add_body(experiences_.learned[k].body, k + 1));
+    const int count = static_cast<int>(experience_numbers_.size());
+    selector_ = ExperienceSelector(count, params_.experience_recheck_below);
+    segment_out_.assign(segments_.size(), SegmentReplayOutput{});
+    localmap_out_.assign(localmaps_.size(), LocalMapReplayOutput{});
+    if (count > 1)
+      logger_->info(who_, "edge " + edge_id_ + ": " + std::to_string(count) + " appearance experiences");
+
+    lap_seen_ = 0;
+    learning_ = params_.learn_experiences && !map_dir_.empty();
+    registrar_.reset(params_.learn_hold_m, params_.learn_hold_m > 1.0);
+    learned_frames_ = 0;
+    if (learning_) {
+      if (!segments_.empty()) {
+        segment_teacher_.emplace(SegmentTeachParams{});
+        segment_teacher_->begin(segments_.front().map().azimuth_rad);
+      } else {
+        LocalMapTeachParams teach;
+        teach.max_features_per_map = max_local_map_features();
+        localmap_teacher_.emplace(teach);
+        localmap_teacher_->begin();
+      }
     }
     search_.begin(params_.scan_deg, params_.scan_speed_radps, params_.start_max_offset, start.policy.min_confidence,
                   start.odometry.distance_m - start.origin_m);
@@ -341,7 +425,7 @@ class FeatureReplayer final : public EdgeReplayer {
   }
 
   /// A closed multi-lap path has no single taught heading profile.
-  [[nodiscard]] bool heading_check() const override { return segment_ || params_.localmaps.laps == 1; }
+  [[nodiscard]] bool heading_check() const override { return !segments_.empty() || params_.localmaps.laps == 1; }
 
   /// The live view's overlay: the votes of this frame (buffers reused from frame to frame).
   const NavOverlay* fill_overlay(const HeadingEstimator& estimator, const Features& current, double offset_px) {
@@ -369,8 +453,18 @@ class FeatureReplayer final : public EdgeReplayer {
     ReplayStep out;
     ReplayState state;
     HeadingEstimate estimate;
-    if (segment_) {
-      const SegmentReplayOutput r = segment_->step(in.odometry.distance_m, *in.features, width_px);
+    const int previous = selector_.current();
+    int lap = 0;
+    double distance_m = 0.0;
+    const HeadingEstimator* estimator = nullptr;
+    if (!segments_.empty()) {
+      const int k = selector_.select([&](int i) {
+        SegmentReplayOutput& r = segment_out_[static_cast<std::size_t>(i)];
+        r = segments_[static_cast<std::size_t>(i)].step(in.odometry.distance_m, *in.features, width_px);
+        return ExperienceSelector::Score{r.estimate.confidence, r.estimate.inliers};
+      });
+      const SegmentReplayOutput& r = segment_out_[static_cast<std::size_t>(k)];
+      estimator = &segments_[static_cast<std::size_t>(k)].estimator();
       out.command = r.command;
       state = r.state;
       out.finished = r.finished;
@@ -380,7 +474,14 @@ class FeatureReplayer final : public EdgeReplayer {
                       std::abs(out.command.angular_radps) >= params_.segment.max_angular_radps - 1e-9;
       out.informative = r.expected_landmarks >= params_.min_expected_features;
     } else {
-      const LocalMapReplayOutput r = localmaps_->step(in.odometry.distance_m, *in.features, width_px);
+      const int k = selector_.select([&](int i) {
+        LocalMapReplayOutput& r = localmap_out_[static_cast<std::size_t>(i)];
+        r = localmaps_[static_cast<std::size_t>(i)].step(in.odometry.distance_m, *in.features, width_px);
+        return ExperienceSelector::Score{r.estimate.confidence, r.estimate.inliers};
+      });
+      const LocalMapReplayer& replayer = localmaps_[static_cast<std::size_t>(k)];
+      const LocalMapReplayOutput& r = localmap_out_[static_cast<std::size_t>(k)];
+      estimator = &replayer.estimator();
       out.command = r.command;
       state = r.state;
       out.finished = r.finished;
@@ -388,17 +489,28 @@ class FeatureReplayer final : public EdgeReplayer {
       estimate = r.estimate;
       const double clamp = params_.localmaps.max_correction_radps;
       out.saturated = state == ReplayState::steering && clamp > 0.0 && std::abs(r.correction_radps) >= clamp - 1e-9;
-      const auto& maps = localmaps_->path().maps;
+      const auto& maps = replayer.path().maps;
       out.informative = r.map_index < 0 || r.map_index >= static_cast<int>(maps.size()) ||
                         static_cast<int>(maps[static_cast<std::size_t>(r.map_index)].positions_px.size()) >=
                             params_.min_expected_features;
       out.lap = r.lap;
-      if (r.lap_completed) logger_->info(who_, "edge " + edge_id_ + ": lap " + std::to_string(r.lap + 1) + " started");
+      // Laps are counted by the experience driving; one that was not stepped catches up when it is.
+      if (r.lap > lap_seen_) {
+        lap_seen_ = r.lap;
+        logger_->info(who_, "edge " + edge_id_ + ": lap " + std::to_string(r.lap + 1) + " started");
+      }
     }
+    lap = out.lap;
+    distance_m = out.distance_m;
+    if (selector_.current() != previous)
+      logger_->log(LogLevel::debug, who_,
+                   "edge " + edge_id_ + ": experience " +
+                       std::to_string(experience_numbers_[static_cast<std::size_t>(selector_.current())]) +
+                       " matches best (confidence " + format_double(estimate.confidence) + ")");
     out.matches = estimate.matches;
     out.inliers = estimate.inliers;
     out.offset_px = estimate.offset_px;
-    out.overlay = fill_overlay(segment_ ? segment_->estimator() : localmaps_->estimator(), *in.features, estimate.offset_px);
+    out.overlay = fill_overlay(*estimator, *in.features, estimate.offset_px);
     out.confidence = in.frame_problem != nullptr ? 0.0 : estimate.confidence;
     out.status = to_string(state);
     if (state != last_state_ && (state == ReplayState::low_confidence || state == ReplayState::no_features ||
@@ -406,6 +518,7 @@ class FeatureReplayer final : public EdgeReplayer {
       logger_->log(LogLevel::debug, who_, "edge " + edge_id_ + ": " + to_string(state) + " (no correction)");
     last_state_ = state;
 
+    bool orienting = false;
     if (search_.searching()) {
       const bool probing = search_.probing();
       const double offset_fraction = width_px > 0.0 ? std::abs(out.offset_px) / width_px : 1.0;
@@ -413,19 +526,93 @@ class FeatureReplayer final : public EdgeReplayer {
                                      *logger_, who_, edge_id_)) {
         out.command = *turn;
         out.orienting = true;
+        orienting = true;
         out.status = probing ? "looking for the start view" : "turning to find the start view";
+      }
+    }
+    // Learning: the first lap's frames while driving the edge (not while looking for its start).
+    if (learning_ && !orienting && !out.finished && lap == 0 && in.frame_problem == nullptr && in.features != nullptr) {
+      if (const Features* view = registrar_.add(distance_m, *in.features, estimate)) {
+        const double d = std::max(0.0, distance_m);
+        const Status st = segment_teacher_ ? segment_teacher_->add_frame(d, *view)
+                                           : localmap_teacher_->add_frame(d, *view);
+        if (st) ++learned_frames_;
       }
     }
     return out;
   }
 
+  /// Stores what this replay saw as a new experience of the edge (learn_experiences).
+  Status succeeded() override {
+    if (!learning_) return ok();
+    learning_ = false;
+    if (learned_frames_ < 3)
+      return fail("learned no experience: only " + std::to_string(learned_frames_) +
+                  " frames of this replay could be registered to the map");
+    Experience e;
+    e.created = utc_now_iso();
+    e.source = "replay by " + who_;
+    std::string size;
+    if (segment_teacher_) {
+      const SegmentMap& teach = segments_.front().map();
+      VISNAV_ASSIGN(SegmentMap learned, segment_teacher_->finish(teach.length_m));
+      learned.azimuth_rad = teach.azimuth_rad;
+      if (learned.landmarks.empty()) return fail("learned no experience: no landmark was tracked long enough");
+      size = std::to_string(learned.landmarks.size()) + " landmarks";
+      e.body = learned.serialize();
+    } else {
+      const LocalMapPath& teach = localmaps_.front().path();
+      const Features none;
+      VISNAV_ASSIGN(LocalMapPath learned, localmap_teacher_->finish(teach.length_m, none));
+      // The route's commands stay the taught ones; only the appearance is learned.
+      learned.commands = teach.commands;
+      learned.length_m = teach.length_m;
+      while (!learned.maps.empty() && learned.maps.back().distance_m > teach.length_m) learned.maps.pop_back();
+      if (learned.maps.empty()) return fail("learned no experience: no local map was stored");
+      VISNAV_TRY(learned.validate());
+      size = std::to_string(learned.maps.size()) + " local maps";
+      e.body = learned.serialize();
+    }
+    const std::size_t bytes = e.body.size();
+    const auto evicted = experiences_.add(std::move(e), params_.max_experiences);
+    VISNAV_TRY(save_experiences(map_dir_, edge_id_, experiences_));
+    std::string message = "edge " + edge_id_ + ": learned experience " +
+                          std::to_string(experiences_.learned.empty() ? 0 : experiences_.learned.back().number) + " (" +
+                          size + ", " + std::to_string(bytes) + " bytes, " + std::to_string(learned_frames_) + " frames)";
+    for (std::uint32_t n : evicted) message += "; evicted experience " + std::to_string(n);
+    logger_->info(who_, message);
+    return ok();
+  }
+
  private:
+  /// Local maps learned keep as many features as the taught ones hold at most (bounded size).
+  [[nodiscard]] int max_local_map_features() const {
+    std::size_t most = 0;
+    for (const auto& m : localmaps_.front().path().maps) most = std::max(most, m.positions_px.size());
+    return static_cast<int>(most);
+  }
+
   Params params_;
+  HostServices* host_ = nullptr;
   Logger* logger_ = nullptr;
   std::string who_;
   std::string edge_id_;
-  std::optional<SegmentReplayer> segment_;
-  std::optional<LocalMapReplayer> localmaps_;
+  std::string map_dir_;
+  // One replayer per experience (index 0: the taught payload); only one style is non-empty.
+  std::vector<SegmentReplayer> segments_;
+  std::vector<LocalMapReplayer> localmaps_;
+  std::vector<SegmentReplayOutput> segment_out_;
+  std::vector<LocalMapReplayOutput> localmap_out_;
+  ExperienceSet experiences_;
+  std::vector<std::uint32_t> experience_numbers_;
+  ExperienceSelector selector_;
+  int lap_seen_ = 0;
+  // Learning (learn_experiences).
+  bool learning_ = false;
+  ViewRegistrar registrar_;
+  std::optional<SegmentTeacher> segment_teacher_;
+  std::optional<LocalMapTeacher> localmap_teacher_;
+  int learned_frames_ = 0;
   ReplayState last_state_ = ReplayState::steering;
   StartViewSearch search_;
   NavOverlay overlay_;
@@ -441,10 +628,22 @@ Status register_feature_nodes(bt::NodeRegistry& registry, HostServices& host) {
       "Records a feature edge while the operator drives: style segment (feature_segment, seed 000) or localmaps "
       "(feature_localmaps, seed 002)",
       {kSegmentKind, kLocalMapsKind}));
-  return register_replayer<FeatureReplayer>(
-      registry, host, "ReplayFeatureEdge",
-      "Traverses a feature_segment or feature_localmaps edge, steering by histogram voting of feature offsets",
+  // The replayer reads and writes the map's experience files, so it is made with the host (the
+  // template's factory passes the params only).
+  PrimitiveType replay = detail::primitive_type<FeatureReplayer, EdgeReplayer>(
+      "ReplayFeatureEdge",
+      "Traverses a feature_segment or feature_localmaps edge, steering by histogram voting of feature offsets against "
+      "the best-matching appearance experience of the edge (optionally learning a new one)",
       {kSegmentKind, kLocalMapsKind});
+  replay.make_replayer = [host = &host](const ConfigNode& params) noexcept -> Result<std::unique_ptr<EdgeReplayer>> {
+    try {
+      VISNAV_ASSIGN(FeatureReplayParams p, FeatureReplayParams::schema().parse(params));
+      return std::unique_ptr<EdgeReplayer>(std::make_unique<FeatureReplayer>(p, host));
+    } catch (const std::exception& e) {
+      return fail(std::string("primitive constructor threw: ") + e.what());
+    }
+  };
+  return register_replayer_type(registry, host, std::move(replay));
 }
 
 }  // namespace visnav::feature_replay

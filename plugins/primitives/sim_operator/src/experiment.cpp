@@ -99,7 +99,7 @@ constexpr const char* kUsage =
     "usage: visnav experiment [--world W] [--route R] [--displace M[,DEG]] [--loops N] [--seeds N]\n"
     "                         [--seed S] [--jobs J] [--radius M] [--maps hybrid,feature,path] [--ideal]\n"
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
-    "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]...\n"
+    "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--learn-loops N]\n"
     "\n"
     "The seed 000 Sec. 6 experiment, repeated over independent random runs. For each map style and\n"
     "each seed: teach the route R (a waypoint script, config/routes/) in the simulated world W with\n"
@@ -126,6 +126,11 @@ constexpr const char* kUsage =
     "  --ideal               every error model off: a noise-free regression run, not a result\n"
     "  --teach-appearance A  appearance while teaching: same, winter, autumn, dusk, low_sun, overcast\n"
     "  --replay-appearance A appearance while replaying (default same)\n"
+    "  --learn-loops N       multi-experience maps: before the measured replay, drive N loops in the\n"
+    "                        replay conditions learning each feature edge's view as a new appearance\n"
+    "                        experience (trees/patrol_loop_learning.xml); not measured (default 0)\n"
+    "  --learn-blind-m M     learning loops: learn frames without a confident match for up to M m\n"
+    "                        (as seen on odometry) and allow M m blind (default: 1 m / 5 m, the replay's)\n"
     "  --config C            run configuration (default config/sim_experiment.yaml)\n"
     "  --out DIR             output folder (default out/experiment)\n"
     "  --set k=v             config override for both runs, e.g. --set robot.params.odom_scale_error_sd_pct=5\n"
@@ -162,6 +167,8 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--jobs") { VISNAV_ASSIGN(double n, in.number(1, 64)); o.jobs = static_cast<int>(n); }
     else if (arg == "--radius") { VISNAV_ASSIGN(o.success_radius_m, in.number(0.01, 100)); }
     else if (arg == "--ideal") { o.ideal = true; }
+    else if (arg == "--learn-loops") { VISNAV_ASSIGN(double n, in.number(0, 100)); o.learn_loops = static_cast<int>(n); }
+    else if (arg == "--learn-blind-m") { VISNAV_ASSIGN(o.learn_blind_m, in.number(0, 100)); }
     else if (arg == "--teach-appearance") {
       VISNAV_ASSIGN(o.teach_appearance, in.value());
       VISNAV_TRY(appearance_overrides(o.teach_appearance));
@@ -252,6 +259,10 @@ class RunLogger final : public Logger {
   [[nodiscard]] std::string stop_reason() {
     std::lock_guard lock(mutex_);
     return stop_reason_;
+  }
+  void clear_stop_reason() {
+    std::lock_guard lock(mutex_);
+    stop_reason_.clear();
   }
 
  private:
@@ -477,6 +488,37 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     r.setup_error = "replay camera params: " + st.error().message;
     return done();
   }
+  // --- learning loops (multi-experience maps): the replay conditions, learn_experiences on; the
+  // robot starts where teaching ended, as the measured replay does before its displacement.
+  if (o.learn_loops > 0) {
+    auto learn = session->load_tree(project_file("trees/patrol_loop_learning.xml"));
+    if (!learn) {
+      r.setup_error = learn.error().message;
+      return done();
+    }
+    const std::string hold_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "1";
+    const std::string blind_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "5";
+    if (auto st = set_blackboard_values(*learn, {"start=start", "loops=" + std::to_string(o.learn_loops),
+                                                 "learn_hold_m=" + hold_m, "learn_max_blind_m=" + blind_m});
+        !st) {
+      r.setup_error = st.error().message;
+      return done();
+    }
+    learn->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+      if (to == bt::NodeStatus::success && node.registration_id() == "FollowRoute") ++r.learn_loops_driven;
+    });
+    const std::size_t collisions_before = sim->collisions().size();
+    RunOptions ro;
+    ro.after_tick = [&](const TickInfo& tick) {
+      log_tick(tick, "learn", r.learn_loops_driven + 1);
+      return sim->collisions().size() == collisions_before;
+    };
+    RunReport report = run_tree(*session, *learn, ro);
+    if (report.outcome != RunOutcome::success)
+      logger.log(LogLevel::warn, "experiment", "learning loops ended early: " + report.reason);
+    logger.clear_stop_reason();  // a lost stop while learning is not the measured replay's
+  }
+
   // --- displace: carried to the left of the first edge (which starts where teaching started)
   // and turned; odometry does not see it.
   const double h0 = teach_start.heading_rad;

@@ -62,6 +62,14 @@ struct ExperimentOptions {
   std::vector<std::string> replay_overrides;   ///< --replay-set and --replay-appearance
   std::string teach_appearance = "same";
   std::string replay_appearance = "same";
+  /// Multi-experience maps (issue 13): patrol loops driven after teaching with learn_experiences
+  /// on, in the replay conditions (trees/patrol_loop_learning.xml), before the measured replay;
+  /// not measured. 0 = none.
+  int learn_loops = 0;
+  /// Learning loops: how far a frame is learned without a confident match and the lost policy's
+  /// blind distance (patrol_loop_learning.xml's learn_hold_m / learn_max_blind_m); 0 = the
+  /// replay's defaults (1 m / 5 m).
+  double learn_blind_m = 0.0;
   bool progress = true;                    ///< progress line on stderr
   /// Called after every replay tick with the simulator, the robot and the odometric distance
   /// driven since the replay started: disturbances for tests (kidnapping, outside commands).
@@ -107,6 +115,7 @@ struct ExperimentRun {
   double map_length_m = 0.0;
   std::string teach_errors;   ///< the sim robot's drawn run errors, for the report
   std::string replay_errors;
+  int learn_loops_driven = 0;  ///< learning loops completed before the measured replay (learn_loops)
 };
 
 /// Runs every (style, seed) of `options`, writes the CSVs, pictures, report.md and

@@ -9,17 +9,23 @@
 //    crash, are reported in telemetry and keep the recorded command (style B) / drive straight
 //    (style A) instead of steering on noise.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <optional>
 #include <random>
 #include <utility>
 
+#include <opencv2/core.hpp>
+
 #include "visnav/bt/registry.hpp"
 #include "visnav/bt/tree.hpp"
+#include "visnav/feature_replay/experience.hpp"
 #include "visnav/feature_replay/local_map.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/loader.hpp"
@@ -340,4 +346,212 @@ TEST_F(FeatureNodes, ReplayCountsTheDistanceFollowRouteCarriedIntoTheEdge) {
   const auto [start_plain, end_plain] = drive(std::nullopt);
   EXPECT_NEAR(start_plain, 0.0, 1e-9);
   EXPECT_NEAR(end_plain, 3.0, 0.11);
+}
+
+// ------------------------------------------------------------------ appearance experiences
+
+namespace {
+
+/// The first `shared` features of `taught` (seen again) followed by every feature of `changed`
+/// (new appearance): a "winter" view that still shows a few summer features.
+Features mixed_view(const Features& taught, int shared, const Features& changed) {
+  Features f;
+  const int n = std::min(shared, static_cast<int>(taught.keypoints.size()));
+  f.keypoints.assign(taught.keypoints.begin(), taught.keypoints.begin() + n);
+  f.keypoints.insert(f.keypoints.end(), changed.keypoints.begin(), changed.keypoints.end());
+  cv::vconcat(taught.descriptors.rowRange(0, n), changed.descriptors, f.descriptors);
+  return f;
+}
+
+}  // namespace
+
+class FeatureExperiences : public FeatureNodes {
+ protected:
+  /// Replays edge `id` to its end (at most 200 ticks) with `view` every frame; returns the status.
+  NodeStatus replay(const std::string& id, const std::string& attributes, const Features& view) {
+    robot_.odom_ = Odometry{};
+    robot_.command_ = Twist{};
+    robot_.publish();
+    auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" " + attributes + "/>");
+    NodeStatus s = NodeStatus::running;
+    for (int i = 0; i < 200 && s == NodeStatus::running; ++i) s = tick(tree, view);
+    return s;
+  }
+  std::string experience_file(const std::string& id) const { return fr::experience_path(dir_.string(), id); }
+
+  Scene winter_{200, 11};
+};
+
+TEST_F(FeatureExperiences, ALearnedExperienceIsChosenWhereTheTaughtOneNoLongerMatches) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  const Features pure_winter = winter_.view(0.f);
+  // Without experiences the winter view matches nothing: no steering.
+  {
+    robot_.odom_ = Odometry{};
+    robot_.publish();
+    auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\"/>");
+    EXPECT_EQ(tick(tree, pure_winter), NodeStatus::running);
+    EXPECT_NE(telemetry_.statuses.back().status, "steering");
+    EXPECT_LT(telemetry_.statuses.back().inliers, 6);
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "experiences")) << "nothing is written without learn_experiences";
+  // An early-winter replay still sees 40 summer features: it steers on them and learns its view,
+  // 10 px to the right of the reference heading.
+  const Features early_winter = mixed_view(scene_.view(10.f), 40, winter_.view(10.f));
+  ASSERT_EQ(replay(id, "learn_experiences=\"true\"", early_winter), NodeStatus::success) << logger_.text();
+  ASSERT_TRUE(fs::exists(experience_file(id))) << logger_.text();
+  EXPECT_NE(logger_.text().find("learned experience 1"), std::string::npos) << logger_.text();
+  auto set = fr::read_experience_file(experience_file(id), id);
+  ASSERT_TRUE(set.ok()) << set.error().message;
+  ASSERT_EQ(set->learned.size(), 1u);
+  auto learned = fr::LocalMapPath::deserialize(set->learned[0].body);
+  ASSERT_TRUE(learned.ok()) << learned.error().message;
+  EXPECT_GE(learned->maps.size(), 10u);
+  EXPECT_NEAR(learned->length_m, 3.0, 1e-6);
+  EXPECT_NEAR(learned->command_at(1.0).linear_mps, 1.0, 1e-6) << "the taught commands are kept";
+  // The learned view is registered to the reference heading: the winter features sit where they
+  // would be seen on the taught heading (10 px to the left of where this replay saw them).
+  int winter_features = 0;
+  const fr::LocalMap& m = learned->maps[3];
+  for (int r = 0; r < m.descriptors.rows; ++r) {
+    for (int j = 0; j < winter_.descriptors.rows; ++j) {
+      if (cv::norm(m.descriptors.row(r), winter_.descriptors.row(j), cv::NORM_HAMMING) != 0) continue;
+      EXPECT_NEAR(m.positions_px[static_cast<std::size_t>(r)].x, winter_.positions[static_cast<std::size_t>(j)].x, 0.25);
+      ++winter_features;
+    }
+  }
+  EXPECT_GT(winter_features, 100);
+
+  // Deep winter, no summer feature left, robot turned so the scene is 15 px right: the learned
+  // experience is chosen and the robot steers back.
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" correction_gain_radps_per_px=\"0.004\"/>");
+  EXPECT_EQ(tick(tree, winter_.view(15.f)), NodeStatus::running);
+  EXPECT_EQ(telemetry_.statuses.back().status, "steering");
+  EXPECT_GT(telemetry_.statuses.back().inliers, 100);
+  EXPECT_NEAR(telemetry_.statuses.back().offset_px, 15.0, 0.5);
+  EXPECT_NEAR(robot_.command_.angular_radps, -0.004 * 15.0, 0.003);
+  EXPECT_NE(logger_.text().find("2 appearance experiences"), std::string::npos) << logger_.text();
+  // Summer again: still steered right (by the summer features of either experience).
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(tick(tree, scene_.view(-5.f)), NodeStatus::running);
+  EXPECT_EQ(telemetry_.statuses.back().status, "steering");
+  EXPECT_NEAR(telemetry_.statuses.back().offset_px, -5.0, 0.5);
+}
+
+TEST_F(FeatureExperiences, LearningIsBoundedAndEvictsTheOldestLearned) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  for (int run = 0; run < 4; ++run)
+    ASSERT_EQ(replay(id, "learn_experiences=\"true\" max_experiences=\"3\"", scene_.view(0.f)), NodeStatus::success)
+        << logger_.text();
+  auto set = fr::read_experience_file(experience_file(id), id);
+  ASSERT_TRUE(set.ok()) << set.error().message;
+  ASSERT_EQ(set->learned.size(), 2u);
+  EXPECT_EQ(set->learned[0].number, 3u);
+  EXPECT_EQ(set->learned[1].number, 4u);
+  EXPECT_EQ(set->next_number, 5u);
+  EXPECT_NE(logger_.text().find("evicted experience 2"), std::string::npos) << logger_.text();
+  // The taught payload is untouched and the map still validates.
+  EXPECT_TRUE(map_->validate().empty());
+}
+
+TEST_F(FeatureExperiences, SegmentEdgesLearnToo) {
+  const std::string id = teach("segment", {{1.0, 0.0}, {1.0, 0.0}});
+  ASSERT_FALSE(id.empty());
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" speed_mps=\"1\" learn_experiences=\"true\"/>");
+  NodeStatus s = NodeStatus::running;
+  for (int frame = 0; frame < 100 && s == NodeStatus::running; ++frame) {
+    // The taught motion of the scene (1.5 px per 0.1 m) plus 40 summer features kept.
+    const float du = -15.f * static_cast<float>(robot_.odom_.distance_m);
+    s = tick(tree, mixed_view(scene_.view(du), 40, winter_.view(du)));
+  }
+  ASSERT_EQ(s, NodeStatus::success) << logger_.text();
+  auto set = fr::read_experience_file(experience_file(id), id);
+  ASSERT_TRUE(set.ok()) << set.error().message;
+  ASSERT_EQ(set->learned.size(), 1u);
+  auto learned = fr::SegmentMap::deserialize(set->learned[0].body);
+  ASSERT_TRUE(learned.ok()) << learned.error().message;
+  EXPECT_GT(learned->landmarks.size(), 100u);
+  EXPECT_NEAR(learned->length_m, map_->find_edge(id)->length_m, 0.05);
+}
+
+TEST_F(FeatureExperiences, NothingIsLearnedFromAnEdgeThatDidNotSucceed) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  {
+    auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" learn_experiences=\"true\"/>");
+    for (int i = 0; i < 10; ++i) EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::running);
+    tree.halt();
+  }
+  EXPECT_FALSE(fs::exists(experience_file(id)));
+}
+
+TEST_F(FeatureExperiences, ADamagedExperienceFileFailsTheEdgeNamingTheFileBeforeMoving) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  ASSERT_EQ(replay(id, "learn_experiences=\"true\"", scene_.view(0.f)), NodeStatus::success) << logger_.text();
+  {
+    std::fstream f(experience_file(id), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-20, std::ios::end);
+    f.put('\x33');
+  }
+  robot_.odom_ = Odometry{};
+  robot_.command_ = Twist{};
+  robot_.publish();
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\"/>");
+  EXPECT_EQ(tick(tree, scene_.view(0.f)), NodeStatus::failure);
+  EXPECT_NE(logger_.text().find("experiences/" + id + ".bin"), std::string::npos) << logger_.text();
+  EXPECT_NE(logger_.text().find("edge " + id), std::string::npos) << logger_.text();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+namespace {
+
+/// Runs the visnav command line; returns (exit status, stdout + stderr).
+std::pair<int, std::string> run_cli(const std::string& args) {
+  const std::string cmd = std::string(VISNAV_TEST_CLI) + " " + args + " 2>&1";
+  std::string out;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return {-1, out};
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p) != nullptr) out += buf;
+  const int status = ::pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+}  // namespace
+
+TEST_F(FeatureExperiences, MapExperiencesListsThemAndMapValidateChecksThem) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  {
+    const auto [rc, out] = run_cli("map experiences " + dir_.string());
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("edge " + id + " (feature_localmaps, 3.00 m): 1 experience\n"), std::string::npos) << out;
+    EXPECT_NE(out.find("0 learned experiences"), std::string::npos) << out;
+  }
+  ASSERT_EQ(replay(id, "learn_experiences=\"true\"", scene_.view(0.f)), NodeStatus::success) << logger_.text();
+  {
+    const auto [rc, out] = run_cli("map experiences " + dir_.string());
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("edge " + id + " (feature_localmaps, 3.00 m): 2 experiences\n"), std::string::npos) << out;
+    EXPECT_NE(out.find("  1  learned "), std::string::npos) << out;
+    EXPECT_NE(out.find("local maps"), std::string::npos) << out;
+    const auto [vrc, vout] = run_cli("map validate " + dir_.string());
+    EXPECT_EQ(vrc, 0) << vout;
+  }
+  {
+    std::fstream f(experience_file(id), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-20, std::ios::end);
+    f.put('\x33');
+  }
+  const auto [rc, out] = run_cli("map-experiences " + dir_.string() + " --check");
+  EXPECT_EQ(rc, 1) << out;
+  EXPECT_NE(out.find("experiences/" + id + ".bin"), std::string::npos) << out;
+  const auto [vrc, vout] = run_cli("map validate " + dir_.string());
+  EXPECT_EQ(vrc, 1) << vout;
+  EXPECT_NE(vout.find("experiences/" + id + ".bin"), std::string::npos) << vout;
+  EXPECT_NE(vout.find("INVALID"), std::string::npos) << vout;
 }

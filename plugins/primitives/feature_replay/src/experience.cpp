@@ -1,0 +1,234 @@
+// feature_replay core — experience files, selection and view registration (experience.hpp).
+#include "visnav/feature_replay/experience.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "binary_io.hpp"
+#include "visnav/map.hpp"
+
+namespace visnav::feature_replay {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[4] = {'F', 'R', 'E', 'X'};
+// A learned experience is a feature body of one edge: far below this; the cap keeps a damaged
+// length field from allocating gigabytes.
+constexpr std::uint64_t kMaxFileBytes = 1ull << 30;
+
+bool get_text(io::Reader& r, std::string& s) {
+  std::uint16_t n = 0;
+  if (!r.get(n) || n > r.remaining()) return false;
+  s.resize(n);
+  return r.bytes(s.data(), n);
+}
+
+Status write_durably(const std::string& folder, const std::string& target, std::span<const std::uint8_t> bytes) {
+  std::string name = ".";
+  name += fs::path(target).filename().string();
+  name += ".tmp.";
+  name += std::to_string(::getpid());
+  const std::string temp = (fs::path(folder) / name).string();
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + std::strerror(errno));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int err = errno;
+      ::close(fd);
+      ::unlink(temp.c_str());
+      return fail(ErrorCode::io, temp + ": write failed: " + std::strerror(err));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, temp + ": fsync failed: " + std::strerror(err));
+  }
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, temp + ": close failed: " + std::strerror(err));
+  }
+  if (::rename(temp.c_str(), target.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    return fail(ErrorCode::io, target + ": rename failed: " + std::strerror(err));
+  }
+  // The rename is durable once the folder is.
+  if (const int dfd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
+    (void)::fsync(dfd);
+    ::close(dfd);
+  }
+  return ok();
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------ the set
+
+std::vector<std::uint8_t> ExperienceSet::serialize() const {
+  // Exact size, then filled in place (GCC 12 misreads grow-by-insert here as an overflow).
+  std::size_t size = 4 + 2 + 4 + 4 + 4;
+  for (const auto& e : learned)
+    size += 4 + 2 + std::min<std::size_t>(e.created.size(), 0xffff) + 2 + std::min<std::size_t>(e.source.size(), 0xffff) +
+            8 + e.body.size();
+  std::vector<std::uint8_t> out(size);
+  std::size_t at = 0;
+  auto raw = [&](const void* data, std::size_t n) {
+    if (n > 0) std::memcpy(out.data() + at, data, n);
+    at += n;
+  };
+  auto put = [&](auto value) { raw(&value, sizeof value); };
+  auto text = [&](const std::string& s) {
+    const std::size_t n = std::min<std::size_t>(s.size(), 0xffff);
+    put(static_cast<std::uint16_t>(n));
+    raw(s.data(), n);
+  };
+  raw(kMagic, 4);
+  put(kFormatVersion);
+  put(teach_crc32);
+  put(next_number);
+  put(static_cast<std::uint32_t>(learned.size()));
+  for (const auto& e : learned) {
+    put(e.number);
+    text(e.created);
+    text(e.source);
+    put(static_cast<std::uint64_t>(e.body.size()));
+    raw(e.body.data(), e.body.size());
+  }
+  return out;
+}
+
+Result<ExperienceSet> ExperienceSet::deserialize(std::span<const std::uint8_t> body) {
+  auto bad = [](const std::string& what) { return fail(ErrorCode::parse_error, "experience set: " + what); };
+  io::Reader r(body);
+  char magic[4];
+  if (!r.bytes(magic, 4) || std::memcmp(magic, kMagic, 4) != 0) return bad("bad magic (not an experience set)");
+  std::uint16_t version = 0;
+  std::uint32_t count = 0;
+  ExperienceSet set;
+  if (!r.get(version)) return bad("truncated header");
+  if (version != kFormatVersion)
+    return bad("format version " + std::to_string(version) + " is not supported (expected " +
+               std::to_string(kFormatVersion) + ")");
+  if (!r.get(set.teach_crc32) || !r.get(set.next_number) || !r.get(count)) return bad("truncated header");
+  // Each experience takes at least 16 bytes: a count above that cannot be honest.
+  if (static_cast<std::uint64_t>(count) * 16 > r.remaining()) return bad("count " + std::to_string(count) + " exceeds the body");
+  set.learned.resize(count);
+  std::uint32_t previous = 0;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    Experience& e = set.learned[i];
+    std::uint64_t n = 0;
+    if (!r.get(e.number) || !get_text(r, e.created) || !get_text(r, e.source) || !r.get(n))
+      return bad("truncated in experience " + std::to_string(i));
+    if (n > r.remaining()) return bad("body of experience " + std::to_string(i) + " runs past the end");
+    e.body.resize(static_cast<std::size_t>(n));
+    r.bytes(e.body.data(), e.body.size());
+    if (e.number == 0 || e.number <= previous || e.number >= set.next_number)
+      return bad("experience numbers out of order (" + std::to_string(e.number) + " after " + std::to_string(previous) +
+                 ", next " + std::to_string(set.next_number) + ")");
+    previous = e.number;
+  }
+  if (r.remaining() != 0) return bad(std::to_string(r.remaining()) + " trailing bytes");
+  return set;
+}
+
+std::vector<std::uint32_t> ExperienceSet::add(Experience e, int max_experiences) {
+  e.number = next_number++;
+  learned.push_back(std::move(e));
+  std::vector<std::uint32_t> evicted;
+  const std::size_t keep = static_cast<std::size_t>(std::max(1, max_experiences) - 1);
+  while (learned.size() > keep) {
+    evicted.push_back(learned.front().number);
+    learned.erase(learned.begin());
+  }
+  return evicted;
+}
+
+// ------------------------------------------------------------------------------ files
+
+std::string experience_path(const std::string& map_dir, const std::string& edge_id) {
+  return (fs::path(map_dir) / kExperienceFolder / (edge_id + ".bin")).string();
+}
+
+Result<ExperienceSet> read_experience_file(const std::string& path, const std::string& edge_id) {
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec) return fail(ErrorCode::io, ErrorLocation(path), "cannot read: " + ec.message());
+  if (size > kMaxFileBytes) return fail(ErrorCode::parse_error, ErrorLocation(path), "implausibly large (" + std::to_string(size) + " bytes)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail(ErrorCode::io, ErrorLocation(path), "cannot open");
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto view = map_format::parse_payload(bytes, path);
+  if (!view) return Error{view.error().message, ErrorCode::parse_error, ErrorLocation(path)};
+  if (view->kind != kExperienceKind)
+    return fail(ErrorCode::parse_error, ErrorLocation(path),
+                "holds kind '" + view->kind + "', not " + kExperienceKind);
+  if (view->edge_id != edge_id)
+    return fail(ErrorCode::parse_error, ErrorLocation(path, 0, edge_id),
+                "belongs to edge '" + view->edge_id + "', not '" + edge_id + "'");
+  auto set = ExperienceSet::deserialize(view->body);
+  if (!set) return fail(ErrorCode::parse_error, ErrorLocation(path, 0, edge_id), set.error().message);
+  return set;
+}
+
+Result<ExperienceSet> load_experiences(const std::string& map_dir, const std::string& edge_id,
+                                       std::span<const std::uint8_t> teach_body) {
+  const std::string path = experience_path(map_dir, edge_id);
+  const std::uint32_t crc = map_format::crc32(teach_body);
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    ExperienceSet empty;
+    empty.teach_crc32 = crc;
+    return empty;
+  }
+  VISNAV_ASSIGN(ExperienceSet set, read_experience_file(path, edge_id));
+  if (set.teach_crc32 != crc)
+    return fail(ErrorCode::inconsistent, ErrorLocation(path, 0, edge_id),
+                "stale: learned for another teach payload of edge " + edge_id +
+                    " (re-taught?); delete the file to start again");
+  return set;
+}
+
+Status save_experiences(const std::string& map_dir, const std::string& edge_id, const ExperienceSet& set) {
+  const std::string folder = (fs::path(map_dir) / kExperienceFolder).string();
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) return fail(ErrorCode::io, ErrorLocation(folder), "cannot create: " + ec.message());
+  const std::vector<std::uint8_t> body = set.serialize();
+  const std::vector<std::uint8_t> file = map_format::encode_payload(kExperienceKind, edge_id, body);
+  return write_durably(folder, experience_path(map_dir, edge_id), file);
+}
+
+// ------------------------------------------------------------------------------ registration
+
+const Features* ViewRegistrar::add(double distance_m, const Features& current, const HeadingEstimate& estimate) {
+  if (estimate.valid && std::isfinite(estimate.offset_px)) {
+    have_offset_ = true;
+    offset_px_ = estimate.offset_px;
+    offset_at_m_ = distance_m;
+  } else if (!have_offset_ || std::abs(distance_m - offset_at_m_) > hold_m_) {
+    return nullptr;
+  }
+  registered_.keypoints.assign(current.keypoints.begin(), current.keypoints.end());
+  const auto shift = static_cast<float>(offset_px_);
+  for (auto& k : registered_.keypoints) k.pt.x -= shift;
+  registered_.descriptors = current.descriptors;  // shared, read-only
+  registered_.norm = current.norm;
+  return &registered_;
+}
+
+}  // namespace visnav::feature_replay

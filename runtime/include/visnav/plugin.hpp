@@ -58,7 +58,8 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 /// 4: a descriptor carries several kinds (TypeEntry::kind; PluginDescriptor lost its single
 ///    `kind`); VISNAV_PLUGIN takes a PluginInfo with named fields (issue 14).
 /// 5: NavStatus and ReplayStep gained the live-view overlay (NavOverlay, issue 18).
-inline constexpr std::uint32_t kPluginAbiVersion = 5;
+/// 6: EdgeReplayer gained succeeded() (multi-experience learning, issue 13).
+inline constexpr std::uint32_t kPluginAbiVersion = 6;
 
 /// What a plugin contributes. A library may contribute several kinds at once.
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };

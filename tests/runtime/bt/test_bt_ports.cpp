@@ -293,6 +293,7 @@ TEST_F(Ports, ThrowingFactoryBecomesALoadError) {
                   .ok());
   auto tree = visnav::bt::load_tree_string(main_tree("<Boom/>"), registry, options);
   ASSERT_FALSE(tree.ok());
+  // Content: the factory's own words reach the user, after the place that raised them.
   EXPECT_EQ(tree.error().message, "<string>:3: MainTree/Boom[0]: node factory threw an exception: no camera");
 }
 

@@ -19,7 +19,7 @@ TEST(CommandLine, NumbersAreWholeFiniteAndInRangeWithErrorsNamingTheOption) {
   const auto junk = cli::parse_number("2.5m", 0, 10, "--x");
   ASSERT_FALSE(junk.ok());
   EXPECT_EQ(junk.error().code, ErrorCode::invalid_value);
-  EXPECT_EQ(junk.error().message, "--x: '2.5m' is not a number in [0, 10]");
+  EXPECT_EQ(junk.error().message, "--x: '2.5m' is not a number in [0, 10]");  // content: the usage line printed
   const auto far = cli::parse_number("11", 0, 10, "--x");
   ASSERT_FALSE(far.ok());
   EXPECT_EQ(far.error().code, ErrorCode::out_of_range);
@@ -41,7 +41,7 @@ TEST(CommandLine, OptionReaderWalksOptionsAndNamesTheOneWithoutAValue) {
   const auto missing = r.number(1, 100);
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.error().code, ErrorCode::missing);
-  EXPECT_EQ(missing.error().message, "--rate needs a value");
+  EXPECT_EQ(missing.error().message, "--rate needs a value");  // content: the usage line printed
   EXPECT_FALSE(r.next());
 }
 

@@ -194,6 +194,7 @@ TEST(Loader, FactoryThrowingPastTheBoundaryIsCaughtByTheHost) {
   auto r = loader.create<visnav::Camera>("raw_throw", visnav::ConfigNode{}, h.host);
   EXPECT_TRUE(fails_with(r, ErrorCode::plugin));
   EXPECT_TRUE(contains(r.error().message, "camera 'raw_throw' (libvisnav_fixture_throwing.so)")) << r.error().message;
+  // Content: the exception's text crosses the plugin boundary as an error message.
   EXPECT_TRUE(contains(r.error().message, "factory threw an exception: raw factory exploded")) << r.error().message;
 }
 

@@ -98,7 +98,7 @@ TEST(GraphReaders, CrossReferenceErrorsAreTheSameFromBothReaders) {
   auto full = parse_graph(text, "g.yaml", GraphParser::full_only);
   ASSERT_FALSE(fast);
   ASSERT_FALSE(full);
-  EXPECT_EQ(fast.error().message, full.error().message);
+  EXPECT_EQ(fast.error().message, full.error().message);  // content: both readers report the same problem
   EXPECT_EQ(fast.error().where, full.error().where);
   EXPECT_EQ(fast.error().code, visnav::ErrorCode::not_found) << fast.error().message;
   EXPECT_EQ(fast.error().where.file, "g.yaml");

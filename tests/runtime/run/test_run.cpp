@@ -357,7 +357,7 @@ TEST(GuardedRobot, RecordsCommandsAndRefusesMotionOnceLatched) {
   robot.latch("test");
   auto refused = robot.send_command({0.4, 0.0});
   ASSERT_FALSE(refused);
-  EXPECT_TRUE(contains(refused.error().message, "robot stopped by the runtime (test)"));
+  EXPECT_TRUE(contains(refused.error().message, "robot stopped by the runtime (test)"));  // content: the stop's reason
   EXPECT_EQ(robot.last_command().linear_mps, 0.0);
   EXPECT_TRUE(robot.send_command({}));  // zero is always allowed
   robot.unlatch();

@@ -101,8 +101,7 @@ struct CommandSlot {
   std::chrono::steady_clock::time_point received{};
   std::uint64_t count = 0;
   std::uint64_t rejected = 0;
-  std::uint64_t foreign = 0;   ///< dropped by arbitration (--cmd-vel-writer)
-  std::string allowed_writer;  ///< participant GUID allowed to drive; empty = anyone (or not locked yet)
+  dds::WriterArbiter arbiter;  ///< --cmd-vel-writer: who may drive (counts what it drops)
   bool paused = false;         ///< control topic: pause/abort hold zero until resume
 };
 
@@ -135,8 +134,7 @@ struct SimdOptions {
   std::string image_topic;
   std::string ground_truth_topic;
   std::string control_topic;
-  std::string writer_rule;  ///< --cmd-vel-writer: empty (anyone), "first" or a GUID
-  bool lock_first = false;  ///< writer_rule == "first"
+  std::string writer_rule;  ///< --cmd-vel-writer: empty (anyone), "first" or a GUID (checked)
   bool control = true;      ///< subscribe the control topic
   std::string keystore;
   std::string identity;
@@ -186,11 +184,8 @@ visnav::Result<SimdOptions> parse_options(const std::vector<std::string>& args) 
   o.control_topic = a.get("--control-topic", "rt/visnav/control");
   o.control = !a.has("--no-control");
   o.writer_rule = a.get("--cmd-vel-writer");
-  o.lock_first = o.writer_rule == "first";
-  if (!o.writer_rule.empty() && !o.lock_first &&
-      (o.writer_rule.size() != 32 || o.writer_rule.find_first_not_of("0123456789abcdef") != std::string::npos))
-    return visnav::fail("--cmd-vel-writer: expected 32 lowercase hex digits or 'first', got '" +
-                        dds::log_safe(o.writer_rule) + "'");
+  if (auto rule = dds::WriterArbiter::parse(o.writer_rule); !rule)
+    return std::move(rule).error().with_context("--cmd-vel-writer");
   if (a.has("--keystore") != a.has("--identity")) return visnav::fail("--keystore and --identity go together");
   o.keystore = a.get("--keystore");
   o.identity = a.get("--identity");
@@ -232,22 +227,18 @@ struct Endpoints {
 
 /// cmd_vel handler: arbitration (issue 17: with --cmd-vel-writer only one participant drives),
 /// non-finite commands dropped, the newest command kept with its arrival time.
-void accept_command(const SimdOptions& o, CommandSlot& commands, dds::WarningLimiter& warnings, visnav::Logger& logger,
+void accept_command(CommandSlot& commands, dds::WarningLimiter& warnings, visnav::Logger& logger,
                     const dds::msg::Twist& t, const dds::SampleInfo& info) {
   std::lock_guard lock(commands.mutex);
-  if (!o.writer_rule.empty()) {
-    if (o.lock_first && commands.allowed_writer.empty() && !info.writer_participant.empty()) {
-      commands.allowed_writer = info.writer_participant;
-      logger.info("simd", "cmd_vel: locked to the first sender, participant " + commands.allowed_writer);
-    }
-    if (info.writer_participant.empty() || info.writer_participant != commands.allowed_writer) {
-      ++commands.foreign;
-      if (warnings.allow(info.receive_time_s))
-        logger.warn("simd", "dropped cmd_vel from participant '" + dds::log_safe(info.writer_participant) + "' (only " +
-                                commands.allowed_writer + " may drive; " + std::to_string(commands.foreign) +
-                                " dropped so far)");
-      return;
-    }
+  const auto verdict = commands.arbiter.admit(info.writer_participant);
+  if (verdict.locked)
+    logger.info("simd", "cmd_vel: locked to the first sender, participant " + commands.arbiter.allowed());
+  if (!verdict.accepted) {
+    if (warnings.allow(info.receive_time_s))
+      logger.warn("simd", "dropped cmd_vel from participant '" + dds::log_safe(info.writer_participant) + "' (" +
+                              commands.arbiter.describe() + " may drive; " + std::to_string(commands.arbiter.refused()) +
+                              " dropped so far)");
+    return;
   }
   if (!std::isfinite(t.linear.x) || !std::isfinite(t.angular.z)) {
     ++commands.rejected;
@@ -302,12 +293,12 @@ visnav::Status open_endpoints(const SimdOptions& o, CommandSlot& commands, dds::
     VISNAV_ASSIGN(auto w, dds::Writer<dds::msg::CompressedImage>::create(p, {o.image_topic, image_qos, o.partition}));
     out.images.jpeg.emplace(std::move(w));
   }
-  commands.allowed_writer = o.lock_first ? std::string() : o.writer_rule;
+  VISNAV_ASSIGN(commands.arbiter, dds::WriterArbiter::parse(o.writer_rule));
   auto warn = [&logger](const std::string& message) { logger.warn("simd", message); };
   auto cmd_vel = dds::Subscription<dds::msg::Twist>::create(
       p, {o.cmd_topic, dds::Qos::sensor_data(), o.partition},
-      [&o, &commands, &warnings, &logger](dds::msg::Twist&& t, const dds::SampleInfo& info) {
-        accept_command(o, commands, warnings, logger, t, info);
+      [&commands, &warnings, &logger](dds::msg::Twist&& t, const dds::SampleInfo& info) {
+        accept_command(commands, warnings, logger, t, info);
       },
       warn);
   if (!cmd_vel) return std::move(cmd_vel).error();
@@ -425,7 +416,7 @@ std::string describe_setup(const SimdOptions& o, const std::string& participant_
          " Hz, " + o.transport + " images on '" + o.image_topic + "' at " + fmt(o.camera_rate_hz) +
          " Hz; participant " + participant_guid +
          (o.writer_rule.empty() ? ", cmd_vel from any participant (no --cmd-vel-writer)"
-                                : ", cmd_vel only from " + (o.lock_first ? std::string("the first sender") : o.writer_rule)) +
+                                : ", cmd_vel only from " + (o.writer_rule == "first" ? std::string("the first sender") : o.writer_rule)) +
          (o.control ? ", pause/resume on '" + o.control_topic + "'" : "");
 }
 
@@ -476,7 +467,7 @@ int simd(const std::vector<std::string>& args) {
   {
     std::lock_guard lock(commands.mutex);
     received = commands.count;
-    foreign = commands.foreign;
+    foreign = commands.arbiter.refused();
   }
   logger.info("simd", "stopped after " + fmt(sim->time_s()) + " s: " + std::to_string(received) + " commands, " +
                           std::to_string(foreign) + " dropped by arbitration, " + std::to_string(watchdog_trips) +

@@ -9,6 +9,10 @@
 // wall clocks), so the runtime's stale-odometry check sees the real age of the data.
 // Malformed samples (non-finite values, zero quaternion) and writers of the wrong type are
 // dropped, counted and reported with rate-limited warnings.
+// Arbitration (issue 17): `odom_writer` pins the participant whose odometry is believed (a GUID,
+// or `first`: whoever sends first), by the same rule (dds::WriterArbiter) that `visnav simd
+// --cmd-vel-writer` applies to the commands it receives; odometry from anyone else is dropped,
+// counted and warned about at most once per second.
 #include <atomic>
 #include <memory>
 #include <mutex>
@@ -32,14 +36,13 @@ struct DdsRobotParams {
   double odom_deadline_s = 0.0;
   std::string timestamp = "receive";
   double connect_timeout_s = 0.0;
-  std::string odom_writer;  // participant GUID allowed to publish odometry; empty = any
+  std::string odom_writer;  // participant GUID allowed to publish odometry, or "first"; empty = any
 
   [[nodiscard]] Status validate() const {
     if (cmd_vel_topic.empty() || odom_topic.empty()) return fail("topic names must not be empty");
     if (cmd_vel_topic == odom_topic) return fail("cmd_vel_topic and odom_topic must differ");
-    if (!odom_writer.empty() &&
-        (odom_writer.size() != 32 || odom_writer.find_first_not_of("0123456789abcdef") != std::string::npos))
-      return fail("odom_writer must be 32 lowercase hex digits (a participant GUID, as `visnav simd` logs it)");
+    if (auto rule = dds::WriterArbiter::parse(odom_writer); !rule)
+      return fail(ErrorCode::invalid_value, ErrorLocation{{}, 0, "odom_writer"}, rule.error().message);
     return ok();
   }
   static const ParamSchema<DdsRobotParams>& schema() {
@@ -55,7 +58,7 @@ struct DdsRobotParams {
         .field("odom_deadline_s", &DdsRobotParams::odom_deadline_s, "QoS deadline of the odometry reader; 0 = none").range(0, 3600)
         .field("timestamp", &DdsRobotParams::timestamp, "odometry time: arrival on the run clock, or the header stamp mapped onto it").one_of({"receive", "header"})
         .field("connect_timeout_s", &DdsRobotParams::connect_timeout_s, "wait this long at creation for the first odometry sample; 0 = don't wait").range(0, 600)
-        .field("odom_writer", &DdsRobotParams::odom_writer, "accept odometry only from this participant GUID (32 hex digits; the robot driver logs it); empty = any (see docs/security.md)");
+        .field("odom_writer", &DdsRobotParams::odom_writer, "accept odometry only from this participant GUID (32 hex digits; the robot driver logs it), or `first`: from the first sender; empty = any (see docs/security.md)");
     return s;
   }
 };
@@ -90,6 +93,7 @@ class DdsRobot final : public Robot {
   DdsRobot(Params params, HostServices& host) : params_(std::move(params)), host_(&host) {}
 
   Status connect() {
+    VISNAV_ASSIGN(odom_writers_, dds::WriterArbiter::parse(params_.odom_writer));
     VISNAV_ASSIGN(auto participant, dds::Participant::create(params_.domain_id));
     VISNAV_ASSIGN(auto cmd_reliability, dds::parse_reliability(params_.cmd_vel_reliability));
     VISNAV_ASSIGN(auto odom_reliability, dds::parse_reliability(params_.odom_reliability));
@@ -100,12 +104,16 @@ class DdsRobot final : public Robot {
     writer_.emplace(std::move(writer));
     const bool use_header = params_.timestamp == "header";
     auto on_odometry = [this, use_header](dds::msg::Odometry&& sample, const dds::SampleInfo& info) {
-      if (!params_.odom_writer.empty() && info.writer_participant != params_.odom_writer) {
-        const auto foreign = ++foreign_;  // arbitration (issue 17): another participant's odometry
+      const auto verdict = odom_writers_.admit(info.writer_participant);
+      if (verdict.locked)
+        host_->logger().info("dds.robot", "topic '" + params_.odom_topic + "': odometry locked to the first sender, participant " +
+                                              odom_writers_.allowed());
+      if (!verdict.accepted) {  // arbitration (issue 17): another participant's odometry
         if (limiter_.allow(info.receive_time_s))
           host_->logger().warn("dds.robot", "topic '" + params_.odom_topic + "': dropped odometry from participant '" +
-                                                dds::log_safe(info.writer_participant) + "' (odom_writer is " +
-                                                params_.odom_writer + "); " + std::to_string(foreign) + " dropped so far");
+                                                dds::log_safe(info.writer_participant) + "' (odom_writer: " +
+                                                odom_writers_.describe() + "); " + std::to_string(odom_writers_.refused()) +
+                                                " dropped so far");
         return;
       }
       const double run_now_s = host_->clock().now_s();
@@ -129,8 +137,7 @@ class DdsRobot final : public Robot {
     host_->logger().info("dds.robot", "domain " + std::to_string(params_.domain_id) + ": commands on '" +
                                           params_.cmd_vel_topic + "' from participant " + participant.guid() +
                                           ", odometry from '" + params_.odom_topic + "'" +
-                                          (params_.odom_writer.empty() ? std::string(" (any participant)")
-                                                                       : " (only participant " + params_.odom_writer + ")"));
+                                          " (" + odom_writers_.describe() + ")");
     if (params_.connect_timeout_s > 0.0 && !odometry_.wait_newer(0, params_.connect_timeout_s))
       return fail("dds robot: no odometry on '" + params_.odom_topic + "' (domain " + std::to_string(params_.domain_id) +
                   ") within connect_timeout_s = " + std::to_string(params_.connect_timeout_s) + " s");
@@ -143,7 +150,7 @@ class DdsRobot final : public Robot {
   OdometryTracker tracker_;  // subscription thread only
   dds::LatestSlot<Odometry> odometry_;
   std::atomic<std::uint64_t> dropped_{0};
-  std::atomic<std::uint64_t> foreign_{0};
+  dds::WriterArbiter odom_writers_;  // odom_writer: whose odometry is believed
   dds::WarningLimiter limiter_{1.0};
   std::unique_ptr<dds::Subscription<dds::msg::Odometry>> subscription_;  // last: stopped first
 };

@@ -420,6 +420,51 @@ class WarningLimiter {
   std::uint64_t last_suppressed_ = 0;
 };
 
+/// True if `text` is a participant GUID as Participant::guid() and SampleInfo::writer_participant
+/// write it: 32 lowercase hex digits. Pure.
+[[nodiscard]] bool is_participant_guid(std::string_view text);
+
+/// Which participant may publish a stream the robot side acts on (issue 17: command arbitration;
+/// docs/security.md). Rule "" accepts any sender; a participant GUID (is_participant_guid)
+/// accepts only that participant; "first" locks onto the first sender with a known GUID and then
+/// accepts only it. A sample whose sender GUID is unknown (empty) is refused under any rule but
+/// "". Used by `visnav simd` for cmd_vel and by the `dds` robot plugin for odometry, so both
+/// apply the same rule. Thread-safe (subscription threads admit, other threads read counts).
+/// A GUID identifies a process but does not authenticate it; DDS Security is the protection.
+class WriterArbiter {
+ public:
+  /// Anyone may write (rule "").
+  WriterArbiter() = default;
+  /// Parses a rule; an invalid one is ErrorCode::invalid_value with the rule shown through log_safe.
+  [[nodiscard]] static Result<WriterArbiter> parse(std::string_view rule);
+  WriterArbiter(WriterArbiter&& other) noexcept;
+  WriterArbiter& operator=(WriterArbiter&& other) noexcept;
+
+  struct Verdict {
+    bool accepted = false;  ///< the sample may be used
+    bool locked = false;    ///< rule "first": this sample's sender just became the allowed writer
+  };
+  /// Decides on one sample from `writer_participant`; a refusal increments refused().
+  Verdict admit(std::string_view writer_participant);
+
+  /// No rule: every sender is accepted.
+  [[nodiscard]] bool open() const { return rule_.empty(); }
+  /// The rule as given: "", "first" or a GUID.
+  [[nodiscard]] const std::string& rule() const { return rule_; }
+  /// The GUID allowed now; empty for rule "" and for "first" before the first sender.
+  [[nodiscard]] std::string allowed() const;
+  /// Samples refused so far.
+  [[nodiscard]] std::uint64_t refused() const;
+  /// "any participant", "only participant <GUID>" or "the first sender (not yet locked)": for logs.
+  [[nodiscard]] std::string describe() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::string rule_;
+  std::string allowed_;
+  std::uint64_t refused_ = 0;
+};
+
 /// Fills a sensor_msgs/Image from a grey CV_8UC1 (encoding mono8) or BGR CV_8UC3 (bgr8) image,
 /// tightly packed (step = width * channels), reusing `out.data`'s capacity. Other types: error.
 Status fill_image_message(const cv::Mat& image, msg::Image& out);

@@ -159,4 +159,67 @@ const ParamSchema<TelemetryParams>& TelemetryParams::schema() {
   return s;
 }
 
+bool is_participant_guid(std::string_view text) {
+  return text.size() == 32 && text.find_first_not_of("0123456789abcdef") == std::string_view::npos;
+}
+
+Result<WriterArbiter> WriterArbiter::parse(std::string_view rule) {
+  if (!rule.empty() && rule != "first" && !is_participant_guid(rule))
+    return fail(ErrorCode::invalid_value, "expected a participant GUID (32 lowercase hex digits) or 'first', got '" +
+                                              log_safe(rule) + "'");
+  WriterArbiter arbiter;
+  arbiter.rule_ = std::string(rule);
+  if (rule != "first") arbiter.allowed_ = std::string(rule);
+  return arbiter;
+}
+
+// Moves happen while the arbiter is being set up (before any subscription can call admit), but
+// the lock keeps a late call on the source well-defined.
+WriterArbiter::WriterArbiter(WriterArbiter&& other) noexcept {
+  std::lock_guard lock(other.mutex_);
+  rule_ = std::move(other.rule_);
+  allowed_ = std::move(other.allowed_);
+  refused_ = other.refused_;
+}
+
+WriterArbiter& WriterArbiter::operator=(WriterArbiter&& other) noexcept {
+  if (this != &other) {
+    std::scoped_lock lock(mutex_, other.mutex_);
+    rule_ = std::move(other.rule_);
+    allowed_ = std::move(other.allowed_);
+    refused_ = other.refused_;
+  }
+  return *this;
+}
+
+WriterArbiter::Verdict WriterArbiter::admit(std::string_view writer_participant) {
+  std::lock_guard lock(mutex_);
+  if (rule_.empty()) return {true, false};
+  // An unknown sender never drives and never becomes the locked writer: "first" locks onto a GUID.
+  if (allowed_.empty() && !writer_participant.empty()) {
+    allowed_ = std::string(writer_participant);
+    return {true, true};
+  }
+  if (!writer_participant.empty() && writer_participant == allowed_) return {true, false};
+  ++refused_;
+  return {false, false};
+}
+
+std::string WriterArbiter::allowed() const {
+  std::lock_guard lock(mutex_);
+  return allowed_;
+}
+
+std::uint64_t WriterArbiter::refused() const {
+  std::lock_guard lock(mutex_);
+  return refused_;
+}
+
+std::string WriterArbiter::describe() const {
+  std::lock_guard lock(mutex_);
+  if (rule_.empty()) return "any participant";
+  if (allowed_.empty()) return "the first sender (not yet locked)";
+  return "only participant " + allowed_ + (rule_ == "first" ? " (the first sender)" : "");
+}
+
 }  // namespace visnav::dds

@@ -319,3 +319,48 @@ TEST(DdsHelpers, LatestSlotWaitsForNewerValues) {
 }
 
 }  // namespace
+
+// Command arbitration (issue 17), the rule `visnav simd --cmd-vel-writer` and the dds robot's
+// `odom_writer` share.
+TEST(WriterArbiter, OpenPinnedAndFirstSenderRules) {
+  const std::string a(32, 'a'), b(32, 'b');
+  EXPECT_TRUE(dds::is_participant_guid(a));
+  EXPECT_FALSE(dds::is_participant_guid(std::string(32, 'A')));  // GUIDs are logged lower case
+  EXPECT_FALSE(dds::is_participant_guid(std::string(31, 'a')));
+
+  dds::WriterArbiter open;  // no rule: everyone, nothing counted
+  EXPECT_TRUE(open.open());
+  EXPECT_TRUE(open.admit(a).accepted);
+  EXPECT_TRUE(open.admit("").accepted);
+  EXPECT_EQ(open.refused(), 0u);
+
+  auto pinned = dds::WriterArbiter::parse(a);
+  ASSERT_TRUE(pinned.ok());
+  EXPECT_TRUE(pinned->admit(a).accepted);
+  EXPECT_FALSE(pinned->admit(a).locked);
+  EXPECT_FALSE(pinned->admit(b).accepted);
+  EXPECT_FALSE(pinned->admit("").accepted);  // unknown sender: refused, never trusted
+  EXPECT_EQ(pinned->refused(), 2u);
+  EXPECT_EQ(pinned->allowed(), a);
+
+  auto first = dds::WriterArbiter::parse("first");
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(first->allowed(), "");
+  EXPECT_FALSE(first->admit("").accepted);  // an unknown sender does not take the lock
+  const auto locked = first->admit(b);
+  EXPECT_TRUE(locked.accepted);
+  EXPECT_TRUE(locked.locked);
+  EXPECT_EQ(first->allowed(), b);
+  EXPECT_FALSE(first->admit(a).accepted);  // later senders are refused, the locked one is not
+  EXPECT_TRUE(first->admit(b).accepted);
+  EXPECT_FALSE(first->admit(b).locked);
+  EXPECT_EQ(first->refused(), 2u);
+  EXPECT_NE(first->describe().find(b), std::string::npos);
+
+  for (const char* bad : {"FIRST", "0123", "zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz", "\x1b[31m"}) {
+    auto r = dds::WriterArbiter::parse(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().code, visnav::ErrorCode::invalid_value) << bad;
+    EXPECT_EQ(r.error().message.find('\x1b'), std::string::npos);  // shown escaped (log_safe)
+  }
+}

@@ -2,8 +2,10 @@
 // brightness/contrast change), the rectified stereo pair, and bad inputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -16,14 +18,24 @@ using visnav::Features;
 namespace {
 
 // Random features; the "current" set is the reference shifted by (shift, 0) with some outliers.
+// The same set under every compiler and in every test order: the descriptors come from an own
+// cv::RNG (cv::randu draws from OpenCV's per-thread theRNG(), whose state depends on what ran
+// before in the process), and u and v are drawn in sequenced statements (in
+// `KeyPoint(ux(rng), uy(rng), ...)` the argument order is unspecified: gcc draws v first, clang
+// u, which gave the two builds different layouts).
 void make_shifted(int n, double shift_px, int outliers, Features& ref, Features& cur, unsigned seed = 3) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> ux(0, 640), uy(0, 480);
   ref.clear();
   cur.clear();
   ref.descriptors.create(n, 32, CV_8UC1);
-  cv::randu(ref.descriptors, 0, 256);
-  for (int i = 0; i < n; ++i) ref.keypoints.emplace_back(ux(rng), uy(rng), 7.0f);
+  cv::RNG descriptor_rng(seed);
+  descriptor_rng.fill(ref.descriptors, cv::RNG::UNIFORM, 0, 256);
+  for (int i = 0; i < n; ++i) {
+    const float u = ux(rng);
+    const float v = uy(rng);
+    ref.keypoints.emplace_back(u, v, 7.0f);
+  }
   cur.descriptors = ref.descriptors.clone();
   for (int i = 0; i < n; ++i) {
     cv::KeyPoint k = ref.keypoints[static_cast<std::size_t>(i)];
@@ -80,13 +92,36 @@ TEST(HeadingEstimator, RecoversSyntheticShiftsWithOutliers) {
 TEST(HeadingEstimator, VerticalGateAndCrossCheck) {
   Features ref, cur;
   make_shifted(100, 30.0, 0, ref, cur);
-  for (auto& k : cur.keypoints) k.pt.y += 80.0f;  // beyond the 50 px gate
+  for (auto& k : cur.keypoints) k.pt.y += 80.0f;  // every true pair is beyond the 50 px gate
   fr::HeadingEstimator est;
   auto e = est.estimate(ref, cur, 640.0);
   ASSERT_TRUE(e.ok());
+  EXPECT_FALSE(e->valid);
+  // The gate is applied while searching, so a query only sees the reference features within
+  // 50 px of its v. No true pair (identical descriptor, dv = 80) is among them. A query whose
+  // window holds exactly one (unrelated) feature passes the ratio test by definition ("a single
+  // candidate passes"); with two or more random 256-bit candidates the ratio test rejects.
+  std::vector<int> candidates(cur.keypoints.size(), 0);
+  for (std::size_t i = 0; i < cur.keypoints.size(); ++i)
+    for (const auto& r : ref.keypoints)
+      if (std::abs(cur.keypoints[i].pt.y - r.pt.y) <= 50.0f) ++candidates[i];
+  const auto lone = std::count(candidates.begin(), candidates.end(), 1);
+  EXPECT_EQ(e->matches, lone);
+  for (const auto& m : est.last_matches()) {
+    EXPECT_NE(m.current_index, m.reference_index) << "a true pair passed the gate";
+    EXPECT_LE(std::abs(m.dv_px), 50.0f);
+    EXPECT_EQ(candidates[static_cast<std::size_t>(m.current_index)], 1);
+    EXPECT_GT(m.distance, 64.0f);  // a chance pair of random descriptors
+  }
+  // An absolute descriptor gate removes those chance pairs: nothing beyond the gate matches.
+  fr::HeadingParams p;
+  p.max_descriptor_distance = 64.0;
+  est.set_params(p);
+  e = est.estimate(ref, cur, 640.0);
+  ASSERT_TRUE(e.ok());
   EXPECT_EQ(e->matches, 0);
   EXPECT_FALSE(e->valid);
-  fr::HeadingParams p;
+  p = fr::HeadingParams{};
   p.max_vertical_px = 0.0;  // off
   p.cross_check = true;
   est.set_params(p);

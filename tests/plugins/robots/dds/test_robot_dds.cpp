@@ -272,11 +272,64 @@ TEST_F(RobotDdsPlugin, WrongTypeOnOdomTopicIsReportedNotFatal) {
   EXPECT_FALSE((*robot)->latest_odometry().has_value());
 }
 
+// Arbitration (issue 17): with `odom_writer` only one participant's odometry is believed, by the
+// rule visnav simd applies to cmd_vel (dds::WriterArbiter). A spoofer's 30 m jump is dropped.
+TEST_F(RobotDdsPlugin, OdomWriterFirstLocksOntoTheFirstSenderAndDropsOthers) {
+  FakeRobot fake(domain_, partition_);
+  fake.pause(true);
+  auto robot = make_robot("odom_writer: first\n");
+  ASSERT_TRUE(robot.ok()) << robot.error().message;
+  auto spoofer = dds::Participant::create(domain_);
+  ASSERT_TRUE(spoofer.ok());
+  auto spoofed = dds::Writer<dds::msg::Odometry>::create(*spoofer, {"rt/odom", dds::Qos::ros_default(), partition_});
+  ASSERT_TRUE(spoofed.ok());
+  // The robot's odometry arrives first and takes the lock.
+  ASSERT_TRUE(eventually([&] {
+    fake.publish_raw(odom_at(1, 0, 0));
+    return (*robot)->latest_odometry().has_value();
+  }));
+  EXPECT_EQ((*robot)->latest_odometry()->pose.x_m, 1.0);
+  ASSERT_TRUE(eventually([&] {
+    (void)spoofed->write(odom_at(31, 0, 0));
+    for (const auto& w : logger_.warnings())
+      if (w.find("dropped odometry from participant '" + spoofer->guid() + "'") != std::string::npos) return true;
+    return false;
+  }));
+  EXPECT_EQ((*robot)->latest_odometry()->pose.x_m, 1.0);
+  fake.publish_raw(odom_at(1.5, 0, 0));  // the locked writer still reports
+  ASSERT_TRUE(eventually([&] { return (*robot)->latest_odometry()->pose.x_m == 1.5; }));
+}
+
+TEST_F(RobotDdsPlugin, OdomWriterGuidAcceptsOnlyThatParticipant) {
+  FakeRobot other(domain_, partition_);
+  other.pause(true);
+  auto driver = dds::Participant::create(domain_);
+  ASSERT_TRUE(driver.ok());
+  auto odom = dds::Writer<dds::msg::Odometry>::create(*driver, {"rt/odom", dds::Qos::ros_default(), partition_});
+  ASSERT_TRUE(odom.ok());
+  auto robot = make_robot("odom_writer: " + driver->guid() + "\n");
+  ASSERT_TRUE(robot.ok()) << robot.error().message;
+  ASSERT_TRUE(eventually([&] {
+    other.publish_raw(odom_at(30, 0, 0));
+    for (const auto& w : logger_.warnings())
+      if (w.find("dropped odometry from participant") != std::string::npos) return true;
+    return false;
+  }));
+  EXPECT_FALSE((*robot)->latest_odometry().has_value());
+  ASSERT_TRUE(eventually([&] {
+    (void)odom->write(odom_at(2, 0, 0));
+    return (*robot)->latest_odometry().has_value();
+  }));
+  EXPECT_EQ((*robot)->latest_odometry()->pose.x_m, 2.0);
+}
+
 TEST_F(RobotDdsPlugin, ParamsAreValidated) {
   auto unknown = make_robot("odom_topic_typo: rt/odom\n");
   EXPECT_TRUE(fails_with(unknown, ErrorCode::unknown_key, visnav::test::key_only("odom_topic_typo")));
   auto bad_qos = make_robot("odom_reliability: sometimes\n");
   EXPECT_TRUE(fails_with(bad_qos, ErrorCode::out_of_range, visnav::test::key_only("odom_reliability")));
+  auto writer = make_robot("odom_writer: 0123ABCD\n");
+  EXPECT_TRUE(fails_with(writer, ErrorCode::invalid_value, visnav::test::key_only("odom_writer")));
   auto same = make_robot("odom_topic: rt/cmd_vel\n");
   EXPECT_FALSE(same.ok());
   auto timeout = make_robot("connect_timeout_s: 0.2\n");  // nobody publishes odometry

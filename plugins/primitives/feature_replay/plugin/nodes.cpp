@@ -142,6 +142,9 @@ class FeatureTeacher final : public EdgeTeacher {
 SegmentReplayParams tuned_segment_replay() {
   SegmentReplayParams p;
   p.gain_radps_per_px = 0.01;  // tuned in the simulator (the core's 0.003 is seed 000's)
+  // Along-track correction on (the core's default is seed 000's odometry-only edge end): measured
+  // on the campus experiment (docs/feature_replay.md, "Along-track correction").
+  p.along_gain = 0.1;
   return p;
 }
 
@@ -172,7 +175,10 @@ struct FeatureReplayParams {
             .include(&P::segment, SegmentReplayParams::schema(),
                      {{"gain_radps_per_px", "gain_radps_per_px"},
                       {"max_angular_radps", "max_angular_radps"},
-                      {"distance_margin_m", "distance_margin_m"}})
+                      {"distance_margin_m", "distance_margin_m"},
+                      {"along_gain", "along_gain"},
+                      {"max_along_step_m", "max_along_step_m"},
+                      {"max_along_correction_m", "max_along_correction_m"}})
             .include(&P::localmaps, LocalMapReplayParams::schema(),
                      {{"gain_radps_per_px", "correction_gain_radps_per_px"},
                       {"max_correction_radps", "max_correction_radps"},
@@ -370,7 +376,8 @@ class FeatureReplayer final : public EdgeReplayer {
     ReplayState state;
     HeadingEstimate estimate;
     if (segment_) {
-      const SegmentReplayOutput r = segment_->step(in.odometry.distance_m, *in.features, width_px);
+      const SegmentReplayOutput r = segment_->step(in.odometry.distance_m, *in.features, width_px,
+                                                     in.frame.image.empty() ? 0.0 : static_cast<double>(in.frame.image.rows));
       out.command = r.command;
       state = r.state;
       out.finished = r.finished;

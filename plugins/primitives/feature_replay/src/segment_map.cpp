@@ -393,6 +393,7 @@ SegmentReplayer::AlongModel SegmentReplayer::along_model(const Landmark& l, doub
     const auto [u, su] = hyperbolic_axis(l.first_px.x, l.last_px.x, l.first_distance_m, l.last_distance_m, d, cx);
     m.u_px = static_cast<float>(u);
     m.slope_u = static_cast<float>(su);
+    m.inverse_depth = static_cast<float>(su / (u - cx));  // |u - cx| >= 8 px where finite
   }
   if (cy > 0.0) {
     const auto [v, sv] = hyperbolic_axis(l.first_px.y, l.last_px.y, l.first_distance_m, l.last_distance_m, d, cy);
@@ -403,8 +404,11 @@ SegmentReplayer::AlongModel SegmentReplayer::along_model(const Landmark& l, doub
 }
 
 double SegmentReplayer::estimate_along_m() {
-  // du = offset + s_u * delta and dv = pitch + s_v * delta over the matches near the peak; each
-  // axis centred (its intercept free), delta shared. Two passes: the second drops residuals > 8 px.
+  // du = offset + s_u * delta + q * lateral and dv = pitch + s_v * delta over the matches near
+  // the peak: s is the track's slope (px/m), q = s_u / (u - c) = 1 / depth, the regressor of a
+  // lateral displacement (parallax: near landmarks shift more; a displaced robot would otherwise
+  // read the parallax of a one-sided scene as distance). Each axis centred (intercepts free);
+  // delta and lateral shared. Two passes: the second drops residuals > 8 px.
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const auto matches = estimator_.last_matches();
   if (matches.empty()) return nan;
@@ -422,38 +426,53 @@ double SegmentReplayer::estimate_along_m() {
     // inside the curve and would read as a distance error that grows with the slope).
     const AlongModel& a = along_model_[static_cast<std::size_t>(m.reference_index)];
     const cv::Point2f e = expected_[static_cast<std::size_t>(m.reference_index)];
-    if (std::isfinite(a.slope_u)) along_.emplace_back(a.slope_u, m.du_px + (e.x - a.u_px), 0.0f);
-    if (std::isfinite(a.slope_v)) along_.emplace_back(a.slope_v, m.dv_px + (e.y - a.v_px), 1.0f);
+    if (std::isfinite(a.slope_u)) along_.push_back({a.slope_u, a.inverse_depth, m.du_px + (e.x - a.u_px), 0});
+    if (std::isfinite(a.slope_v)) along_.push_back({a.slope_v, 0.0f, m.dv_px + (e.y - a.v_px), 1});
   }
-  double delta = nan;
+  double delta = nan, lateral = 0.0;
+  double mean_s[2] = {0, 0}, mean_q[2] = {0, 0}, mean_r[2] = {0, 0};
   constexpr double kMaxResidualPx = 8.0;
   for (int pass = 0; pass < 2; ++pass) {
-    double sum_s[2] = {0, 0}, sum_r[2] = {0, 0};
+    double sum_s[2] = {0, 0}, sum_q[2] = {0, 0}, sum_r[2] = {0, 0};
     int n[2] = {0, 0};
-    for (const cv::Point3f& a : along_) {
-      const int ax = a.z > 0.5f ? 1 : 0;
-      sum_s[ax] += a.x;
-      sum_r[ax] += a.y;
-      ++n[ax];
+    for (const AlongSample& a : along_) {
+      sum_s[a.axis] += a.slope;
+      sum_q[a.axis] += a.inverse_depth;
+      sum_r[a.axis] += a.residual;
+      ++n[a.axis];
     }
     if (n[0] + n[1] < 2 * params_.min_along_matches) return nan;
-    double mean_s[2], mean_r[2], num = 0.0, den = 0.0;
     for (int ax = 0; ax < 2; ++ax) {
       mean_s[ax] = n[ax] > 0 ? sum_s[ax] / n[ax] : 0.0;
+      mean_q[ax] = n[ax] > 0 ? sum_q[ax] / n[ax] : 0.0;
       mean_r[ax] = n[ax] > 0 ? sum_r[ax] / n[ax] : 0.0;
     }
-    for (const cv::Point3f& a : along_) {
-      const int ax = a.z > 0.5f ? 1 : 0;
-      const double ds = a.x - mean_s[ax];
-      num += ds * (a.y - mean_r[ax]);
-      den += ds * ds;
+    double ss = 0.0, sq = 0.0, qq = 0.0, sr = 0.0, qr = 0.0;
+    for (const AlongSample& a : along_) {
+      const double ds = a.slope - mean_s[a.axis], dq = a.inverse_depth - mean_q[a.axis],
+                   dr = a.residual - mean_r[a.axis];
+      ss += ds * ds;
+      sq += ds * dq;
+      qq += dq * dq;
+      sr += ds * dr;
+      qr += dq * dr;
     }
-    if (!(std::sqrt(den) >= params_.min_along_slope_px_per_m) || den <= 0.0) return nan;
-    delta = num / den;
+    // Information on delta once the lateral term is accounted for (Schur complement).
+    const bool with_lateral = qq > 1e-12;
+    const double info = with_lateral ? ss - sq * sq / qq : ss;
+    if (!(info > 0.0) || !(std::sqrt(info) >= params_.min_along_slope_px_per_m)) return nan;
+    if (with_lateral) {
+      const double det = ss * qq - sq * sq;
+      delta = (sr * qq - qr * sq) / det;
+      lateral = (ss * qr - sq * sr) / det;
+    } else {
+      delta = sr / ss;
+      lateral = 0.0;
+    }
     if (pass == 1) break;
-    std::erase_if(along_, [&](const cv::Point3f& a) {
-      const int ax = a.z > 0.5f ? 1 : 0;
-      return std::abs((a.y - mean_r[ax]) - (a.x - mean_s[ax]) * delta) > kMaxResidualPx;
+    std::erase_if(along_, [&](const AlongSample& a) {
+      const double predicted = (a.slope - mean_s[a.axis]) * delta + (a.inverse_depth - mean_q[a.axis]) * lateral;
+      return std::abs((a.residual - mean_r[a.axis]) - predicted) > kMaxResidualPx;
     });
   }
   return delta;

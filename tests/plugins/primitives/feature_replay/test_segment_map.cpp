@@ -186,9 +186,11 @@ TEST(SegmentReplayer, EstimatesAlongTrackErrorFromLandmarkExpansion) {
   const auto turned = replay_at({5.0, 0.0, 0.05}, 5.0);  // a heading error is no along-track error
   ASSERT_TRUE(std::isfinite(turned.along_error_m));
   EXPECT_NEAR(turned.along_error_m, 0.0, 0.1);
-  const auto aside = replay_at({5.0, 0.5, 0.0}, 5.0);    // nor is a lateral one (landmarks on both sides)
-  ASSERT_TRUE(std::isfinite(aside.along_error_m));
-  EXPECT_NEAR(aside.along_error_m, 0.0, 0.15);
+  for (double y : {0.5, 1.0}) {  // nor is a lateral one
+    const auto aside = replay_at({5.0, y, 0.0}, 5.0);
+    ASSERT_TRUE(std::isfinite(aside.along_error_m));
+    EXPECT_NEAR(aside.along_error_m, 0.0, 0.15) << "y " << y;
+  }
   // Off by default: the counter is odometry alone.
   EXPECT_EQ(ahead.along_correction_m, 0.0);
 }
@@ -196,9 +198,10 @@ TEST(SegmentReplayer, EstimatesAlongTrackErrorFromLandmarkExpansion) {
 namespace {
 // Closed loop on the taught segment with odometry that over-reads by `scale` (a 10 % too large
 // wheel radius while teaching was 0 %): where along the segment the robot really ends.
-double end_of_segment_m(double scale, double along_gain) {
+double end_of_segment_m(double scale, double along_gain, double max_correction_m = 1.5) {
   fr::SegmentReplayParams p;
   p.along_gain = along_gain;
+  p.max_along_correction_m = max_correction_m;
   fr::SegmentReplayer rep(taught().map, p);
   std::mt19937 rng(11);
   Pose2D pose{0.0, 0.0, 0.0};
@@ -222,6 +225,8 @@ TEST(SegmentReplayer, AlongTrackCorrectionEndsTheSegmentWhereItWasTaught) {
             << " m with the along-track correction (taught " << kLength << " m)\n";
   EXPECT_NEAR(corrected_long, kLength, 0.25);
   EXPECT_NEAR(corrected_short, kLength, 0.25);
+  // The total correction is clamped (default 0.5 m per segment).
+  EXPECT_NEAR(end_of_segment_m(1.1, 0.1, 0.5), kLength / 1.1 + 0.5 / 1.1, 0.05);
   // A correct odometer stays correct.
   EXPECT_NEAR(end_of_segment_m(1.0, 0.1), kLength, 0.1);
 }

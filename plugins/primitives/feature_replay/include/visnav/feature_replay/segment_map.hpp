@@ -156,7 +156,7 @@ struct SegmentReplayParams {
   /// odometry alone decides where the segment ends).
   double along_gain = 0.0;
   double max_along_step_m = 0.02;      ///< clamp of one frame's correction, m
-  double max_along_correction_m = 1.0; ///< clamp of the correction accumulated over the segment, m
+  double max_along_correction_m = 0.5; ///< clamp of the correction accumulated over the segment, m
   double along_window_px = 40.0;       ///< matches within this of the winning offset take part, px
   int min_along_matches = 12;          ///< fewer such matches: no along-track estimate this frame
   double min_along_slope_px_per_m = 100.0;  ///< sqrt(sum of squared slopes) below this: uninformative
@@ -223,6 +223,13 @@ class SegmentReplayer {
   struct AlongModel {
     float u_px = std::numeric_limits<float>::quiet_NaN(), v_px = std::numeric_limits<float>::quiet_NaN();
     float slope_u = std::numeric_limits<float>::quiet_NaN(), slope_v = std::numeric_limits<float>::quiet_NaN();
+    float inverse_depth = 0.0f;  // slope_u / (u - c): 1 / depth, 1/m
+  };
+  struct AlongSample {
+    float slope;          // px/m
+    float inverse_depth;  // 1/m (0 on the vertical axis: a lateral shift does not move v)
+    float residual;       // px
+    int axis;             // 0 = u, 1 = v
   };
   static AlongModel along_model(const Landmark& l, double d, double cx, double cy);
   double estimate_along_m();  // from the last estimate's matches; NaN when uninformative
@@ -234,7 +241,7 @@ class SegmentReplayer {
   cv::Mat ref_desc_;                   // capacity buffer
   std::vector<cv::Point2f> expected_;  // capacity buffer
   std::vector<AlongModel> along_model_;  // capacity buffer: per active landmark
-  std::vector<cv::Point3f> along_;     // capacity buffer: (slope, residual, axis) pairs of one fit
+  std::vector<AlongSample> along_;     // capacity buffer: the samples of one fit
   int active_count_ = 0;
 };
 

@@ -176,6 +176,9 @@ const ParamSchema<SegmentReplayParams>& SegmentReplayParams::schema() {
           .field("along_window_px", &SegmentReplayParams::along_window_px,
                  "along-track correction: matches within this of the winning offset take part, px")
           .range(1.0, 1000.0)
+          .field("along_max_offset_px", &SegmentReplayParams::along_max_offset_px,
+                 "along-track correction: updated only while |offset| (the heading error seen) is at most this, px")
+          .range(0.0, 10000.0)
           .field("min_along_matches", &SegmentReplayParams::min_along_matches,
                  "along-track correction: fewer matches give no estimate")
           .range(3, 100000)
@@ -364,7 +367,7 @@ void SegmentReplayer::set_params(const SegmentReplayParams& params, const Headin
 }
 
 double SegmentReplayer::overshoot_m(double odometry_distance_m) const {
-  return std::max(0.0, odometry_distance_m - origin_m_ + correction_m_ - map_->length_m);
+  return std::max(0.0, odometry_distance_m - origin_m_ + correction_m_ - map_->length_m);  // past the corrected end
 }
 
 namespace {
@@ -485,12 +488,17 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
     out.state = ReplayState::bad_input;  // zero command: an inconsistent map is not replayed
     return out;
   }
-  const double d = odometry_distance_m - origin_m_ + correction_m_;
-  out.distance_m = d;
+  // The steering and the along-track fit look at the odometric distance d (the steering is
+  // exactly Algorithm 2's); only the end of the segment moves with the correction. Feeding the
+  // corrected distance back into the expected positions coupled the two: a wrong estimate bent
+  // the steering near a corner, whose heading error biased the next estimate.
+  const double d = odometry_distance_m - origin_m_;
+  const double d_end = d + correction_m_;
+  out.distance_m = d_end;
   out.along_correction_m = correction_m_;
   active_count_ = 0;
-  if (!std::isfinite(d) || d >= map_->length_m) {
-    out.finished = std::isfinite(d);
+  if (!std::isfinite(d_end) || d_end >= map_->length_m) {
+    out.finished = std::isfinite(d_end);
     out.state = out.finished ? ReplayState::finished : ReplayState::bad_input;
     return out;
   }
@@ -544,8 +552,12 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
       std::clamp(-params_.gain_radps_per_px * est->offset_px, -params_.max_angular_radps, params_.max_angular_radps);
   out.state = ReplayState::steering;
   out.along_error_m = estimate_along_m();
-  if (params_.along_gain > 0.0 && std::isfinite(out.along_error_m)) {
-    const double step = std::clamp(params_.along_gain * out.along_error_m, -params_.max_along_step_m, params_.max_along_step_m);
+  // Only a robot that faces the taught view updates it: a heading error moves landmarks at the
+  // image borders more than those near the centre, which a one-sided scene reads as distance.
+  if (params_.along_gain > 0.0 && std::isfinite(out.along_error_m) &&
+      std::abs(est->offset_px) <= params_.along_max_offset_px) {
+    const double step = std::clamp(params_.along_gain * (out.along_error_m - correction_m_), -params_.max_along_step_m,
+                                   params_.max_along_step_m);
     correction_m_ = std::clamp(correction_m_ + step, -params_.max_along_correction_m, params_.max_along_correction_m);
   }
   return out;

@@ -29,8 +29,11 @@
 // its slope s px/m at d. A robot that is delta metres further along than its counter says sees each
 // matched landmark at track(d) + offset + s * delta, in both image axes; delta is the least-squares fit over the matches near the winning offset (per axis
 // centred, so a common rotation or pitch does not bias it; one pass drops residuals > 8 px). With
-// along_gain > 0 the counter moves by gain * delta per frame (clamped per frame and in total), so
-// the segment ends where the taught view was seen instead of where odometry says. Landmarks far
+// along_gain > 0 the correction c follows the estimate, c += gain * (delta - c) per frame (clamped
+// per frame and in total; only while |offset_px| <= along_max_offset_px, i.e. facing the view),
+// and the segment ends when odometric distance + c reaches its length: where the taught view was
+// seen instead of where odometry says. The steering and the fit keep using the odometric distance
+// (Algorithm 2 unchanged); distance_m in the output is the corrected one. Landmarks far
 // away (s near 0) carry no along-track information and do not take part.
 //
 // Distances: the replayer is given odometric distance (Odometry::distance_m) and subtracts the
@@ -158,6 +161,7 @@ struct SegmentReplayParams {
   double max_along_step_m = 0.02;      ///< clamp of one frame's correction, m
   double max_along_correction_m = 0.5; ///< clamp of the correction accumulated over the segment, m
   double along_window_px = 40.0;       ///< matches within this of the winning offset take part, px
+  double along_max_offset_px = 20.0;   ///< the correction is updated only while |offset_px| <= this, px
   int min_along_matches = 12;          ///< fewer such matches: no along-track estimate this frame
   double min_along_slope_px_per_m = 100.0;  ///< sqrt(sum of squared slopes) below this: uninformative
 
@@ -168,9 +172,9 @@ struct SegmentReplayParams {
 
 struct SegmentReplayOutput {
   Twist command;                 ///< (v0, omega), or zero when finished
-  double distance_m = 0.0;       ///< along the segment (odometric, plus the along-track correction)
-  /// This frame's along-track error estimate (taught distance the view matches minus the counter), m;
-  /// NaN when the frame gave none.
+  double distance_m = 0.0;       ///< along the segment: odometric plus the along-track correction (the end criterion)
+  /// This frame's along-track error estimate (taught distance the view matches minus the odometric
+  /// distance along the segment), m; NaN when the frame gave none.
   double along_error_m = std::numeric_limits<double>::quiet_NaN();
   double along_correction_m = 0.0;  ///< correction accumulated since begin(), m (positive: ahead)
   int expected_landmarks = 0;    ///< |T|: landmarks visible at this distance during teach

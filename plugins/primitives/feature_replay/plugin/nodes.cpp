@@ -142,9 +142,10 @@ class FeatureTeacher final : public EdgeTeacher {
 SegmentReplayParams tuned_segment_replay() {
   SegmentReplayParams p;
   p.gain_radps_per_px = 0.01;  // tuned in the simulator (the core's 0.003 is seed 000's)
-  // Along-track correction on (the core's default is seed 000's odometry-only edge end): measured
-  // on the campus experiment (docs/feature_replay.md, "Along-track correction").
-  p.along_gain = 0.1;
+  // Along-track correction off (seed 000's odometric edge end): on the campus experiment it made
+  // the hybrid result worse (feature edges ended 0.2-0.4 m short; docs/feature_replay.md,
+  // "Along-track correction"). A tree may switch it on per edge with along_gain.
+  p.along_gain = 0.0;
   return p;
 }
 
@@ -376,8 +377,9 @@ class FeatureReplayer final : public EdgeReplayer {
     ReplayState state;
     HeadingEstimate estimate;
     if (segment_) {
-      const SegmentReplayOutput r = segment_->step(in.odometry.distance_m, *in.features, width_px,
-                                                     in.frame.image.empty() ? 0.0 : static_cast<double>(in.frame.image.rows));
+      // Horizontal axis only: a camera pitched down has its focus of expansion above the image
+      // centre, where the core's vertical model puts it (suspected bias, docs/feature_replay.md).
+      const SegmentReplayOutput r = segment_->step(in.odometry.distance_m, *in.features, width_px, 0.0);
       out.command = r.command;
       state = r.state;
       out.finished = r.finished;

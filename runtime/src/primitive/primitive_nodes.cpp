@@ -245,6 +245,10 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                                "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
                                "unset counts as 0)"),
         bt::output_port<int>("lap", "{lap}", "0-based lap being driven (closed paths driven several times)"),
+        bt::output_port<double>("end_shift_m", "{edge_end_shift_m}",
+                                "when the edge ends: how much earlier (positive) or later in odometric distance than "
+                                "its taught length the primitive ended it (a visual along-track correction; 0 for "
+                                "odometry alone); FollowRoute counts the next edge's carried distance from there"),
     };
     VISNAV_TRY(append_param_ports(p, primitive_ports(type)));
     VISNAV_TRY(append_param_ports(p, LostPolicyPorts::ports()));
@@ -258,6 +262,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
 
   NodeStatus on_start() override {
     replayer_.reset();
+    (void)set_output("end_shift_m", 0.0);  // never a previous edge's
     if (auto st = start(); !st) return failed(st.error().message);
     return on_running();
   }
@@ -300,6 +305,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                     " inliers, window confidence " + format_double(health.window_confidence) + ")");
     }
     if (step.finished) {
+      // Where the primitive put the edge's end: its own along-edge distance against odometry's.
+      const double shift_m = step.distance_m - (odom->distance_m - origin_m_);
+      (void)set_output("end_shift_m", std::isfinite(shift_m) ? shift_m : 0.0);
       (void)robot.stop();
       last_command_ = Twist{};
       if (auto st = replayer_->succeeded(); !st) host_.logger().warn(path(), "edge " + edge_id_ + ": " + st.error().message);

@@ -146,6 +146,10 @@ class FeatureTeacher final : public EdgeTeacher {
 SegmentReplayParams tuned_segment_replay() {
   SegmentReplayParams p;
   p.gain_radps_per_px = 0.01;  // tuned in the simulator (the core's 0.003 is seed 000's)
+  // Along-track correction off (seed 000's odometric edge end): on the campus experiment it made
+  // the hybrid result worse (feature edges ended 0.2-0.4 m short; docs/feature_replay.md,
+  // "Along-track correction"). A tree may switch it on per edge with along_gain.
+  p.along_gain = 0.0;
   return p;
 }
 
@@ -180,7 +184,10 @@ struct FeatureReplayParams {
             .include(&P::segment, SegmentReplayParams::schema(),
                      {{"gain_radps_per_px", "gain_radps_per_px"},
                       {"max_angular_radps", "max_angular_radps"},
-                      {"distance_margin_m", "distance_margin_m"}})
+                      {"distance_margin_m", "distance_margin_m"},
+                      {"along_gain", "along_gain"},
+                      {"max_along_step_m", "max_along_step_m"},
+                      {"max_along_correction_m", "max_along_correction_m"}})
             .include(&P::localmaps, LocalMapReplayParams::schema(),
                      {{"gain_radps_per_px", "correction_gain_radps_per_px"},
                       {"max_correction_radps", "max_correction_radps"},
@@ -460,7 +467,9 @@ class FeatureReplayer final : public EdgeReplayer {
     if (!segments_.empty()) {
       const int k = selector_.select([&](int i) {
         SegmentReplayOutput& r = segment_out_[static_cast<std::size_t>(i)];
-        r = segments_[static_cast<std::size_t>(i)].step(in.odometry.distance_m, *in.features, width_px);
+        // Horizontal axis only: a camera pitched down has its focus of expansion above the image
+        // centre, where the core's vertical model puts it (suspected bias, docs/feature_replay.md).
+        r = segments_[static_cast<std::size_t>(i)].step(in.odometry.distance_m, *in.features, width_px, 0.0);
         return ExperienceSelector::Score{r.estimate.confidence, r.estimate.inliers};
       });
       const SegmentReplayOutput& r = segment_out_[static_cast<std::size_t>(k)];

@@ -163,7 +163,29 @@ const ParamSchema<SegmentReplayParams>& SegmentReplayParams::schema() {
           .range(0.0, 10.0)
           .field("distance_margin_m", &SegmentReplayParams::distance_margin_m,
                  "widen each landmark's visibility window [f, g] by this much, m")
-          .range(0.0, 100.0);
+          .range(0.0, 100.0)
+          .field("along_gain", &SegmentReplayParams::along_gain,
+                 "along-track correction: share of the estimated along-track error applied per frame (0 = off)")
+          .range(0.0, 1.0)
+          .field("max_along_step_m", &SegmentReplayParams::max_along_step_m,
+                 "along-track correction: clamp of one frame's step, m")
+          .range(0.0, 10.0)
+          .field("max_along_correction_m", &SegmentReplayParams::max_along_correction_m,
+                 "along-track correction: clamp of the total over one segment, m")
+          .range(0.0, 100.0)
+          .field("along_window_px", &SegmentReplayParams::along_window_px,
+                 "along-track correction: matches within this of the winning offset take part, px")
+          .range(1.0, 1000.0)
+          .field("along_max_offset_px", &SegmentReplayParams::along_max_offset_px,
+                 "along-track correction: updated only while |offset| (the heading error seen) is at most this, px")
+          .range(0.0, 10000.0)
+          .field("min_along_matches", &SegmentReplayParams::min_along_matches,
+                 "along-track correction: fewer matches give no estimate")
+          .range(3, 100000)
+          .field("min_along_slope_px_per_m", &SegmentReplayParams::min_along_slope_px_per_m,
+                 "along-track correction: the matches' slope spread (root of the summed squared centred slopes) "
+                 "below this gives no estimate, px/m")
+          .range(0.0, 1e6);
   return s;
 }
 
@@ -345,20 +367,138 @@ void SegmentReplayer::set_params(const SegmentReplayParams& params, const Headin
 }
 
 double SegmentReplayer::overshoot_m(double odometry_distance_m) const {
-  return std::max(0.0, odometry_distance_m - origin_m_ - map_->length_m);
+  return std::max(0.0, odometry_distance_m - origin_m_ + correction_m_ - map_->length_m);  // past the corrected end
 }
 
-SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Features& current, double image_width_px) {
+namespace {
+
+// One image axis of a landmark seen while driving straight at it: x - c = A / (X - d), so
+// 1 / (x - c) is linear in distance. Returns (position, d position / d distance) at d, or NaN
+// when the landmark crosses or touches the principal axis (no usable model) or d is outside [f, g].
+std::pair<double, double> hyperbolic_axis(double first, double last, double f, double g, double d, double c) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  constexpr double kMinFromCentrePx = 8.0;
+  const double a = first - c, b = last - c;
+  if (!(g - f > 1e-6) || d < f || d > g || a * b <= 0.0 || std::abs(a) < kMinFromCentrePx ||
+      std::abs(b) < kMinFromCentrePx)
+    return {nan, nan};
+  const double wa = 1.0 / a, wb = 1.0 / b;
+  const double dw = (wb - wa) / (g - f);
+  const double w = wa + dw * (d - f);
+  return {c + 1.0 / w, -dw / (w * w)};
+}
+
+}  // namespace
+
+SegmentReplayer::AlongModel SegmentReplayer::along_model(const Landmark& l, double d, double cx, double cy) {
+  AlongModel m;
+  if (cx > 0.0) {
+    const auto [u, su] = hyperbolic_axis(l.first_px.x, l.last_px.x, l.first_distance_m, l.last_distance_m, d, cx);
+    m.u_px = static_cast<float>(u);
+    m.slope_u = static_cast<float>(su);
+    m.inverse_depth = static_cast<float>(su / (u - cx));  // |u - cx| >= 8 px where finite
+  }
+  if (cy > 0.0) {
+    const auto [v, sv] = hyperbolic_axis(l.first_px.y, l.last_px.y, l.first_distance_m, l.last_distance_m, d, cy);
+    m.v_px = static_cast<float>(v);
+    m.slope_v = static_cast<float>(sv);
+  }
+  return m;
+}
+
+double SegmentReplayer::estimate_along_m() {
+  // du = offset + s_u * delta + q * lateral and dv = pitch + s_v * delta over the matches near
+  // the peak: s is the track's slope (px/m), q = s_u / (u - c) = 1 / depth, the regressor of a
+  // lateral displacement (parallax: near landmarks shift more; a displaced robot would otherwise
+  // read the parallax of a one-sided scene as distance). Each axis centred (intercepts free);
+  // delta and lateral shared. Two passes: the second drops residuals > 8 px.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const auto matches = estimator_.last_matches();
+  if (matches.empty()) return nan;
+  double offset = 0.0;
+  int n_in = 0;
+  for (const FeatureMatch& m : matches)
+    if (m.inlier) { offset += m.du_px; ++n_in; }
+  if (n_in == 0) return nan;
+  offset /= n_in;
+  along_.clear();
+  for (const FeatureMatch& m : matches) {
+    if (std::abs(m.du_px - offset) > params_.along_window_px) continue;
+    if (m.reference_index < 0 || m.reference_index >= active_count_) continue;
+    // Residuals against the landmark's hyperbolic track (the steering uses the chord, which lies
+    // inside the curve and would read as a distance error that grows with the slope).
+    const AlongModel& a = along_model_[static_cast<std::size_t>(m.reference_index)];
+    const cv::Point2f e = expected_[static_cast<std::size_t>(m.reference_index)];
+    if (std::isfinite(a.slope_u)) along_.push_back({a.slope_u, a.inverse_depth, m.du_px + (e.x - a.u_px), 0});
+    if (std::isfinite(a.slope_v)) along_.push_back({a.slope_v, 0.0f, m.dv_px + (e.y - a.v_px), 1});
+  }
+  double delta = nan, lateral = 0.0;
+  double mean_s[2] = {0, 0}, mean_q[2] = {0, 0}, mean_r[2] = {0, 0};
+  constexpr double kMaxResidualPx = 8.0;
+  for (int pass = 0; pass < 2; ++pass) {
+    double sum_s[2] = {0, 0}, sum_q[2] = {0, 0}, sum_r[2] = {0, 0};
+    int n[2] = {0, 0};
+    for (const AlongSample& a : along_) {
+      sum_s[a.axis] += a.slope;
+      sum_q[a.axis] += a.inverse_depth;
+      sum_r[a.axis] += a.residual;
+      ++n[a.axis];
+    }
+    if (n[0] + n[1] < 2 * params_.min_along_matches) return nan;
+    for (int ax = 0; ax < 2; ++ax) {
+      mean_s[ax] = n[ax] > 0 ? sum_s[ax] / n[ax] : 0.0;
+      mean_q[ax] = n[ax] > 0 ? sum_q[ax] / n[ax] : 0.0;
+      mean_r[ax] = n[ax] > 0 ? sum_r[ax] / n[ax] : 0.0;
+    }
+    double ss = 0.0, sq = 0.0, qq = 0.0, sr = 0.0, qr = 0.0;
+    for (const AlongSample& a : along_) {
+      const double ds = a.slope - mean_s[a.axis], dq = a.inverse_depth - mean_q[a.axis],
+                   dr = a.residual - mean_r[a.axis];
+      ss += ds * ds;
+      sq += ds * dq;
+      qq += dq * dq;
+      sr += ds * dr;
+      qr += dq * dr;
+    }
+    // Information on delta once the lateral term is accounted for (Schur complement).
+    const bool with_lateral = qq > 1e-12;
+    const double info = with_lateral ? ss - sq * sq / qq : ss;
+    if (!(info > 0.0) || !(std::sqrt(info) >= params_.min_along_slope_px_per_m)) return nan;
+    if (with_lateral) {
+      const double det = ss * qq - sq * sq;
+      delta = (sr * qq - qr * sq) / det;
+      lateral = (ss * qr - sq * sr) / det;
+    } else {
+      delta = sr / ss;
+      lateral = 0.0;
+    }
+    if (pass == 1) break;
+    std::erase_if(along_, [&](const AlongSample& a) {
+      const double predicted = (a.slope - mean_s[a.axis]) * delta + (a.inverse_depth - mean_q[a.axis]) * lateral;
+      return std::abs((a.residual - mean_r[a.axis]) - predicted) > kMaxResidualPx;
+    });
+  }
+  return delta;
+}
+
+SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Features& current, double image_width_px,
+                                          double image_height_px) {
   SegmentReplayOutput out;
   if (!map_valid_) {
     out.state = ReplayState::bad_input;  // zero command: an inconsistent map is not replayed
     return out;
   }
+  // The steering and the along-track fit look at the odometric distance d (the steering is
+  // exactly Algorithm 2's); only the end of the segment moves with the correction. Feeding the
+  // corrected distance back into the expected positions coupled the two: a wrong estimate bent
+  // the steering near a corner, whose heading error biased the next estimate.
   const double d = odometry_distance_m - origin_m_;
-  out.distance_m = d;
+  const double d_end = d + correction_m_;
+  out.distance_m = d_end;
+  out.along_correction_m = correction_m_;
   active_count_ = 0;
-  if (!std::isfinite(d) || d >= map_->length_m) {
-    out.finished = std::isfinite(d);
+  if (!std::isfinite(d_end) || d_end >= map_->length_m) {
+    out.finished = std::isfinite(d_end);
     out.state = out.finished ? ReplayState::finished : ReplayState::bad_input;
     return out;
   }
@@ -377,13 +517,17 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
     const cv::Mat& all = map_->descriptors;
     if (ref_desc_.rows < window || ref_desc_.cols != all.cols || ref_desc_.type() != all.type())
       ref_desc_.create(std::max(window, std::max(ref_desc_.rows * 2, 256)), all.cols, all.type());
-    if (expected_.size() < static_cast<std::size_t>(ref_desc_.rows)) expected_.resize(static_cast<std::size_t>(ref_desc_.rows));
+    if (expected_.size() < static_cast<std::size_t>(ref_desc_.rows)) {
+      expected_.resize(static_cast<std::size_t>(ref_desc_.rows));
+      along_model_.resize(static_cast<std::size_t>(ref_desc_.rows));
+    }
     const std::size_t rb = all.cols * all.elemSize();
     for (auto it = lo; it != hi; ++it) {
       if (static_cast<double>(it->last_distance_m) + margin < d) continue;
       const int src = static_cast<int>(it - lms.begin());
       std::memcpy(ref_desc_.ptr(active_count_), all.ptr(src), rb);
       expected_[static_cast<std::size_t>(active_count_)] = it->expected_px(d);
+      along_model_[static_cast<std::size_t>(active_count_)] = along_model(*it, d, image_width_px / 2.0, image_height_px / 2.0);
       ++active_count_;
     }
   }
@@ -407,6 +551,15 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
   out.command.angular_radps =
       std::clamp(-params_.gain_radps_per_px * est->offset_px, -params_.max_angular_radps, params_.max_angular_radps);
   out.state = ReplayState::steering;
+  out.along_error_m = estimate_along_m();
+  // Only a robot that faces the taught view updates it: a heading error moves landmarks at the
+  // image borders more than those near the centre, which a one-sided scene reads as distance.
+  if (params_.along_gain > 0.0 && std::isfinite(out.along_error_m) &&
+      std::abs(est->offset_px) <= params_.along_max_offset_px) {
+    const double step = std::clamp(params_.along_gain * (out.along_error_m - correction_m_), -params_.max_along_step_m,
+                                   params_.max_along_step_m);
+    correction_m_ = std::clamp(correction_m_ + step, -params_.max_along_correction_m, params_.max_along_correction_m);
+  }
   return out;
 }
 

@@ -205,6 +205,10 @@ bt::PortsList FollowRoute::provided_ports() {
                            "the previous edge's end node (last-frame overshoot plus stopping distance) minus the gap "
                            "recorded when teaching (statistic start_gap_m), projected onto the new edge's direction"),
       bt::input_port<double>("max_carry_m", "0.5", "clamp of |carried_m|, m (> 0)"),
+      bt::input_port<double>("end_shift_m", "{edge_end_shift_m}",
+                             "written by the replay child when it ends an edge: how much earlier in odometric "
+                             "distance than the edge's length it put the end node (its visual along-track "
+                             "correction); the overshoot carried into the next edge is counted from there (unset: 0)"),
       bt::input_port<bool>("checkpoint", "false",
                            "keep a progress checkpoint (edge, distance, goal) in the map folder, progress.yaml, "
                            "written crash-safely at each edge start and every checkpoint_interval_m, removed when the "
@@ -343,7 +347,14 @@ NodeStatus FollowRoute::tick() {
   (void)set_output("current_node", edge.to);
   previous_start_heading_ = edge_start_heading_;
   ended_at_m_.reset();
-  if (edge_origin_m_) ended_at_m_ = *edge_origin_m_ + edge.length_m;
+  if (edge_origin_m_) {
+    // The end node is where the child ended the edge: a primitive that corrects its along-track
+    // position visually ends it end_shift_m before the odometric length; carrying the difference
+    // into the next edge would undo that correction.
+    const auto shift = get_input<double>("end_shift_m");
+    const double shift_m = shift && std::isfinite(*shift) ? *shift : 0.0;
+    ended_at_m_ = *edge_origin_m_ + edge.length_m - shift_m;
+  }
   ended_edge_ = edge.id;
   ++index_;
   if (index_ >= route_.size()) {

@@ -48,7 +48,7 @@ fr::SegmentReplayOutput replay_at(const Pose2D& pose, double distance_m, unsigne
   fr::SegmentReplayer rep(taught().map);
   rep.begin(0.0);
   const Features f = taught().scene.observe(pose, rng);
-  return rep.step(distance_m, f, 640.0);
+  return rep.step(distance_m, f, 640.0, 480.0);
 }
 
 }  // namespace
@@ -169,6 +169,66 @@ TEST(SegmentReplayer, ClosedLoopReducesLateralError) {
   EXPECT_LT(std::abs(pose.y_m), 0.7 * 0.6);
   EXPECT_LT(std::abs(pose.heading_rad), 0.15);
   EXPECT_GT(rep.overshoot_m(odo), -1e-9);
+}
+
+TEST(SegmentReplayer, EstimatesAlongTrackErrorFromLandmarkExpansion) {
+  // The counter says 5 m; the robot is at 5.5 m (ahead), 4.6 m (behind), on it, or 0.5 m to the side.
+  const auto ahead = replay_at({5.5, 0.0, 0.0}, 5.0);
+  ASSERT_EQ(ahead.state, fr::ReplayState::steering);
+  ASSERT_TRUE(std::isfinite(ahead.along_error_m));
+  EXPECT_NEAR(ahead.along_error_m, 0.5, 0.15);
+  const auto behind = replay_at({4.6, 0.0, 0.0}, 5.0);
+  ASSERT_TRUE(std::isfinite(behind.along_error_m));
+  EXPECT_NEAR(behind.along_error_m, -0.4, 0.15);
+  const auto on = replay_at({5.0, 0.0, 0.0}, 5.0);
+  ASSERT_TRUE(std::isfinite(on.along_error_m));
+  EXPECT_NEAR(on.along_error_m, 0.0, 0.05);
+  const auto turned = replay_at({5.0, 0.0, 0.05}, 5.0);  // a heading error is no along-track error
+  ASSERT_TRUE(std::isfinite(turned.along_error_m));
+  EXPECT_NEAR(turned.along_error_m, 0.0, 0.1);
+  for (double y : {0.5, 1.0}) {  // nor is a lateral one
+    const auto aside = replay_at({5.0, y, 0.0}, 5.0);
+    ASSERT_TRUE(std::isfinite(aside.along_error_m));
+    EXPECT_NEAR(aside.along_error_m, 0.0, 0.15) << "y " << y;
+  }
+  // Off by default: the counter is odometry alone.
+  EXPECT_EQ(ahead.along_correction_m, 0.0);
+}
+
+namespace {
+// Closed loop on the taught segment with odometry that over-reads by `scale` (a 10 % too large
+// wheel radius while teaching was 0 %): where along the segment the robot really ends.
+double end_of_segment_m(double scale, double along_gain, double max_correction_m = 1.5) {
+  fr::SegmentReplayParams p;
+  p.along_gain = along_gain;
+  p.max_along_correction_m = max_correction_m;
+  fr::SegmentReplayer rep(taught().map, p);
+  std::mt19937 rng(11);
+  Pose2D pose{0.0, 0.0, 0.0};
+  double odo = 0.0;
+  rep.begin(odo);
+  for (int steps = 0; steps < 2000; ++steps) {
+    const auto out = rep.step(odo, taught().scene.observe(pose, rng), 640.0, 480.0);
+    if (out.finished) break;
+    fr_test::integrate(pose, out.command, 0.1);
+    odo += out.command.linear_mps * 0.1 * scale;
+  }
+  return pose.x_m;
+}
+}  // namespace
+
+TEST(SegmentReplayer, AlongTrackCorrectionEndsTheSegmentWhereItWasTaught) {
+  // Odometry alone ends the segment at kLength / scale: 11.1 m and 9.1 m.
+  const double corrected_long = end_of_segment_m(0.9, 0.1), corrected_short = end_of_segment_m(1.1, 0.1);
+  std::cout << "[ style A ] odometry scale 0.9 / 1.1 (ends at " << kLength / 0.9 << " / " << kLength / 1.1
+            << " m on odometry): " << corrected_long << " / " << corrected_short
+            << " m with the along-track correction (taught " << kLength << " m)\n";
+  EXPECT_NEAR(corrected_long, kLength, 0.25);
+  EXPECT_NEAR(corrected_short, kLength, 0.25);
+  // The total correction is clamped (default 0.5 m per segment).
+  EXPECT_NEAR(end_of_segment_m(1.1, 0.1, 0.5), kLength / 1.1 + 0.5 / 1.1, 0.05);
+  // A correct odometer stays correct.
+  EXPECT_NEAR(end_of_segment_m(1.0, 0.1), kLength, 0.1);
 }
 
 TEST(SegmentReplayer, BadInputsGiveZeroCorrection) {

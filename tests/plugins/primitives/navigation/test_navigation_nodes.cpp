@@ -37,9 +37,13 @@ class TestReplayEdge final : public bt::StatefulActionNode {
       : StatefulActionNode(name, config), host_(host), rec_(rec) {}
   static bt::PortsList provided_ports() {
     return {bt::input_port<std::string>("edge", "{edge}", "edge"),
-            bt::input_port<double>("carried_m", "{edge_carried_m}", "already covered")};
+            bt::input_port<double>("carried_m", "{edge_carried_m}", "already covered"),
+            bt::input_port<double>("end_early_m", "0", "end this much before the length (a visual correction)"),
+            bt::output_port<double>("end_shift_m", "{edge_end_shift_m}", "how much earlier it ended")};
   }
   NodeStatus on_start() override {
+    auto early = get_input<double>("end_early_m");
+    end_early_m_ = early ? *early : 0.0;
     auto edge = get_input<std::string>("edge");
     if (!edge) return NodeStatus::failure;
     const EdgeRecord* record = host_.map()->find_edge(*edge);
@@ -55,8 +59,9 @@ class TestReplayEdge final : public bt::StatefulActionNode {
   }
   NodeStatus on_running() override {
     auto odom = *host_.frame_bus()->latest_odometry();
-    if (odom.distance_m - start_m_ >= length_m_ - 1e-9) {
+    if (odom.distance_m - start_m_ >= length_m_ - end_early_m_ - 1e-9) {
       (void)host_.robot()->stop();
+      (void)set_output("end_shift_m", end_early_m_);
       return NodeStatus::success;
     }
     (void)host_.robot()->send_command({1.0, 0.0});
@@ -67,7 +72,7 @@ class TestReplayEdge final : public bt::StatefulActionNode {
  private:
   HostServices& host_;
   Recorder& rec_;
-  double start_m_ = 0, length_m_ = 0;
+  double start_m_ = 0, length_m_ = 0, end_early_m_ = 0;
 };
 
 /// Teach child: records the distance while the operator drives; on {finish_edge} writes the
@@ -340,6 +345,23 @@ TEST_F(NavigationNodes, FollowRouteCarriesTheOvershootIntoAStraightContinuation)
   run_to("D", "true");
   ASSERT_EQ(rec_.carried_m.size(), 3u);
   EXPECT_NEAR(rec_.carried_m[2], 0.0, 1e-6);  // the 90° turn: the overshoot is lateral, not along C → D
+}
+
+TEST_F(NavigationNodes, FollowRouteCarriesFromWhereTheChildEndedTheEdge) {
+  // The child ends each edge 0.3 m before its odometric length (an along-track correction: the
+  // taught end view was seen there) and says so ({edge_end_shift_m}). It stops 0.05 m past that
+  // point, and only those 0.05 m are carried into the straight continuation, not −0.25 m (which
+  // would undo the correction on the next edge).
+  auto a = node("A"), b = node("B"), c = node("C");
+  edge(a, b, 2.05, 0.0, 0.0);
+  edge(b, c, 2.05, 0.0, 0.0);
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge"><TestReplayEdge end_early_m="0.3"/></FollowRoute>
+      </Sequence>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.carried_m.size(), 2u);
+  EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
+  EXPECT_NEAR(robot_.odom_.distance_m, 3.5, 1e-6);  // both ends 0.3 m early: 4.1 − 0.6
 }
 
 TEST_F(NavigationNodes, FollowRouteSubtractsTheGapTaughtBetweenEdges) {

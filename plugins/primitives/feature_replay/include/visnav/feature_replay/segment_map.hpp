@@ -21,6 +21,21 @@
 // no features or bad input give omega = 0 (no steering on noise). Per-frame cost depends only on
 // the landmarks near d: they are sorted by f and found by binary search.
 //
+// Along-track correction (an addition to Algorithm 2; the paper corrects along-track error only
+// through the turns of the route, seed 000 Sec. 5 / seed 002 Sec. 2.5): a landmark's expected
+// position moves with distance (features spread away from the image centre as the robot approaches
+// them); driving straight, x - c = A / (X - d) on each axis (c the principal point, taken at the
+// image centre), so the landmark's track through its first and last positions is known and so is
+// its slope s px/m at d. A robot that is delta metres further along than its counter says sees each
+// matched landmark at track(d) + offset + s * delta, in both image axes; delta is the least-squares fit over the matches near the winning offset (per axis
+// centred, so a common rotation or pitch does not bias it; one pass drops residuals > 8 px). With
+// along_gain > 0 the correction c follows the estimate, c += gain * (delta - c) per frame (clamped
+// per frame and in total; only while |offset_px| <= along_max_offset_px, i.e. facing the view),
+// and the segment ends when odometric distance + c reaches its length: where the taught view was
+// seen instead of where odometry says. The steering and the fit keep using the odometric distance
+// (Algorithm 2 unchanged); distance_m in the output is the corrected one. Landmarks far
+// away (s near 0) carry no along-track information and do not take part.
+//
 // Distances: the replayer is given odometric distance (Odometry::distance_m) and subtracts the
 // value given to begin(); the teacher is given distance from the segment start (>= 0,
 // non-decreasing; a smaller value is treated as the previous one).
@@ -30,6 +45,8 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
+#include <utility>
 #include <memory>
 #include <span>
 #include <vector>
@@ -137,6 +154,16 @@ struct SegmentReplayParams {
   double gain_radps_per_px = 0.003;    ///< omega = -gain * offset_px
   double max_angular_radps = 0.5;      ///< |omega| clamp
   double distance_margin_m = 0.0;      ///< widen the [f, g] visibility window by this much
+  /// Along-track correction (see SegmentReplayer): each frame with an estimate moves the segment's
+  /// distance counter by along_gain times the estimated along-track error; 0 = off (seed 000:
+  /// odometry alone decides where the segment ends).
+  double along_gain = 0.0;
+  double max_along_step_m = 0.02;      ///< clamp of one frame's correction, m
+  double max_along_correction_m = 0.5; ///< clamp of the correction accumulated over the segment, m
+  double along_window_px = 40.0;       ///< matches within this of the winning offset take part, px
+  double along_max_offset_px = 20.0;   ///< the correction is updated only while |offset_px| <= this, px
+  int min_along_matches = 12;          ///< fewer such matches: no along-track estimate this frame
+  double min_along_slope_px_per_m = 100.0;  ///< sqrt(sum of squared slopes) below this: uninformative
 
   /// The schema's ranges (declared once there).
   [[nodiscard]] Status validate() const { return schema().check(*this); }
@@ -145,7 +172,11 @@ struct SegmentReplayParams {
 
 struct SegmentReplayOutput {
   Twist command;                 ///< (v0, omega), or zero when finished
-  double distance_m = 0.0;       ///< along the segment
+  double distance_m = 0.0;       ///< along the segment: odometric plus the along-track correction (the end criterion)
+  /// This frame's along-track error estimate (taught distance the view matches minus the odometric
+  /// distance along the segment), m; NaN when the frame gave none.
+  double along_error_m = std::numeric_limits<double>::quiet_NaN();
+  double along_correction_m = 0.0;  ///< correction accumulated since begin(), m (positive: ahead)
   int expected_landmarks = 0;    ///< |T|: landmarks visible at this distance during teach
   HeadingEstimate estimate;
   ReplayState state = ReplayState::no_features;
@@ -161,12 +192,22 @@ class SegmentReplayer {
                   const HeadingParams& heading = {});
 
   /// Sets the odometric distance at which the segment starts (Odometry::distance_m).
-  void begin(double odometry_distance_m) { origin_m_ = odometry_distance_m; }
+  void begin(double odometry_distance_m) {
+    origin_m_ = odometry_distance_m;
+    correction_m_ = 0.0;
+  }
   /// One frame: `odometry_distance_m` is the current Odometry::distance_m; `image_width_px` the
-  /// width of the image the features come from (for the heading in the estimate).
-  SegmentReplayOutput step(double odometry_distance_m, const Features& current, double image_width_px);
-  /// Distance travelled beyond the segment end (>= 0), to carry into the next edge.
+  /// width of the image the features come from (for the heading in the estimate); the principal
+  /// point is taken at the image centre for the along-track estimate (`image_height_px` 0: the
+  /// vertical axis does not take part).
+  SegmentReplayOutput step(double odometry_distance_m, const Features& current, double image_width_px,
+                           double image_height_px = 0.0);
+  /// Distance travelled beyond the segment end (>= 0), to carry into the next edge (counted with
+  /// the along-track correction).
   [[nodiscard]] double overshoot_m(double odometry_distance_m) const;
+  /// Along-track correction accumulated since begin(), m (positive: the robot was found ahead of
+  /// its odometric counter, so the segment ends that much earlier in odometric distance).
+  [[nodiscard]] double along_correction_m() const { return correction_m_; }
 
   void set_params(const SegmentReplayParams& params, const HeadingParams& heading);
   [[nodiscard]] const HeadingEstimator& estimator() const { return estimator_; }
@@ -181,11 +222,30 @@ class SegmentReplayer {
   std::shared_ptr<const SegmentMap> map_;
   SegmentReplayParams params_;
   HeadingEstimator estimator_;
+  // A landmark's position on its hyperbolic image track at distance d and the track's slope, per
+  // axis (NaN where the model does not apply).
+  struct AlongModel {
+    float u_px = std::numeric_limits<float>::quiet_NaN(), v_px = std::numeric_limits<float>::quiet_NaN();
+    float slope_u = std::numeric_limits<float>::quiet_NaN(), slope_v = std::numeric_limits<float>::quiet_NaN();
+    float inverse_depth = 0.0f;  // slope_u / (u - c): 1 / depth, 1/m
+  };
+  struct AlongSample {
+    float slope;          // px/m
+    float inverse_depth;  // 1/m (0 on the vertical axis: a lateral shift does not move v)
+    float residual;       // px
+    int axis;             // 0 = u, 1 = v
+  };
+  static AlongModel along_model(const Landmark& l, double d, double cx, double cy);
+  double estimate_along_m();  // from the last estimate's matches; NaN when uninformative
+
   double origin_m_ = 0.0;
+  double correction_m_ = 0.0;
   double max_span_m_ = 0.0;
   bool map_valid_ = true;
   cv::Mat ref_desc_;                   // capacity buffer
   std::vector<cv::Point2f> expected_;  // capacity buffer
+  std::vector<AlongModel> along_model_;  // capacity buffer: per active landmark
+  std::vector<AlongSample> along_;     // capacity buffer: the samples of one fit
   int active_count_ = 0;
 };
 

@@ -86,27 +86,6 @@ int info(const visnav::MapStore& map) {
   return 0;
 }
 
-/// Runs plugin command `command` with `args` (argv[0] = its name); exceptions are its failure.
-int run_plugin_map_command(const visnav::PluginCommandInfo& command, std::vector<std::string> args,
-                           visnav::PluginLoader& loader) {
-  visnav::StderrLogger logger(visnav::LogLevel::info);
-  visnav::WallClock clock;
-  visnav::RuntimeHost host(loader, logger, clock);
-  args.insert(args.begin(), command.name);
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  std::fflush(stdout);
-  try {
-    const int rc = command.run(static_cast<int>(args.size()), argv.data(), host);
-    std::fflush(stdout);
-    return rc;
-  } catch (...) {
-    std::cerr << "visnav map: plugin command " << command.name << " threw (" << command.library_path << ")\n";
-  }
-  return 1;
-}
-
 int validate(const std::string& dir, const std::vector<std::string>& rest) {
   std::vector<std::string> plugin_dirs;
   bool use_plugins = true;
@@ -148,7 +127,7 @@ int validate(const std::string& dir, const std::vector<std::string>& rest) {
     for (const auto& c : loader.commands()) {
       if (c.name.rfind("map-", 0) != 0) continue;
       std::cout.flush();
-      if (run_plugin_map_command(c, {dir, "--check"}, loader) != 0)
+      if (visnav::cli::run_plugin_command(c, {dir, "--check"}, loader) != 0)
         problems.push_back("map " + c.name.substr(4) + " --check failed");
     }
   }
@@ -249,7 +228,7 @@ int run_map(const std::vector<std::string>& args) {
     auto loader = visnav::PluginLoader::with_default_path();
     if (auto scanned = loader.scan(); !scanned) std::cerr << "visnav map: " << scanned.error().message << "\n";
     for (const auto& c : loader.commands())
-      if (c.name == "map-" + sub) return run_plugin_map_command(c, std::vector<std::string>(args.begin() + 1, args.end()), loader);
+      if (c.name == "map-" + sub) return visnav::cli::run_plugin_command(c, std::vector<std::string>(args.begin() + 1, args.end()), loader);
     return usage_error("unknown subcommand '" + sub + "'");
   }
   std::string out;

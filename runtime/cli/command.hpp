@@ -8,6 +8,11 @@
 #include <string_view>
 #include <vector>
 
+namespace visnav {
+struct PluginCommandInfo;
+class PluginLoader;
+}  // namespace visnav
+
 namespace visnav::cli {
 
 struct Command {
@@ -26,6 +31,11 @@ struct CommandRegistrar {
 
 /// True if `args` contains -h or --help.
 bool wants_help(const std::vector<std::string>& args);
+
+/// Runs a plugin-contributed command with `args` (argv[0] becomes its name) on a host of its own;
+/// stdout is flushed around it so its output and ours keep their order. An exception is the
+/// command's failure (exit status 1, reported on stderr with the library that threw).
+int run_plugin_command(const PluginCommandInfo& command, std::vector<std::string> args, PluginLoader& loader);
 
 }  // namespace visnav::cli
 

@@ -53,9 +53,10 @@ void print_help(const visnav::PluginLoader& loader) {
   }
 }
 
-/// Runs a plugin-contributed command; argv[0] is the command name.
-int run_plugin_command(const visnav::PluginCommandInfo& command, std::vector<std::string> args,
-                       visnav::PluginLoader& loader) {
+}  // namespace
+
+int visnav::cli::run_plugin_command(const visnav::PluginCommandInfo& command, std::vector<std::string> args,
+                                   visnav::PluginLoader& loader) {
   visnav::StderrLogger logger(visnav::LogLevel::info);
   visnav::WallClock clock;
   visnav::RuntimeHost host(loader, logger, clock);
@@ -63,8 +64,11 @@ int run_plugin_command(const visnav::PluginCommandInfo& command, std::vector<std
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
+  std::fflush(stdout);
   try {
-    return command.run(static_cast<int>(args.size()), argv.data(), host);
+    const int rc = command.run(static_cast<int>(args.size()), argv.data(), host);
+    std::fflush(stdout);
+    return rc;
   } catch (const std::exception& e) {
     std::cerr << "visnav " << command.name << ": the plugin command threw an exception: " << e.what() << " ("
               << command.library_path << ")\n";
@@ -73,8 +77,6 @@ int run_plugin_command(const visnav::PluginCommandInfo& command, std::vector<std
   }
   return 1;
 }
-
-}  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
@@ -110,7 +112,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   for (const auto& c : loader.commands()) {
-    if (c.name == name) return run_plugin_command(c, std::move(args), loader);
+    if (c.name == name) return visnav::cli::run_plugin_command(c, std::move(args), loader);
   }
   std::cerr << "visnav: unknown command '" << name << "' (see 'visnav --help'; plugin commands are searched in: ";
   for (std::size_t i = 0; i < loader.search_dirs().size(); ++i) std::cerr << (i ? ", " : "") << loader.search_dirs()[i];

@@ -352,4 +352,11 @@ class PayloadReader {
   std::size_t offset_ = 0;
 };
 
+/// Writes `bytes` to `dir`/`name` by the map store's crash-safe protocol: a temporary file in
+/// the same folder, fsync, rename over the target, fsync of the folder. A reader (or a restart
+/// after power loss) sees the old file or the new one, never a part of one; on failure the target
+/// is untouched and the temporary file removed (ErrorCode::io, naming the file). For a plugin's
+/// own files kept in a map folder (place index, learned experiences, progress checkpoints).
+[[nodiscard]] Status write_file_durably(const std::string& dir, const std::string& name, std::span<const std::uint8_t> bytes);
+
 }  // namespace visnav

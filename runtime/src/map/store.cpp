@@ -528,4 +528,8 @@ std::vector<std::string> MapStore::leftover_files() const {
   return out;
 }
 
+Status write_file_durably(const std::string& dir, const std::string& name, std::span<const std::uint8_t> bytes) {
+  return write_file_atomic(dir, name, bytes, true);
+}
+
 }  // namespace visnav

@@ -31,49 +31,6 @@ bool get_text(io::Reader& r, std::string& s) {
   return r.bytes(s.data(), n);
 }
 
-Status write_durably(const std::string& folder, const std::string& target, std::span<const std::uint8_t> bytes) {
-  std::string name = ".";
-  name += fs::path(target).filename().string();
-  name += ".tmp.";
-  name += std::to_string(::getpid());
-  const std::string temp = (fs::path(folder) / name).string();
-  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + std::strerror(errno));
-  std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      const int err = errno;
-      ::close(fd);
-      ::unlink(temp.c_str());
-      return fail(ErrorCode::io, temp + ": write failed: " + std::strerror(err));
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, temp + ": fsync failed: " + std::strerror(err));
-  }
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, temp + ": close failed: " + std::strerror(err));
-  }
-  if (::rename(temp.c_str(), target.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, target + ": rename failed: " + std::strerror(err));
-  }
-  // The rename is durable once the folder is.
-  if (const int dfd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
-    (void)::fsync(dfd);
-    ::close(dfd);
-  }
-  return ok();
-}
 
 }  // namespace
 
@@ -210,7 +167,7 @@ Status save_experiences(const std::string& map_dir, const std::string& edge_id, 
   if (ec) return fail(ErrorCode::io, ErrorLocation(folder), "cannot create: " + ec.message());
   const std::vector<std::uint8_t> body = set.serialize();
   const std::vector<std::uint8_t> file = map_format::encode_payload(kExperienceKind, edge_id, body);
-  return write_durably(folder, experience_path(map_dir, edge_id), file);
+  return write_file_durably(folder, fs::path(experience_path(map_dir, edge_id)).filename().string(), file);
 }
 
 // ------------------------------------------------------------------------------ registration

@@ -119,29 +119,8 @@ std::string format_progress(const ProgressCheckpoint& progress) {
 
 Status write_progress(const std::string& map_dir, const ProgressCheckpoint& progress) {
   const std::string text = format_progress(progress);
-  const std::string target = (std::filesystem::path(map_dir) / kProgressFile).string();
-  std::string temp_name = ".";
-  temp_name.append(kProgressFile).append(".tmp.").append(std::to_string(::getpid()));
-  const std::string temp = (std::filesystem::path(map_dir) / temp_name).string();
-  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + std::strerror(errno));
-  const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
-  const int err = errno;
-  if (!written || ::fsync(fd) != 0 || ::close(fd) != 0) {
-    if (written) ::close(fd);
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, temp + ": write failed: " + std::strerror(err));
-  }
-  if (::rename(temp.c_str(), target.c_str()) != 0) {
-    const int rename_err = errno;
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, target + ": rename failed: " + std::strerror(rename_err));
-  }
-  if (const int dfd = ::open(map_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
-    (void)::fsync(dfd);
-    ::close(dfd);
-  }
-  return ok();
+  return write_file_durably(map_dir, kProgressFile,
+                            std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
 }
 
 Status clear_progress(const std::string& map_dir) {

@@ -424,39 +424,7 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
 std::string index_path(const std::string& map_dir) { return (fs::path(map_dir) / kIndexFile).string(); }
 
 Status save_place_index(const std::string& map_dir, const PlaceIndex& index) {
-  const std::vector<std::uint8_t> bytes = index.serialize();
-  const std::string target = index_path(map_dir);
-  const std::string temp = (fs::path(map_dir) / ("." + std::string(kIndexFile) + ".tmp." + std::to_string(::getpid()))).string();
-  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return fail(ErrorCode::io, temp + ": cannot create: " + std::strerror(errno));
-  std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      const int err = errno;
-      ::close(fd);
-      ::unlink(temp.c_str());
-      return fail(ErrorCode::io, temp + ": write failed: " + std::strerror(err));
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, temp + ": fsync/close failed: " + std::strerror(err));
-  }
-  if (::rename(temp.c_str(), target.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(temp.c_str());
-    return fail(ErrorCode::io, target + ": rename failed: " + std::strerror(err));
-  }
-  // The rename is durable once the folder is.
-  if (const int dfd = ::open(map_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
-    (void)::fsync(dfd);
-    ::close(dfd);
-  }
-  return ok();
+  return write_file_durably(map_dir, kIndexFile, index.serialize());
 }
 
 Result<PlaceIndex> load_place_index(const std::string& map_dir) {

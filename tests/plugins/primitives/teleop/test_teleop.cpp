@@ -551,7 +551,15 @@ TEST_F(TeleopNodes, EvdevKeyboardStopsAtTheTickAfterTheDrivingKeyIsLetGo) {
   clock_.set(0.65);
   tree.tick_once();
   EXPECT_EQ(robot_.command_.angular_radps, 0.0);
+  // A held key, then the device goes away (the only writer closes: end of file): let go.
+  send(cat({ev_event(EV_KEY, KEY_S, 1), ev_event(EV_SYN, SYN_REPORT, 0)}));
+  clock_.set(0.70);
+  tree.tick_once();
+  EXPECT_LT(robot_.command_.linear_mps, 0.0);
   ::close(w);
+  clock_.set(0.75);
+  tree.tick_once();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
 }
 
 TEST_F(TeleopNodes, EvdevGamepadTeachesWithTheDeadmanLikeTheJoystickApi) {

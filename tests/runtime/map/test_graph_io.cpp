@@ -90,6 +90,20 @@ TEST(GraphReaders, HandEditedYamlGoesThroughTheFullReader) {
   EXPECT_EQ(g->edges[0].payload_bytes, 0u);
 }
 
+TEST(GraphReaders, ControlBytesInACommentAreLeftToTheFullReader) {
+  // Found by fuzz_graph_reader: a canonical graph after a comment line "#\0". yaml-cpp reads
+  // a stream opening with "x\0" as UTF-16, so the full reader cannot accept it; the fast reader,
+  // which skips comment lines, accepted it. Both must now agree: no graph.
+  const std::string canonical = emit_graph(rich_graph());
+  for (const std::string& prefix : {std::string("#\0\n", 3), std::string("# \x01\n"), std::string("# \xff\n")}) {
+    const std::string text = prefix + canonical;
+    EXPECT_FALSE(parse_graph(text, "g.yaml", GraphParser::fast_only)) << "prefix byte " << int(prefix[1]);
+  }
+  EXPECT_FALSE(parse_graph(std::string("#\0\n", 3) + canonical, "g.yaml"));
+  // Printable comments (the writer's own header) stay on the fast path.
+  EXPECT_TRUE(parse_graph("# hand note\n" + canonical, "g.yaml", GraphParser::fast_only));
+}
+
 TEST(GraphReaders, CrossReferenceErrorsAreTheSameFromBothReaders) {
   Graph g = rich_graph();
   g.edges[1].to = "ghost";

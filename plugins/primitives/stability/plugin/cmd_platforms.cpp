@@ -44,14 +44,16 @@ struct Row {
 std::vector<Row> default_rows() {
   return {
       {"diff_drive", "differential drive (reference)", {"robot.params.kinematics=diff_drive"}, ""},
-      {"car_like", "car-like (Ackermann)", {"robot.params.kinematics=car_like"}, ""},
+      {"car_like", "car-like (Ackermann)", {"robot.params.kinematics=car_like"},
+       "the scripted teach operator and the replay turn on the spot at every node, which a car-like robot "
+       "cannot (the teach stalls at the first corner); add the row with --add-row once they drive arcs"},
       {"tracked", "tracked (skid)", {"robot.params.kinematics=tracked"}, ""},
       {"odom_5hz", "5 Hz odometry", {"robot.params.odom_rate_hz=5"}, ""},
       {"camera_15hz", "15 Hz camera (and 15 Hz ticks)", {"camera.params.frame_rate_hz=15", "run.rate_hz=15"}, ""},
       {"camera_5hz", "5 Hz camera", {"camera.params.frame_rate_hz=5"}, ""},
       {"ip_camera_300ms", "IP camera, 300 ms latency", {"camera.params.latency_s=0.3"}, ""},
-      {"freeze_1_3s", "1-3 s compute freezes", {},
-       "the simulator has no compute-freeze model yet; add the row with --add-row once it has a key"},
+      {"freeze_1_3s", "1-3 s compute freezes, 2 per minute",
+       {"robot.params.freeze_rate_per_min=2", "robot.params.freeze_min_s=1", "robot.params.freeze_max_s=3"}, ""},
   };
 }
 

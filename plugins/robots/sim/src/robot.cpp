@@ -11,6 +11,8 @@ namespace {
 
 constexpr double kDeg = CV_PI / 180.0;
 
+std::uint64_t freeze_seed(int seed) { return static_cast<std::uint64_t>(seed) * 0x9E3779B97F4A7C15ULL + 13; }
+
 double wrap_angle(double a) {
   a = std::fmod(a + CV_PI, 2.0 * CV_PI);
   if (a < 0) a += 2.0 * CV_PI;
@@ -29,6 +31,9 @@ Status RobotParams::validate() const {
     return fail("key 'start_pose': expected 3 values x_m;y_m;heading_deg, got " + std::to_string(start_pose.size()));
   if (kinematics == "car_like" && !(min_turning_radius_m > 0))
     return fail("key 'min_turning_radius_m': must be > 0 for car_like kinematics");
+  if (freeze_max_s < freeze_min_s)
+    return Error{"key 'freeze_max_s': " + std::to_string(freeze_max_s) + " is below freeze_min_s " + std::to_string(freeze_min_s),
+                 ErrorCode::inconsistent, ErrorLocation({}, 0, "freeze_max_s")};
   return ok();
 }
 
@@ -67,6 +72,9 @@ const ParamSchema<RobotParams>& RobotParams::schema() {
           .field("body_radius_m", &RobotParams::body_radius_m, "collision disc radius, m; 0 = no collisions").range(0, 10)
           .field("body_height_m", &RobotParams::body_height_m, "walls whose base is higher are passed under, m").range(0.05, 10)
           .field("trunk_radius_m", &RobotParams::trunk_radius_m, "tree trunks are discs of this radius, m").range(0.01, 5)
+          .field("freeze_rate_per_min", &RobotParams::freeze_rate_per_min, "compute freezes per minute of simulated time; 0 = none").range(0, 600)
+          .field("freeze_min_s", &RobotParams::freeze_min_s, "shortest compute freeze, s").range(0.01, 9)
+          .field("freeze_max_s", &RobotParams::freeze_max_s, "longest compute freeze, s").range(0.01, 9)
           .field("seed", &RobotParams::seed, "seed of the run's error draw and of the odometry noise").range(0, 2147483647)
           .field("pose_history_s", &RobotParams::pose_history_s, "ground-truth history kept for camera latency, s").range(0.1, 600);
   return s;
@@ -124,7 +132,8 @@ Pose2D resolve_start(const RobotParams& params, const World* world) {
 }
 
 RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<const World> world)
-    : params_(std::move(params)), world_(std::move(world)), pose_(start_world), rng_(static_cast<std::uint64_t>(params_.seed)) {
+    : params_(std::move(params)), world_(std::move(world)), pose_(start_world), rng_(static_cast<std::uint64_t>(params_.seed)),
+      freeze_rng_(freeze_seed(params_.seed)) {
   run_errors_ = draw_run_errors(params_);
   if (world_ && params_.body_radius_m > 0.0) {
     shapes_ = collision_shapes(*world_, params_.body_height_m, params_.trunk_radius_m);
@@ -161,7 +170,18 @@ void RobotCore::set_params(const RobotParams& params) {
     // A new seed is a new run: new systematic errors and a new noise stream.
     run_errors_ = draw_run_errors(params_);
     rng_.seed(static_cast<std::uint64_t>(params_.seed));
+    freeze_rng_.seed(freeze_seed(params_.seed));
   }
+}
+
+int RobotCore::freeze_count() const {
+  std::lock_guard lock(mutex_);
+  return freeze_count_;
+}
+
+double RobotCore::frozen_s() const {
+  std::lock_guard lock(mutex_);
+  return frozen_s_;
 }
 
 RunErrors RobotCore::run_errors() const {
@@ -183,9 +203,23 @@ Status RobotCore::step(double dt_s) {
   if (!std::isfinite(dt_s) || dt_s <= 0.0 || dt_s > 10.0)
     return fail("sim robot: step(dt_s) needs 0 < dt_s <= 10, got " + std::to_string(dt_s));
   std::lock_guard lock(mutex_);
+  bool froze = false;
+  if (params_.freeze_rate_per_min > 0.0) {
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    if (unit(freeze_rng_) < 1.0 - std::exp(-params_.freeze_rate_per_min * dt_s / 60.0)) {
+      const double freeze_s = params_.freeze_min_s + (params_.freeze_max_s - params_.freeze_min_s) * unit(freeze_rng_);
+      ++freeze_count_;
+      frozen_s_ += freeze_s;
+      dt_s += freeze_s;  // the caller's next step comes this much later in simulated time
+      froze = true;
+    }
+  }
   const int n = std::max(1, static_cast<int>(std::ceil(dt_s / params_.integration_step_s - 1e-9)));
   const double h = dt_s / n;
-  for (int i = 0; i < n; ++i) substep_locked(h);
+  for (int i = 0; i < n; ++i) {
+    substep_locked(h);
+    if (froze) history_.emplace_back(time_s_, pose_);  // a delayed camera looks into the freeze
+  }
   if (time_s_ >= next_publish_s_ - 1e-9) {
     publish_locked();
     const double period = 1.0 / params_.odom_rate_hz;

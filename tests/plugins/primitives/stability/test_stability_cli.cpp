@@ -205,7 +205,7 @@ TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
          "\"eps_acc_m\":{\"mean\":0.1,\"sd\":0.02,\"worst\":0.2},\"eps_rep_m\":{\"mean\":0.05,\"sd\":0.01,"
          "\"worst\":0.08},\"collisions\":0,\"lost\":0}]}\\n' $c > \"$out/summary.json\"\n";
   }
-  CliRun r = run_cli("platforms --rows diff_drive,camera_5hz,freeze_1_3s --out " + dir.string() + " --child 'sh " +
+  CliRun r = run_cli("platforms --rows diff_drive,camera_5hz,freeze_1_3s,car_like --out " + dir.string() + " --child 'sh " +
                      script.string() + "'");
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("| differential drive (reference) | `robot.params.kinematics=diff_drive` | 25/25 | 0.100 ± 0.020 | "
@@ -214,7 +214,8 @@ TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
       << r.out;
   EXPECT_NE(r.out.find("| 5 Hz camera | `camera.params.frame_rate_hz=5` | 23/25 |"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("| no |"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("not run: the simulator has no compute-freeze model"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("| 1-3 s compute freezes, 2 per minute | `robot.params.freeze_rate_per_min=2`"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("| car-like (Ackermann) | - | not run: the scripted teach operator"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(dir / "platforms.md"));
   r = run_cli("platforms --rows nope");
   EXPECT_EQ(r.status, 2) << r.out;

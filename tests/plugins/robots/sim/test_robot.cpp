@@ -334,3 +334,60 @@ TEST(SimRobotSlip, OnGrassTheBodyMovesLessThanTheOdometryReads) {
   drive(q, Twist{1.0, 0.0}, 2.0);
   EXPECT_NEAR(q.true_distance_m() / q.odometry().distance_m, 0.98, 0.01);
 }
+
+// Seed 002's platforms include computers that froze for seconds: a freeze is simulated time
+// passing inside one step, with the robot running on its last command until the watchdog stops it.
+TEST(SimRobotFreezes, AFreezeJumpsTimeAndTheWatchdogStopsTheRobotMeanwhile) {
+  auto p = fast_params();
+  p.command_timeout_s = 0.5;
+  p.odom_distance_noise_m_per_sqrt_m = 0.01;
+  p.freeze_rate_per_min = 6.0;  // about one freeze per 10 s of driving
+  p.freeze_min_s = 2.0;
+  p.freeze_max_s = 2.5;
+  vs::RobotCore r(p, Pose2D{}, nullptr);
+  int steps = 0;
+  double longest_jump_s = 0.0, moved_in_longest_m = 0.0;
+  while (r.time_s() < 60.0) {
+    r.command({1.0, 0.0});
+    const double t0 = r.time_s(), x0 = r.ground_truth().x_m;
+    ASSERT_TRUE(r.step(0.05).ok());
+    ++steps;
+    if (r.time_s() - t0 > longest_jump_s) {
+      longest_jump_s = r.time_s() - t0;
+      moved_in_longest_m = r.ground_truth().x_m - x0;
+    }
+  }
+  ASSERT_GE(r.freeze_count(), 2);
+  EXPECT_LE(r.freeze_count(), 15);
+  EXPECT_NEAR(r.time_s(), steps * 0.05 + r.frozen_s(), 1e-6);
+  EXPECT_GE(longest_jump_s, 2.05 - 1e-9);
+  EXPECT_LE(longest_jump_s, 2.55 + 1e-9);
+  // 1 m/s: the command runs out after 0.5 s, then the robot stops (no acceleration limit here).
+  EXPECT_NEAR(moved_in_longest_m, 0.55, 0.06);
+  EXPECT_EQ(r.true_twist().linear_mps, 1.0);  // commands after the freeze drive it again
+
+  // The same seed repeats the freezes; with the rate at 0 there are none.
+  vs::RobotCore again(p, Pose2D{}, nullptr);
+  while (again.time_s() < 60.0) {
+    again.command({1.0, 0.0});
+    ASSERT_TRUE(again.step(0.05).ok());
+  }
+  EXPECT_EQ(again.freeze_count(), r.freeze_count());
+  EXPECT_DOUBLE_EQ(again.frozen_s(), r.frozen_s());
+  auto calm = p;
+  calm.freeze_rate_per_min = 0.0;
+  vs::RobotCore c(calm, Pose2D{}, nullptr);
+  drive(c, {1.0, 0.0}, 60.0);
+  EXPECT_EQ(c.freeze_count(), 0);
+  EXPECT_NEAR(c.time_s(), 60.0, 1e-6);
+}
+
+TEST(SimRobotFreezes, AMaximumBelowTheMinimumIsRejected) {
+  auto p = fast_params();
+  p.freeze_min_s = 3.0;
+  p.freeze_max_s = 1.0;
+  const auto st = p.validate();
+  ASSERT_FALSE(st);
+  EXPECT_EQ(st.error().code, visnav::ErrorCode::inconsistent);
+  EXPECT_EQ(st.error().where.key, "freeze_max_s");
+}

@@ -40,6 +40,15 @@
 // end of the step that crosses the publication time; its timestamp is that step's time).
 // Odometry.distance_m is the signed measured path length.
 //
+// Compute freezes (seed 002 Table 1 lists platforms whose computer froze for seconds): with
+// freeze_rate_per_min > 0, each step(dt) starts a freeze with probability 1 − exp(−rate·dt/60);
+// a freeze lasts U(freeze_min_s, freeze_max_s) and is simulated inside that step, so the caller
+// (the run loop in lockstep) sees simulated time jump: no tick, frame or command happens during
+// it, and the robot keeps executing the last command until the watchdog (command_timeout_s)
+// stops it — what a stalled navigation computer does to a real base. The draws come from a
+// generator of their own (seeded like the run errors), so switching freezes on does not change
+// the odometry noise of the run.
+//
 // Ground truth is only exposed through SimulationControl (and RobotCore for evaluation code).
 //
 // Thread-safety: RobotCore is internally locked; every method may be called from any thread.
@@ -95,6 +104,9 @@ struct RobotParams {
   double body_radius_m = 0.0;                 ///< collision disc; 0 = no collisions
   double body_height_m = 0.6;                 ///< walls whose base is higher are passed under
   double trunk_radius_m = 0.25;               ///< tree trunks as discs
+  double freeze_rate_per_min = 0.0;           ///< compute freezes per minute of simulated time; 0 = none
+  double freeze_min_s = 1.0;                  ///< shortest freeze, s
+  double freeze_max_s = 3.0;                  ///< longest freeze, s
   int seed = 1;
   double pose_history_s = 5.0;        ///< how far back pose_at() can look (camera latency)
 
@@ -151,6 +163,9 @@ class RobotCore {
   [[nodiscard]] RunErrors run_errors() const;
   /// Every collision so far (see the file comment).
   [[nodiscard]] std::vector<SimCollision> collisions() const;
+  /// Compute freezes simulated so far, and their total length in seconds (see the file comment).
+  [[nodiscard]] int freeze_count() const;
+  [[nodiscard]] double frozen_s() const;
   /// World the robot drives in (may be null).
   [[nodiscard]] const std::shared_ptr<const World>& world() const { return world_; }
 
@@ -177,6 +192,9 @@ class RobotCore {
   double next_publish_s_ = 0.0;
   Odometry published_;
   std::mt19937_64 rng_;
+  std::mt19937_64 freeze_rng_;
+  int freeze_count_ = 0;
+  double frozen_s_ = 0.0;
   std::deque<std::pair<double, Pose2D>> history_;
   RunErrors run_errors_;
   std::vector<CollisionShape> shapes_;

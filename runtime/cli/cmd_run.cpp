@@ -13,7 +13,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: visnav run --config C --tree T [--map M [--create]] [--set key.path=value]... [--bb key=value]...\n"
-    "                  [--resume] [--trace F] [--view PORT]\n"
+    "                  [--port Node.port=value]... [--resume] [--trace F] [--view PORT]\n"
     "                  [--plugin-path DIR]... [--log-level debug|info|warn|error]\n"
     "\n"
     "Builds the robot, camera and detector named in the YAML config C, registers the built-in\n"
@@ -28,6 +28,9 @@ constexpr const char* kUsage =
     "  --create           with --map: create M as an empty map if it does not exist (teaching)\n"
     "  --set k=v          override a config value, e.g. --set detector.params.target_keypoints=300\n"
     "  --bb key=value     set a blackboard entry before the first tick, e.g. --bb start=dock\n"
+    "  --port N.p=value   set port p on every node N of the tree (included files too), as if written\n"
+    "                     in the XML, e.g. --port ReplayFeatureEdge.speed_mps=0.4 (what `visnav tune`\n"
+    "                     prints); an unknown node or port is an error (docs/bt.md, port overrides)\n"
     "  --resume           with --map: continue a stopped or crashed mission from the progress checkpoint\n"
     "                     M/progress.yaml its run kept (FollowRoute checkpoint=\"true\"): its entries and\n"
     "                     resume=true become blackboard entries (--bb wins), e.g. with\n"
@@ -119,7 +122,7 @@ int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"--tree", Opt::value}, {"--map", Opt::value},
-                               {"--create", Opt::flag}, {"--resume", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
+                               {"--create", Opt::flag}, {"--resume", Opt::flag}, {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--port", Opt::repeated}, {"--trace", Opt::value}, {"--plugin-path", Opt::repeated},
                                {"--log-level", Opt::value}, {"--view", Opt::value}, {"--view-speed", Opt::value}});
       !st)
     return visnav::cli::usage_error("run", st.error().message);
@@ -132,6 +135,7 @@ int run(const std::vector<std::string>& args) {
   m.create_map = a.has("--create");
   m.overrides = a.all("--set");
   m.blackboard_values = a.all("--bb");
+  m.port_overrides = a.all("--port");
   if (a.has("--resume")) {
     if (m.map_path.empty()) return visnav::cli::usage_error("run", "--resume needs --map");
     auto resumed = visnav::progress_checkpoint_values(visnav::resolve_map_path(m.map_path));

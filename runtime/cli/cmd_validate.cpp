@@ -9,7 +9,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: visnav validate --config C [--tree T] [--map M] [--set key.path=value]... [--bb key=value]...\n"
-    "                       [--plugin-path DIR]...\n"
+    "                       [--port Node.port=value]... [--plugin-path DIR]...\n"
     "\n"
     "Makes exactly the checks `visnav run` makes before its first tick (the same code), without\n"
     "creating any robot, camera or detector:\n"
@@ -21,7 +21,8 @@ constexpr const char* kUsage =
     "  * that the nodes plugins register, and the tree T against the registered node types:\n"
     "    structure, ports, and every literal port value against its type and range (built-in\n"
     "    nodes too: <Sleep msec=\"-5\"/>); each --bb value is checked by the ports that read its\n"
-    "    key, as `visnav run --bb` would give it (a route_file is opened and parsed),\n"
+    "    key, as `visnav run --bb` would give it (a route_file is opened and parsed); each --port\n"
+    "    override is applied first, as `visnav run --port` would,\n"
     "  * with --map: that the map opens and every edge payload reads and passes its check\n"
     "    (a bare name M is maps/M, as for `visnav run`).\n"
     "Prints every problem as `file:line: message [code]` (codes: docs/errors.md) and exits 1 if\n"
@@ -34,7 +35,7 @@ int run(const std::vector<std::string>& args) {
   using visnav::cli::Opt;
   visnav::cli::Args a;
   if (auto st = a.parse(args, {{"--config", Opt::value}, {"--tree", Opt::value}, {"--map", Opt::value},
-                               {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--plugin-path", Opt::repeated}});
+                               {"--set", Opt::repeated}, {"--bb", Opt::repeated}, {"--port", Opt::repeated}, {"--plugin-path", Opt::repeated}});
       !st)
     return visnav::cli::usage_error("validate", st.error().message);
   if (auto st = a.require({"--config"}); !st) return visnav::cli::usage_error("validate", st.error().message);
@@ -45,6 +46,7 @@ int run(const std::vector<std::string>& args) {
   setup.tree_file = a.get("--tree");
   setup.map_path = a.get("--map");
   setup.blackboard_values = a.all("--bb");
+  setup.port_overrides = a.all("--port");
   setup.extra_plugin_dirs = a.all("--plugin-path");
   const auto problems = visnav::check_setup(setup);
   for (const auto& p : problems) std::cerr << p.message << " [" << visnav::to_string(p.code) << "]\n";

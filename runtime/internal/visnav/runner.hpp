@@ -166,7 +166,8 @@ class Session {
 
   /// Loads, validates and instantiates a tree with the run clock. Validation errors (all of
   /// them, file:line each) are the error message; nothing is instantiated then.
-  [[nodiscard]] Result<bt::Tree> load_tree(const std::string& tree_file);
+  [[nodiscard]] Result<bt::Tree> load_tree(const std::string& tree_file,
+                                          const std::vector<bt::PortOverride>& port_overrides = {});
 
   /// Re-reads the config file (with the session's overrides) and applies it between ticks:
   /// changed params → PluginObject::reconfigure; a changed detector type/plugin → new detector
@@ -282,6 +283,8 @@ struct MissionOptions {
   /// "key=value" entries written (as strings) to the tree's root blackboard before the first
   /// tick (`visnav run --bb`); ports convert them to their types when read.
   std::vector<std::string> blackboard_values;
+  /// "Node.port=value" set on every such node of the tree (`visnav run --port`; bt::PortOverride).
+  std::vector<std::string> port_overrides;
   const std::atomic<int>* stop_requested = nullptr;
 };
 [[nodiscard]] RunReport run_mission(const MissionOptions& options);
@@ -322,6 +325,9 @@ struct SetupCheck {
   /// `--bb key=value`: each value is checked by every port of the tree that reads {key}, as a
   /// literal would be (type and check).
   std::vector<std::string> blackboard_values;
+  /// `--port Node.port=value`: applied to the tree as it is validated (bt::PortOverride); a
+  /// malformed entry, an unknown node or port, or a bad value is a problem like any other.
+  std::vector<std::string> port_overrides;
   std::string map_path;                      ///< empty: no map; else as resolve_map_path
   bool create_map = false;                   ///< a missing map folder is fine (run --create)
   std::vector<std::string> extra_plugin_dirs;

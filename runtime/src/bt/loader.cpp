@@ -185,6 +185,12 @@ class Loader {
 
   void validate() {
     if (!root_ok_) return;  // nothing to validate without a parsed main file
+    for (std::size_t i = 0; i < options_.port_overrides.size(); ++i) {
+      if (override_hits_.size() > i && override_hits_[i] > 0) continue;
+      const PortOverride& o = options_.port_overrides[i];
+      add(ErrorCode::not_found, files_.empty() ? nullptr : files_.front().get(), 0, o.node + "." + o.port,
+          "port override '" + o.node + "." + o.port + "=" + o.value + "': no node '" + o.node + "' in the tree");
+    }
     for (const auto& [id, def] : trees_) validate_tree(def);
     const bool acyclic = check_cycles();
     resolve_main_tree();
@@ -201,6 +207,29 @@ class Loader {
     std::error_code ec;
     auto abs = std::filesystem::weakly_canonical(p, ec);
     return ec ? p.lexically_normal() : abs;
+  }
+
+  // Sets each override's attribute on every element of its node type (iteratively: the loader
+  // never recurses over the document, whatever its depth).
+  void apply_port_overrides(tinyxml2::XMLDocument& doc) {
+    if (options_.port_overrides.empty()) return;
+    override_hits_.resize(options_.port_overrides.size(), 0);
+    std::vector<XMLElement*> stack;
+    if (XMLElement* root = doc.RootElement()) stack.push_back(root);
+    while (!stack.empty()) {
+      XMLElement* el = stack.back();
+      stack.pop_back();
+      if (std::string_view(el->Name()) == "TreeNodesModel") continue;  // editor metadata, not nodes
+      const char* generic_id = is_generic_element(el->Name()) ? el->Attribute("ID") : nullptr;
+      const std::string_view type = generic_id != nullptr ? std::string_view(generic_id) : std::string_view(el->Name());
+      for (std::size_t i = 0; i < options_.port_overrides.size(); ++i) {
+        const PortOverride& o = options_.port_overrides[i];
+        if (type != o.node) continue;
+        el->SetAttribute(o.port.c_str(), o.value.c_str());
+        ++override_hits_[i];
+      }
+      for (XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) stack.push_back(c);
+    }
   }
 
   // Records a diagnostic; `code` says what kind of problem it is (every call site names one).
@@ -228,6 +257,7 @@ class Loader {
 
   // Checks <root>, registers its BehaviorTrees and follows includes.
   void process_root(std::unique_ptr<ParsedFile> owned, bool is_main) {
+    apply_port_overrides(owned->doc);
     const ParsedFile* pf = owned.get();
     files_.push_back(std::move(owned));
     const XMLElement* root = pf->doc.RootElement();
@@ -878,6 +908,7 @@ class Loader {
 
   const NodeRegistry& registry_;
   const LoadOptions& options_;
+  std::vector<int> override_hits_;  // per options_.port_overrides: elements it was set on
   std::vector<Diagnostic> diags_;
   std::vector<std::unique_ptr<ParsedFile>> files_;
   std::vector<std::filesystem::path> include_stack_;
@@ -1044,6 +1075,16 @@ Result<Tree> run_load(const NodeRegistry& registry, const LoadOptions& options, 
 
 }  // namespace
 }  // namespace detail
+
+Result<PortOverride> parse_port_override(const std::string& text) {
+  const auto eq = text.find('=');
+  const auto dot = text.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
+    return fail(ErrorCode::parse_error, {{}, 0, text},
+                "port override '" + text + "': expected Node.port=value (e.g. ReplayFeatureEdge.gain=0.5)");
+  }
+  return PortOverride{text.substr(0, dot), text.substr(dot + 1, eq - dot - 1), text.substr(eq + 1)};
+}
 
 Result<Tree> load_tree_file(const std::filesystem::path& file, const NodeRegistry& registry, const LoadOptions& options) {
   return detail::run_load(registry, options, [&](detail::Loader& l) { l.load_file(file); });

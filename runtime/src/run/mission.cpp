@@ -45,6 +45,7 @@ Result<PreparedMission> prepare_mission(const MissionOptions& options) {
   setup.overrides = options.overrides;
   setup.tree_file = options.tree_file;
   setup.blackboard_values = options.blackboard_values;
+  setup.port_overrides = options.port_overrides;
   setup.map_path = map_path;
   setup.create_map = options.create_map;
   setup.extra_plugin_dirs = options.extra_plugin_dirs;
@@ -71,7 +72,12 @@ Result<PreparedMission> prepare_mission(const MissionOptions& options) {
   so.overrides = options.overrides;
   PreparedMission m;
   VISNAV_ASSIGN(m.session, Session::create(std::move(config), so));
-  auto tree = m.session->load_tree(options.tree_file);
+  std::vector<bt::PortOverride> ports;
+  for (const auto& text : options.port_overrides) {
+    VISNAV_ASSIGN(bt::PortOverride port, bt::parse_port_override(text));
+    ports.push_back(std::move(port));
+  }
+  auto tree = m.session->load_tree(options.tree_file, ports);
   if (!tree)
     return Error{options.tree_file + ": tree is not valid, nothing was run:\n" + tree.error().message, tree.error().code,
                  tree.error().where};

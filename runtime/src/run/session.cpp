@@ -274,8 +274,9 @@ Status Session::build_links() {
   return ok();
 }
 
-Result<bt::Tree> Session::load_tree(const std::string& tree_file) {
+Result<bt::Tree> Session::load_tree(const std::string& tree_file, const std::vector<bt::PortOverride>& port_overrides) {
   bt::LoadOptions options;
+  options.port_overrides = port_overrides;
   options.clock = &host_->clock();
   options.max_subtree_depth = config_.run.bt_max_subtree_depth;
   options.max_nodes = static_cast<std::size_t>(config_.run.bt_max_nodes);

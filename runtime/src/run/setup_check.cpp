@@ -164,6 +164,14 @@ class SetupChecker {
       }
       limits.blackboard->set(std::string_view(a).substr(0, eq), a.substr(eq + 1));
     }
+    for (const auto& text : setup_.port_overrides) {
+      auto port = bt::parse_port_override(text);
+      if (!port) {
+        add(Error{"--port " + port.error().message, ErrorCode::parse_error, {"--port", 0, text}}, ErrorCode::parse_error);
+        continue;
+      }
+      limits.port_overrides.push_back(std::move(*port));
+    }
     if (config_) {
       limits.max_subtree_depth = config_->run.bt_max_subtree_depth;
       limits.max_nodes = static_cast<std::size_t>(config_->run.bt_max_nodes);

@@ -248,6 +248,35 @@ TEST_F(ValidateTest, BlackboardValuesAreCheckedByThePortsThatReadThem) {
   EXPECT_EQ(r.ticks, 0u);
 }
 
+// `--port Node.port=value` (visnav run/validate): applied before validation, so a bad value is
+// the literal's error at the node, a misspelt node or a malformed entry is a problem of its own.
+TEST_F(ValidateTest, PortOverridesAreCheckedAsLiteralsAndNeverIgnored) {
+  const std::string t = tree("<ReplayFeatureEdge edge=\"e1\" speed_mps=\"0.3\"/>");
+  visnav::SetupCheck s;
+  s.config_file = config();
+  s.tree_file = t;
+  s.port_overrides = {"ReplayFeatureEdge.speed_mps=0.5"};
+  EXPECT_TRUE(visnav::check_setup(s).empty()) << dump(visnav::check_setup(s));
+  s.port_overrides = {"ReplayFeatureEdge.speed_mps=9", "ReplayFeatureEge.speed_mps=1", "speed"};
+  const auto problems = visnav::check_setup(s);
+  ASSERT_EQ(problems.size(), 3u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::parse_error) << dump(problems);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{"--port", 0, "speed"}));
+  const auto has = [&](ErrorCode code, const std::string& key) {
+    return std::any_of(problems.begin(), problems.end(), [&](const Error& e) { return e.code == code && e.where.key == key; });
+  };
+  EXPECT_TRUE(has(ErrorCode::not_found, "ReplayFeatureEge.speed_mps")) << dump(problems);
+  EXPECT_TRUE(has(ErrorCode::out_of_range, "Main/ReplayFeatureEdge[0]")) << dump(problems);
+
+  visnav::MissionOptions m;
+  m.config_file = config();
+  m.tree_file = t;
+  m.port_overrides = {"ReplayFeatureEdge.speed_mps=9"};
+  const visnav::RunReport r = visnav::run_mission(m);
+  EXPECT_EQ(r.outcome, visnav::RunOutcome::error);
+  EXPECT_EQ(r.ticks, 0u);
+}
+
 TEST_F(ValidateTest, MissingMapFolderIsNotFound) {
   const std::string missing = (dir_ / "no_map").string();
   const auto problems = check(config(), {}, missing);

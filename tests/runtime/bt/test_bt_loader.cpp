@@ -399,5 +399,57 @@ TEST_F(Validation, DiagnosticsFromAFileNameTheFile) {
   EXPECT_TRUE(visnav::bt::validate_tree_file(dir.write("ok.xml", main_tree("<Act/>")), registry, options).empty());
 }
 
+
+// ---- Port overrides (visnav run/experiment --port, visnav tune) ------------------------------
+
+TEST_F(Loader, PortOverridesReplaceAndAddAttributesOnEveryNodeOfTheTypeIncludedFilesToo) {
+  TempDir dir;
+  dir.write("sub.xml", R"(<root BTCPP_format="4"><BehaviorTree ID="Sub"><Probe name="Q" i="1" out_i="{q}" out_s="{qs}"/></BehaviorTree></root>)");
+  const auto main_file = dir.write("main.xml", R"(<root BTCPP_format="4" main_tree_to_execute="M">
+  <include path="sub.xml"/>
+  <BehaviorTree ID="M"><Sequence>
+    <Probe name="P" i="2" out_i="{p}" out_s="{ps}"/>
+    <Action ID="Probe" name="G" out_i="{g}" out_s="{gs}"/>
+    <SubTree ID="Sub" q="{q}"/>
+  </Sequence></BehaviorTree>
+</root>)");
+  options.port_overrides = {{"Probe", "i", "20"}, {"Probe", "s", "tuned"}};
+  auto tree = visnav::bt::load_tree_file(main_file, registry, options);
+  ASSERT_TRUE(tree) << tree.error().message;
+  ASSERT_EQ(tree->tick_once(), NodeStatus::success);
+  EXPECT_EQ(*tree->blackboard().get<int>("p"), 40);  // replaced
+  EXPECT_EQ(*tree->blackboard().get<int>("g"), 40);  // added to the generic <Action ID="Probe">
+  EXPECT_EQ(*tree->blackboard().get<int>("q"), 40);  // in the included file
+  EXPECT_EQ(*tree->blackboard().get<std::string>("ps"), "tuned!");
+}
+
+TEST_F(Validation, APortOverrideForAMissingNodeOrPortIsAnErrorNeverIgnored) {
+  options.port_overrides = {{"Prob", "i", "3"}};
+  auto d = validate(main_tree("<Probe i=\"1\"/>"));
+  ASSERT_EQ(d.size(), 1u) << all(d);
+  EXPECT_EQ(d[0].code, ErrorCode::not_found) << all(d);
+  EXPECT_EQ(d[0].node_path, "Prob.i");
+  options.port_overrides = {{"Probe", "gain", "3"}};
+  d = validate(main_tree("<Probe i=\"1\"/>"));
+  ASSERT_FALSE(d.empty());
+  EXPECT_NE(all(d).find("gain"), std::string::npos) << all(d);  // the usual unknown-port diagnostic
+  options.port_overrides = {{"Probe", "i", "many"}};
+  EXPECT_FALSE(validate(main_tree("<Probe i=\"1\"/>")).empty());  // the value is checked like XML
+}
+
+TEST(PortOverrideText, ParsesNodePortValueAndRejectsOtherShapes) {
+  auto o = visnav::bt::parse_port_override("ReplayFeatureEdge.gain=0.5");
+  ASSERT_TRUE(o) << o.error().message;
+  EXPECT_EQ(o->node, "ReplayFeatureEdge");
+  EXPECT_EQ(o->port, "gain");
+  EXPECT_EQ(o->value, "0.5");
+  EXPECT_EQ(visnav::bt::parse_port_override("Node.p=")->value, "");
+  for (const char* bad : {"gain=0.5", ".gain=1", "Node.=1", "Node.gain"}) {
+    auto r = visnav::bt::parse_port_override(bad);
+    ASSERT_FALSE(r) << bad;
+    EXPECT_EQ(r.error().code, ErrorCode::parse_error) << bad;
+  }
+}
+
 }  // namespace
 }  // namespace bt_test

@@ -99,7 +99,8 @@ constexpr const char* kUsage =
     "usage: visnav experiment [--world W] [--route R] [--displace M[,DEG]] [--loops N] [--seeds N]\n"
     "                         [--seed S] [--jobs J] [--radius M] [--maps hybrid,feature,path] [--ideal]\n"
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
-    "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--learn-loops N]\n"
+    "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--port N.p=v]...\n"
+    "                         [--learn-loops N]\n"
     "\n"
     "The seed 000 Sec. 6 experiment, repeated over independent random runs. For each map style and\n"
     "each seed: teach the route R (a waypoint script, config/routes/) in the simulated world W with\n"
@@ -136,6 +137,9 @@ constexpr const char* kUsage =
     "  --set k=v             config override for both runs, e.g. --set robot.params.odom_scale_error_sd_pct=5\n"
     "  --teach-set k=v       config override for the teach run only\n"
     "  --replay-set k=v      config override for the replay run only\n"
+    "  --port Node.port=v    set a port on every such node of the replay trees (learning loops\n"
+    "                        too, not the teach), e.g. --port ReplayFeatureEdge.gain=0.5; how\n"
+    "                        `visnav tune` reaches primitive gains (docs/bt.md, port overrides)\n"
     "\n"
     "Output: DIR/report.md (the table and every run's per-loop errors), DIR/summary.json (the table's\n"
     "figures, machine-readable), DIR/errors.png (error per loop, every run; failed loops marked),\n"
@@ -182,6 +186,11 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--set") { VISNAV_ASSIGN(std::string v, in.value()); o.overrides.push_back(v); }
     else if (arg == "--teach-set") { VISNAV_ASSIGN(std::string v, in.value()); o.teach_overrides.push_back(v); }
     else if (arg == "--replay-set") { VISNAV_ASSIGN(std::string v, in.value()); o.replay_overrides.push_back(v); }
+    else if (arg == "--port") {
+      VISNAV_ASSIGN(std::string v, in.value());
+      VISNAV_TRY(bt::parse_port_override(v));
+      o.replay_ports.push_back(v);
+    }
     else if (arg == "--maps") {
       VISNAV_ASSIGN(std::string v, in.value());
       o.maps.clear();
@@ -379,6 +388,15 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     v.insert(v.end(), extra.begin(), extra.end());
     return v;
   };
+  std::vector<bt::PortOverride> replay_ports;
+  for (const auto& text : o.replay_ports) {
+    auto port = bt::parse_port_override(text);
+    if (!port) {  // parse() checked it already
+      r.setup_error = port.error().message;
+      return done();
+    }
+    replay_ports.push_back(std::move(*port));
+  }
   const std::string config_file = project_file(o.config);
   auto teach_config = load_run_config(config_file, phase_overrides(1, o.teach_appearance, o.teach_overrides));
   auto replay_config = load_run_config(config_file, phase_overrides(2, o.replay_appearance, o.replay_overrides));
@@ -491,7 +509,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   // --- learning loops (multi-experience maps): the replay conditions, learn_experiences on; the
   // robot starts where teaching ended, as the measured replay does before its displacement.
   if (o.learn_loops > 0) {
-    auto learn = session->load_tree(project_file("trees/patrol_loop_learning.xml"));
+    auto learn = session->load_tree(project_file("trees/patrol_loop_learning.xml"), replay_ports);
     if (!learn) {
       r.setup_error = learn.error().message;
       return done();
@@ -535,7 +553,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   std::vector<cv::Point2d> lap_ends;
   std::string stop_reason;
   {  // --- replay the loop N times
-    auto patrol = session->load_tree(project_file("trees/patrol_loop.xml"));
+    auto patrol = session->load_tree(project_file("trees/patrol_loop.xml"), replay_ports);
     if (!patrol) {
       r.setup_error = patrol.error().message;
       return done();

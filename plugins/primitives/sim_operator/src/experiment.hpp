@@ -60,6 +60,7 @@ struct ExperimentOptions {
   std::vector<std::string> overrides;          ///< --set, both phases
   std::vector<std::string> teach_overrides;    ///< --teach-set and --teach-appearance
   std::vector<std::string> replay_overrides;   ///< --replay-set and --replay-appearance
+  std::vector<std::string> replay_ports;       ///< --port Node.port=value: set in the replay trees (not the teach's)
   std::string teach_appearance = "same";
   std::string replay_appearance = "same";
   /// Multi-experience maps (issue 13): patrol loops driven after teaching with learn_experiences

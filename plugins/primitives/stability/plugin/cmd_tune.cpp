@@ -37,7 +37,9 @@ constexpr const char* kUsage =
     "parameters as a config block), DIR/convergence.csv and DIR/convergence.png.\n"
     "\n"
     "  --params LIST   parameters (config override keys) with bounds, e.g.\n"
-    "                  nodes.feature_replay.gain=0.2:2,path_following.alpha_radps=0.2:3:1\n"
+    "                  port.ReplayFeatureEdge.correction_gain_radps_per_px=0.001:0.01,\n"
+    "                  robot.params.max_linear_mps=0.3:1:0.5 (a key port.NODE.PORT is a tree port,\n"
+    "                  passed to the experiment as --port NODE.PORT=V; others are --set keys)\n"
     "  --maps M        map style passed to the experiment (default feature)\n"
     "  --seeds N       seeds per evaluation (default 5)     --loops L  loops per seed (default 3)\n"
     "  --out DIR       output folder (default out/tune)\n"
@@ -133,10 +135,25 @@ void write_plot(const std::string& path, const std::vector<Evaluation>& history)
   cv::imwrite(path, img);
 }
 
-// Nested YAML from dotted keys: a.b.c=v → a: {b: {c: v}}.
+// A --params key "port.Node.port" is a behaviour-tree port, passed to the experiment as
+// `--port Node.port=value` (docs/bt.md, port overrides); every other key is a config `--set`.
+constexpr std::string_view kPortPrefix = "port.";
+bool is_port_key(const std::string& key) { return key.rfind(kPortPrefix, 0) == 0; }
+
+// Nested YAML from dotted keys: a.b.c=v → a: {b: {c: v}}; tree ports as the --port options
+// that set them (a config file has no place for them).
 std::string config_block(const std::vector<TuneParam>& params, const std::vector<double>& x) {
   std::vector<std::vector<std::string>> paths;
+  std::string ports;
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    if (is_port_key(params[i].key))
+      ports += "#   --port " + params[i].key.substr(kPortPrefix.size()) + "=" + g17(x[i]) + "\n";
+  }
   for (const auto& p : params) {
+    if (is_port_key(p.key)) {
+      paths.emplace_back();
+      continue;
+    }
     std::vector<std::string> parts;
     std::stringstream ss(p.key);
     for (std::string s; std::getline(ss, s, '.');) parts.push_back(s);
@@ -149,6 +166,7 @@ std::string config_block(const std::vector<TuneParam>& params, const std::vector
   std::vector<std::string> open;
   for (std::size_t i : order) {
     const auto& parts = paths[i];
+    if (parts.empty()) continue;  // a tree port
     std::size_t common = 0;
     while (common < open.size() && common + 1 < parts.size() && open[common] == parts[common]) ++common;
     open.resize(common);
@@ -158,6 +176,7 @@ std::string config_block(const std::vector<TuneParam>& params, const std::vector
     }
     out += std::string(2 * (parts.size() - 1), ' ') + parts.back() + ": " + g17(x[i]) + "\n";
   }
+  if (!ports.empty()) out += "# tree ports (visnav run / experiment options):\n" + ports;
   return out;
 }
 
@@ -243,8 +262,9 @@ int run(int argc, char** argv) {
       args.push_back(s);
     }
     for (std::size_t i = 0; i < x.size(); ++i) {
-      args.push_back("--set");
-      args.push_back(o.params[i].key + "=" + g17(x[i]));
+      const bool port = is_port_key(o.params[i].key);
+      args.push_back(port ? "--port" : "--set");
+      args.push_back(o.params[i].key.substr(port ? kPortPrefix.size() : 0) + "=" + g17(x[i]));
     }
     VISNAV_ASSIGN(int status, cli::run_child(args, (dir / "child.log").string(), o.timeout_s));
     ObjectiveBreakdown b;

@@ -76,6 +76,18 @@ struct Diagnostic {
 /// All diagnostics, one per line.
 [[nodiscard]] std::string to_string(const std::vector<Diagnostic>& diagnostics);
 
+/// One port value set on every node of a type, as if written in the XML: `ReplayFeatureEdge.gain=0.5`
+/// replaces (or adds) the attribute `gain` of each <ReplayFeatureEdge> (and <Action ID="ReplayFeatureEdge">)
+/// in every file of the tree, includes too. Used to tune primitive gains without editing trees
+/// (`visnav run --port`, `visnav experiment --port`, `visnav tune`).
+struct PortOverride {
+  std::string node;   ///< registered node type
+  std::string port;   ///< port name
+  std::string value;  ///< attribute text (a literal or a {blackboard} reference)
+};
+/// Parses "Node.port=value"; errors name the text.
+[[nodiscard]] Result<PortOverride> parse_port_override(const std::string& text);
+
 struct LoadOptions {
   /// Time source for Sleep/Delay/Timeout and trace timestamps; must outlive the tree.
   /// nullptr: a monotonic wall clock.
@@ -103,6 +115,10 @@ struct LoadOptions {
   /// symlinks included). Empty: the folder of the main file (load_tree_file) or base_dir
   /// (load_tree_string, current directory when that is empty as well).
   std::filesystem::path include_root;
+  /// Applied to every file as it is parsed, before validation (so a port the node does not
+  /// have is the usual unknown-port diagnostic). An override whose node type appears nowhere in
+  /// the loaded files is a diagnostic too (code not_found): a misspelt node is never ignored.
+  std::vector<PortOverride> port_overrides;
 };
 
 class Tree;

@@ -26,8 +26,12 @@ namespace visnav::reloc {
 
 class PlaceVerifier {
  public:
-  /// `index` and `map` must outlive the verifier.
-  PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading);
+  /// `index` and `map` must outlive the verifier; `detector` (the one the frames are described
+  /// with) describes visual_memory reference images (PlaceSource), may be nullptr for a map without.
+  PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading,
+                Detector* detector = nullptr);
+  /// The run's detector changed (live reload): used for edges not described yet.
+  void set_detector(Detector* detector) { source_.set_detector(detector); }
   /// Verified places of one frame (see the file comment). Errors: features of the wrong type,
   /// a payload that cannot be read.
   Result<std::vector<PlaceVote>> votes(const Features& current, double image_width_px, int candidates,

@@ -16,8 +16,7 @@
 #include <optional>
 #include <random>
 
-#include "visnav/feature_replay/local_map.hpp"
-#include "visnav/feature_replay/segment_map.hpp"
+#include "visnav/feature_payloads.hpp"
 #include "visnav/visual_memory_payload.hpp"
 
 namespace visnav::reloc {

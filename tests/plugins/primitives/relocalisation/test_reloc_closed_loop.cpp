@@ -29,7 +29,7 @@
 
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/tree.hpp"
-#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_payloads.hpp"
 #include "visnav/map.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/runner.hpp"

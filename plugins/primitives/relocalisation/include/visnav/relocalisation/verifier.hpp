@@ -2,7 +2,7 @@
 //
 // votes(): the frame's features are coded with the index vocabulary, the `candidates` nearest
 // places by Hamming distance are fetched, and each is verified with the feature primitive's
-// matching and histogram voting (feature_replay/heading.hpp) against that place's reference
+// matching and histogram voting (visnav/histogram_voting.hpp, the SDK's) against that place's reference
 // features (PlaceSource). A place whose estimate is valid and reaches min_confidence becomes a
 // PlaceVote carrying the estimate's heading offset (robot heading minus taught heading, rad).
 // blank_reason(): why a frame is unusable (a covered or dark camera), or empty.
@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "visnav/devices.hpp"
-#include "visnav/feature_replay/heading.hpp"
+#include "visnav/histogram_voting.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/relocalisation/relocaliser.hpp"
 

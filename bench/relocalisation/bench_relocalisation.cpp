@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "visnav/feature_replay/heading.hpp"
+#include "visnav/histogram_voting.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 
 using namespace visnav;

@@ -84,7 +84,7 @@ TEST(ViewInterop, FoxgloveWsProtocolClientReceivesEveryChannelDuringARun) {
       << "robot:\n  type: sim\n  params: {world: straight6m}\n"
          "camera:\n  type: sim\n  params: {width_px: 160, height_px: 120, hfov_deg: 60}\n"
          "detector:\n  type: orb\n  params: {target_keypoints: 200}\n"
-         "nodes: [feature_replay, navigation, sim_operator]\n"
+         "nodes: [feature_replay, navigation, sim_operator, relocalisation]\n"
          "run:\n  tick: frame\n  rate_hz: 10\n  lockstep: on\n  log_level: warn\n  reload_poll_s: 0\n";
   std::ofstream(dir / "route.yaml")
       << "route:\n  name: s\n  world: straight6m\n  start: [0, 0, 0]\n"

@@ -70,7 +70,7 @@ void teach_once() {
   std::ofstream(t.dir / "teach.yaml") << "robot: {type: sim, params: {world: straight6m}}\n"
                                       << "camera: {type: sim, params: " << kCamera << "}\n"
                                       << "detector: {type: orb, params: {target_keypoints: 300}}\n"
-                                      << "nodes: [feature_replay, navigation, sim_operator]\n"
+                                      << "nodes: [feature_replay, navigation, sim_operator, relocalisation]\n"
                                       << "run: {tick: frame, rate_hz: 10, lockstep: on, log_level: warn, reload_poll_s: 0}\n";
   std::ofstream(t.dir / "route.yaml") << "route:\n  name: straight3m\n  world: straight6m\n  start: [0, 0, 0]\n"
                                       << "  waypoints:\n    - {at: [0, 0], kind: feature}\n    - {at: ["

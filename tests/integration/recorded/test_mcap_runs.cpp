@@ -28,7 +28,7 @@ struct McapSetup {
         "robot:\n  type: sim\n  params: {world: straight6m, odom_scale_error_pct: 3, odom_rate_hz: 50}\n"
         "camera:\n  type: sim\n  params: {width_px: 160, height_px: 120, hfov_deg: 60, noise_std: 1}\n"
         "detector:\n  type: orb\n  params: {target_keypoints: 300}\n"
-        "nodes: [feature_replay, navigation, sim_operator, teleop, path_following]\n"
+        "nodes: [feature_replay, navigation, sim_operator, teleop, path_following, relocalisation]\n"
         "run:\n  tick: frame\n  rate_hz: 10\n  lockstep: on\n  log_level: warn\n  reload_poll_s: 0\n");
     route = dir + "/route.yaml";
     put(route,

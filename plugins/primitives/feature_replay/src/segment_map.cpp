@@ -1,4 +1,5 @@
-// Map style A: segment teacher, replayer and payload (see segment_map.hpp).
+// Map style A: segment teacher and replayer (see segment_map.hpp; the payload codec is the SDK's,
+// runtime/src/map/feature_payloads.cpp).
 #include "visnav/feature_replay/segment_map.hpp"
 
 #include <algorithm>
@@ -9,123 +10,13 @@
 
 #include <opencv2/core.hpp>
 
-#include "binary_io.hpp"
-
 namespace visnav::feature_replay {
 
 namespace {
-constexpr char kMagicA[4] = {'V', 'N', 'F', 'A'};
 constexpr double kCapWindowM = 0.5;
 
 std::size_t row_bytes(int cols, int type) { return static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type); }
 }  // namespace
-
-cv::Point2f Landmark::expected_px(double distance_m) const {
-  const double span = static_cast<double>(last_distance_m) - first_distance_m;
-  if (!(span > 1e-9)) return first_px;
-  const double t = std::clamp((distance_m - first_distance_m) / span, 0.0, 1.0);
-  return {static_cast<float>(first_px.x + (last_px.x - first_px.x) * t),
-          static_cast<float>(first_px.y + (last_px.y - first_px.y) * t)};
-}
-
-// ---------------------------------------------------------------- SegmentMap ----
-
-Status SegmentMap::validate() const {
-  if (!std::isfinite(length_m) || length_m < 0.0) return fail("segment length is not a finite non-negative number");
-  if (!std::isfinite(azimuth_rad)) return fail("segment azimuth is not finite");
-  if (static_cast<std::size_t>(descriptors.rows) != landmarks.size())
-    return fail(std::to_string(landmarks.size()) + " landmarks but " + std::to_string(descriptors.rows) + " descriptor rows");
-  if (!landmarks.empty() && descriptors.type() != CV_8UC1 && descriptors.type() != CV_32FC1)
-    return fail("landmark descriptors must be CV_8UC1 or CV_32FC1");
-  float previous = -1e30f;
-  for (std::size_t i = 0; i < landmarks.size(); ++i) {
-    const Landmark& l = landmarks[i];
-    if (!std::isfinite(l.first_distance_m) || !std::isfinite(l.last_distance_m) || l.last_distance_m < l.first_distance_m)
-      return fail("landmark " + std::to_string(i) + ": bad first/last distance");
-    if (l.first_distance_m < previous) return fail("landmarks are not sorted by first distance");
-    previous = l.first_distance_m;
-    if (!std::isfinite(l.first_px.x) || !std::isfinite(l.first_px.y) || !std::isfinite(l.last_px.x) ||
-        !std::isfinite(l.last_px.y))
-      return fail("landmark " + std::to_string(i) + ": non-finite image position");
-  }
-  return ok();
-}
-
-std::vector<std::uint8_t> SegmentMap::serialize() const {
-  std::vector<std::uint8_t> out;
-  const bool is_float = descriptors.depth() == CV_32F;
-  const int cols = landmarks.empty() ? 0 : descriptors.cols;
-  const std::size_t rb = landmarks.empty() ? 0 : row_bytes(cols, descriptors.type());
-  out.reserve(32 + landmarks.size() * (rb + 18));
-  io::Writer w(out);
-  w.bytes(kMagicA, 4);
-  w.put<std::uint16_t>(kFormatVersion);
-  w.put<std::uint8_t>(static_cast<std::uint8_t>(is_float ? io::DescKind::float32 : io::DescKind::binary));
-  w.put<std::uint8_t>(0);
-  w.put<std::uint16_t>(static_cast<std::uint16_t>(cols));
-  w.put<std::uint16_t>(0);
-  w.put<double>(length_m);
-  w.put<double>(azimuth_rad);
-  w.put<std::uint32_t>(static_cast<std::uint32_t>(landmarks.size()));
-  for (std::size_t i = 0; i < landmarks.size(); ++i) {
-    const Landmark& l = landmarks[i];
-    w.bytes(descriptors.ptr(static_cast<int>(i)), rb);
-    w.put<std::uint16_t>(static_cast<std::uint16_t>(std::min<std::uint32_t>(l.count, 65535)));
-    w.put<std::int16_t>(io::to_fixed_px(l.first_px.x));
-    w.put<std::int16_t>(io::to_fixed_px(l.first_px.y));
-    w.put<std::int16_t>(io::to_fixed_px(l.last_px.x));
-    w.put<std::int16_t>(io::to_fixed_px(l.last_px.y));
-    w.put<float>(l.first_distance_m);
-    w.put<float>(l.last_distance_m);
-  }
-  return out;
-}
-
-Result<SegmentMap> SegmentMap::deserialize(std::span<const std::uint8_t> body) {
-  io::Reader r(body);
-  char magic[4];
-  if (!r.bytes(magic, 4) || std::memcmp(magic, kMagicA, 4) != 0)
-    return fail("not a feature_replay segment payload (bad magic)");
-  std::uint16_t version = 0, cols = 0, reserved16 = 0;
-  std::uint8_t kind = 0, reserved8 = 0;
-  SegmentMap m;
-  std::uint32_t count = 0;
-  if (!r.get(version)) return fail("segment payload truncated in the header");
-  if (version != kFormatVersion)
-    return fail("segment payload format version " + std::to_string(version) + " is not supported (expected " +
-                std::to_string(kFormatVersion) + ")");
-  if (!r.get(kind) || !r.get(reserved8) || !r.get(cols) || !r.get(reserved16) || !r.get(m.length_m) ||
-      !r.get(m.azimuth_rad) || !r.get(count))
-    return fail("segment payload truncated in the header");
-  if (kind > 1) return fail("segment payload: unknown descriptor kind " + std::to_string(kind));
-  const int type = kind == 1 ? CV_32FC1 : CV_8UC1;
-  if (count > 0 && cols == 0) return fail("segment payload: landmarks with zero-width descriptors");
-  const std::size_t rb = row_bytes(cols, type);
-  const std::size_t record = rb + 2 + 8 + 8;
-  if (r.remaining() != static_cast<std::size_t>(count) * record)
-    return fail("segment payload size mismatch: " + std::to_string(count) + " landmarks need " +
-                std::to_string(static_cast<std::size_t>(count) * record) + " bytes, " + std::to_string(r.remaining()) +
-                " present");
-  m.landmarks.resize(count);
-  if (count > 0) m.descriptors.create(static_cast<int>(count), cols, type);
-  for (std::uint32_t i = 0; i < count; ++i) {
-    Landmark& l = m.landmarks[i];
-    std::uint16_t k = 0;
-    std::int16_t u0 = 0, v0 = 0, u1 = 0, v1 = 0;
-    r.bytes(m.descriptors.ptr(static_cast<int>(i)), rb);
-    r.get(k); r.get(u0); r.get(v0); r.get(u1); r.get(v1);
-    r.get(l.first_distance_m); r.get(l.last_distance_m);
-    l.count = k;
-    l.first_px = {io::from_fixed_px(u0), io::from_fixed_px(v0)};
-    l.last_px = {io::from_fixed_px(u1), io::from_fixed_px(v1)};
-    m.max_span_m = std::max(m.max_span_m, static_cast<double>(l.last_distance_m) - l.first_distance_m);
-  }
-  if (kind == 1 && count > 0 && !cv::checkRange(m.descriptors))
-    return fail("segment payload: non-finite descriptor value");
-  auto valid = m.validate();
-  if (!valid) return valid.error().with_context("segment payload");
-  return m;
-}
 
 // ---------------------------------------------------------------- params ----
 

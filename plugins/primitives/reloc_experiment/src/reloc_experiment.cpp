@@ -32,10 +32,10 @@ namespace {
 const char* const kUsage =
     "usage: visnav reloc-experiment [--trials N] [--replays R] [--appearance A] [--route R] [--config C]\n"
     "                               [--lateral-m L] [--heading-deg H] [--look-around-deg D] [--creep-m C] [--seed S]\n"
-    "                               [--reloc PORT=VALUE ...] [--out DIR]\n"
+    "                               [--reloc PORT=VALUE ...] [--kind K] [--out DIR]\n"
     "\n"
     "Relocalisation from random start poses (issue 21). Teaches ROUTE in the simulator with every leg\n"
-    "as a feature_segment edge (the place index covers feature edges), then for each trial starts a\n"
+    "as an edge of kind K (feature_segment by default), then for each trial starts a\n"
     "fresh session (its own draw of the odometry and camera error models) at a random point of the\n"
     "taught route, offset sideways by up to +-L m and turned by up to +-H deg, and runs Relocalise.\n"
     "An answer is correct when it names the edge the robot is on (or the neighbouring edge across\n"
@@ -55,6 +55,9 @@ const char* const kUsage =
     "  --creep-m C      Relocalise's creep_m (default 0: no creeping forward); the truth is where the\n"
     "                   robot is when it answers\n"
     "  --reloc P=V      another Relocalise port, e.g. --reloc min_answer_confidence=0.3 (repeatable)\n"
+    "  --kind K         edge kind of every taught leg: feature_segment (default, trees/teach_hybrid_route.xml)\n"
+    "                   or visual_memory (trees/teach_hybrid_visual_memory.xml; the index describes the\n"
+    "                   reference images with the config's detector; replays need --replays 0)\n"
     "  --seed S         random seed of the start poses and error models (default 1)\n"
     "  --out DIR        output folder: map/, trials.csv, run.log (default /tmp/visnav_reloc_experiment)\n"
     "\n"
@@ -71,6 +74,7 @@ struct Options {
   int seed = 1;
   double look_around_deg = 0.0;
   double creep_m = 0.0;
+  std::string kind = "feature_segment";
   std::string reloc_attrs;  // extra Relocalise attributes (--reloc K=V), ' K="V"' each
   std::string reloc_names = "look_around_deg|creep_m";  // the attributes the experiment sets
   std::string out = "/tmp/visnav_reloc_experiment";
@@ -166,6 +170,10 @@ Result<Options> parse(int argc, char** argv) {
         return fail(ErrorCode::invalid_value, "--reloc: '" + kv + "' is not PORT=VALUE");
       o.reloc_attrs += " " + kv.substr(0, eq) + "=\"" + kv.substr(eq + 1) + "\"";
       o.reloc_names += "|" + kv.substr(0, eq);
+    } else if (a == "--kind") {
+      VISNAV_ASSIGN(o.kind, in.value());
+      if (o.kind != "feature_segment" && o.kind != "visual_memory")
+        return fail(ErrorCode::invalid_value, "--kind: '" + o.kind + "' is not feature_segment or visual_memory");
     } else if (a == "--creep-m") {
       VISNAV_ASSIGN(o.creep_m, in.number(0, 5));
     } else if (a == "--seed") {
@@ -177,6 +185,9 @@ Result<Options> parse(int argc, char** argv) {
       return fail(ErrorCode::unknown_key, "unknown argument '" + a + "'");
     }
   }
+  if (o.kind == "visual_memory" && o.replays > 0)
+    return fail(ErrorCode::invalid_value, "--kind visual_memory: replays are not supported (trees/replay_from_here.xml "
+                                          "has no visual-memory replayer); give --replays 0");
   return o;
 }
 
@@ -220,9 +231,12 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     if (!session) return setup_error(session.error().message);
     SimulationControl* sim = (*session)->robot().simulation();
     if (sim == nullptr) return setup_error("the experiment needs the simulated robot (robot type sim)");
-    auto tree = (*session)->load_tree(project_file("trees/teach_hybrid_route.xml"));
+    const bool memory = o.kind == "visual_memory";
+    const std::string teacher = memory ? "TeachVisualMemoryEdge" : "TeachFeatureEdge";
+    auto tree = (*session)->load_tree(
+        project_file(memory ? "trees/teach_hybrid_visual_memory.xml" : "trees/teach_hybrid_route.xml"));
     if (!tree) return setup_error(tree.error().message);
-    if (auto st = set_blackboard_values(*tree, {"route_file=" + route_file, "force_kind=feature_segment",
+    if (auto st = set_blackboard_values(*tree, {"route_file=" + route_file, "force_kind=" + o.kind,
                                                 "close_loop=true"});
         !st)
       return setup_error(st.error().message);
@@ -231,7 +245,7 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       return od ? od->distance_m : 0.0;
     };
     tree->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-      if (to != bt::NodeStatus::success || node.registration_id() != "TeachFeatureEdge") return;
+      if (to != bt::NodeStatus::success || node.registration_id() != teacher) return;
       TaughtEdge e;
       if (auto id = node.blackboard().get<std::string>("taught_edge")) e.id = *id;
       e.start_m = odom_m();  // the end for now; the start is end - length below
@@ -254,7 +268,7 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       e.length_m = rec->length_m;
       e.start_m -= rec->length_m;
     }
-    std::printf("taught %zu feature edges, %.1f m (odometric), %.0f s wall\n", taught.size(),
+    std::printf("taught %zu %s edges, %.1f m (odometric), %.0f s wall\n", taught.size(), o.kind.c_str(),
                 (*session)->map()->stats().total.length_m, report.wall_time_s);
   }
   if (taught.empty() || samples.empty()) return setup_error("nothing was taught");

@@ -118,7 +118,8 @@ Result<RelocaliseNodeParams> read_params(const bt::TreeNode& node) {
 
 /// The map's place index: loaded and checked against the map, or built (and saved) when the map
 /// has none yet. A damaged or stale index is an error (rebuilt by `visnav reloc-index M`).
-Result<std::shared_ptr<const PlaceIndex>> index_for(const MapStore& map, Logger& logger, const std::string& who) {
+Result<std::shared_ptr<const PlaceIndex>> index_for(const MapStore& map, Detector* detector, Logger& logger,
+                                                    const std::string& who) {
   auto loaded = load_place_index(map.dir());
   if (loaded) {
     VISNAV_TRY(loaded->matches(map));
@@ -129,7 +130,7 @@ Result<std::shared_ptr<const PlaceIndex>> index_for(const MapStore& map, Logger&
   int last_tenth = -1;
   std::string last_phase;
   const auto t0 = std::chrono::steady_clock::now();
-  auto built = build_place_index(map, PlaceIndexParams{}, [&](const char* phase, double done, double total) {
+  auto built = build_place_index(map, PlaceIndexParams{}, detector, [&](const char* phase, double done, double total) {
     const int tenth = total > 0.0 ? static_cast<int>(10.0 * done / total) : 10;
     if (phase != last_phase || tenth != last_tenth) {
       if (phase != last_phase || tenth % 5 == 0)
@@ -167,7 +168,8 @@ class Relocalise final : public bt::StatefulActionNode {
                                 "turn that faces the taught heading (-heading_offset_rad), for TurnToAzimuth relative"),
         bt::output_port<double>("confidence", "{reloc_confidence}", "[0, 1]"),
         bt::output_port<std::string>("status", "{reloc_status}",
-                                     "localised, ambiguous, not_on_map or camera_blocked"),
+                                     "localised, ambiguous, not_on_map, camera_blocked, or not_indexed (prior_edge "
+                                     "is of a kind the index does not cover, e.g. path_following)"),
         bt::output_port<std::string>("reason", "{reloc_reason}", "one line: why this answer"),
     };
     append_schema_ports(p);
@@ -176,6 +178,14 @@ class Relocalise final : public bt::StatefulActionNode {
 
   NodeStatus on_start() override {
     if (auto st = start(); !st) return failed(st.error().message);
+    if (!not_indexed_.empty()) {  // the prior names an edge nothing can be recognised on: say so, never guess
+      stop();
+      (void)set_output("status", std::string("not_indexed"));
+      (void)set_output("reason", not_indexed_);
+      (void)set_output("confidence", 0.0);
+      host_.logger().warn(path(), not_indexed_);
+      return NodeStatus::failure;
+    }
     return on_running();
   }
 
@@ -202,6 +212,7 @@ class Relocalise final : public bt::StatefulActionNode {
     if (fv.blank && blank != last_blank_) host_.logger().info(path(), "blank frame: " + blank);
     last_blank_ = blank;
     if (!fv.blank) {
+      verifier_->set_detector(detector);
       auto votes = verifier_->votes(features_, frame->image.cols, params_.decision.candidates,
                                     params_.decision.min_confidence);
       if (!votes) return failed(votes.error().message);
@@ -225,11 +236,13 @@ class Relocalise final : public bt::StatefulActionNode {
       return send(turn);
     }
     stop();
+    const std::string reason =
+        a.status == RelocStatus::not_on_map && !unindexed_note_.empty() ? a.reason + unindexed_note_ : a.reason;
     (void)set_output("status", std::string(to_string(a.status)));
-    (void)set_output("reason", a.reason);
+    (void)set_output("reason", reason);
     (void)set_output("confidence", a.confidence);
     if (a.status != RelocStatus::localised) {
-      host_.logger().warn(path(), a.reason);
+      host_.logger().warn(path(), reason);
       return NodeStatus::failure;
     }
     const std::string& edge_id = index_->edges[a.edge].id;
@@ -253,14 +266,38 @@ class Relocalise final : public bt::StatefulActionNode {
     VISNAV_ASSIGN(params_, read_params(*this));
     // One index per map folder for the node's life (a tree relocalising several times reloads nothing).
     if (!index_ || index_dir_ != map->dir()) {
-      VISNAV_ASSIGN(index_, index_for(*map, host_.logger(), path()));
+      VISNAV_ASSIGN(index_, index_for(*map, host_.active_detector(), host_.logger(), path()));
       index_dir_ = map->dir();
     }
     feature_replay::HeadingParams heading;
     heading.horizontal_fov_deg = params_.horizontal_fov_deg;
-    verifier_.emplace(*index_, *map, heading);
+    verifier_.emplace(*index_, *map, heading, host_.active_detector());
     relocaliser_.emplace(params_.decision, verifier_->route_edges());
+    // Edges the index does not cover (path_following: one colour model per edge, nothing that
+    // varies along it). A robot on one of them cannot be recognised: not_on_map says they exist,
+    // and a prior on one is answered not_indexed before anything moves.
+    not_indexed_.clear();
+    unindexed_note_.clear();
+    int unindexed = 0;
+    double unindexed_m = 0.0;
+    std::string kinds;
+    for (const EdgeRecord& e : map->edges())
+      if (!indexable_kind(e.kind)) {
+        ++unindexed;
+        unindexed_m += e.length_m;
+        if (kinds.find(e.kind) == std::string::npos) kinds += (kinds.empty() ? "" : ", ") + e.kind;
+      }
+    if (unindexed > 0)
+      unindexed_note_ = " (" + std::to_string(unindexed) + " edges of kind " + kinds + ", " + fmt(unindexed_m, 1) +
+                        " m, are not indexed: the robot may be on one of them)";
     VISNAV_ASSIGN(const std::string prior_edge, get_input<std::string>("prior_edge"));
+    if (const EdgeRecord* rec = prior_edge.empty() ? nullptr : map->find_edge(prior_edge);
+        rec != nullptr && !indexable_kind(rec->kind)) {
+      not_indexed_ = "not indexed: the prior edge " + prior_edge + " is a " + rec->kind +
+                     " edge, a kind the place index does not cover (nothing along it to recognise); drive to a "
+                     "node or onto an indexed edge first";
+      return ok();
+    }
     if (!prior_edge.empty()) {
       VISNAV_ASSIGN(const double prior_m, get_input<double>("prior_distance_m"));
       bool found = false;
@@ -271,7 +308,7 @@ class Relocalise final : public bt::StatefulActionNode {
         }
       if (!found)
         return fail(ErrorCode::not_found, {"", 0, "prior_edge"},
-                    "'" + prior_edge + "' is not a feature edge of the place index");
+                    "'" + prior_edge + "' is not an edge of the place index");
     }
     have_sequence_ = false;
     creep_ = params_.creep_m > 0.0 ? Creep::waiting : Creep::none;
@@ -360,6 +397,8 @@ class Relocalise final : public bt::StatefulActionNode {
   bool have_sequence_ = false;
   std::uint64_t last_sequence_ = 0;
   std::string last_blank_;
+  std::string not_indexed_;     // non-empty: the prior is on an edge kind the index does not cover
+  std::string unindexed_note_;  // appended to not_on_map: the map has edges the index does not cover
   int sweep_ = 0;
   double turned_rad_ = 0.0;
   enum class Creep : std::uint8_t { none, waiting, creeping, done };
@@ -395,16 +434,16 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
     required_ = *required;
     if (*keep)
       if (auto loaded = load_place_index(map->dir()); loaded && loaded->matches(*map)) return NodeStatus::success;
-    // A map without feature edges (only path-following or visual-memory edges) has nothing to
-    // index: not an error at the end of a teach.
+    // A map of path_following edges only has nothing to index: not an error at the end of a teach.
     if (std::none_of(map->edges().begin(), map->edges().end(), [](const EdgeRecord& e) { return indexable_kind(e.kind); })) {
-      host_.logger().info(path(), "no feature edge to index (the place index covers feature_segment and "
-                                  "feature_localmaps edges)");
+      host_.logger().info(path(), "no edge to index (the place index covers feature_segment, feature_localmaps "
+                                  "and visual_memory edges)");
       return NodeStatus::success;
     }
     if (auto st = map->flush(); !st) return failed(st.error().message);
     const auto t0 = std::chrono::steady_clock::now();
-    auto built = build_place_index(*map, PlaceIndexParams{});
+    // visual_memory reference images are described with the run's detector, the one Relocalise uses.
+    auto built = build_place_index(*map, PlaceIndexParams{}, host_.active_detector());
     if (!built) return failed(built.error().message);
     if (auto st = save_place_index(map->dir(), *built); !st) return failed(st.error().message);
     host_.logger().info(path(), "place index: " + std::to_string(built->places.size()) + " places, " +

@@ -16,8 +16,8 @@
 #include <optional>
 #include <random>
 
-#include "visnav/feature_replay/local_map.hpp"
-#include "visnav/feature_replay/segment_map.hpp"
+#include "visnav/feature_payloads.hpp"
+#include "visnav/visual_memory_payload.hpp"
 
 namespace visnav::reloc {
 
@@ -25,7 +25,9 @@ namespace fs = std::filesystem;
 using feature_replay::LocalMapPath;
 using feature_replay::SegmentMap;
 
-bool indexable_kind(std::string_view kind) { return kind == kSegmentKind || kind == kLocalMapsKind; }
+bool indexable_kind(std::string_view kind) {
+  return kind == kSegmentKind || kind == kLocalMapsKind || kind == kMemoryKind;
+}
 
 const ParamSchema<PlaceIndexParams>& PlaceIndexParams::schema() {
   using P = PlaceIndexParams;
@@ -287,6 +289,9 @@ std::size_t PlaceIndex::byte_size() const { return serialize().size(); }
 struct PlaceSource::Decoded {
   std::optional<SegmentMap> segment;
   std::optional<LocalMapPath> localmaps;
+  /// visual_memory: one place per reference image, described with the detector (sorted by distance).
+  std::vector<float> memory_distances;
+  std::vector<PlaceFeatures> memory;
 };
 
 Result<const PlaceSource::Decoded*> PlaceSource::decode(const EdgeRecord& edge) {
@@ -295,7 +300,35 @@ Result<const PlaceSource::Decoded*> PlaceSource::decode(const EdgeRecord& edge) 
     return fail(ErrorCode::invalid_value, "edge " + edge.id + ": kind '" + edge.kind + "' has no feature places");
   VISNAV_ASSIGN(std::vector<std::uint8_t> body, map_.read_payload(edge.id));
   auto decoded = std::make_shared<Decoded>();
-  if (edge.kind == kSegmentKind) {
+  if (edge.kind == kMemoryKind) {
+    // The payload keeps images and tracked corners, no descriptors: describe each reference image
+    // with the detector Relocalise runs with, so its frames and the references share one vocabulary.
+    if (detector_ == nullptr)
+      return fail(ErrorCode::invalid_value, "edge " + edge.id +
+                                                ": a visual_memory edge is indexed by describing its reference "
+                                                "images, which needs a detector (`visnav reloc-index MAP --detector "
+                                                "TYPE`, or the run's detector: section)");
+    auto m = visual_memory::VisualMemory::decode(body);
+    if (!m) return m.error().with_context(map_.payload_path(edge.id));
+    Features features;
+    for (std::size_t k = 0; k < m->references.size(); ++k) {
+      const auto& ref = m->references[k];
+      if (auto st = detector_->detect(ref.image, features); !st)
+        return st.error().with_context("edge " + edge.id + " reference " + std::to_string(k));
+      PlaceFeatures f;
+      if (!features.descriptors.empty() && features.descriptors.type() != CV_8UC1)
+        return fail(ErrorCode::invalid_value, "edge " + edge.id + ": the detector gives float descriptors, which cannot be indexed");
+      f.descriptors = features.descriptors.clone();
+      f.positions_px.reserve(features.keypoints.size());
+      for (const auto& kp : features.keypoints) f.positions_px.push_back(kp.pt);
+      if (f.positions_px.size() != static_cast<std::size_t>(f.descriptors.rows))
+        return fail(ErrorCode::inconsistent, "edge " + edge.id + ": the detector gave " +
+                                                 std::to_string(f.positions_px.size()) + " keypoints and " +
+                                                 std::to_string(f.descriptors.rows) + " descriptors");
+      decoded->memory_distances.push_back(static_cast<float>(ref.distance_m));
+      decoded->memory.push_back(std::move(f));
+    }
+  } else if (edge.kind == kSegmentKind) {
     auto m = SegmentMap::deserialize(body);
     if (!m) return m.error().with_context(map_.payload_path(edge.id));
     decoded->segment = std::move(*m);
@@ -312,6 +345,7 @@ Result<const PlaceSource::Decoded*> PlaceSource::decode(const EdgeRecord& edge) 
 Result<std::vector<float>> PlaceSource::place_distances(const EdgeRecord& edge, double segment_spacing_m) {
   VISNAV_ASSIGN(const Decoded* d, decode(edge));
   std::vector<float> out;
+  if (!d->memory_distances.empty() || (!d->segment && !d->localmaps)) return d->memory_distances;
   if (d->localmaps) {
     for (const auto& m : d->localmaps->maps) out.push_back(static_cast<float>(m.distance_m));
     return out;
@@ -327,6 +361,17 @@ Result<const PlaceFeatures*> PlaceSource::features(const std::string& edge_id, d
   if (edge == nullptr) return fail(ErrorCode::not_found, "place: unknown edge '" + edge_id + "'");
   VISNAV_ASSIGN(const Decoded* d, decode(*edge));
   scratch_.positions_px.clear();
+  if (!d->segment && !d->localmaps) {  // visual_memory: the reference nearest distance_m
+    if (d->memory.empty()) {
+      scratch_.descriptors.release();
+      return &scratch_;
+    }
+    const auto& ds = d->memory_distances;
+    auto it = std::lower_bound(ds.begin(), ds.end(), static_cast<float>(distance_m));
+    std::size_t i = static_cast<std::size_t>(it - ds.begin());
+    if (i == ds.size() || (i > 0 && distance_m - ds[i - 1] < ds[i] - distance_m)) --i;
+    return &d->memory[i];
+  }
   if (d->localmaps) {
     const int i = d->localmaps->nearest_map(distance_m);
     if (i < 0) {
@@ -359,14 +404,15 @@ Result<const PlaceFeatures*> PlaceSource::features(const std::string& edge_id, d
 
 // ----------------------------------------------------------------------------------- build
 
-Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params, const IndexProgress& progress) {
+Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params, Detector* detector,
+                                     const IndexProgress& progress) {
   VISNAV_TRY(params.validate());
   if (params.vocabulary_words % 64 != 0)
     return fail(ErrorCode::out_of_range, "vocabulary_words: " + std::to_string(params.vocabulary_words) +
                                              " is not a multiple of 64");
   PlaceIndex index;
   index.params = params;
-  PlaceSource source(map);
+  PlaceSource source(map, detector);
   // Pass 1: the places and a deterministic reservoir sample of their descriptors.
   std::mt19937_64 rng(0x5eed1dcULL);
   cv::Mat sample;
@@ -376,7 +422,8 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
   for (const auto& e : map.edges())
     if (indexable_kind(e.kind)) edges.push_back(&e);
   if (edges.empty())
-    return fail(ErrorCode::not_found, map.dir() + ": no feature edge (feature_segment, feature_localmaps) to index");
+    return fail(ErrorCode::not_found,
+                map.dir() + ": no edge to index (the index covers feature_segment, feature_localmaps and visual_memory)");
   for (std::size_t ei = 0; ei < edges.size(); ++ei) {
     const EdgeRecord& e = *edges[ei];
     if (progress) progress("places", static_cast<double>(ei), static_cast<double>(edges.size()));

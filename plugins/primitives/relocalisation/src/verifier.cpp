@@ -26,8 +26,9 @@ std::string blank_reason(const cv::Mat& image, const Features& features, const R
   return {};
 }
 
-PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading)
-    : index_(index), map_(map), source_(map), estimator_(heading) {
+PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading,
+                             Detector* detector)
+    : index_(index), map_(map), source_(map, detector), estimator_(heading) {
   code_.resize(static_cast<std::size_t>(index_.code_words()));
 }
 

@@ -1,5 +1,6 @@
 #include "visnav/visual_memory/teacher.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
@@ -35,8 +36,11 @@ void MemoryTeacher::detect_more(const cv::Mat& grey) {
   if (!corners.empty())
     cv::cornerSubPix(grey, corners, cv::Size(3, 3), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 10, 0.03));
+  // cornerSubPix may move a corner at the border a hair outside the image (-0.002 px seen on the
+  // campus route), which the payload decoder rightly rejects: keep corners inside [0, size - 1].
+  const float max_x = static_cast<float>(grey.cols - 1), max_y = static_cast<float>(grey.rows - 1);
   for (const auto& c : corners) {
-    tracks_.push_back(c);
+    tracks_.push_back({std::clamp(c.x, 0.0f, max_x), std::clamp(c.y, 0.0f, max_y)});
     track_ids_.push_back(next_id_++);
   }
 }

@@ -12,7 +12,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_payloads.hpp"
 #include "visnav/map.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/relocalisation/verifier.hpp"

@@ -12,6 +12,11 @@
 //    when it creeps forward (both ends advance alike); with the odometry prior of where the
 //    robot stopped it answers the right leg. This map is taught with trees/teach_hybrid_route.xml,
 //    which builds the place index at its end.
+//  * visual_memory: the same rectangle taught as four visual_memory edges
+//    (trees/teach_hybrid_visual_memory.xml, whose BuildPlaceIndex describes the reference images
+//    with the config's detector); 1.5 m into the second leg, off it and turned, Relocalise (creeping
+//    1 m, the shipped trees' settings) answers the second leg within 1 m; a prior on a
+//    path_following edge is answered not_indexed without moving.
 //  * BuildPlaceIndex as the teach trees use it (required="false") on a path-only map and on a
 //    map of float descriptors: the teach never fails for want of an index.
 #include <gtest/gtest.h>
@@ -29,7 +34,7 @@
 
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/tree.hpp"
-#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_payloads.hpp"
 #include "visnav/map.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/runner.hpp"
@@ -63,17 +68,17 @@ std::unique_ptr<Session> make_session(const std::string& map_dir, const std::vec
   return std::move(*session);
 }
 
-/// Teaches `route` (four feature_segment legs of a closed rectangle) into `map_dir` with
+/// Teaches `route` (four legs of kind `kind` of a closed rectangle) into `map_dir` with
 /// trees/`teach_tree`.
 void teach(const std::string& map_dir, const std::string& world, const std::string& route,
-           const std::string& teach_tree = "teach_feature_edge.xml") {
+           const std::string& teach_tree = "teach_feature_edge.xml", const std::string& kind = "feature_segment") {
   auto session = make_session(map_dir, {"robot.params.world=" + world});
   ASSERT_NE(session, nullptr);
   auto tree = session->load_tree(kSource + "/trees/" + teach_tree);
   ASSERT_TRUE(tree.ok()) << tree.error().message;
   tree->blackboard().set("route_file", kSource + "/config/routes/" + route + ".yaml");
   tree->blackboard().set("style", std::string("segment"));
-  tree->blackboard().set("force_kind", std::string("feature_segment"));
+  tree->blackboard().set("force_kind", kind);
   tree->blackboard().set("close_loop", true);
   const RunReport report = run_tree(*session, *tree);
   ASSERT_EQ(report.outcome, RunOutcome::success) << report.reason;
@@ -109,7 +114,8 @@ TEST(RelocClosedLoopSim, ReplaysTheRestOfTheRouteFromTheMiddleOfAnEdge) {
   const std::string map_dir = tmp.file("map");
   teach(map_dir, "curve20m", "curve20m_polygon");
   if (HasFatalFailure()) return;
-  ASSERT_FALSE(fs::exists(map_dir + "/place_index.bin")) << "the teach tree builds no index: built on demand below";
+  ASSERT_TRUE(fs::exists(map_dir + "/place_index.bin")) << "the teach tree builds the index";
+  fs::remove(map_dir + "/place_index.bin");  // a map taught before the index existed: built on demand below
   std::string second_edge;
   {
     auto map = MapStore::open(map_dir);
@@ -279,6 +285,73 @@ TEST(RelocClosedLoopSim, CoveredCameraAndRepetitiveLoopAreRefusedNotGuessed) {
     auto d = tree->blackboard().get<double>("reloc_distance_m");
     ASSERT_TRUE(d.ok());
     EXPECT_NEAR(*d, 1.5 * 1.03, 1.0);
+  }
+}
+
+TEST(RelocClosedLoopSim, RelocalisesOnAVisualMemoryEdgeAndRefusesAPriorOnAnUnindexedKind) {
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  teach(map_dir, "curve20m", "curve20m_polygon", "teach_hybrid_visual_memory.xml", "visual_memory");
+  if (HasFatalFailure()) return;
+  std::string second_edge;
+  {
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok());
+    second_edge = map->edges()[1].id;
+    EXPECT_EQ(map->edges()[1].kind, "visual_memory");
+    auto index = reloc::load_place_index(map_dir);
+    ASSERT_TRUE(index.ok()) << "the teach tree indexes the reference images: " << index.error().message;
+    EXPECT_TRUE(index->matches(*map).ok());
+    EXPECT_EQ(index->edges.size(), 4u);
+    EXPECT_GE(index->places.size(), 8u) << "a place per reference image";
+  }
+  {
+    // 1.5 m into the second leg ((3, -2) -> (3, 2)), 0.15 m to its right, turned 15 deg left.
+    auto session = make_session(map_dir, {"robot.params.start_pose=3.15;-0.5;105"});
+    ASSERT_NE(session, nullptr);
+    SimulationControl* sim = session->robot().simulation();
+    std::optional<bt::Tree> holder;
+    bt::Tree* tree = nullptr;
+    const RunReport report = relocalise_only(
+        *session, tmp, R"(creep_m="1" creep_unrecognised="1" min_answer_confidence="0.35" min_agreement="0.85")", &tree,
+        holder);
+    const Pose2D at = sim->ground_truth_pose();
+    const double truth_m = (at.y_m + 2.0) * 1.03;  // odometric metres along the leg
+    std::printf("visual memory: %s: %s (truth ~%.2f m)\n", bb_string(*tree, "reloc_status").c_str(),
+                bb_string(*tree, "reloc_reason").c_str(), truth_m);
+    EXPECT_EQ(report.outcome, RunOutcome::success) << bb_string(*tree, "reloc_reason");
+    EXPECT_EQ(bb_string(*tree, "reloc_edge"), second_edge) << bb_string(*tree, "reloc_reason");
+    auto d = tree->blackboard().get<double>("reloc_distance_m");
+    ASSERT_TRUE(d.ok());
+    EXPECT_NEAR(*d, truth_m, 1.0);
+  }
+  {
+    // A path_following edge added to the map: a prior on it is answered not_indexed at once.
+    std::string path_edge;
+    {
+      auto map = MapStore::open(map_dir);
+      ASSERT_TRUE(map.ok());
+      EdgeRecord e;
+      e.from = map->edges()[0].from;
+      e.to = map->edges()[0].to;
+      e.kind = "path_following";
+      e.length_m = 4.0;
+      auto id = map->add_edge(e, std::vector<std::uint8_t>{1, 2, 3});
+      ASSERT_TRUE(id.ok()) << id.error().message;
+      path_edge = *id;
+    }
+    auto session = make_session(map_dir, {"robot.params.start_pose=3.15;-0.5;105"});
+    ASSERT_NE(session, nullptr);
+    SimulationControl* sim = session->robot().simulation();
+    const Pose2D before = sim->ground_truth_pose();
+    std::optional<bt::Tree> holder;
+    bt::Tree* tree = nullptr;
+    const RunReport report = relocalise_only(
+        *session, tmp, "creep_m=\"1\" prior_edge=\"" + path_edge + "\" prior_sigma_m=\"2\"", &tree, holder);
+    EXPECT_EQ(report.outcome, RunOutcome::failure);
+    EXPECT_EQ(bb_string(*tree, "reloc_status"), "not_indexed") << bb_string(*tree, "reloc_reason");
+    const Pose2D after = sim->ground_truth_pose();
+    EXPECT_LT(std::hypot(after.x_m - before.x_m, after.y_m - before.y_m), 0.01) << "answered before moving";
   }
 }
 

@@ -34,6 +34,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "visnav/devices.hpp"
+#include "visnav/feature_payloads.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/replay_common.hpp"
 #include "visnav/params.hpp"
@@ -42,38 +43,7 @@
 
 namespace visnav::feature_replay {
 
-struct RecordedCommand {
-  double distance_m = 0.0;  ///< distance from the path start at which the operator issued it
-  Twist command;
-};
-
-struct LocalMap {
-  double distance_m = 0.0;                 ///< distance from the path start
-  std::vector<cv::Point2f> positions_px;   ///< keypoint positions
-  cv::Mat descriptors;                     ///< one row per position (CV_8UC1 or CV_32FC1)
-  std::vector<std::uint8_t> jpeg;          ///< optional JPEG of the image (empty if not stored)
-
-  [[nodiscard]] ReferenceView view() const { return ReferenceView{descriptors, positions_px}; }
-};
-
-struct LocalMapPath {
-  static constexpr std::uint16_t kFormatVersion = 1;
-
-  double length_m = 0.0;
-  std::vector<LocalMap> maps;              ///< sorted by distance
-  std::vector<RecordedCommand> commands;   ///< sorted by distance
-
-  /// Index of the local map nearest `distance_m` (-1 if there are none). O(log n).
-  [[nodiscard]] int nearest_map(double distance_m) const;
-  /// The last command issued at or before `distance_m` (the first one before it; zero if none). O(log n).
-  [[nodiscard]] Twist command_at(double distance_m) const;
-
-  /// Compact little-endian binary body (the map store adds its own header and checksum).
-  [[nodiscard]] std::vector<std::uint8_t> serialize() const;
-  /// Parses a body made by serialize(); rejects garbage, truncation and inconsistent values.
-  [[nodiscard]] static Result<LocalMapPath> deserialize(std::span<const std::uint8_t> body);
-  [[nodiscard]] Status validate() const;
-};
+// RecordedCommand, LocalMap and LocalMapPath (the payload): visnav/feature_payloads.hpp.
 
 struct LocalMapTeachParams {
   double map_interval_m = 0.2;      ///< distance between local maps

@@ -54,6 +54,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "visnav/devices.hpp"
+#include "visnav/feature_payloads.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/replay_common.hpp"
 #include "visnav/params.hpp"
@@ -62,37 +63,7 @@
 
 namespace visnav::feature_replay {
 
-/// One landmark (e, k, u, v, f, g) of seed 000; its descriptor e is row i of SegmentMap::descriptors.
-struct Landmark {
-  std::uint32_t count = 0;        ///< k: frames in which it was detected
-  cv::Point2f first_px;           ///< u: image position at the first detection
-  cv::Point2f last_px;            ///< v: image position at the last detection
-  float first_distance_m = 0.0f;  ///< f: distance from the segment start at the first detection
-  float last_distance_m = 0.0f;   ///< g: distance at the last detection (>= f)
-
-  /// Expected image position at distance d (linear interpolation, clamped to [f, g]).
-  [[nodiscard]] cv::Point2f expected_px(double distance_m) const;
-};
-
-/// One taught segment: azimuth, odometric length and landmarks sorted by first distance.
-struct SegmentMap {
-  /// Payload layout version written by serialize() (see docs/feature_replay.md).
-  static constexpr std::uint16_t kFormatVersion = 1;
-
-  double length_m = 0.0;
-  double azimuth_rad = 0.0;           ///< heading at the segment start (odom/compass frame)
-  std::vector<Landmark> landmarks;    ///< sorted by first_distance_m
-  cv::Mat descriptors;                ///< row i describes landmarks[i]; CV_8UC1 or CV_32FC1
-  double max_span_m = 0.0;            ///< max(g - f) over the landmarks (replay search window)
-
-  /// Compact little-endian binary body (the map store adds its own header and checksum).
-  [[nodiscard]] std::vector<std::uint8_t> serialize() const;
-  /// Parses a body made by serialize(); rejects wrong magic/version, truncation, trailing bytes,
-  /// non-finite or inconsistent values with an Error (never crashes on garbage).
-  [[nodiscard]] static Result<SegmentMap> deserialize(std::span<const std::uint8_t> body);
-  /// Checks the invariants (sizes, ordering, finite values).
-  [[nodiscard]] Status validate() const;
-};
+// Landmark and SegmentMap (the payload): visnav/feature_payloads.hpp.
 
 struct SegmentTeachParams {
   double track_ratio = 0.8;          ///< ratio test when matching tracked landmarks (1 = off)

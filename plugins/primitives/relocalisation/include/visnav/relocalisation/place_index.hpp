@@ -1,8 +1,13 @@
 // relocalisation core — the place index of a map (issue 21).
 //
-// A place is a taught position: one local map of a feature_localmaps edge, or one sample every
+// A place is a taught position: one local map of a feature_localmaps edge, one sample every
 // `segment_spacing_m` along a feature_segment edge (the landmarks visible there, at their expected
-// image positions). Each place gets a whole-image binary code: the map's binary descriptors are
+// image positions), or one reference image of a visual_memory edge (those store images and
+// tracked corners but no descriptors: the reference image is described with a detector at index
+// time, the run's configured detector for BuildPlaceIndex and on-demand builds, `--detector` for
+// `visnav reloc-index`; it must be the detector Relocalise runs with). path_following edges store
+// one colour model per edge, nothing that varies along it: they are not indexed (Relocalise says
+// so rather than guessing, see relocaliser.hpp). Each place gets a whole-image binary code: the map's binary descriptors are
 // clustered into a vocabulary of `vocabulary_words` words (k-majority, the binary counterpart of
 // k-means: each word is the bitwise majority of its members), and bit w of a place's code is set
 // when one of its descriptors is nearest to word w (a bag-of-binary-words presence vector). The
@@ -36,6 +41,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "visnav/devices.hpp"
 #include "visnav/map.hpp"
 #include "visnav/params.hpp"
 #include "visnav/result.hpp"
@@ -47,8 +53,9 @@ inline constexpr char kIndexMagic[8] = {'V', 'N', 'A', 'V', 'P', 'I', 'D', 'X'};
 inline constexpr std::uint32_t kIndexVersion = 1;
 inline constexpr const char* kSegmentKind = "feature_segment";
 inline constexpr const char* kLocalMapsKind = "feature_localmaps";
+inline constexpr const char* kMemoryKind = "visual_memory";
 
-/// True for the edge kinds the index covers (the feature primitive's).
+/// True for the edge kinds the index covers (the feature primitive's and visual_memory).
 [[nodiscard]] bool indexable_kind(std::string_view kind);
 
 struct PlaceIndexParams {
@@ -124,11 +131,17 @@ struct PlaceFeatures {
   std::vector<cv::Point2f> positions_px;  ///< where each is expected in the image
 };
 
-/// Decodes feature payloads on demand and caches them (one decode per edge). Single-threaded.
+/// Decodes payloads on demand and caches them (one decode per edge; a visual_memory edge's
+/// reference images are described once, with `detector`). Single-threaded.
 class PlaceSource {
  public:
-  explicit PlaceSource(const MapStore& map) : map_(map) {}
-  /// Positions of the places of `edge` (local-map distances, or 0, spacing, ..., length).
+  /// `detector` (may be nullptr: visual_memory edges are then an error naming the fix) must
+  /// outlive the source and be the one whose descriptors the index was (or is being) built with.
+  explicit PlaceSource(const MapStore& map, Detector* detector = nullptr) : map_(map), detector_(detector) {}
+  /// Replaces the detector for edges not described yet (e.g. the run's detector after a live
+  /// reload); descriptions already cached are kept.
+  void set_detector(Detector* detector) { detector_ = detector; }
+  /// Positions of the places of `edge` (local-map or reference distances, or 0, spacing, ..., length).
   Result<std::vector<float>> place_distances(const EdgeRecord& edge, double segment_spacing_m);
   /// The reference features of the place at `distance_m` on `edge_id`: the local map nearest it,
   /// or the segment landmarks visible there at their expected positions. Valid until the next call.
@@ -138,14 +151,17 @@ class PlaceSource {
   struct Decoded;
   Result<const Decoded*> decode(const EdgeRecord& edge);
   const MapStore& map_;
+  Detector* detector_ = nullptr;
   std::map<std::string, std::shared_ptr<const Decoded>, std::less<>> cache_;
   PlaceFeatures scratch_;
 };
 
 /// Builds the index of every indexable edge of `map` (payloads read and verified by the store).
-/// Errors: no indexable edge, float descriptors, a payload that does not decode (named).
+/// `detector` describes the reference images of visual_memory edges (see PlaceSource).
+/// Errors: no indexable edge, float descriptors, a payload that does not decode (named), a
+/// visual_memory edge without a detector (invalid_value naming the edge).
 [[nodiscard]] Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params,
-                                                   const IndexProgress& progress = {});
+                                                   Detector* detector = nullptr, const IndexProgress& progress = {});
 
 /// Path of the index file of a map folder.
 [[nodiscard]] std::string index_path(const std::string& map_dir);

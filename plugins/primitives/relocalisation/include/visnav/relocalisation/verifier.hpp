@@ -2,7 +2,7 @@
 //
 // votes(): the frame's features are coded with the index vocabulary, the `candidates` nearest
 // places by Hamming distance are fetched, and each is verified with the feature primitive's
-// matching and histogram voting (feature_replay/heading.hpp) against that place's reference
+// matching and histogram voting (visnav/histogram_voting.hpp, the SDK's) against that place's reference
 // features (PlaceSource). A place whose estimate is valid and reaches min_confidence becomes a
 // PlaceVote carrying the estimate's heading offset (robot heading minus taught heading, rad).
 // blank_reason(): why a frame is unusable (a covered or dark camera), or empty.
@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "visnav/devices.hpp"
-#include "visnav/feature_replay/heading.hpp"
+#include "visnav/histogram_voting.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/relocalisation/relocaliser.hpp"
 
@@ -26,8 +26,12 @@ namespace visnav::reloc {
 
 class PlaceVerifier {
  public:
-  /// `index` and `map` must outlive the verifier.
-  PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading);
+  /// `index` and `map` must outlive the verifier; `detector` (the one the frames are described
+  /// with) describes visual_memory reference images (PlaceSource), may be nullptr for a map without.
+  PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading,
+                Detector* detector = nullptr);
+  /// The run's detector changed (live reload): used for edges not described yet.
+  void set_detector(Detector* detector) { source_.set_detector(detector); }
   /// Verified places of one frame (see the file comment). Errors: features of the wrong type,
   /// a payload that cannot be read.
   Result<std::vector<PlaceVote>> votes(const Features& current, double image_width_px, int candidates,

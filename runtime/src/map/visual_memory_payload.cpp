@@ -1,4 +1,4 @@
-#include "visnav/visual_memory/memory.hpp"
+#include "visnav/visual_memory_payload.hpp"
 
 #include <algorithm>
 #include <cmath>

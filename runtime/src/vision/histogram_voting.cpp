@@ -1,5 +1,5 @@
 // Matching and histogram voting (see heading.hpp for the contract).
-#include "visnav/feature_replay/heading.hpp"
+#include "visnav/histogram_voting.hpp"
 
 #include <algorithm>
 #include <cmath>

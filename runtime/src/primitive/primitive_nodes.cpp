@@ -365,7 +365,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     if (const auto scale = get_input<double>("distance_scale"); scale) {
       if (!(*scale >= 0.5 && *scale <= 2.0))
         return fail(ErrorCode::out_of_range, {"", 0, "distance_scale"},
-                    "value " + format_double(*scale) + " is not in [0.5, 2]");
+                    "port 'distance_scale': value " + format_double(*scale) + " is not in [0.5, 2]");
       scale_ = *scale;
     }
     origin_m_ = odom->distance_m - scale_ * (carried && std::isfinite(*carried) ? *carried : 0.0);

@@ -223,7 +223,7 @@ bt::PortsList FollowRoute::provided_ports() {
           "the edge and the edge's own visual correction removes the rest (a replay never depends on the heading "
           "drift accumulated while teaching); absolute = turn to the edge's odometry-frame azimuth (only when the "
           "replay's odometry frame is the teach run's)"),
-      bt::input_port<bool>("scale_distance", "true",
+      bt::input_port<bool>("scale_distance", "false",
                            "estimate this replay's odometric distance scale against the teach run's from the "
                            "edges whose primitive fixed its end visually (end_shift_m != 0) and hand it to the "
                            "children (distance_scale); without such edges it stays 1"),

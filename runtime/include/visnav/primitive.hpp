@@ -87,6 +87,8 @@ struct ReplayStart {
 
 /// One new frame. References are valid during step() only.
 struct ReplayInput {
+  /// The robot's odometry; its distance_m counts from origin_m in the teach run's metres (the
+  /// node's `distance_scale`, FollowRoute's odometry scale estimate; 1 = as measured).
   const Odometry& odometry;
   double edge_distance_m = 0.0;    ///< Odometry::distance_m - origin_m
   const Frame& frame;

@@ -244,6 +244,10 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
         bt::input_port<double>("carried_m", "{edge_carried_m}",
                                "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
                                "unset counts as 0)"),
+        bt::input_port<double>("distance_scale", "{edge_distance_scale}",
+                               "odometric metres per taught metre (FollowRoute's estimate of this replay's odometry "
+                               "scale against the teach run's): the primitive sees the edge's distance divided by it, "
+                               "so the edge ends where it ended when taught; unset counts as 1, else in [0.5, 2]"),
         bt::output_port<int>("lap", "{lap}", "0-based lap being driven (closed paths driven several times)"),
         bt::output_port<double>("end_shift_m", "{edge_end_shift_m}",
                                 "when the edge ends: how much earlier (positive) or later in odometric distance than "
@@ -276,7 +280,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
 
     const char* problem = frames_.inspect(*frame, type_->uses_detector ? host_.active_detector() : nullptr,
                                           expected_width_px_, expected_height_px_, host_.logger(), *this);
-    const ReplayInput input{*odom, odom->distance_m - origin_m_, *frame,
+    // The primitive sees distance in the teach run's odometric metres (distance_scale).
+    const Odometry taught_odom = in_taught_units(*odom);
+    const ReplayInput input{taught_odom, taught_odom.distance_m - origin_m_, *frame,
                             type_->uses_detector ? &frames_.features() : nullptr, problem};
     ReplayStep step = replayer_->step(input);
     if (problem != nullptr) step.confidence = 0.0;
@@ -306,7 +312,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     }
     if (step.finished) {
       // Where the primitive put the edge's end: its own along-edge distance against odometry's.
-      const double shift_m = step.distance_m - (odom->distance_m - origin_m_);
+      const double shift_m = step.distance_m - (taught_odom.distance_m - origin_m_);
       (void)set_output("end_shift_m", std::isfinite(shift_m) ? shift_m : 0.0);
       (void)robot.stop();
       last_command_ = Twist{};
@@ -355,10 +361,18 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     if (!odom) return fail("no odometry yet");
     // The edge counts as started `carried_m` before here (FollowRoute; an unset entry counts as 0).
     const auto carried = get_input<double>("carried_m");
-    origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
+    scale_ = 1.0;
+    if (const auto scale = get_input<double>("distance_scale"); scale) {
+      if (!(*scale >= 0.5 && *scale <= 2.0))
+        return fail(ErrorCode::out_of_range, {"", 0, "distance_scale"},
+                    "port 'distance_scale': value " + format_double(*scale) + " is not in [0.5, 2]");
+      scale_ = *scale;
+    }
+    origin_m_ = odom->distance_m - scale_ * (carried && std::isfinite(*carried) ? *carried : 0.0);
     // ReplayStart holds a view of the node path: keep the string alive past begin().
     const std::string node_path = path();
-    const ReplayStart start{*edge, *body, *odom, origin_m_, health_.policy(), host_.logger(), node_path};
+    const Odometry taught_odom = in_taught_units(*odom);
+    const ReplayStart start{*edge, *body, taught_odom, origin_m_, health_.policy(), host_.logger(), node_path};
     if (auto st = replayer_->begin(start); !st) return fail("edge " + edge_id_ + " payload: " + st.error().message);
 
     std::optional<TaughtHeading> taught;
@@ -432,7 +446,15 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
   Twist last_command_;
   std::string edge_id_;
   std::string edge_kind_;
+  /// Odometry as the primitive sees it: distance since the edge's origin divided by scale_.
+  [[nodiscard]] Odometry in_taught_units(const Odometry& odom) const {
+    Odometry o = odom;
+    o.distance_m = origin_m_ + (odom.distance_m - origin_m_) / scale_;
+    return o;
+  }
+
   double origin_m_ = 0.0;
+  double scale_ = 1.0;  ///< distance_scale of this edge
   double last_frame_odom_m_ = 0.0;
   int expected_width_px_ = 0;  ///< from the edge statistics (0 = unknown)
   int expected_height_px_ = 0;

@@ -147,8 +147,8 @@ SegmentReplayParams tuned_segment_replay() {
   SegmentReplayParams p;
   p.gain_radps_per_px = 0.01;  // tuned in the simulator (the core's 0.003 is seed 000's)
   // Along-track correction off (seed 000's odometric edge end): on the campus experiment it made
-  // the hybrid result worse (feature edges ended 0.2-0.4 m short; docs/feature_replay.md,
-  // "Along-track correction"). A tree may switch it on per edge with along_gain.
+  // the hybrid result worse, alone and as the fixes of FollowRoute's odometry scale estimate
+  // (docs/feature_replay.md, "Along-track correction"). A tree may switch it on with along_gain.
   p.along_gain = 0.0;
   return p;
 }

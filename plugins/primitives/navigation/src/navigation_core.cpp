@@ -71,6 +71,45 @@ double carried_distance_m(double beyond_end_m, double taught_gap_m, double turn_
   return std::clamp((beyond_end_m - taught_gap_m) * std::cos(turn_rad), -max_carry_m, max_carry_m);
 }
 
+Status DistanceScaleParams::validate() const {
+  if (!(min_baseline_m > 0.0) || !std::isfinite(min_baseline_m))
+    return fail(ErrorCode::out_of_range, {"", 0, "scale_min_baseline_m"},
+                "value " + std::to_string(min_baseline_m) + " must be a finite distance > 0");
+  if (!(max_deviation > 0.0 && max_deviation <= 0.5))
+    return fail(ErrorCode::out_of_range, {"", 0, "scale_max_deviation"},
+                "value " + std::to_string(max_deviation) + " must be in (0, 0.5]");
+  return ok();
+}
+
+void DistanceScaleEstimator::add_fix(double taught_m, double odometry_m) {
+  if (!std::isfinite(taught_m) || !std::isfinite(odometry_m)) return;
+  if (n_ == 0) {
+    t0_ = taught_m;
+    d0_ = odometry_m;
+    t_min_ = t_max_ = taught_m;
+  }
+  const double t = taught_m - t0_, d = odometry_m - d0_;
+  ++n_;
+  sum_t_ += t;
+  sum_d_ += d;
+  sum_tt_ += t * t;
+  sum_td_ += t * d;
+  t_min_ = std::min(t_min_, taught_m);
+  t_max_ = std::max(t_max_, taught_m);
+}
+
+void DistanceScaleEstimator::reset() { *this = DistanceScaleEstimator(params_); }
+
+double DistanceScaleEstimator::scale() const {
+  if (n_ < 2 || t_max_ - t_min_ < params_.min_baseline_m) return 1.0;
+  const double n = static_cast<double>(n_);
+  const double var_t = sum_tt_ - sum_t_ * sum_t_ / n;
+  if (!(var_t > 0.0)) return 1.0;
+  const double slope = (sum_td_ - sum_t_ * sum_d_ / n) / var_t;
+  if (!std::isfinite(slope)) return 1.0;
+  return std::clamp(slope, 1.0 - params_.max_deviation, 1.0 + params_.max_deviation);
+}
+
 Result<KindMap> parse_kind_map(const std::vector<std::string>& entries) {
   KindMap out;
   for (const auto& entry : entries) {

@@ -223,6 +223,15 @@ bt::PortsList FollowRoute::provided_ports() {
           "the edge and the edge's own visual correction removes the rest (a replay never depends on the heading "
           "drift accumulated while teaching); absolute = turn to the edge's odometry-frame azimuth (only when the "
           "replay's odometry frame is the teach run's)"),
+      bt::input_port<bool>("scale_distance", "false",
+                           "estimate this replay's odometric distance scale against the teach run's from the "
+                           "edges whose primitive fixed its end visually (end_shift_m != 0) and hand it to the "
+                           "children (distance_scale); without such edges it stays 1"),
+      bt::input_port<double>("scale_min_baseline_m", "20",
+                             "taught distance the visual fixes must span before the scale is used, m (> 0)"),
+      bt::input_port<double>("scale_max_deviation", "0.1", "clamp of |distance_scale - 1|, (0, 0.5]"),
+      bt::output_port<double>("distance_scale", "{edge_distance_scale}",
+                              "odometric metres per taught metre for the edge being driven (children read it)"),
       bt::output_port<double>("carried_m", "{edge_carried_m}",
                               "distance of the edge already covered when it starts (children read it; 0 when off)"),
       bt::output_port<std::string>("edge", "{edge}", "the edge being traversed (children read it)"),
@@ -262,6 +271,26 @@ Status FollowRoute::start() {
   if (first_turn != "none" && first_turn != "absolute")
     return fail("port 'first_edge_turn': '" + first_turn + "' is not one of: none, absolute");
   first_turn_absolute_ = first_turn == "absolute";
+  VISNAV_ASSIGN(scale_distance_, get_input<bool>("scale_distance"));
+  DistanceScaleParams scale_params;
+  VISNAV_ASSIGN(scale_params.min_baseline_m, get_input<double>("scale_min_baseline_m"));
+  VISNAV_ASSIGN(scale_params.max_deviation, get_input<double>("scale_max_deviation"));
+  VISNAV_TRY(scale_params.validate());
+  {
+    // The fixes stay valid while the robot goes on from where the last route ended (a patrol's
+    // next lap); a route that starts elsewhere (relocalised, another start) starts afresh.
+    auto previous = get_input<std::string>("previous_edge");
+    const EdgeRecord* prev = previous ? map->find_edge(*previous) : nullptr;
+    const EdgeRecord* first = route_.empty() ? nullptr : map->find_edge(route_.front());
+    const bool continues = prev != nullptr && first != nullptr && prev->to == first->from && start_distance_m_ == 0.0 &&
+                           previous && *previous == ended_edge_;
+    if (!continues || scale_params.min_baseline_m != scale_params_.min_baseline_m ||
+        scale_params.max_deviation != scale_params_.max_deviation) {
+      scale_params_ = scale_params;
+      scale_estimator_ = DistanceScaleEstimator(scale_params_);
+      taught_total_m_ = 0.0;
+    }
+  }
   previous_start_heading_.reset();
   checkpointed_m_.reset();
   checkpoint_warned_ = false;
@@ -328,13 +357,18 @@ NodeStatus FollowRoute::tick() {
     }
     // The first edge of a route started from the middle (a relocalised robot): the rest of it.
     if (index_ == 0 && start_distance_m_ > 0.0) carried_m = start_distance_m_;
+    edge_scale_ = scale_distance_ ? scale_estimator_.scale() : 1.0;
+    // carried_m is in taught metres: the odometric overshoot divided by the scale.
+    carried_m /= (index_ == 0 && start_distance_m_ > 0.0) ? 1.0 : edge_scale_;
     edge_origin_m_.reset();
-    if (odom) edge_origin_m_ = odom->distance_m - carried_m;
+    if (odom) edge_origin_m_ = odom->distance_m - edge_scale_ * carried_m;
     if (auto st = set_output("carried_m", carried_m); !st) return fail_node(host_, *this, st.error().message);
+    if (auto st = set_output("distance_scale", edge_scale_); !st) return fail_node(host_, *this, st.error().message);
     if (auto st = set_output("edge", edge.id); !st) return fail_node(host_, *this, st.error().message);
     (void)set_output("current_node", edge.from);
     host_.logger().info(path(), "edge " + edge.id + " (" + edge.kind + ", " + std::to_string(edge.length_m) +
-                                    " m, carried " + std::to_string(carried_m) + " m)");
+                                    " m, carried " + std::to_string(carried_m) + " m, distance scale " +
+                                    std::to_string(edge_scale_) + ")");
     checkpointed_m_.reset();
   }
   save_progress(edge);
@@ -353,8 +387,11 @@ NodeStatus FollowRoute::tick() {
     // into the next edge would undo that correction.
     const auto shift = get_input<double>("end_shift_m");
     const double shift_m = shift && std::isfinite(*shift) ? *shift : 0.0;
-    ended_at_m_ = *edge_origin_m_ + edge.length_m - shift_m;
+    ended_at_m_ = *edge_origin_m_ + edge_scale_ * (edge.length_m - shift_m);
+    // A primitive that moved its end saw where the end node is: a fix of the distance scale.
+    if (scale_distance_ && shift_m != 0.0) scale_estimator_.add_fix(taught_total_m_ + edge.length_m, *ended_at_m_);
   }
+  taught_total_m_ += edge.length_m;
   ended_edge_ = edge.id;
   ++index_;
   if (index_ >= route_.size()) {
@@ -390,7 +427,7 @@ void FollowRoute::save_progress(const EdgeRecord& edge) {
   if (!checkpoint_ || !edge_origin_m_ || host_.frame_bus() == nullptr) return;
   const auto odom = host_.frame_bus()->latest_odometry();
   if (!odom) return;
-  const double along_m = std::clamp(odom->distance_m - *edge_origin_m_, 0.0, edge.length_m);
+  const double along_m = std::clamp((odom->distance_m - *edge_origin_m_) / edge_scale_, 0.0, edge.length_m);
   if (checkpointed_m_ && along_m - *checkpointed_m_ < checkpoint_interval_m_) return;
   MapStore& map = *host_.map();
   const EdgeRecord* last = map.find_edge(route_.back());

@@ -99,6 +99,11 @@ class FollowRoute final : public bt::ControlNode {
   std::size_t index_ = 0;
   bool turning_ = true;
   std::optional<double> turn_target_;
+  bool scale_distance_ = false;
+  DistanceScaleParams scale_params_;
+  DistanceScaleEstimator scale_estimator_;  ///< kept across laps (the node persists in a patrol)
+  double taught_total_m_ = 0.0;  ///< taught length of the edges driven since the estimator's reset
+  double edge_scale_ = 1.0;      ///< distance_scale given to the current edge
 };
 
 /// Operator-driven teaching (seed 000 Sec. 2.1): creates a node and closes the current edge

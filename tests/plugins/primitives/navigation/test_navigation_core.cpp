@@ -155,6 +155,36 @@ TEST(NavigationCore, CarriedDistanceProjectsTheOvershootOntoTheNextEdge) {
   EXPECT_DOUBLE_EQ(carried_distance_m(std::nan(""), 0.0, 0.0, 0.5), 0.0);
 }
 
+TEST(NavigationCore, DistanceScaleIsTheSlopeOfOdometryOverTaughtDistanceAtTheFixes) {
+  DistanceScaleEstimator est({.min_baseline_m = 20.0, .max_deviation = 0.1});
+  EXPECT_DOUBLE_EQ(est.scale(), 1.0);  // nothing seen yet
+  // Replay odometry reads 2 % more than the teach run's; the fixes carry +-3 cm of error and the
+  // mission started 1.5 m of odometry into the route (an offset, not a scale).
+  const double noise[] = {0.03, -0.02, 0.01, -0.03, 0.02, 0.0};
+  const double taught[] = {3.0, 11.0, 19.0, 30.0, 41.0, 60.0};
+  est.add_fix(taught[0], 1.5 + 1.02 * taught[0] + noise[0]);
+  est.add_fix(taught[1], 1.5 + 1.02 * taught[1] + noise[1]);
+  EXPECT_DOUBLE_EQ(est.scale(), 1.0);  // 8 m apart: below the baseline, the fixes' errors would dominate
+  for (int i = 2; i < 6; ++i) est.add_fix(taught[i], 1.5 + 1.02 * taught[i] + noise[i]);
+  EXPECT_EQ(est.fixes(), 6);
+  EXPECT_NEAR(est.scale(), 1.02, 0.002);
+  est.add_fix(std::nan(""), 3.0);  // ignored
+  EXPECT_EQ(est.fixes(), 6);
+
+  DistanceScaleEstimator clamped({.min_baseline_m = 5.0, .max_deviation = 0.1});
+  clamped.add_fix(0.0, 0.0);
+  clamped.add_fix(10.0, 13.0);
+  EXPECT_DOUBLE_EQ(clamped.scale(), 1.1);
+  clamped.reset();
+  EXPECT_EQ(clamped.fixes(), 0);
+  EXPECT_DOUBLE_EQ(clamped.scale(), 1.0);
+
+  EXPECT_TRUE(fails_with(DistanceScaleParams{.min_baseline_m = 0.0}.validate(), ErrorCode::out_of_range,
+                         key_only("scale_min_baseline_m")));
+  EXPECT_TRUE(fails_with(DistanceScaleParams{.max_deviation = 0.7}.validate(), ErrorCode::out_of_range,
+                         key_only("scale_max_deviation")));
+}
+
 TEST(NavigationCore, PlanFromEdgeIsTheRestOfThatEdgeThenTheCheapestRoute) {
   auto dir = temp_map_dir("from_edge");
   auto map = MapStore::create(dir.string(), "from_edge");

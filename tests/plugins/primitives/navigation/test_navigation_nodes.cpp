@@ -27,6 +27,7 @@ struct Recorder {
   std::vector<std::string> edges;             // edges replayed, in order
   std::vector<double> heading_at_edge_start;  // robot heading when each edge started
   std::vector<double> carried_m;              // {edge_carried_m} when each edge started
+  std::vector<double> distance_scale;         // {edge_distance_scale} when each edge started (unset: 1)
 };
 
 /// Replay child: drives the edge's length straight ahead at 1 m/s, counting the distance
@@ -39,6 +40,10 @@ class TestReplayEdge final : public bt::StatefulActionNode {
     return {bt::input_port<std::string>("edge", "{edge}", "edge"),
             bt::input_port<double>("carried_m", "{edge_carried_m}", "already covered"),
             bt::input_port<double>("end_early_m", "0", "end this much before the length (a visual correction)"),
+            bt::input_port<double>("distance_scale", "{edge_distance_scale}", "odometric m per taught m"),
+            bt::input_port<double>("truth_scale", "0",
+                                   "> 0: odometry reads this many metres per taught metre, and the child sees where "
+                                   "the edge really ends (a visual fix); it counts the edge with distance_scale"),
             bt::output_port<double>("end_shift_m", "{edge_end_shift_m}", "how much earlier it ended")};
   }
   NodeStatus on_start() override {
@@ -53,12 +58,27 @@ class TestReplayEdge final : public bt::StatefulActionNode {
     rec_.heading_at_edge_start.push_back(odom.pose.heading_rad);
     auto carried = get_input<double>("carried_m");
     rec_.carried_m.push_back(carried ? *carried : 0.0);
+    auto scale = get_input<double>("distance_scale");
+    scale_ = scale ? *scale : 1.0;
+    rec_.distance_scale.push_back(scale_);
+    auto truth = get_input<double>("truth_scale");
+    truth_scale_ = truth ? *truth : 0.0;
     start_m_ = odom.distance_m - rec_.carried_m.back();
     length_m_ = record->length_m;
     return on_running();
   }
   NodeStatus on_running() override {
     auto odom = *host_.frame_bus()->latest_odometry();
+    if (truth_scale_ > 0.0) {
+      // Ends where the edge really ends; reports how much earlier than its own count that was.
+      if (odom.distance_m - start_m_ >= truth_scale_ * length_m_ - 1e-9) {
+        (void)host_.robot()->stop();
+        (void)set_output("end_shift_m", length_m_ - (odom.distance_m - start_m_) / scale_);
+        return NodeStatus::success;
+      }
+      (void)host_.robot()->send_command({1.0, 0.0});
+      return NodeStatus::running;
+    }
     if (odom.distance_m - start_m_ >= length_m_ - end_early_m_ - 1e-9) {
       (void)host_.robot()->stop();
       (void)set_output("end_shift_m", end_early_m_);
@@ -72,7 +92,7 @@ class TestReplayEdge final : public bt::StatefulActionNode {
  private:
   HostServices& host_;
   Recorder& rec_;
-  double start_m_ = 0, length_m_ = 0, end_early_m_ = 0;
+  double start_m_ = 0, length_m_ = 0, end_early_m_ = 0, scale_ = 1, truth_scale_ = 0;
 };
 
 /// Teach child: records the distance while the operator drives; on {finish_edge} writes the
@@ -362,6 +382,42 @@ TEST_F(NavigationNodes, FollowRouteCarriesFromWhereTheChildEndedTheEdge) {
   ASSERT_EQ(rec_.carried_m.size(), 2u);
   EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
   EXPECT_NEAR(robot_.odom_.distance_m, 3.5, 1e-6);  // both ends 0.3 m early: 4.1 − 0.6
+}
+
+TEST_F(NavigationNodes, FollowRouteLearnsTheOdometryScaleFromVisualFixes) {
+  // Odometry reads 5 % more than when the route was taught. The child sees where each edge
+  // really ends (a visual fix) and reports it as end_shift_m; once the fixes span 15 m of taught
+  // distance, FollowRoute hands the scale to the next edge ({edge_distance_scale}), whose count
+  // then ends where the edge ends (shift 0). Off, every edge is counted with scale 1.
+  auto a = node("A"), b = node("B"), c = node("C"), d = node("D"), e = node("E");
+  edge(a, b, 10.0, 0.0, 0.0);
+  edge(b, c, 10.0, 0.0, 0.0);
+  edge(c, d, 10.0, 0.0, 0.0);
+  edge(d, e, 10.0, 0.0, 0.0);
+  auto run_with = [&](const std::string& on) {
+    rec_ = Recorder{};
+    robot_.odom_ = Odometry{};
+    robot_.command_ = Twist{};
+    robot_.publish();
+    auto tree = load(R"(<Sequence><PlanRoute start="A" goal="E"/>
+        <FollowRoute turn_tolerance_rad="0.01" carry_overshoot="false" scale_min_baseline_m="15" scale_distance=")" +
+                     on + R"(" primitives="feature_segment=TestReplayEdge"><TestReplayEdge truth_scale="1.05"/></FollowRoute>
+        </Sequence>)");
+    EXPECT_EQ(run(tree), NodeStatus::success);
+    EXPECT_NEAR(robot_.odom_.distance_m, 42.0, 0.11);  // the child ends every edge where it really ends
+    return tree.blackboard().get<double>("edge_distance_scale");
+  };
+  auto last = run_with("true");
+  ASSERT_EQ(rec_.distance_scale.size(), 4u);
+  EXPECT_DOUBLE_EQ(rec_.distance_scale[0], 1.0);
+  EXPECT_DOUBLE_EQ(rec_.distance_scale[1], 1.0);  // one fix: no slope yet
+  EXPECT_DOUBLE_EQ(rec_.distance_scale[2], 1.0);  // two fixes 10 m apart: below the 15 m baseline
+  EXPECT_NEAR(rec_.distance_scale[3], 1.05, 0.006);
+  ASSERT_TRUE(last.ok());
+  EXPECT_NEAR(*last, 1.05, 0.006);
+  last = run_with("false");
+  ASSERT_EQ(rec_.distance_scale.size(), 4u);
+  EXPECT_DOUBLE_EQ(rec_.distance_scale[3], 1.0);
 }
 
 TEST_F(NavigationNodes, FollowRouteSubtractsTheGapTaughtBetweenEdges) {

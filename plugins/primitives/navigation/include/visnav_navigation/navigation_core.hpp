@@ -60,6 +60,43 @@ inline constexpr const char* kStartGapStatistic = "start_gap_m";
 [[nodiscard]] double carried_distance_m(double beyond_end_m, double taught_gap_m, double turn_rad,
                                         double max_carry_m);
 
+/// Odometric distance scale of a replay against its teach run (FollowRoute's `distance_scale`):
+/// odometric metres driven now per odometric metre recorded while teaching. Teach and replay
+/// measure distance with different scale errors (tyre pressure, load, ground: the simulator draws
+/// one per run, docs/sim.md), so an edge that ends on odometry ends short or long by that share of
+/// its length; on the campus route that was the largest error left (docs/navigation.md, "Where
+/// the hybrid error came from"). Visual along-track fixes (edges whose primitive moved its end,
+/// `end_shift_m` != 0) say where the robot really is: a fix at cumulative taught distance T_i
+/// (the sum of the route's taught edge lengths up to that node) was reached at odometric
+/// distance D_i. The scale is the least-squares slope of D over T, over every fix since the
+/// estimator was reset, once the fixes span `min_baseline_m` of taught distance (1 before; a
+/// short span would turn the fixes' own errors of a few centimetres into a scale error); it is
+/// clamped to 1 ± max_deviation. Pure; single-threaded.
+struct DistanceScaleParams {
+  double min_baseline_m = 20.0;  ///< taught distance the fixes must span before the scale is used, m (> 0)
+  double max_deviation = 0.1;    ///< |scale − 1| clamp, (0, 0.5]
+  [[nodiscard]] Status validate() const;
+};
+class DistanceScaleEstimator {
+ public:
+  explicit DistanceScaleEstimator(DistanceScaleParams params = {}) : params_(params) {}
+  /// A visual fix: the node at cumulative taught distance `taught_m` was reached at odometric
+  /// distance `odometry_m`. Non-finite values are ignored.
+  void add_fix(double taught_m, double odometry_m);
+  /// Forget every fix (the robot's position along the route is no longer continuous with them).
+  void reset();
+  /// Odometric metres per taught metre (1 until the fixes span min_baseline_m).
+  [[nodiscard]] double scale() const;
+  [[nodiscard]] int fixes() const { return n_; }
+
+ private:
+  DistanceScaleParams params_;
+  int n_ = 0;
+  double t0_ = 0.0, d0_ = 0.0;  ///< first fix (the sums are relative to it, for precision)
+  double sum_t_ = 0.0, sum_d_ = 0.0, sum_tt_ = 0.0, sum_td_ = 0.0;
+  double t_min_ = 0.0, t_max_ = 0.0;
+};
+
 /// A "kind=NodeID" table mapping edge kinds to the behaviour-tree node that handles them.
 using KindMap = std::vector<std::pair<std::string, std::string>>;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <opencv2/imgproc.hpp>
 
@@ -13,6 +14,18 @@ namespace {
 
 void send(HostServices& host, double v_mps, double w_radps) {
   if (Robot* robot = host.robot()) (void)robot->send_command(Twist{v_mps, w_radps});
+}
+
+/// Debug log of a pair's points (odom frame) for diagnosing detours.
+void log_points(HostServices& host, const bt::TreeNode& node, const Pose2D& pose, const std::vector<cv::Point2d>& pts) {
+  if (pts.empty()) return;
+  std::string m = "pair at (" + std::to_string(pose.x_m) + ", " + std::to_string(pose.y_m) + "):";
+  char buf[48];
+  for (const auto& p : pts) {
+    std::snprintf(buf, sizeof buf, " (%.2f, %.2f)", p.x, p.y);
+    m += buf;
+  }
+  host.logger().log(LogLevel::debug, node.path(), m);
 }
 
 void stop(HostServices& host) {
@@ -45,7 +58,15 @@ bt::PortsList camera_ports() {
           bt::input_port<double>("camera_height_m", "0.5", "lens height above the ground"),
           bt::input_port<double>("camera_pitch_down_deg", "5", "downward tilt of the optical axis"),
           bt::input_port<double>("camera_forward_m", "0", "lens ahead of the robot origin"),
-          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin")};
+          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin"),
+          bt::input_port<double>("span_max_m", "2.2",
+                                 "neighbouring contact points this close bound one obstacle when its face shows "
+                                 "between them; the span is filled (0 = contact points only)"),
+          bt::input_port<double>("contact_ground_reach_px", "2",
+                                 "a GROUND feature this close ends an obstacle border's trace (spec 4.2)"),
+          bt::input_port<double>("foot_radius_px", "10",
+                                 "a contact's range is cut to the triangulated foot of the OBSTACLE features this many "
+                                 "columns from it (0 = the back-projection alone)")};
 }
 
 std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
@@ -69,7 +90,11 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
   else grey_ = frame->image;
   if (!pipeline_) {
     VISNAV_ASSIGN(IptCamera camera, read_camera(node, grey_));
-    VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, ProfileParams{}));
+    ProfileParams profiles;
+    VISNAV_ASSIGN(profiles.span_max_m, node.get_input<double>("span_max_m"));
+    VISNAV_ASSIGN(profiles.ground_reach_px, node.get_input<double>("contact_ground_reach_px"));
+    VISNAV_ASSIGN(profiles.foot_radius_px, node.get_input<double>("foot_radius_px"));
+    VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, profiles));
     pipeline_.emplace(std::move(p));
   }
   VISNAV_ASSIGN(auto pair, pipeline_->process(grey_, odom->pose));
@@ -77,6 +102,7 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
   std::vector<cv::Point2d> points;
   points.reserve(pair->contacts.size());
   for (const auto& c : pair->contacts) points.push_back(c.ground_m);
+  points.insert(points.end(), pair->span_points.begin(), pair->span_points.end());
   return std::optional<std::vector<cv::Point2d>>{std::move(points)};
 }
 
@@ -184,7 +210,10 @@ NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, Pipe
   }
   auto pose = runner.pose(host);
   if (!pose) return NodeStatus::running;
-  if (*fresh) filter_->add_points(**fresh);
+  if (*fresh) {
+    log_points(host, node, *pose, **fresh);
+    filter_->add_points(**fresh);
+  }
   const Decision d = filter_->decide(*pose, goal_m_);
   if (d.situation != last_situation_) {
     host.logger().info(node.path(), std::string(to_string(d.situation)) + " at (" + std::to_string(pose->x_m) + ", " +
@@ -319,7 +348,10 @@ NodeStatus ReplayAvoiding::tick() {
     stop(host_);
     return NodeStatus::failure;
   }
-  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  if (*fresh) {
+    log_points(host_, *this, odom->pose, **fresh);
+    corridor_.add(**fresh, odom->distance_m);
+  }
   auto blocked = corridor_.blocked(*this, *odom);
   if (!blocked) {
     host_.logger().error(path(), blocked.error().message);

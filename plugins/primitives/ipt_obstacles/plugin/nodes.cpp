@@ -55,7 +55,7 @@ Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
 
 }  // namespace
 
-bt::PortsList camera_ports() {
+bt::PortsList camera_ports(const char* foot_radius_default_px) {
   return {bt::input_port<double>("hfov_deg", "60", "camera horizontal field of view (pinhole, centred principal point)"),
           bt::input_port<double>("camera_height_m", "0.5", "lens height above the ground"),
           bt::input_port<double>("camera_pitch_down_deg", "5", "downward tilt of the optical axis"),
@@ -66,9 +66,10 @@ bt::PortsList camera_ports() {
                                  "between them; the span is filled (0 = contact points only)"),
           bt::input_port<double>("contact_ground_reach_px", "2",
                                  "a GROUND feature this close ends an obstacle border's trace (spec 4.2)"),
-          bt::input_port<double>("foot_radius_px", "10",
+          bt::input_port<double>("foot_radius_px", foot_radius_default_px,
                                  "a contact's range is cut to the triangulated foot of the OBSTACLE features this many "
-                                 "columns from it (0 = the back-projection alone)")};
+                                 "columns from it (0 = the back-projection alone; measured: the Ch. 6 strategy "
+                                 "stalls before the course's crates with it, the lane detour needs it)")};
 }
 
 std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
@@ -139,7 +140,7 @@ Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& o
 }
 
 bt::PortsList ObstacleAhead::provided_ports() {
-  bt::PortsList ports = camera_ports();
+  bt::PortsList ports = camera_ports("0");
   for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
   return ports;
 }
@@ -257,7 +258,7 @@ AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& co
     : bt::StatefulActionNode(name, config), host_(host) {}
 
 bt::PortsList AvoidObstacles::provided_ports() {
-  bt::PortsList ports = camera_ports();
+  bt::PortsList ports = camera_ports("0");
   for (auto& p : avoid_ports()) ports.push_back(std::move(p));
   return ports;
 }
@@ -297,7 +298,7 @@ ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& co
     : bt::DecoratorNode(name, config), host_(host) {}
 
 bt::PortsList ReplayAvoiding::provided_ports() {
-  bt::PortsList ports = camera_ports();
+  bt::PortsList ports = camera_ports("10");
   for (auto& p : avoid_ports()) ports.push_back(std::move(p));
   for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
   ports.push_back(bt::input_port<std::string>("detour", "lane",

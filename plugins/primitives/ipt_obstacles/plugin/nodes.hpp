@@ -48,7 +48,8 @@ class PipelineRunner {
   cv::Mat grey_;
 };
 
-bt::PortsList camera_ports();
+/// Camera mounting and contact-point ports; foot_radius_px defaults differ per node.
+bt::PortsList camera_ports(const char* foot_radius_default_px);
 
 /// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
 /// ObstacleAhead and ReplayAvoiding (ports corridor_ports()).

@@ -136,13 +136,15 @@ TEST(ContactRanges, CutToTheTriangulatedFootOfTheBordersFeatures) {
                                    // a feature of another border, and one below the contact: not used
                                    feature(FeatureClass::obstacle, 140, 120, {1.0, 0.0}, 1.0),
                                    feature(FeatureClass::obstacle, 100, 170, {1.0, 0.0}, 1.0)};
-  correct_contact_ranges(contacts, f, LensPose{}, travel, Pose2D{}, ProfileParams{});
+  ProfileParams on;
+  on.foot_radius_px = 10.0;  // ReplayAvoiding's default; the core's is the thesis (off)
+  correct_contact_ranges(contacts, f, LensPose{}, travel, Pose2D{}, on);
   EXPECT_NEAR(contacts[0].ground_m.x, d, 1e-9);
   EXPECT_NEAR(contacts[0].range_m, d, 1e-9);
   // Never pushed farther, and off when foot_radius_px = 0.
   std::vector<ContactPoint> near{c};
   near[0].ground_m = {1.5, 0.0};
-  correct_contact_ranges(near, f, LensPose{}, travel, Pose2D{}, ProfileParams{});
+  correct_contact_ranges(near, f, LensPose{}, travel, Pose2D{}, on);
   EXPECT_NEAR(near[0].ground_m.x, 1.5, 1e-12);
   ProfileParams off;
   off.foot_radius_px = 0.0;
@@ -170,7 +172,8 @@ TEST(ObstacleSpans, FilledBetweenTheBordersOfOneFaceNotAcrossAGap) {
   b.pixel = {240, 200};
   b.ground_m = {2.0, -0.95};
   const std::vector<ContactPoint> contacts{a, b};
-  const ProfileParams p;
+  ProfileParams p;
+  p.span_max_m = 2.2;  // the nodes' default; the core's is the thesis (off)
   // The face between them: obstacle features above the foot line (and ground ones below it).
   std::vector<ClassifiedFeature> face{feature(FeatureClass::obstacle, 120, 170), feature(FeatureClass::obstacle, 160, 175),
                                       feature(FeatureClass::ground, 150, 180), feature(FeatureClass::ground, 160, 220)};
@@ -189,6 +192,7 @@ TEST(ObstacleSpans, FilledBetweenTheBordersOfOneFaceNotAcrossAGap) {
   std::vector<ContactPoint> wide{a, b};
   wide[1].ground_m = {2.0, -1.5};
   EXPECT_TRUE(fill_obstacle_spans(wide, face, cam, p).empty());
+  EXPECT_TRUE(fill_obstacle_spans(contacts, face, cam, ProfileParams{}).empty());
 }
 
 }  // namespace

@@ -45,10 +45,11 @@ struct ProfileParams {
   int min_supporting_features = 2;  ///< a contact needs traces from this many obstacle features ending within
                                     ///< support_radius_px (1 = off) [ours, measured]
   double support_radius_px = 10.0;
-  double foot_radius_px = 10.0;      ///< correct_contact_ranges(): obstacle features this many columns from a
-                                    ///< contact (and above it) bound its range (0 = off) [ours, measured]
+  double foot_radius_px = 0.0;       ///< correct_contact_ranges(): obstacle features this many columns from a
+                                    ///< contact (and above it) bound its range (0 = off, the thesis; ReplayAvoiding 10) [ours, measured]
   // Obstacle spans (fill_obstacle_spans) [ours, measured in docs/obstacles.md]:
-  double span_max_m = 2.2;          ///< neighbouring contacts at most this far apart may bound one obstacle (0 = off)
+  double span_max_m = 0.0;          ///< neighbouring contacts at most this far apart may bound one obstacle (0 = off,
+                                    ///< the thesis; the nodes 2.2)
   double span_step_m = 0.15;        ///< spacing of the points filled in between
   double span_min_obstacle_share = 0.2;  ///< OBSTACLE share of the labelled features between them that fills
 

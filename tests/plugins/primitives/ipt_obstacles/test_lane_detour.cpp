@@ -84,7 +84,8 @@ TEST(LaneDetour, AShortUnseenLengthTurnsBackIntoTheVansSide) {
 
 TEST(LaneDetour, EndsAtTheLinesEndBackOnTheLine) {
   LaneDetourParams p;
-  p.end_s_m = 8.0;  // the edge ends 1.2 m past the van: the point holds only until 8 − 3 m
+  p.end_s_m = 8.0;  // the edge ends 5 m past a short box: the point holds only until 8 − return_m
+  p.return_m = 3.0;  // (the default 2 m leaves it 0.25 m beside the line at the end)
   const LoopResult r = drive(p, rear_face(), Box{2.0, 3.0, -0.75, 1.15});
   ASSERT_EQ(r.last.kind, LaneDecision::Kind::done) << r.last.reason;
   EXPECT_LE(r.last.s_m, 8.0 + 0.03);

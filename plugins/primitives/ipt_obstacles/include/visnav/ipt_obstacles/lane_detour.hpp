@@ -45,7 +45,7 @@ struct LaneDetourParams {
   double behind_m = 6.5;         ///< ... and this far behind the robot (the obstacle's unseen length: a van is 4.8 m, measured)
   double min_behind_m = 0.8;     ///< at least this far, whatever end_s_m says
   double end_s_m = 1e9;          ///< the line ends here (s from the detour start): the edge's end
-  double return_m = 3.0;         ///< travel kept for getting back onto the line before end_s_m
+  double return_m = 2.0;         ///< travel kept for getting back onto the line before end_s_m
   double max_offset_m = 2.5;     ///< widest lane searched on either side
   double offset_step_m = 0.05;   ///< lane search resolution
   double aim_ahead_m = 1.2;      ///< pursuit point along the line

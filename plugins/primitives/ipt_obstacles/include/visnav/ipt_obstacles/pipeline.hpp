@@ -77,7 +77,6 @@ class ObstaclePipeline {
   void restart();
 
   [[nodiscard]] const IptCamera& camera() const { return camera_; }
-  [[nodiscard]] ProfileParams& profile_params() { return profiles_; }
 
  private:
   ObstaclePipeline(IptCamera camera, PipelineParams pipeline, ClassifierParams classifier, ProfileParams profiles)

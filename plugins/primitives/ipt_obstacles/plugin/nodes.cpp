@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <opencv2/imgproc.hpp>
+
+#include "visnav/map.hpp"
 
 namespace visnav::ipt {
 
@@ -13,6 +16,18 @@ namespace {
 
 void send(HostServices& host, double v_mps, double w_radps) {
   if (Robot* robot = host.robot()) (void)robot->send_command(Twist{v_mps, w_radps});
+}
+
+/// Debug log of a pair's points (odom frame) for diagnosing detours.
+void log_points(HostServices& host, const bt::TreeNode& node, const Pose2D& pose, const std::vector<cv::Point2d>& pts) {
+  if (pts.empty()) return;
+  std::string m = "pair at (" + std::to_string(pose.x_m) + ", " + std::to_string(pose.y_m) + "):";
+  char buf[48];
+  for (const auto& p : pts) {
+    std::snprintf(buf, sizeof buf, " (%.2f, %.2f)", p.x, p.y);
+    m += buf;
+  }
+  host.logger().log(LogLevel::debug, node.path(), m);
 }
 
 void stop(HostServices& host) {
@@ -40,12 +55,21 @@ Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
 
 }  // namespace
 
-bt::PortsList camera_ports() {
+bt::PortsList camera_ports(const char* foot_radius_default_px) {
   return {bt::input_port<double>("hfov_deg", "60", "camera horizontal field of view (pinhole, centred principal point)"),
           bt::input_port<double>("camera_height_m", "0.5", "lens height above the ground"),
           bt::input_port<double>("camera_pitch_down_deg", "5", "downward tilt of the optical axis"),
           bt::input_port<double>("camera_forward_m", "0", "lens ahead of the robot origin"),
-          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin")};
+          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin"),
+          bt::input_port<double>("span_max_m", "2.2",
+                                 "neighbouring contact points this close bound one obstacle when its face shows "
+                                 "between them; the span is filled (0 = contact points only)"),
+          bt::input_port<double>("contact_ground_reach_px", "2",
+                                 "a GROUND feature this close ends an obstacle border's trace (spec 4.2)"),
+          bt::input_port<double>("foot_radius_px", foot_radius_default_px,
+                                 "a contact's range is cut to the triangulated foot of the OBSTACLE features this many "
+                                 "columns from it (0 = the back-projection alone; measured: the Ch. 6 strategy "
+                                 "stalls before the course's crates with it, the lane detour needs it)")};
 }
 
 std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
@@ -69,7 +93,11 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
   else grey_ = frame->image;
   if (!pipeline_) {
     VISNAV_ASSIGN(IptCamera camera, read_camera(node, grey_));
-    VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, ProfileParams{}));
+    ProfileParams profiles;
+    VISNAV_ASSIGN(profiles.span_max_m, node.get_input<double>("span_max_m"));
+    VISNAV_ASSIGN(profiles.ground_reach_px, node.get_input<double>("contact_ground_reach_px"));
+    VISNAV_ASSIGN(profiles.foot_radius_px, node.get_input<double>("foot_radius_px"));
+    VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, profiles));
     pipeline_.emplace(std::move(p));
   }
   VISNAV_ASSIGN(auto pair, pipeline_->process(grey_, odom->pose));
@@ -77,6 +105,7 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
   std::vector<cv::Point2d> points;
   points.reserve(pair->contacts.size());
   for (const auto& c : pair->contacts) points.push_back(c.ground_m);
+  points.insert(points.end(), pair->span_points.begin(), pair->span_points.end());
   return std::optional<std::vector<cv::Point2d>>{std::move(points)};
 }
 
@@ -111,7 +140,7 @@ Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& o
 }
 
 bt::PortsList ObstacleAhead::provided_ports() {
-  bt::PortsList ports = camera_ports();
+  bt::PortsList ports = camera_ports("0");
   for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
   return ports;
 }
@@ -184,7 +213,10 @@ NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, Pipe
   }
   auto pose = runner.pose(host);
   if (!pose) return NodeStatus::running;
-  if (*fresh) filter_->add_points(**fresh);
+  if (*fresh) {
+    log_points(host, node, *pose, **fresh);
+    filter_->add_points(**fresh);
+  }
   const Decision d = filter_->decide(*pose, goal_m_);
   if (d.situation != last_situation_) {
     host.logger().info(node.path(), std::string(to_string(d.situation)) + " at (" + std::to_string(pose->x_m) + ", " +
@@ -226,7 +258,7 @@ AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& co
     : bt::StatefulActionNode(name, config), host_(host) {}
 
 bt::PortsList AvoidObstacles::provided_ports() {
-  bt::PortsList ports = camera_ports();
+  bt::PortsList ports = camera_ports("0");
   for (auto& p : avoid_ports()) ports.push_back(std::move(p));
   return ports;
 }
@@ -266,9 +298,21 @@ ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& co
     : bt::DecoratorNode(name, config), host_(host) {}
 
 bt::PortsList ReplayAvoiding::provided_ports() {
-  bt::PortsList ports = camera_ports();
+  bt::PortsList ports = camera_ports("10");
   for (auto& p : avoid_ports()) ports.push_back(std::move(p));
   for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
+  ports.push_back(bt::input_port<std::string>("detour", "lane",
+                                              "lane: a free lateral offset from the taught line, back onto it past the "
+                                              "obstacle (measured: docs/obstacles.md); thesis: the Ch. 6 strategy to a "
+                                              "goal goal_ahead_m along the line"));
+  ports.push_back(bt::input_port<double>("body_radius_m", "0.25", "lane detour: robot disc radius"));
+  ports.push_back(bt::input_port<double>("clearance_m", "0.35", "lane detour: free space kept beyond the body"));
+  ports.push_back(bt::input_port<double>("max_offset_m", "2.5", "lane detour: widest lane searched on either side"));
+  ports.push_back(bt::input_port<std::string>("edge", "{edge}",
+                                              "the edge being replayed (its length ends a lane detour); empty = unknown"));
+  ports.push_back(bt::input_port<double>("behind_m", "6.5",
+                                         "lane detour: an obstacle point holds the robot in its lane until it is this far "
+                                         "behind (the obstacle's unseen length)"));
   ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
                                          "edge distance already covered when the child starts (FollowRoute writes it; "
                                          "rewritten after a detour)"));
@@ -288,10 +332,16 @@ NodeStatus ReplayAvoiding::tick() {
     return NodeStatus::failure;
   }
   if (detouring_) {
-    const NodeStatus st = detour_.step(*this, host_, runner_);
-    (void)set_output("situation", std::string(to_string(detour_.last_situation())));
+    NodeStatus st = NodeStatus::failure;
+    if (lane_) {
+      st = lane_step(*odom);
+    } else {
+      st = detour_.step(*this, host_, runner_);
+      (void)set_output("situation", std::string(to_string(detour_.last_situation())));
+    }
     if (st == NodeStatus::running) return NodeStatus::running;
     detour_.end();
+    lane_.reset();
     detouring_ = false;
     if (st == NodeStatus::failure) return NodeStatus::failure;
     // Back on the line: the edge continues from the along-track distance reached.
@@ -319,7 +369,10 @@ NodeStatus ReplayAvoiding::tick() {
     stop(host_);
     return NodeStatus::failure;
   }
-  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  if (*fresh) {
+    log_points(host_, *this, odom->pose, **fresh);
+    corridor_.add(**fresh, odom->distance_m);
+  }
   auto blocked = corridor_.blocked(*this, *odom);
   if (!blocked) {
     host_.logger().error(path(), blocked.error().message);
@@ -333,7 +386,40 @@ NodeStatus ReplayAvoiding::tick() {
     halt_child();
     replay_done_m_ = odom->distance_m - replay_origin_m_;
     detour_start_ = odom->pose;
-    if (auto st = detour_.begin(*this, odom->pose, *ahead); !st) {
+    auto mode = get_input<std::string>("detour");
+    if (!mode || (*mode != "lane" && *mode != "thesis")) {
+      host_.logger().error(path(), !mode ? mode.error().message
+                                         : "port 'detour': expected 'lane' or 'thesis' (got '" + *mode + "')");
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    if (*mode == "lane") {
+      LaneDetourParams params;
+      auto body = get_input<double>("body_radius_m");
+      auto clearance = get_input<double>("clearance_m");
+      auto widest = get_input<double>("max_offset_m");
+      if (auto behind = get_input<double>("behind_m")) params.behind_m = *behind;
+      if (auto edge = get_input<std::string>("edge"); edge && !edge->empty() && host_.map() != nullptr)
+        for (const auto& e : host_.map()->edges())
+          if (e.id == *edge) params.end_s_m = std::max(0.0, e.length_m - replay_done_m_);
+      if (body) params.body_radius_m = *body;
+      if (clearance) params.clearance_m = *clearance;
+      if (widest) params.max_offset_m = *widest;
+      Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
+      if (st) st = detour_.begin(*this, odom->pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
+      if (!st) {
+        host_.logger().error(path(), st.error().message);
+        stop(host_);
+        return NodeStatus::failure;
+      }
+      detour_.end();
+      lane_.emplace(params, odom->pose);
+      lane_.value().add_points(corridor_.points());
+      lane_kind_ = LaneDecision::Kind::blocked;
+      lane_target_m_ = 1e9;
+      lane_blocked_cycles_ = lane_stall_cycles_ = 0;
+      lane_best_s_m_ = 0.0;
+    } else if (auto st = detour_.begin(*this, odom->pose, *ahead); !st) {
       host_.logger().error(path(), st.error().message);
       stop(host_);
       return NodeStatus::failure;
@@ -350,9 +436,61 @@ NodeStatus ReplayAvoiding::tick() {
   return st;
 }
 
+NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) {
+    host_.logger().error(path(), fresh.error().message);
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*fresh) {
+    log_points(host_, *this, odom.pose, **fresh);
+    lane_->add_points(**fresh);
+  }
+  const LaneDecision d = lane_->decide(odom.pose);
+  (void)set_output("situation", std::string(d.kind == LaneDecision::Kind::blocked ? "blocked"
+                                            : d.kind == LaneDecision::Kind::done  ? "done"
+                                                                                  : "lane"));
+  if (d.kind != lane_kind_ || (d.kind == LaneDecision::Kind::drive && d.lane_m != lane_target_m_)) {
+    host_.logger().info(path(), "lane detour at s=" + std::to_string(d.s_m) + " m, l=" + std::to_string(d.l_m) +
+                                    " m: " + d.reason);
+    lane_kind_ = d.kind;
+    lane_target_m_ = d.lane_m;
+  }
+  if (d.kind == LaneDecision::Kind::done) {
+    stop(host_);
+    return NodeStatus::success;
+  }
+  const DetourDriver::Limits lim = detour_.limits();
+  if (d.kind == LaneDecision::Kind::blocked) {
+    // Wait (a person may walk away); new pairs need motion, so the map only changes by waiting.
+    stop(host_);
+    if (++lane_blocked_cycles_ >= lim.max_blocked) {
+      host_.logger().error(path(), "stopped: " + d.reason + " for " + std::to_string(lane_blocked_cycles_) + " cycles");
+      return NodeStatus::failure;
+    }
+    return NodeStatus::running;
+  }
+  lane_blocked_cycles_ = 0;
+  if (d.s_m > lane_best_s_m_ + 0.1) {
+    lane_best_s_m_ = d.s_m;
+    lane_stall_cycles_ = 0;
+  } else if (++lane_stall_cycles_ >= lim.max_stall) {
+    host_.logger().error(path(), "stopped: no progress along the line for " + std::to_string(lane_stall_cycles_) +
+                                     " cycles (last: " + d.reason + ")");
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  const double w = std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps);
+  const double v = std::fabs(d.heading_rad) > 1.0 ? 0.0 : lim.speed_mps * std::max(0.0, std::cos(d.heading_rad));
+  send(host_, v, w);
+  return NodeStatus::running;
+}
+
 void ReplayAvoiding::halt() {
   if (detouring_) stop(host_);
   detour_.end();
+  lane_.reset();
   detouring_ = false;
   child_started_ = false;
   corridor_.clear();

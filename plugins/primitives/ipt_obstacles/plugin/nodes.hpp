@@ -24,6 +24,7 @@
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
+#include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav/ipt_obstacles/polar_map.hpp"
 
@@ -47,7 +48,8 @@ class PipelineRunner {
   cv::Mat grey_;
 };
 
-bt::PortsList camera_ports();
+/// Camera mounting and contact-point ports; foot_radius_px defaults differ per node.
+bt::PortsList camera_ports(const char* foot_radius_default_px);
 
 /// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
 /// ObstacleAhead and ReplayAvoiding (ports corridor_ports()).
@@ -58,6 +60,13 @@ class CorridorMemory {
   /// Error: a port value is missing or bad.
   Result<bool> blocked(const bt::TreeNode& node, const Odometry& odom);
   void clear() { points_.clear(); }
+  /// The kept points (odom frame).
+  [[nodiscard]] std::vector<cv::Point2d> points() const {
+    std::vector<cv::Point2d> out;
+    out.reserve(points_.size());
+    for (const auto& e : points_) out.push_back(e.first);
+    return out;
+  }
 
  private:
   std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
@@ -88,6 +97,12 @@ class DetourDriver {
   bt::NodeStatus step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner);
   void end() { filter_.reset(); }
   [[nodiscard]] Situation last_situation() const { return last_situation_; }
+  /// The drive settings and limits read by begin() (also used by ReplayAvoiding's lane detour).
+  struct Limits {
+    double speed_mps, gain_per_s, max_angular_radps;
+    int max_blocked, max_stall;
+  };
+  [[nodiscard]] Limits limits() const { return {speed_mps_, gain_per_s_, max_angular_radps_, max_blocked_, max_stall_}; }
 
  private:
   std::optional<NavigationFilter> filter_;
@@ -119,8 +134,10 @@ class AvoidObstacles : public bt::StatefulActionNode {
 
 /// Replay with avoidance (decorator around an edge's replay primitive, e.g. ReplayFeatureEdge):
 /// while an obstacle's ground contact lies in the corridor ahead (as ObstacleAhead), the child
-/// is halted and a detour (as AvoidObstacles) drives to a point goal_ahead_m further along the
-/// line of the heading at that moment — the taught edge — around the obstacle. Then the child
+/// is halted and a detour drives around the obstacle along the line of the heading at that
+/// moment — the taught edge: detour="lane" (default) with LaneDetour (lane_detour.hpp: a free
+/// lateral offset, back onto the line past the obstacle), detour="thesis" with the Ch. 6
+/// strategy (as AvoidObstacles) to a point goal_ahead_m further along the line. Then the child
 /// starts again with `carried_m` set to the along-track distance already covered: the replay's
 /// distance before the obstacle plus the detour's progress projected on that line, so the edge
 /// keeps counting and its visual correction resumes. No gap: failure with the reason.
@@ -133,9 +150,19 @@ class ReplayAvoiding : public bt::DecoratorNode {
   void halt() override;
 
  private:
+  /// One cycle of the lane detour (detour="lane"): success when back on the line past the
+  /// obstacle, failure (reason logged, robot stopped) when no lane is free for
+  /// max_blocked_cycles or no along-line progress for max_stall_cycles.
+  bt::NodeStatus lane_step(const Odometry& odom);
+
   HostServices& host_;
   PipelineRunner runner_;
   DetourDriver detour_;
+  std::optional<LaneDetour> lane_;
+  LaneDecision::Kind lane_kind_ = LaneDecision::Kind::blocked;
+  double lane_target_m_ = 0.0;
+  int lane_blocked_cycles_ = 0, lane_stall_cycles_ = 0;
+  double lane_best_s_m_ = 0.0;
   CorridorMemory corridor_;
   bool detouring_ = false;
   bool child_started_ = false;

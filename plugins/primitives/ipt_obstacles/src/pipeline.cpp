@@ -113,6 +113,8 @@ Result<std::optional<PairResult>> ObstaclePipeline::process(const cv::Mat& grey,
   VISNAV_ASSIGN(out.features, classify_features(camera_, first_lens, lens, a_, b_, classifier_));
   reduced_canny(grey, profiles_, edges_, scratch_);
   out.contacts = contact_points(edges_, out.features, camera_, odom_pose, profiles_);
+  correct_contact_ranges(out.contacts, out.features, lens, moved_m, odom_pose, profiles_);
+  out.span_points = fill_obstacle_spans(out.contacts, out.features, camera_, profiles_);
   grey.copyTo(first_);
   first_pose_ = odom_pose;
   return std::optional<PairResult>{std::move(out)};

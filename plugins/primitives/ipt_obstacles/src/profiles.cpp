@@ -33,7 +33,16 @@ const ParamSchema<ProfileParams>& ProfileParams::schema() {
           .field("min_supporting_features", &P::min_supporting_features,
                  "obstacle features whose traces must end near a contact (1 = off)")
           .range(1, 100)
-          .field("support_radius_px", &P::support_radius_px, "radius of that support").range(0.0, 50.0);
+          .field("support_radius_px", &P::support_radius_px, "radius of that support").range(0.0, 50.0)
+          .field("foot_radius_px", &P::foot_radius_px,
+                 "obstacle features this many columns from a contact bound its range (0 = off)")
+          .range(0.0, 100.0)
+          .field("span_max_m", &P::span_max_m, "neighbouring contacts this close may bound one obstacle (0 = off)")
+          .range(0.0, 20.0)
+          .field("span_step_m", &P::span_step_m, "spacing of the points filled between them").range(0.01, 5.0)
+          .field("span_min_obstacle_share", &P::span_min_obstacle_share,
+                 "OBSTACLE share of the labelled features between them that fills the span")
+          .range(0.0, 1.0);
   return s;
 }
 
@@ -157,6 +166,64 @@ std::vector<ContactPoint> contact_points(const cv::Mat& edges, std::span<const C
     const RangeBearing rb = range_bearing(robot, hit.ground_m);
     if (rb.range_m > params.max_range_m) continue;
     out.push_back(ContactPoint{cv::Point2d(e.px.x, e.px.y), hit.ground_m, rb.range_m, rb.bearing_rad, e.feature});
+  }
+  return out;
+}
+
+void correct_contact_ranges(std::vector<ContactPoint>& contacts, std::span<const ClassifiedFeature> features,
+                            const LensPose& lens, double lens_travel_m, const Pose2D& robot,
+                            const ProfileParams& params) {
+  if (params.foot_radius_px <= 0.0 || !(lens_travel_m > 0.0)) return;
+  const cv::Point2d l(lens.x_m, lens.y_m);
+  std::vector<double> feet;
+  for (auto& c : contacts) {
+    const double own_m = cv::norm(c.ground_m - l);
+    feet.clear();
+    for (const auto& f : features) {
+      if (f.label != FeatureClass::obstacle || f.discrepancy_m <= 0.0) continue;
+      if (std::fabs(f.pixel.x - c.pixel.x) > params.foot_radius_px || f.pixel.y > c.pixel.y) continue;
+      feet.push_back(cv::norm(f.ground_m - l) / (1.0 + f.discrepancy_m / lens_travel_m));
+    }
+    if (feet.empty()) continue;
+    // The median: one mis-tracked feature (D too large) must not pull the obstacle closer.
+    std::nth_element(feet.begin(), feet.begin() + static_cast<std::ptrdiff_t>(feet.size() / 2), feet.end());
+    const double best_m = feet[feet.size() / 2];
+    if (best_m >= own_m) continue;
+    c.ground_m = l + (c.ground_m - l) * (best_m / own_m);
+    const RangeBearing rb = range_bearing(robot, c.ground_m);
+    c.range_m = rb.range_m;
+    c.bearing_rad = rb.bearing_rad;
+  }
+}
+
+std::vector<cv::Point2d> fill_obstacle_spans(std::span<const ContactPoint> contacts,
+                                             std::span<const ClassifiedFeature> features, const IptCamera& camera,
+                                             const ProfileParams& params) {
+  std::vector<cv::Point2d> out;
+  if (params.span_max_m <= 0.0 || contacts.size() < 2) return out;
+  std::vector<const ContactPoint*> order;
+  order.reserve(contacts.size());
+  for (const auto& c : contacts) order.push_back(&c);
+  std::sort(order.begin(), order.end(), [](const ContactPoint* a, const ContactPoint* b) { return a->pixel.x < b->pixel.x; });
+  const double min_row = horizon_row_px(camera) + params.guard_band_px;
+  for (std::size_t i = 0; i + 1 < order.size(); ++i) {
+    const ContactPoint& a = *order[i];
+    const ContactPoint& b = *order[i + 1];
+    const double length_m = cv::norm(b.ground_m - a.ground_m);
+    if (length_m > params.span_max_m || length_m < 2.0 * params.span_step_m || b.pixel.x - a.pixel.x < 1.0) continue;
+    // What shows between the two borders, above their foot line: the obstacle's own face, or
+    // the ground behind a gap.
+    int obstacle = 0, ground = 0;
+    for (const auto& f : features) {
+      if (f.pixel.x <= a.pixel.x || f.pixel.x >= b.pixel.x || f.pixel.y < min_row) continue;
+      const double t = (f.pixel.x - a.pixel.x) / (b.pixel.x - a.pixel.x);
+      if (f.pixel.y >= a.pixel.y + t * (b.pixel.y - a.pixel.y)) continue;
+      if (f.label == FeatureClass::obstacle) ++obstacle;
+      else if (f.label == FeatureClass::ground) ++ground;
+    }
+    if (obstacle + ground > 0 && obstacle < params.span_min_obstacle_share * (obstacle + ground)) continue;
+    const int steps = static_cast<int>(std::floor(length_m / params.span_step_m));
+    for (int k = 1; k < steps; ++k) out.push_back(a.ground_m + (b.ground_m - a.ground_m) * (static_cast<double>(k) / steps));
   }
   return out;
 }

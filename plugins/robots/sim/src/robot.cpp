@@ -421,6 +421,7 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, Hos
                                       "; run errors: scale " + std::to_string(e.scale_error_pct) + " %, wheel asymmetry " +
                                       std::to_string(e.wheel_asymmetry_pct) + " %, drift " +
                                       std::to_string(e.heading_drift_degpm) + " deg/m");
+  (*made)->logger_ = &host.logger();
   return made;
 }
 
@@ -444,7 +445,19 @@ Status SimRobot::send_command(const Twist& command) {
 
 std::optional<Odometry> SimRobot::latest_odometry() { return core_->odometry(); }
 std::vector<SimCollision> SimRobot::collisions() const { return core_->collisions(); }
-Status SimRobot::step(double dt_s) { return core_->step(dt_s); }
+Status SimRobot::step(double dt_s) {
+  VISNAV_TRY(core_->step(dt_s));
+  // A collision is an outcome of the run (issue 16): say so in the log, once per contact.
+  if (logger_ != nullptr) {
+    const auto all = core_->collisions();
+    for (; collisions_logged_ < all.size(); ++collisions_logged_) {
+      const SimCollision& c = all[collisions_logged_];
+      logger_->warn("sim robot", "collision with '" + c.obstacle + "' at t=" + std::to_string(c.time_s) + " s, x=" +
+                                     std::to_string(c.pose_world.x_m) + " y=" + std::to_string(c.pose_world.y_m));
+    }
+  }
+  return ok();
+}
 double SimRobot::time_s() const { return core_->time_s(); }
 Pose2D SimRobot::ground_truth_pose() const { return core_->ground_truth(); }
 Status SimRobot::set_ground_truth_pose(const Pose2D& pose_world) {

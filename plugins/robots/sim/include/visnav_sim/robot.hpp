@@ -238,6 +238,8 @@ class SimRobot final : public Robot, public SimulationControl {
  private:
   explicit SimRobot(std::shared_ptr<RobotCore> core);
   std::shared_ptr<RobotCore> core_;
+  Logger* logger_ = nullptr;        // the run's logger (create(ConfigNode, host)): collisions are logged
+  std::size_t collisions_logged_ = 0;
 };
 
 }  // namespace visnav::sim

@@ -60,6 +60,7 @@ int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams
 struct PairResult {
   std::vector<ClassifiedFeature> features;
   std::vector<ContactPoint> contacts;
+  std::vector<cv::Point2d> span_points;  ///< fill_obstacle_spans() of the contacts (ground frame)
   Pose2D pose;                       ///< odometry pose of the pair's second frame
   int ransac_outliers = 0;
 };

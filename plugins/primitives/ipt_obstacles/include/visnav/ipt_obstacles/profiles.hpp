@@ -45,6 +45,13 @@ struct ProfileParams {
   int min_supporting_features = 2;  ///< a contact needs traces from this many obstacle features ending within
                                     ///< support_radius_px (1 = off) [ours, measured]
   double support_radius_px = 10.0;
+  double foot_radius_px = 0.0;       ///< correct_contact_ranges(): obstacle features this many columns from a
+                                    ///< contact (and above it) bound its range (0 = off, the thesis; ReplayAvoiding 10) [ours, measured]
+  // Obstacle spans (fill_obstacle_spans) [ours, measured in docs/obstacles.md]:
+  double span_max_m = 0.0;          ///< neighbouring contacts at most this far apart may bound one obstacle (0 = off,
+                                    ///< the thesis; the nodes 2.2)
+  double span_step_m = 0.15;        ///< spacing of the points filled in between
+  double span_min_obstacle_share = 0.2;  ///< OBSTACLE share of the labelled features between them that fills
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<ProfileParams>& schema();
@@ -75,5 +82,30 @@ struct ContactPoint {
                                                        std::span<const ClassifiedFeature> features,
                                                        const IptCamera& camera, const Pose2D& robot,
                                                        const ProfileParams& params);
+
+/// A trace that ends above the ground (the border fades, or the obstacle's low part was
+/// labelled GROUND and stopped it) back-projects beyond the obstacle: a point at height h
+/// projects to s = Z0/(Z0 − h) times its distance from the lens foot. The pair measures s for
+/// each feature below the horizon: IPT_k − IPT_{k−1} = (1 − s)(L_k − L_{k−1}), so
+/// s = 1 + D/|L_k − L_{k−1}| and the feature's foot is L_k + (IPT_k − L_k)/s (exact for any
+/// motion of the lens). Each contact's range from the lens is cut to the nearest foot of the
+/// OBSTACLE features with a D within foot_radius_px columns of it and above it (its own
+/// border), keeping its bearing. `lens_travel_m` is |L_k − L_{k−1}| of the pair. In place.
+void correct_contact_ranges(std::vector<ContactPoint>& contacts, std::span<const ClassifiedFeature> features,
+                            const LensPose& lens, double lens_travel_m, const Pose2D& robot,
+                            const ProfileParams& params);
+
+/// Points on the ground between neighbouring contact points (in image column order) that bound
+/// one obstacle. Contacts come from vertical borders only (spec §4.3), so a wide obstacle — a
+/// van's rear — yields its two corners and nothing between; the Ch. 6 strategy then sees a gap
+/// inside it. Two neighbours with |ground_a − ground_b| ≤ span_max_m bound one obstacle when the
+/// features labelled below the horizon guard band, between their columns and above the image
+/// line joining them (where a real gap shows the ground behind) are at least
+/// span_min_obstacle_share OBSTACLE (of OBSTACLE + GROUND), or there are none (a plain face).
+/// Then points every span_step_m on the ground segment between them are returned (ends
+/// excluded). Pure; ground frame of the contacts.
+[[nodiscard]] std::vector<cv::Point2d> fill_obstacle_spans(std::span<const ContactPoint> contacts,
+                                                           std::span<const ClassifiedFeature> features,
+                                                           const IptCamera& camera, const ProfileParams& params);
 
 }  // namespace visnav::ipt

@@ -1,0 +1,91 @@
+// visnav IPT obstacles — the detour of a replay around an obstacle on the taught line ([ours];
+// issue 16, docs/obstacles.md "Replay with avoidance").
+//
+// The Ch. 6 strategy (polar_map.hpp) steers between stored contact points one decision at a
+// time; with the few points a wide obstacle yields (contacts come from vertical borders only,
+// spec §4.3) it drives into gaps inside a van and swings between its ends (measured: 1 of 6 van
+// positions passed). A replay knows more: the line it must return to. LaneDetour keeps every
+// obstacle point of the detour in the line's frame (s along the line from where the detour
+// began, l to the left) and drives along the line at a lateral offset (a "lane") that no point
+// near the robot's stretch of the line occupies:
+//  * a lane l is free when no point with s in [s_robot − behind_m, s_robot + lookahead_m] has
+//    |l_point − l| < body_radius_m + clearance_m. behind_m stands for the obstacle's unseen
+//    length: the camera sees an obstacle's near face, rarely its side (measured: with 0.8 m the
+//    robot turned back into a parked van's side). Before the line's end (end_s_m, the edge's
+//    end) the robot must be back: a point holds it only until end_s_m − return_m (but at least
+//    min_behind_m past the point);
+//  * target: the line itself (l = 0) when free, else the free lane nearest to it on the side
+//    chosen at the first blocked decision (the other side only when that side has none); a
+//    free current target is kept (no swinging);
+//  * steering: towards the point aim_ahead_m further along the line at the target offset;
+//  * done when the line is free, the robot is back on it (|l| < done_offset_m, heading within
+//    done_heading_rad of the line) and has covered min_progress_m, or at the line's end;
+//  * blocked (no free lane within ±max_offset_m): the decision says so, with the reason.
+// Frames: points and poses in one ground frame (odom), metres, radians (CCW +). Pure; not
+// thread-safe; one per detour.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/types.hpp>
+
+#include "visnav/params.hpp"
+#include "visnav/result.hpp"
+#include "visnav/types.hpp"
+
+namespace visnav::ipt {
+
+struct LaneDetourParams {
+  double body_radius_m = 0.25;   ///< robot disc
+  double clearance_m = 0.35;     ///< free space kept beyond the body
+  double lookahead_m = 3.0;      ///< points this far ahead along the line constrain the lane
+  double behind_m = 6.5;         ///< ... and this far behind the robot (the obstacle's unseen length: a van is 4.8 m, measured)
+  double min_behind_m = 0.8;     ///< at least this far, whatever end_s_m says
+  double end_s_m = 1e9;          ///< the line ends here (s from the detour start): the edge's end
+  double return_m = 2.0;         ///< travel kept for getting back onto the line before end_s_m
+  double max_offset_m = 2.5;     ///< widest lane searched on either side
+  double offset_step_m = 0.05;   ///< lane search resolution
+  double aim_ahead_m = 1.2;      ///< pursuit point along the line
+  double done_offset_m = 0.1;    ///< back on the line: |l| below this ...
+  double done_heading_rad = 0.15;  ///< ... and heading within this of the line's
+  double min_progress_m = 0.5;   ///< along-line travel before the detour may end
+
+  [[nodiscard]] Status validate() const;
+  static const ParamSchema<LaneDetourParams>& schema();
+};
+
+struct LaneDecision {
+  enum class Kind : std::uint8_t { drive, done, blocked };
+  Kind kind = Kind::drive;
+  double heading_rad = 0.0;  ///< direction to drive in, robot frame (CCW +)
+  double lane_m = 0.0;       ///< target lateral offset (left +)
+  double s_m = 0.0;          ///< robot along the line from the detour start
+  double l_m = 0.0;          ///< robot's lateral offset
+  std::string reason;        ///< one line for logs
+};
+
+class LaneDetour {
+ public:
+  /// `line_start`: where the detour began; its heading is the line's direction. Params must validate().
+  LaneDetour(LaneDetourParams params, const Pose2D& line_start) : params_(params), start_(line_start) {}
+
+  /// Adds obstacle points (ground frame); they are kept for the whole detour.
+  void add_points(std::span<const cv::Point2d> points_m);
+  [[nodiscard]] LaneDecision decide(const Pose2D& robot);
+  [[nodiscard]] std::size_t point_count() const { return points_.size(); }
+
+ private:
+  [[nodiscard]] cv::Point2d to_line(double x_m, double y_m) const;  // (s, l)
+  [[nodiscard]] bool lane_free(double lane_m, double s_robot_m) const;
+
+  LaneDetourParams params_;
+  Pose2D start_;
+  std::vector<cv::Point2d> points_;  // (s, l)
+  int side_ = 0;                     // +1 left, −1 right, 0 not chosen yet
+  double lane_m_ = 0.0;
+};
+
+}  // namespace visnav::ipt

@@ -1,0 +1,114 @@
+#include "visnav/ipt_obstacles/lane_detour.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+namespace visnav::ipt {
+
+Status LaneDetourParams::validate() const {
+  if (auto st = schema().check(*this); !st) return st.error().with_default_code(ErrorCode::out_of_range);
+  return ok();
+}
+
+const ParamSchema<LaneDetourParams>& LaneDetourParams::schema() {
+  using P = LaneDetourParams;
+  static const auto s = ParamSchema<P>{}
+                            .field("body_radius_m", &P::body_radius_m, "robot disc radius").range(0.0, 5.0)
+                            .field("clearance_m", &P::clearance_m, "free space kept beyond the body").range(0.0, 5.0)
+                            .field("lookahead_m", &P::lookahead_m, "points this far ahead constrain the lane")
+                            .range(0.1, 50.0)
+                            .field("behind_m", &P::behind_m, "points this far behind the robot still constrain it")
+                            .range(0.0, 50.0)
+                            .field("min_behind_m", &P::min_behind_m, "at least this far behind, whatever end_s_m says")
+                            .range(0.0, 50.0)
+                            .field("end_s_m", &P::end_s_m, "the line's end along it from the detour start").range(0.0, 1e12)
+                            .field("return_m", &P::return_m, "travel kept for getting back before end_s_m")
+                            .range(0.0, 50.0)
+                            .field("max_offset_m", &P::max_offset_m, "widest lane searched on either side")
+                            .range(0.1, 50.0)
+                            .field("offset_step_m", &P::offset_step_m, "lane search resolution").range(0.005, 1.0)
+                            .field("aim_ahead_m", &P::aim_ahead_m, "pursuit point along the line").range(0.1, 20.0)
+                            .field("done_offset_m", &P::done_offset_m, "back on the line below this offset")
+                            .range(0.01, 5.0)
+                            .field("done_heading_rad", &P::done_heading_rad, "and within this heading of the line")
+                            .range(0.01, 3.2)
+                            .field("min_progress_m", &P::min_progress_m, "along-line travel before the detour ends")
+                            .range(0.0, 50.0);
+  return s;
+}
+
+cv::Point2d LaneDetour::to_line(double x_m, double y_m) const {
+  const double c = std::cos(start_.heading_rad), s = std::sin(start_.heading_rad);
+  const double dx = x_m - start_.x_m, dy = y_m - start_.y_m;
+  return {c * dx + s * dy, -s * dx + c * dy};
+}
+
+void LaneDetour::add_points(std::span<const cv::Point2d> points_m) {
+  for (const auto& p : points_m) points_.push_back(to_line(p.x, p.y));
+}
+
+bool LaneDetour::lane_free(double lane_m, double s_robot_m) const {
+  const double half = params_.body_radius_m + params_.clearance_m;
+  for (const auto& p : points_) {
+    const double behind =
+        std::max(params_.min_behind_m, std::min(params_.behind_m, params_.end_s_m - params_.return_m - p.x));
+    if (p.x >= s_robot_m - behind && p.x <= s_robot_m + params_.lookahead_m && std::fabs(p.y - lane_m) < half)
+      return false;
+  }
+  return true;
+}
+
+LaneDecision LaneDetour::decide(const Pose2D& robot) {
+  LaneDecision d;
+  const cv::Point2d r = to_line(robot.x_m, robot.y_m);
+  d.s_m = r.x;
+  d.l_m = r.y;
+  const double heading_on_line = std::remainder(robot.heading_rad - start_.heading_rad, 2.0 * CV_PI);
+  if (r.x >= params_.end_s_m) {
+    d.kind = LaneDecision::Kind::done;
+    d.reason = "at the line's end";
+    return d;
+  }
+  std::optional<double> lane;
+  if (lane_free(0.0, r.x)) {
+    lane = 0.0;
+  } else if (side_ != 0 && lane_m_ != 0.0 && lane_free(lane_m_, r.x)) {
+    lane = lane_m_;  // keep a free target: re-choosing every cycle would swing
+  } else {
+    // The free lane nearest the line, on the chosen side first.
+    auto search = [&](int side) -> std::optional<double> {
+      for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
+        if (lane_free(side * l, r.x)) return side * l;
+      return std::nullopt;
+    };
+    std::optional<double> left = search(1), right = search(-1);
+    if (side_ > 0 && left) lane = left;
+    else if (side_ < 0 && right) lane = right;
+    else if (left && right) lane = std::fabs(*left) <= std::fabs(*right) ? left : right;
+    else lane = left ? left : right;
+    if (lane) side_ = *lane > 0 ? 1 : -1;
+  }
+  if (!lane) {
+    d.kind = LaneDecision::Kind::blocked;
+    d.reason = "no free lane within " + std::to_string(params_.max_offset_m) + " m of the line on either side (" +
+               std::to_string(points_.size()) + " obstacle points)";
+    return d;
+  }
+  lane_m_ = *lane;
+  d.lane_m = *lane;
+  if (*lane == 0.0 && std::fabs(r.y) < params_.done_offset_m && std::fabs(heading_on_line) < params_.done_heading_rad &&
+      r.x >= params_.min_progress_m) {
+    d.kind = LaneDecision::Kind::done;
+    d.reason = "back on the line, past the obstacle";
+    return d;
+  }
+  const double aim_line = std::atan2(*lane - r.y, params_.aim_ahead_m);  // relative to the line
+  d.heading_rad = std::remainder(aim_line - heading_on_line, 2.0 * CV_PI);
+  d.kind = LaneDecision::Kind::drive;
+  d.reason = *lane == 0.0 ? std::string("returning to the line")
+                          : "lane " + std::to_string(*lane) + " m " + (*lane > 0 ? "left" : "right") + " of the line";
+  return d;
+}
+
+}  // namespace visnav::ipt

@@ -1,0 +1,200 @@
+// The replay's lane detour (lane_detour.hpp) in a kinematic closed loop on hand-placed obstacle
+// points, and the two contact-point repairs it relies on (profiles.hpp: ranges cut to the
+// triangulated feet, spans between the borders of one obstacle).
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "visnav/ipt_obstacles/lane_detour.hpp"
+#include "visnav/ipt_obstacles/profiles.hpp"
+
+namespace visnav::ipt {
+namespace {
+
+struct Box {  // axis-aligned footprint
+  double x0, x1, y0, y1;
+  [[nodiscard]] double distance(double x, double y) const {
+    const double dx = std::max({x0 - x, 0.0, x - x1}), dy = std::max({y0 - y, 0.0, y - y1});
+    return std::hypot(dx, dy);
+  }
+};
+
+struct LoopResult {
+  LaneDecision last;
+  double min_clearance_m = 1e9;
+  int cycles = 0;
+};
+
+/// Unicycle at 10 Hz, 0.2 m/s, ω = 1.5·heading limited to 0.6 rad/s (ReplayAvoiding's defaults)
+/// from the origin along +x; `seen` are the points the camera gave (only the van's rear face).
+LoopResult drive(LaneDetourParams params, const std::vector<cv::Point2d>& seen, const Box& van) {
+  Pose2D pose{};
+  LaneDetour detour(params, pose);
+  detour.add_points(seen);
+  LoopResult r;
+  for (; r.cycles < 2000; ++r.cycles) {
+    r.last = detour.decide(pose);
+    if (r.last.kind != LaneDecision::Kind::drive) break;
+    const double w = std::clamp(1.5 * r.last.heading_rad, -0.6, 0.6);
+    const double v = std::fabs(r.last.heading_rad) > 1.0 ? 0.0 : 0.2 * std::max(0.0, std::cos(r.last.heading_rad));
+    pose.heading_rad += w * 0.1;
+    pose.x_m += v * 0.1 * std::cos(pose.heading_rad);
+    pose.y_m += v * 0.1 * std::sin(pose.heading_rad);
+    r.min_clearance_m = std::min(r.min_clearance_m, van.distance(pose.x_m, pose.y_m));
+  }
+  return r;
+}
+
+/// A van 4.8 m long, 1.9 m wide, its rear 2 m ahead, 0.2 m left of the line; only its rear
+/// face is seen (what the IPT gives: the two corners and the span between them).
+const Box kVan{2.0, 6.8, -0.75, 1.15};
+std::vector<cv::Point2d> rear_face() {
+  std::vector<cv::Point2d> pts;
+  for (double y = kVan.y0; y <= kVan.y1 + 1e-9; y += 0.15) pts.emplace_back(kVan.x0, y);
+  return pts;
+}
+
+TEST(LaneDetour, PassesAVanSeenOnlyFromBehindAndReturnsToTheLine) {
+  const LoopResult r = drive(LaneDetourParams{}, rear_face(), kVan);
+  ASSERT_EQ(r.last.kind, LaneDecision::Kind::done) << r.last.reason;
+  EXPECT_GT(r.min_clearance_m, 0.25 + 0.05);  // body 0.25 m; the turn-out cuts the corner (0.34 m measured)
+  EXPECT_NEAR(r.last.l_m, 0.0, 0.1);
+  EXPECT_GT(r.last.s_m, kVan.x1);  // back on the line only past the van's (unseen) front
+}
+
+TEST(LaneDetour, PassesOnTheSideNearerTheLine) {
+  // The van sits 0.2 m left: its right side needs the smaller offset.
+  LaneDetour detour(LaneDetourParams{}, Pose2D{});
+  detour.add_points(rear_face());
+  const LaneDecision d = detour.decide(Pose2D{});
+  ASSERT_EQ(d.kind, LaneDecision::Kind::drive);
+  EXPECT_NEAR(d.lane_m, kVan.y0 - 0.6, 0.051);
+  EXPECT_LT(d.heading_rad, 0.0);
+}
+
+TEST(LaneDetour, AShortUnseenLengthTurnsBackIntoTheVansSide) {
+  // Why behind_m is long: with 0.8 m the robot returns while beside the van.
+  LaneDetourParams p;
+  p.behind_m = 0.8;
+  const LoopResult r = drive(p, rear_face(), kVan);
+  EXPECT_LT(r.min_clearance_m, 0.25);
+}
+
+TEST(LaneDetour, EndsAtTheLinesEndBackOnTheLine) {
+  LaneDetourParams p;
+  p.end_s_m = 8.0;  // the edge ends 5 m past a short box: the point holds only until 8 − return_m
+  p.return_m = 3.0;  // (the default 2 m leaves it 0.25 m beside the line at the end)
+  const LoopResult r = drive(p, rear_face(), Box{2.0, 3.0, -0.75, 1.15});
+  ASSERT_EQ(r.last.kind, LaneDecision::Kind::done) << r.last.reason;
+  EXPECT_LE(r.last.s_m, 8.0 + 0.03);
+  EXPECT_NEAR(r.last.l_m, 0.0, 0.2);
+}
+
+TEST(LaneDetour, NoFreeLaneIsBlockedWithAReason) {
+  std::vector<cv::Point2d> wall;
+  for (double y = -3.0; y <= 3.0; y += 0.2) wall.emplace_back(1.5, y);
+  LaneDetour detour(LaneDetourParams{}, Pose2D{});
+  detour.add_points(wall);
+  const LaneDecision d = detour.decide(Pose2D{});
+  EXPECT_EQ(d.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(d.reason.find("no free lane"), std::string::npos);
+}
+
+TEST(LaneDetour, BadParamsAreOutOfRange) {
+  LaneDetourParams p;
+  p.clearance_m = -0.1;
+  const Status st = p.validate();
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, ErrorCode::out_of_range);
+}
+
+// ----------------------------------------------------------------------- contact repairs
+
+ClassifiedFeature feature(FeatureClass label, double u, double v, cv::Point2d ground = {}, double d_m = -1.0) {
+  ClassifiedFeature f;
+  f.label = label;
+  f.pixel = {u, v};
+  f.ground_m = ground;
+  f.discrepancy_m = d_m;
+  return f;
+}
+
+TEST(ContactRanges, CutToTheTriangulatedFootOfTheBordersFeatures) {
+  // Lens at the origin, 0.43 m up; a border at 2 m whose trace ended 0.2 m up projects to
+  // 2·0.43/0.23 m. Its features 0.3 m up (s = 0.43/0.13) moved 2 cm: D = (s − 1)·0.02.
+  const double z0 = 0.43, travel = 0.02, d = 2.0;
+  ContactPoint c;
+  c.pixel = {100, 150};
+  c.ground_m = {d * z0 / (z0 - 0.2), 0.0};
+  std::vector<ContactPoint> contacts{c};
+  const double s = z0 / (z0 - 0.3);
+  std::vector<ClassifiedFeature> f{feature(FeatureClass::obstacle, 102, 130, {d * s, 0.0}, (s - 1.0) * travel),
+                                   feature(FeatureClass::obstacle, 98, 120, {d * s, 0.0}, (s - 1.0) * travel),
+                                   // a mis-track with a huge D: the median ignores it
+                                   feature(FeatureClass::obstacle, 101, 125, {d * s, 0.0}, 50 * travel),
+                                   // a feature of another border, and one below the contact: not used
+                                   feature(FeatureClass::obstacle, 140, 120, {1.0, 0.0}, 1.0),
+                                   feature(FeatureClass::obstacle, 100, 170, {1.0, 0.0}, 1.0)};
+  ProfileParams on;
+  on.foot_radius_px = 10.0;  // ReplayAvoiding's default; the core's is the thesis (off)
+  correct_contact_ranges(contacts, f, LensPose{}, travel, Pose2D{}, on);
+  EXPECT_NEAR(contacts[0].ground_m.x, d, 1e-9);
+  EXPECT_NEAR(contacts[0].range_m, d, 1e-9);
+  // Never pushed farther, and off when foot_radius_px = 0.
+  std::vector<ContactPoint> near{c};
+  near[0].ground_m = {1.5, 0.0};
+  correct_contact_ranges(near, f, LensPose{}, travel, Pose2D{}, on);
+  EXPECT_NEAR(near[0].ground_m.x, 1.5, 1e-12);
+  ProfileParams off;
+  off.foot_radius_px = 0.0;
+  std::vector<ContactPoint> kept{c};
+  correct_contact_ranges(kept, f, LensPose{}, travel, Pose2D{}, off);
+  EXPECT_NEAR(kept[0].ground_m.x, c.ground_m.x, 1e-12);
+}
+
+TEST(ObstacleSpans, FilledBetweenTheBordersOfOneFaceNotAcrossAGap) {
+  const IptCamera cam = [] {
+    IptCamera c;
+    c.width_px = 320;
+    c.height_px = 240;
+    c.fx_px = c.fy_px = 250.0;
+    c.cx_px = 159.5;
+    c.cy_px = 119.5;
+    c.height_m = 0.43;
+    c.pitch_rad = -9.0 * CV_PI / 180.0;
+    return c;
+  }();
+  ASSERT_TRUE(cam.validate().ok());
+  ContactPoint a, b;
+  a.pixel = {80, 200};
+  a.ground_m = {2.0, 0.95};
+  b.pixel = {240, 200};
+  b.ground_m = {2.0, -0.95};
+  const std::vector<ContactPoint> contacts{a, b};
+  ProfileParams p;
+  p.span_max_m = 2.2;  // the nodes' default; the core's is the thesis (off)
+  // The face between them: obstacle features above the foot line (and ground ones below it).
+  std::vector<ClassifiedFeature> face{feature(FeatureClass::obstacle, 120, 170), feature(FeatureClass::obstacle, 160, 175),
+                                      feature(FeatureClass::ground, 150, 180), feature(FeatureClass::ground, 160, 220)};
+  const auto filled = fill_obstacle_spans(contacts, face, cam, p);
+  ASSERT_EQ(filled.size(), 11u);  // 1.9 m in 12 steps of ≤ 0.15 m, ends excluded
+  for (const auto& q : filled) {
+    EXPECT_NEAR(q.x, 2.0, 1e-12);
+    EXPECT_LT(std::fabs(q.y), 0.95);
+  }
+  // Ground seen between them above the foot line: a gap, not filled.
+  std::vector<ClassifiedFeature> gap{feature(FeatureClass::ground, 120, 170), feature(FeatureClass::ground, 140, 175),
+                                     feature(FeatureClass::ground, 160, 160), feature(FeatureClass::ground, 200, 185),
+                                     feature(FeatureClass::ground, 210, 180), feature(FeatureClass::obstacle, 150, 190)};
+  EXPECT_TRUE(fill_obstacle_spans(contacts, gap, cam, p).empty());
+  // Borders farther apart than span_max_m: not one obstacle.
+  std::vector<ContactPoint> wide{a, b};
+  wide[1].ground_m = {2.0, -1.5};
+  EXPECT_TRUE(fill_obstacle_spans(wide, face, cam, p).empty());
+  EXPECT_TRUE(fill_obstacle_spans(contacts, face, cam, ProfileParams{}).empty());
+}
+
+}  // namespace
+}  // namespace visnav::ipt

@@ -272,7 +272,8 @@ int run(int argc, char** argv) {
     std::ifstream in(dir / "summary.json");
     std::stringstream text;
     text << in.rdbuf();
-    auto scored = (status == 0 && in) ? objective_from_summary(text.str(), o.weights)
+    // Exit 1 with a summary: some loops failed, which the summary's failed share already scores.
+    auto scored = ((status == 0 || status == 1) && in) ? objective_from_summary(text.str(), o.weights)
                                       : Result<ObjectiveBreakdown>(fail("experiment exited with status " +
                                                                         std::to_string(status)));
     if (scored) {

@@ -123,10 +123,14 @@ void CameraCore::apply_appearance(cv::Mat& bgr, const Twist& twist) {
 
 std::optional<Frame> CameraCore::grab() {
   const double now = robot_->time_s();
+  double capture_s = now;
+  bool frames_missed = false;  // the caller stalled for frames the camera kept capturing
   if (params_.frame_rate_hz > 0.0) {
     if (now + 1e-9 < next_frame_s_) return std::nullopt;
     const double period = 1.0 / params_.frame_rate_hz;
     while (next_frame_s_ <= now + 1e-9) next_frame_s_ += period;
+    frames_missed = last_grab_s_ >= 0.0 && now - last_grab_s_ > 1.5 * period;
+    last_grab_s_ = now;
   }
   // fixed number of draws per grab keeps the random stream independent of the outcomes
   std::uniform_real_distribution<double> uni(0.0, 1.0);
@@ -134,11 +138,14 @@ std::optional<Frame> CameraCore::grab() {
   const double freeze_draw = uni(rng_);
   const std::uint64_t noise_seed = rng_();
   const std::uint64_t sequence = sequence_++;
-  if (drop_draw < params_.drop_probability) return std::nullopt;
+  if (drop_draw < params_.drop_probability) {
+    if (!frames_missed) return std::nullopt;
+    capture_s = now - 1.0 / params_.frame_rate_hz;  // the newest frame is lost, the one before it is not
+  }
 
   Frame frame;
   frame.sequence = sequence;
-  frame.timestamp_s = std::max(0.0, now - params_.latency_s);
+  frame.timestamp_s = std::max(0.0, capture_s - params_.latency_s);
   if (have_last_ && freeze_draw < params_.freeze_probability) {
     frame.image = last_image_;
     return frame;
@@ -156,7 +163,8 @@ std::optional<Frame> CameraCore::grab() {
     }
     exposure_time_s_ = now;
   }
-  const Pose2D pose = params_.latency_s > 0.0 ? robot_->pose_at(frame.timestamp_s) : robot_->ground_truth();
+  const Pose2D pose =
+      params_.latency_s > 0.0 || capture_s < now ? robot_->pose_at(frame.timestamp_s) : robot_->ground_truth();
   cv::Mat out = take_buffer(params_.grey ? CV_8UC1 : CV_8UC3);
   cv::Mat& target = params_.grey ? render_buffer_ : out;
   renderer_.render(pose, target);

@@ -113,6 +113,26 @@ TEST(SimCamera, DroppedFrames) {
   EXPECT_LT(dropped, 120);
 }
 
+// After a compute freeze (simulated time jumped past several frame periods) the camera kept
+// capturing: a drop loses the newest frame only, and the one a period earlier arrives.
+TEST(SimCamera, ADropAfterAStallLosesOnlyTheNewestFrame) {
+  vs::CameraParams c = small();
+  c.frame_rate_hz = 10;
+  c.drop_probability = 1.0;
+  auto r = robot();
+  vs::CameraCore cam(c, r, r->world());
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(r->step(0.1).ok());
+    EXPECT_FALSE(cam.grab().has_value()) << "grab " << i;  // on time: a drop is a drop
+  }
+  ASSERT_TRUE(r->step(2.0).ok());  // the caller stalled for 2 s
+  const auto late = cam.grab();
+  ASSERT_TRUE(late.has_value());
+  EXPECT_NEAR(late->timestamp_s, r->time_s() - 0.1, 1e-9);
+  ASSERT_TRUE(r->step(0.1).ok());
+  EXPECT_FALSE(cam.grab().has_value());  // back on time
+}
+
 TEST(SimCamera, FrozenFramesRepeatThePreviousImage) {
   vs::CameraParams c = small();
   c.freeze_probability = 1.0;

@@ -194,7 +194,8 @@ TEST(TuneCli, TunesAgainstAFakeExperimentAndResumes) {
 TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
   const fs::path dir = out_dir("platforms");
   fs::create_directories(dir);
-  // Stand-in experiment: the 5 Hz camera row fails two loops, every other row completes all.
+  // Stand-in experiment: the 5 Hz camera row fails two loops (and exits 1, as visnav experiment
+  // does; the row is still tabulated), every other row completes all.
   const fs::path script = dir / "fake_experiment.sh";
   {
     std::ofstream s(script);
@@ -203,7 +204,8 @@ TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
          "camera.params.frame_rate_hz=5) c=23;; esac; shift;; esac; shift; done\n"
          "printf '{\"styles\":[{\"style\":\"feature\",\"attempted\":25,\"completed\":%d,"
          "\"eps_acc_m\":{\"mean\":0.1,\"sd\":0.02,\"worst\":0.2},\"eps_rep_m\":{\"mean\":0.05,\"sd\":0.01,"
-         "\"worst\":0.08},\"collisions\":0,\"lost\":0}]}\\n' $c > \"$out/summary.json\"\n";
+         "\"worst\":0.08},\"collisions\":0,\"lost\":0}]}\\n' $c > \"$out/summary.json\"\n"
+         "[ $c -lt 25 ] && exit 1; exit 0\n";  // as visnav experiment: 1 when a loop failed
   }
   CliRun r = run_cli("platforms --rows diff_drive,camera_5hz,freeze_1_3s,car_like --out " + dir.string() + " --child 'sh " +
                      script.string() + "'");
@@ -212,7 +214,8 @@ TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
                        "0.050 ± 0.010 | 0.200 | yes |"),
             std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("| 5 Hz camera | `camera.params.frame_rate_hz=5` | 23/25 |"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("| 5 Hz camera | `camera.params.frame_rate_hz=5`, `run.max_frame_age_s=1` | 23/25 |"), std::string::npos)
+      << r.out;  // exit 1 with a summary is tabulated
   EXPECT_NE(r.out.find("| no |"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("| 1-3 s compute freezes, 2 per minute | `robot.params.freeze_rate_per_min=2`"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("| car-like (Ackermann) | - | not run: the scripted teach operator"), std::string::npos) << r.out;

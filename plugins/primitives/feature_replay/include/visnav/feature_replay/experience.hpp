@@ -2,8 +2,11 @@
 //
 // A feature edge's taught payload is its first experience (number 0, "teach"). Later replays may
 // add their own view of the edge as further experiences (summer teach, winter replay, ...), like
-// VT&R3's multi-experience localisation for appearance-based maps. On replay the experience whose
-// reference matches the current frame best is used (ExperienceSelector).
+// VT&R3's multi-experience localisation for appearance-based maps. Where the change is too large
+// for any replay to succeed (summer map, winter snow), an experience comes from a supervised
+// drive instead: the route taught again in the new conditions into a scratch map, whose edges are
+// added to the taught ones (add_drive_experiences). On replay the experience whose reference
+// matches the current frame best is used (ExperienceSelector).
 //
 // Storage: <map>/experiences/<edge_id>.bin, one file per edge holding every learned experience,
 // in the map store's payload format (map_format::encode_payload: magic "VNAVEDGE", version, kind

@@ -968,7 +968,13 @@ Result<std::vector<ExperimentRun>> run_experiment(const ExperimentOptions& o) {
      << " loops each, initial error " << o.displace_m << " m lateral + " << o.displace_heading_deg
      << " deg, success radius " << o.success_radius_m << " m, config `" << o.config << "`"
      << (o.ideal ? ", **--ideal (error models off: a regression run, not a result)**" : "")
-     << ", appearance teach `" << o.teach_appearance << "` / replay `" << o.replay_appearance << "`\n\n"
+     << ", appearance teach `" << o.teach_appearance << "` / replay `" << o.replay_appearance << "`";
+  if (!o.experience_teach.empty()) {
+    md << ", supervised experience drive `" << o.experience_teach << "` (feature edges given an experience per run:";
+    for (const auto& r : runs) md << " " << r.experiences_added << "/" << r.experience_edges;
+    md << ")";
+  }
+  md << "\n\n"
      << experiment_table(o, runs)
      << "\nε_acc, ε_rep: seed 000 eq. (18) over the finished loops' end positions against the position where "
         "teaching ended, per run; mean ± sd and worst over the runs. Along/cross: RMS of the loop-end error's "

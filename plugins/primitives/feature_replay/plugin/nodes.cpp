@@ -12,9 +12,6 @@
 #include <utility>
 #include <vector>
 
-#include <chrono>
-#include <ctime>
-
 #include "visnav/feature_replay/experience.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/local_map.hpp"

@@ -875,7 +875,9 @@ std::string summary_json(const ExperimentOptions& o, const std::vector<Experimen
   j << "{\"world\":\"" << json_escape(o.world) << "\",\"route\":\"" << json_escape(o.route) << "\",\"loops\":" << o.loops
     << ",\"seeds\":" << o.seeds << ",\"first_seed\":" << o.first_seed << ",\"displace_m\":" << o.displace_m
     << ",\"displace_heading_deg\":" << o.displace_heading_deg << ",\"radius_m\":" << o.success_radius_m
-    << ",\"ideal\":" << (o.ideal ? "true" : "false") << ",\"styles\":[";
+    << ",\"ideal\":" << (o.ideal ? "true" : "false") << ",\"teach_appearance\":\"" << json_escape(o.teach_appearance)
+    << "\",\"replay_appearance\":\"" << json_escape(o.replay_appearance) << "\",\"experience_teach\":\""
+    << json_escape(o.experience_teach) << "\",\"styles\":[";
   for (std::size_t i = 0; i < o.maps.size(); ++i) {
     const StyleSummary s = summarise(o.maps[i], runs);
     j << (i ? "," : "") << "{\"style\":\"" << s.style << "\",\"attempted\":" << s.attempted
@@ -888,7 +890,8 @@ std::string summary_json(const ExperimentOptions& o, const std::vector<Experimen
   j << "],\"runs\":[";
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const ExperimentRun& r = runs[i];
-    j << (i ? "," : "") << "{\"style\":\"" << r.style << "\",\"seed\":" << r.seed << ",\"eps_acc_m\":"
+    j << (i ? "," : "") << "{\"style\":\"" << r.style << "\",\"seed\":" << r.seed << ",\"experiences_added\":"
+      << r.experiences_added << ",\"experience_edges\":" << r.experience_edges << ",\"eps_acc_m\":"
       << r.metrics.accuracy_m << ",\"eps_rep_m\":" << r.metrics.repeatability_m << ",\"stop_reason\":\""
       << json_escape(r.stop_reason.empty() ? r.setup_error : r.stop_reason) << "\",\"loops\":[";
     for (std::size_t k = 0; k < r.loops.size(); ++k) {

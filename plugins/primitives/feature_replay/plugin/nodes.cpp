@@ -12,9 +12,6 @@
 #include <utility>
 #include <vector>
 
-#include <chrono>
-#include <ctime>
-
 #include "visnav/feature_replay/experience.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/local_map.hpp"
@@ -344,15 +341,6 @@ class StartViewSearch {
   double probe_confidence_sum_ = 0.0;
   double probe_offset_sum_ = 0.0;   // sum of |offset| / width (1 for a frame without a match)
 };
-
-std::string utc_now_iso() {
-  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
 
 /// Replays a feature edge of either style against each of its appearance experiences (the taught
 /// payload and those learned by earlier replays, experience.hpp): per frame the selector picks

@@ -15,13 +15,10 @@
 #pragma once
 
 #include "visnav/bt/registry.hpp"
+#include "visnav/feature_replay/experience.hpp"  // kSegmentKind, kLocalMapsKind
 #include "visnav/host.hpp"
 
 namespace visnav::feature_replay {
-
-/// Edge kinds written by TeachFeatureEdge and read by ReplayFeatureEdge.
-inline constexpr const char* kSegmentKind = "feature_segment";
-inline constexpr const char* kLocalMapsKind = "feature_localmaps";
 
 /// Registers TeachFeatureEdge and ReplayFeatureEdge.
 Status register_feature_nodes(bt::NodeRegistry& registry, HostServices& host);

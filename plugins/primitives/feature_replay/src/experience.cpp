@@ -11,7 +11,12 @@
 #include <fstream>
 #include <iterator>
 
+#include <chrono>
+#include <ctime>
+
 #include "binary_io.hpp"
+#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/map.hpp"
 
 namespace visnav::feature_replay {
@@ -168,6 +173,109 @@ Status save_experiences(const std::string& map_dir, const std::string& edge_id, 
   const std::vector<std::uint8_t> body = set.serialize();
   const std::vector<std::uint8_t> file = map_format::encode_payload(kExperienceKind, edge_id, body);
   return write_file_durably(folder, fs::path(experience_path(map_dir, edge_id)).filename().string(), file);
+}
+
+// ------------------------------------------------------------------ supervised experiences
+
+std::string utc_now_iso() {
+  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+Result<std::vector<std::uint8_t>> experience_from_drive(const std::string& kind, std::span<const std::uint8_t> teach_body,
+                                                        std::span<const std::uint8_t> drive_body,
+                                                        double max_length_mismatch) {
+  auto scale_of = [&](double teach_m, double drive_m) -> Result<double> {
+    // Both runs drive between the same places: a drive much longer or shorter than the taught
+    // edge is another stretch of route (or a drive that was cut short), not an odometry error.
+    if (!(teach_m > 0.0) || !(drive_m > 0.0) || std::abs(teach_m / drive_m - 1.0) > max_length_mismatch)
+      return fail(ErrorCode::inconsistent, "driven length " + std::to_string(drive_m) + " m does not fit the taught " +
+                                               std::to_string(teach_m) + " m (more than " +
+                                               std::to_string(static_cast<int>(max_length_mismatch * 100.0)) +
+                                               " % apart)");
+    return teach_m / drive_m;
+  };
+  if (kind == kSegmentKind) {
+    auto teach = SegmentMap::deserialize(teach_body);
+    if (!teach) return fail(ErrorCode::parse_error, "taught body: " + teach.error().message);
+    auto drive = SegmentMap::deserialize(drive_body);
+    if (!drive) return fail(ErrorCode::parse_error, "driven body: " + drive.error().message);
+    VISNAV_ASSIGN(const double s, scale_of(teach->length_m, drive->length_m));
+    SegmentMap out = std::move(*drive);
+    const auto sf = static_cast<float>(s);
+    for (Landmark& l : out.landmarks) {
+      l.first_distance_m *= sf;
+      l.last_distance_m *= sf;
+    }
+    out.max_span_m *= s;
+    out.length_m = teach->length_m;
+    out.azimuth_rad = teach->azimuth_rad;
+    if (auto st = out.validate(); !st) return fail(ErrorCode::inconsistent, "aligned body: " + st.error().message);
+    return out.serialize();
+  }
+  if (kind == kLocalMapsKind) {
+    auto teach = LocalMapPath::deserialize(teach_body);
+    if (!teach) return fail(ErrorCode::parse_error, "taught body: " + teach.error().message);
+    auto drive = LocalMapPath::deserialize(drive_body);
+    if (!drive) return fail(ErrorCode::parse_error, "driven body: " + drive.error().message);
+    VISNAV_ASSIGN(const double s, scale_of(teach->length_m, drive->length_m));
+    LocalMapPath out = std::move(*drive);
+    for (LocalMap& m : out.maps) m.distance_m = std::min(m.distance_m * s, teach->length_m);
+    out.length_m = teach->length_m;
+    out.commands = teach->commands;  // the route stays the taught one; only the appearance is new
+    if (auto st = out.validate(); !st) return fail(ErrorCode::inconsistent, "aligned body: " + st.error().message);
+    return out.serialize();
+  }
+  return fail(ErrorCode::out_of_range, "edge kind '" + kind + "' has no appearance experiences (expected " +
+                                           kSegmentKind + " or " + kLocalMapsKind + ")");
+}
+
+Result<std::vector<DriveExperienceOutcome>> add_drive_experiences(const std::string& map_dir,
+                                                                  const std::string& drive_map_dir,
+                                                                  const std::string& source, int max_experiences) {
+  VISNAV_ASSIGN(MapStore map, MapStore::open(map_dir));
+  VISNAV_ASSIGN(MapStore drive, MapStore::open(drive_map_dir));
+  std::vector<DriveExperienceOutcome> outcomes;
+  for (const EdgeRecord& edge : map.edges()) {
+    if (edge.kind != kSegmentKind && edge.kind != kLocalMapsKind) continue;
+    DriveExperienceOutcome o;
+    o.edge_id = edge.id;
+    const EdgeRecord* driven = drive.find_edge(edge.id);
+    if (driven == nullptr) {
+      o.note = "not driven (the drive map has no edge " + edge.id + ")";
+    } else if (driven->kind != edge.kind || driven->from != edge.from || driven->to != edge.to) {
+      o.note = "not the same edge: driven " + driven->from + " -> " + driven->to + " (" + driven->kind + "), taught " +
+               edge.from + " -> " + edge.to + " (" + edge.kind + ")";
+    } else if (auto teach = map.read_payload(edge.id); !teach) {
+      o.note = teach.error().message;
+    } else if (auto driven_body = drive.read_payload(edge.id); !driven_body) {
+      o.note = driven_body.error().message;
+    } else if (auto set = load_experiences(map_dir, edge.id, *teach); !set) {
+      o.note = set.error().message;
+    } else if (auto body = experience_from_drive(edge.kind, *teach, *driven_body); !body) {
+      o.note = drive_map_dir + ": edge " + edge.id + ": " + body.error().message;
+    } else {
+      o.length_scale = edge.length_m > 0.0 && driven->length_m > 0.0 ? edge.length_m / driven->length_m : 1.0;
+      Experience e;
+      e.created = utc_now_iso();
+      e.source = source;
+      e.body = std::move(*body);
+      o.note = std::to_string(e.body.size()) + " bytes";
+      o.evicted = set->add(std::move(e), max_experiences);
+      if (auto st = save_experiences(map_dir, edge.id, *set); !st) {
+        o.note = st.error().message;
+      } else {
+        o.added = true;
+        o.number = set->learned.empty() ? 0 : set->learned.back().number;
+      }
+    }
+    outcomes.push_back(std::move(o));
+  }
+  return outcomes;
 }
 
 // ------------------------------------------------------------------------------ registration

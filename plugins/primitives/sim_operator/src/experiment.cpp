@@ -21,6 +21,7 @@
 
 #include "sim_session_util.hpp"
 #include "visnav/bt/tree.hpp"
+#include "visnav/feature_replay/experience.hpp"
 #include "visnav/map.hpp"
 #include "visnav/runner.hpp"
 #include "visnav_sim/commands.hpp"
@@ -100,7 +101,7 @@ constexpr const char* kUsage =
     "                         [--seed S] [--jobs J] [--radius M] [--maps hybrid,feature,path] [--ideal]\n"
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
     "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--port N.p=v]...\n"
-    "                         [--learn-loops N]\n"
+    "                         [--learn-loops N] [--experience-teach A]\n"
     "\n"
     "The seed 000 Sec. 6 experiment, repeated over independent random runs. For each map style and\n"
     "each seed: teach the route R (a waypoint script, config/routes/) in the simulated world W with\n"
@@ -132,6 +133,11 @@ constexpr const char* kUsage =
     "                        experience (trees/patrol_loop_learning.xml); not measured (default 0)\n"
     "  --learn-blind-m M     learning loops: learn frames without a confident match for up to M m\n"
     "                        (as seen on odometry) and allow M m blind (default: 1 m / 5 m, the replay's)\n"
+    "  --experience-teach A  multi-experience maps by a supervised drive: after the teach, the scripted\n"
+    "                        operator drives the route again under appearance A (e.g. winter; its own\n"
+    "                        draw of the error models) with the teach tree into <run>/experience_drive/map,\n"
+    "                        and each feature edge it taught is added to the taught edge as an appearance\n"
+    "                        experience (visnav map experiences MAP --add-from DRIVE_MAP); not measured\n"
     "  --config C            run configuration (default config/sim_experiment.yaml)\n"
     "  --out DIR             output folder (default out/experiment)\n"
     "  --set k=v             config override for both runs, e.g. --set robot.params.odom_scale_error_sd_pct=5\n"
@@ -173,6 +179,10 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--ideal") { o.ideal = true; }
     else if (arg == "--learn-loops") { VISNAV_ASSIGN(double n, in.number(0, 100)); o.learn_loops = static_cast<int>(n); }
     else if (arg == "--learn-blind-m") { VISNAV_ASSIGN(o.learn_blind_m, in.number(0, 100)); }
+    else if (arg == "--experience-teach") {
+      VISNAV_ASSIGN(o.experience_teach, in.value());
+      VISNAV_TRY(appearance_overrides(o.experience_teach));
+    }
     else if (arg == "--teach-appearance") {
       VISNAV_ASSIGN(o.teach_appearance, in.value());
       VISNAV_TRY(appearance_overrides(o.teach_appearance));
@@ -495,6 +505,68 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   for (const auto& [kind, ks] : map_stats.per_kind) {
     r.map_bytes += ks.payload_bytes;
     r.map_length_m += ks.length_m;
+  }
+
+  // --- supervised experience drive (multi-experience maps): the scripted operator drives the
+  // route again in its own session (phase 3: another draw of every error model, the drive's
+  // appearance) with the same teach tree into a scratch map, whose feature edges become
+  // experiences of the taught ones. The taught robot stays where teaching ended.
+  if (!o.experience_teach.empty()) {
+    auto drive_config = load_run_config(config_file, phase_overrides(3, o.experience_teach, o.teach_overrides));
+    if (!drive_config) {
+      r.setup_error = "experience drive: " + drive_config.error().message;
+      return done();
+    }
+    const fs::path drive_map = dir / "experience_drive" / "map";
+    fs::remove_all(drive_map, ec);
+    fs::create_directories(drive_map.parent_path(), ec);
+    SessionOptions dso;
+    dso.map_path = drive_map.string();
+    dso.logger = &logger;
+    auto drive_made = Session::create(*drive_config, dso);
+    if (!drive_made) {
+      r.setup_error = "experience drive: " + drive_made.error().message;
+      return done();
+    }
+    auto drive = std::move(*drive_made);
+    SimulationControl* drive_sim = drive->robot().simulation();
+    auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"));
+    if (!tree || drive_sim == nullptr) {
+      r.setup_error = "experience drive: " + (tree ? std::string("no simulated robot") : tree.error().message);
+      return done();
+    }
+    if (auto st = set_blackboard_values(*tree, {"route_file=" + route_file,
+                                                std::string("force_kind=") + (style == "feature" ? "feature_segment"
+                                                                        : style == "path" ? "path_following"
+                                                                                          : ""),
+                                                std::string("close_loop=") + (route.closed ? "true" : "false")});
+        !st) {
+      r.setup_error = "experience drive: " + st.error().message;
+      return done();
+    }
+    RunOptions ro;
+    ro.after_tick = [&](const TickInfo&) { return drive_sim->collisions().empty(); };
+    RunReport report = run_tree(*drive, *tree, ro);
+    if (!drive_sim->collisions().empty() || report.outcome != RunOutcome::success) {
+      r.setup_error = "experience drive failed: " +
+                      (drive_sim->collisions().empty() ? report.reason : "collided with " + drive_sim->collisions().back().obstacle);
+      return done();
+    }
+    drive.reset();
+    auto added = feature_replay::add_drive_experiences(map_dir.string(), drive_map.string(),
+                                                       "supervised drive in " + o.experience_teach, 4);
+    if (!added) {
+      r.setup_error = "experience drive: " + added.error().message;
+      return done();
+    }
+    for (const auto& a : *added) {
+      ++r.experience_edges;
+      if (a.added) ++r.experiences_added;
+      else logger.log(LogLevel::warn, "experiment", "experience drive: edge " + a.edge_id + ": " + a.note);
+    }
+    logger.log(LogLevel::info, "experiment",
+               "experience drive in " + o.experience_teach + ": " + std::to_string(r.experiences_added) + " of " +
+                   std::to_string(r.experience_edges) + " feature edges got an experience");
   }
 
   // --- the replay run: its own draw of every error model (and its appearance)
@@ -820,7 +892,9 @@ std::string summary_json(const ExperimentOptions& o, const std::vector<Experimen
   j << "{\"world\":\"" << json_escape(o.world) << "\",\"route\":\"" << json_escape(o.route) << "\",\"loops\":" << o.loops
     << ",\"seeds\":" << o.seeds << ",\"first_seed\":" << o.first_seed << ",\"displace_m\":" << o.displace_m
     << ",\"displace_heading_deg\":" << o.displace_heading_deg << ",\"radius_m\":" << o.success_radius_m
-    << ",\"ideal\":" << (o.ideal ? "true" : "false") << ",\"styles\":[";
+    << ",\"ideal\":" << (o.ideal ? "true" : "false") << ",\"teach_appearance\":\"" << json_escape(o.teach_appearance)
+    << "\",\"replay_appearance\":\"" << json_escape(o.replay_appearance) << "\",\"experience_teach\":\""
+    << json_escape(o.experience_teach) << "\",\"styles\":[";
   for (std::size_t i = 0; i < o.maps.size(); ++i) {
     const StyleSummary s = summarise(o.maps[i], runs);
     j << (i ? "," : "") << "{\"style\":\"" << s.style << "\",\"attempted\":" << s.attempted
@@ -833,7 +907,8 @@ std::string summary_json(const ExperimentOptions& o, const std::vector<Experimen
   j << "],\"runs\":[";
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const ExperimentRun& r = runs[i];
-    j << (i ? "," : "") << "{\"style\":\"" << r.style << "\",\"seed\":" << r.seed << ",\"eps_acc_m\":"
+    j << (i ? "," : "") << "{\"style\":\"" << r.style << "\",\"seed\":" << r.seed << ",\"experiences_added\":"
+      << r.experiences_added << ",\"experience_edges\":" << r.experience_edges << ",\"eps_acc_m\":"
       << r.metrics.accuracy_m << ",\"eps_rep_m\":" << r.metrics.repeatability_m << ",\"stop_reason\":\""
       << json_escape(r.stop_reason.empty() ? r.setup_error : r.stop_reason) << "\",\"loops\":[";
     for (std::size_t k = 0; k < r.loops.size(); ++k) {
@@ -913,7 +988,13 @@ Result<std::vector<ExperimentRun>> run_experiment(const ExperimentOptions& o) {
      << " loops each, initial error " << o.displace_m << " m lateral + " << o.displace_heading_deg
      << " deg, success radius " << o.success_radius_m << " m, config `" << o.config << "`"
      << (o.ideal ? ", **--ideal (error models off: a regression run, not a result)**" : "")
-     << ", appearance teach `" << o.teach_appearance << "` / replay `" << o.replay_appearance << "`\n\n"
+     << ", appearance teach `" << o.teach_appearance << "` / replay `" << o.replay_appearance << "`";
+  if (!o.experience_teach.empty()) {
+    md << ", supervised experience drive `" << o.experience_teach << "` (feature edges given an experience per run:";
+    for (const auto& r : runs) md << " " << r.experiences_added << "/" << r.experience_edges;
+    md << ")";
+  }
+  md << "\n\n"
      << experiment_table(o, runs)
      << "\nε_acc, ε_rep: seed 000 eq. (18) over the finished loops' end positions against the position where "
         "teaching ended, per run; mean ± sd and worst over the runs. Along/cross: RMS of the loop-end error's "

@@ -71,6 +71,12 @@ struct ExperimentOptions {
   /// blind distance (patrol_loop_learning.xml's learn_hold_m / learn_max_blind_m); 0 = the
   /// replay's defaults (1 m / 5 m).
   double learn_blind_m = 0.0;
+  /// Multi-experience maps by a supervised drive (issue 13): after the teach, the scripted
+  /// operator drives the route again under this appearance (its own draw of the error models,
+  /// its own session) with the teach tree into <run>/experience_drive/map, and every feature edge
+  /// it taught is added to the taught map's edge of the same id as an appearance experience
+  /// (feature_replay's add_drive_experiences). Empty = none.
+  std::string experience_teach;
   bool progress = true;                    ///< progress line on stderr
   /// Called after every replay tick with the simulator, the robot and the odometric distance
   /// driven since the replay started: disturbances for tests (kidnapping, outside commands).
@@ -117,6 +123,8 @@ struct ExperimentRun {
   std::string teach_errors;   ///< the sim robot's drawn run errors, for the report
   std::string replay_errors;
   int learn_loops_driven = 0;  ///< learning loops completed before the measured replay (learn_loops)
+  int experiences_added = 0;   ///< feature edges given a supervised drive's experience (experience_teach)
+  int experience_edges = 0;    ///< feature edges of the taught map (experience_teach)
 };
 
 /// Runs every (style, seed) of `options`, writes the CSVs, pictures, report.md and

@@ -5,7 +5,10 @@
 //    an error with its code and the file (and edge) as location;
 //  * the selector tries the last winner first and pays for the others only when it is unsure,
 //    and then picks the best-matching experience;
-//  * the view registrar moves a replay frame onto the reference heading.
+//  * the view registrar moves a replay frame onto the reference heading;
+//  * a supervised drive's edge becomes an experience aligned to the taught edge (distances
+//    scaled to the taught length, the taught azimuth / commands kept); a drive of another length
+//    or kind, or a damaged body, is refused with its code.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -15,6 +18,8 @@
 #include "error_expect.hpp"
 #include "temp_folder.hpp"
 #include "visnav/feature_replay/experience.hpp"
+#include "visnav/feature_replay/local_map.hpp"
+#include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/map.hpp"
 
 namespace fr = visnav::feature_replay;
@@ -188,6 +193,86 @@ TEST(ViewRegistrar, MovesTheFrameOntoTheReferenceHeadingAndHoldsTheOffsetBriefly
   EXPECT_EQ(registrar.add(5.1, f, unsure), nullptr);
   registrar.reset(5.0, false);
   EXPECT_EQ(registrar.add(0.2, f, unsure), nullptr);
+}
+
+/// A segment of `length_m` with three landmarks spread over it, seen from `azimuth_rad`.
+fr::SegmentMap segment(double length_m, double azimuth_rad, std::uint8_t fill) {
+  fr::SegmentMap m;
+  m.length_m = length_m;
+  m.azimuth_rad = azimuth_rad;
+  m.descriptors = cv::Mat(3, 32, CV_8UC1, cv::Scalar(fill));
+  for (int i = 0; i < 3; ++i) {
+    fr::Landmark l;
+    l.count = 5;
+    l.first_px = {100.f + 10.f * static_cast<float>(i), 50.f};
+    l.last_px = {90.f + 10.f * static_cast<float>(i), 52.f};
+    l.first_distance_m = static_cast<float>(length_m * 0.25 * i);
+    l.last_distance_m = static_cast<float>(length_m * (0.25 * i + 0.5));
+    m.landmarks.push_back(l);
+    m.max_span_m = std::max(m.max_span_m, static_cast<double>(l.last_distance_m - l.first_distance_m));
+  }
+  return m;
+}
+
+TEST(DriveExperience, ASegmentDriveIsScaledToTheTaughtLengthAndKeepsTheTaughtAzimuth) {
+  const fr::SegmentMap teach = segment(10.0, 0.4, 1);
+  const fr::SegmentMap drive = segment(11.0, -0.2, 9);  // odometry 10 % long, another start heading
+  auto body = fr::experience_from_drive(fr::kSegmentKind, teach.serialize(), drive.serialize());
+  ASSERT_TRUE(body.ok()) << body.error().message;
+  auto out = fr::SegmentMap::deserialize(*body);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  EXPECT_DOUBLE_EQ(out->length_m, 10.0);
+  EXPECT_DOUBLE_EQ(out->azimuth_rad, 0.4);
+  ASSERT_EQ(out->landmarks.size(), 3u);
+  // The landmark the drive saw from 5.5 m to 11 m is where the taught edge is 5 m to 10 m.
+  EXPECT_NEAR(out->landmarks[2].first_distance_m, 5.0, 1e-4);
+  EXPECT_NEAR(out->landmarks[2].last_distance_m, 10.0, 1e-4);
+  EXPECT_NEAR(out->max_span_m, 5.0, 1e-4);
+  EXPECT_EQ(out->descriptors.at<std::uint8_t>(0, 0), 9) << "the appearance is the drive's";
+  EXPECT_FLOAT_EQ(out->landmarks[1].first_px.x, 110.f);
+}
+
+TEST(DriveExperience, ALocalMapDriveKeepsTheTaughtCommands) {
+  auto path = [](double length_m, double speed_mps, std::uint8_t fill) {
+    fr::LocalMapPath p;
+    p.length_m = length_m;
+    for (int i = 0; i <= 4; ++i) {
+      fr::LocalMap m;
+      m.distance_m = length_m * i / 4.0;
+      m.positions_px = {{10.f, 20.f}, {30.f, 40.f}};
+      m.descriptors = cv::Mat(2, 32, CV_8UC1, cv::Scalar(fill));
+      p.maps.push_back(std::move(m));
+    }
+    p.commands.push_back({0.0, visnav::Twist{speed_mps, 0.1}});
+    p.commands.push_back({length_m, visnav::Twist{}});
+    return p;
+  };
+  const fr::LocalMapPath teach = path(4.0, 0.5, 1);
+  const fr::LocalMapPath drive = path(3.6, 0.8, 7);
+  auto body = fr::experience_from_drive(fr::kLocalMapsKind, teach.serialize(), drive.serialize());
+  ASSERT_TRUE(body.ok()) << body.error().message;
+  auto out = fr::LocalMapPath::deserialize(*body);
+  ASSERT_TRUE(out.ok()) << out.error().message;
+  EXPECT_DOUBLE_EQ(out->length_m, 4.0);
+  ASSERT_EQ(out->maps.size(), 5u);
+  EXPECT_NEAR(out->maps[2].distance_m, 2.0, 1e-9);
+  EXPECT_NEAR(out->maps[4].distance_m, 4.0, 1e-9);
+  EXPECT_EQ(out->maps[1].descriptors.at<std::uint8_t>(0, 0), 7);
+  EXPECT_NEAR(out->command_at(1.0).linear_mps, 0.5, 1e-6) << "the route is the taught one";
+}
+
+TEST(DriveExperience, AnotherStretchAnotherKindOrGarbageIsRefusedWithItsCode) {
+  const auto teach = segment(10.0, 0.0, 1).serialize();
+  EXPECT_TRUE(fails_with(fr::experience_from_drive(fr::kSegmentKind, teach, segment(14.0, 0.0, 2).serialize()),
+                         ErrorCode::inconsistent));
+  EXPECT_TRUE(fails_with(fr::experience_from_drive(fr::kSegmentKind, teach, segment(7.0, 0.0, 2).serialize()),
+                         ErrorCode::inconsistent));
+  EXPECT_TRUE(fr::experience_from_drive(fr::kSegmentKind, teach, segment(14.0, 0.0, 2).serialize(), 0.5).ok())
+      << "the tolerance is the caller's";
+  EXPECT_TRUE(fails_with(fr::experience_from_drive("path_following", teach, teach), ErrorCode::out_of_range));
+  const std::vector<std::uint8_t> garbage = {1, 2, 3};
+  EXPECT_TRUE(fails_with(fr::experience_from_drive(fr::kSegmentKind, teach, garbage), ErrorCode::parse_error));
+  EXPECT_TRUE(fails_with(fr::experience_from_drive(fr::kLocalMapsKind, teach, teach), ErrorCode::parse_error));
 }
 
 }  // namespace

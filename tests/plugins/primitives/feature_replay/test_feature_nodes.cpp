@@ -555,3 +555,94 @@ TEST_F(FeatureExperiences, MapExperiencesListsThemAndMapValidateChecksThem) {
   EXPECT_NE(vout.find("experiences/" + id + ".bin"), std::string::npos) << vout;
   EXPECT_NE(vout.find("INVALID"), std::string::npos) << vout;
 }
+
+// A supervised drive (the route driven again in winter, taught into a scratch map) added to the
+// taught map with `visnav map experiences MAP --add-from DRIVE` through the real plugin command,
+// then chosen by ReplayFeatureEdge where the taught view matches nothing.
+TEST_F(FeatureExperiences, ASupervisedDriveAddedAsExperienceIsChosenInTheNewSeason) {
+  const std::string id = add_scene_localmaps_edge(Twist{1.0, 0.0});
+  const std::vector<std::uint8_t> teach_body = *map_->read_payload(id);
+  const EdgeRecord taught = *map_->find_edge(id);
+  // The drive: the same edge (id, nodes, kind), winter features, odometry 10 % long, the
+  // operator a little faster.
+  const fs::path drive_dir = dir_.string() + "_winter_drive";  // beside the map, removed at the end
+  auto make_drive = [&](double length_m) {
+    fs::remove_all(drive_dir);
+    auto drive = MapStore::create(drive_dir.string(), "winter drive");
+    ASSERT_TRUE(drive.ok()) << drive.error().message;
+    NodeRecord n;
+    n.name = "a";
+    ASSERT_EQ(*drive->add_node(n), taught.from);
+    fr::LocalMapPath path;
+    path.length_m = length_m;
+    for (int i = 0; i <= 6; ++i) {
+      fr::LocalMap m;
+      m.distance_m = length_m * i / 6.0;
+      m.positions_px = winter_.positions;
+      m.descriptors = winter_.descriptors.clone();
+      path.maps.push_back(std::move(m));
+    }
+    path.commands.push_back({0.0, Twist{1.2, 0.0}});
+    path.commands.push_back({length_m, Twist{}});
+    EdgeRecord e = taught;
+    e.length_m = length_m;
+    auto added = drive->add_edge(e, path.serialize());
+    ASSERT_TRUE(added.ok()) << added.error().message;
+    ASSERT_EQ(*added, id);
+  };
+  // A drive of another stretch (5 m for 3 m) is refused and nothing is written.
+  make_drive(5.0);
+  {
+    const auto [rc, out] = run_cli("map experiences " + dir_.string() + " --add-from " + drive_dir.string());
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_NE(out.find("edge " + id + ": REFUSED"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(experience_file(id)));
+  }
+  make_drive(3.3);
+  {
+    const auto [rc, out] = run_cli("map experiences " + dir_.string() + " --add-from " + drive_dir.string());
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("edge " + id + ": added experience 1"), std::string::npos) << out;
+  }
+  // The taught payload and graph are unchanged; the experience is aligned to the taught edge.
+  {
+    auto reopened = MapStore::open(dir_.string());
+    ASSERT_TRUE(reopened.ok());
+    EXPECT_EQ(*reopened->read_payload(id), teach_body);
+    EXPECT_DOUBLE_EQ(reopened->find_edge(id)->length_m, 3.0);
+  }
+  auto set = fr::load_experiences(dir_.string(), id, teach_body);
+  ASSERT_TRUE(set.ok()) << set.error().message;
+  ASSERT_EQ(set->learned.size(), 1u);
+  EXPECT_NE(set->learned[0].source.find("supervised drive"), std::string::npos);
+  auto learned = fr::LocalMapPath::deserialize(set->learned[0].body);
+  ASSERT_TRUE(learned.ok());
+  EXPECT_NEAR(learned->length_m, 3.0, 1e-9);
+  EXPECT_NEAR(learned->maps.back().distance_m, 3.0, 1e-6);
+  EXPECT_NEAR(learned->maps[3].distance_m, 1.5, 1e-6);
+  EXPECT_NEAR(learned->command_at(1.0).linear_mps, 1.0, 1e-6) << "the taught commands are kept";
+  {
+    const auto [vrc, vout] = run_cli("map validate " + dir_.string());
+    EXPECT_EQ(vrc, 0) << vout;
+  }
+
+  // Deep winter, the robot turned so the scene is 15 px right: the drive's experience is chosen
+  // and the robot steers back.
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" correction_gain_radps_per_px=\"0.004\"/>");
+  EXPECT_EQ(tick(tree, winter_.view(15.f)), NodeStatus::running);
+  EXPECT_EQ(telemetry_.statuses.back().status, "steering");
+  EXPECT_GT(telemetry_.statuses.back().inliers, 100);
+  EXPECT_NEAR(telemetry_.statuses.back().offset_px, 15.0, 0.5);
+  EXPECT_NEAR(robot_.command_.angular_radps, -0.004 * 15.0, 0.003);
+  EXPECT_NE(logger_.text().find("2 appearance experiences"), std::string::npos) << logger_.text();
+
+  // A drive map without the edge: "not driven", nothing added, exit 1.
+  fs::remove_all(drive_dir);
+  ASSERT_TRUE(MapStore::create(drive_dir.string(), "empty drive").ok());
+  const auto [rc, out] = run_cli("map experiences " + dir_.string() + " --add-from " + drive_dir.string());
+  EXPECT_EQ(rc, 1) << out;
+  EXPECT_NE(out.find("edge " + id + ": not driven"), std::string::npos) << out;
+  fs::remove_all(drive_dir);
+}

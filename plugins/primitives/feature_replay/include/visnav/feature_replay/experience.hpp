@@ -2,8 +2,11 @@
 //
 // A feature edge's taught payload is its first experience (number 0, "teach"). Later replays may
 // add their own view of the edge as further experiences (summer teach, winter replay, ...), like
-// VT&R3's multi-experience localisation for appearance-based maps. On replay the experience whose
-// reference matches the current frame best is used (ExperienceSelector).
+// VT&R3's multi-experience localisation for appearance-based maps. Where the change is too large
+// for any replay to succeed (summer map, winter snow), an experience comes from a supervised
+// drive instead: the route taught again in the new conditions into a scratch map, whose edges are
+// added to the taught ones (add_drive_experiences). On replay the experience whose reference
+// matches the current frame best is used (ExperienceSelector).
 //
 // Storage: <map>/experiences/<edge_id>.bin, one file per edge holding every learned experience,
 // in the map store's payload format (map_format::encode_payload: magic "VNAVEDGE", version, kind
@@ -36,6 +39,10 @@
 
 namespace visnav::feature_replay {
 
+/// Edge kinds written by TeachFeatureEdge and read by ReplayFeatureEdge (style A, style B).
+inline constexpr const char* kSegmentKind = "feature_segment";
+inline constexpr const char* kLocalMapsKind = "feature_localmaps";
+
 inline constexpr const char* kExperienceKind = "feature_experiences";  ///< payload-header kind of the file
 inline constexpr const char* kExperienceFolder = "experiences";         ///< folder inside the map
 
@@ -65,6 +72,9 @@ struct ExperienceSet {
   std::vector<std::uint32_t> add(Experience e, int max_experiences);
 };
 
+/// Now as ISO-8601 UTC ("2026-11-24T08:10:00Z"), for Experience::created.
+[[nodiscard]] std::string utc_now_iso();
+
 /// <map_dir>/experiences/<edge_id>.bin
 [[nodiscard]] std::string experience_path(const std::string& map_dir, const std::string& edge_id);
 
@@ -77,6 +87,48 @@ struct ExperienceSet {
 [[nodiscard]] Result<ExperienceSet> read_experience_file(const std::string& path, const std::string& edge_id);
 /// Writes the set crash-safely (see the file comment); creates the folder if needed.
 [[nodiscard]] Status save_experiences(const std::string& map_dir, const std::string& edge_id, const ExperienceSet& set);
+
+// ------------------------------------------------------------------ supervised experiences
+//
+// A supervised drive (an operator, or the simulator's scripted operator, driving the taught route
+// again in new conditions, e.g. once per season as VT&R3 users do) is taught into a scratch map
+// with the ordinary teach tree; its feature edges are then added to the taught map's edges of the
+// same id as experiences. The taught payloads and the graph are never changed.
+
+/// The body of a supervised drive's edge (`drive_body`, of edge kind `kind`: kSegmentKind or
+/// kLocalMapsKind) made into an experience of the taught edge (`teach_body`, same kind): every
+/// distance is scaled by teach length / drive length (both runs go between the same places, so
+/// this aligns the drive's odometry to the taught edge's), the azimuth (style A) and the recorded
+/// commands (style B) are the taught ones: only the appearance is taken from the drive.
+/// Errors: a body that does not decode (parse_error), kinds that are not feature kinds
+/// (out_of_range), lengths whose ratio differs from 1 by more than `max_length_mismatch`
+/// (inconsistent: not the same stretch of route).
+[[nodiscard]] Result<std::vector<std::uint8_t>> experience_from_drive(const std::string& kind,
+                                                                      std::span<const std::uint8_t> teach_body,
+                                                                      std::span<const std::uint8_t> drive_body,
+                                                                      double max_length_mismatch = 0.25);
+
+/// What add_drive_experiences did to one feature edge of the taught map.
+struct DriveExperienceOutcome {
+  std::string edge_id;
+  bool added = false;
+  std::uint32_t number = 0;             ///< the experience number given (added)
+  std::vector<std::uint32_t> evicted;   ///< learned experiences evicted by the bound
+  double length_scale = 1.0;            ///< teach length / drive length (added)
+  std::string note;                     ///< why not added ("not driven", the error), or the size added
+};
+
+/// Adds, for every feature edge of the taught map `map_dir` that the drive map `drive_map_dir`
+/// has under the same id (same kind, same from/to nodes), the drive's view as a new experience
+/// (experience_from_drive; at most `max_experiences` per edge counting the taught one, the
+/// oldest learned evicted), each edge's file written crash-safely. `source` is stored with each
+/// experience. Edges the drive lacks are reported "not driven" (not an error: a drive may cover
+/// part of the route). Error: a map that does not open, or an experience file of the taught map
+/// that is damaged or stale (nothing is written then for that edge; the outcome names the file).
+[[nodiscard]] Result<std::vector<DriveExperienceOutcome>> add_drive_experiences(const std::string& map_dir,
+                                                                                const std::string& drive_map_dir,
+                                                                                const std::string& source,
+                                                                                int max_experiences);
 
 /// Which experience to use, frame by frame, without paying for every experience every frame:
 /// the experience that won the last frame is tried first; only when its confidence is below

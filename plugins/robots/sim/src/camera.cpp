@@ -124,14 +124,18 @@ void CameraCore::apply_appearance(cv::Mat& bgr, const Twist& twist) {
 std::optional<Frame> CameraCore::grab() {
   const double now = robot_->time_s();
   double capture_s = now;
-  bool frames_missed = false;  // the caller stalled for frames the camera kept capturing
+  double period = 0.0;  // frame period: the rate's, or with one frame per grab the grabs' cadence
   if (params_.frame_rate_hz > 0.0) {
     if (now + 1e-9 < next_frame_s_) return std::nullopt;
-    const double period = 1.0 / params_.frame_rate_hz;
+    period = 1.0 / params_.frame_rate_hz;
     while (next_frame_s_ <= now + 1e-9) next_frame_s_ += period;
-    frames_missed = last_grab_s_ >= 0.0 && now - last_grab_s_ > 1.5 * period;
-    last_grab_s_ = now;
+  } else {
+    period = grab_interval_s_;
   }
+  // The caller stalled (a compute freeze) for frames the camera kept capturing meanwhile.
+  const bool frames_missed = last_grab_s_ >= 0.0 && period > 0.0 && now - last_grab_s_ > 1.5 * period;
+  if (last_grab_s_ >= 0.0 && !frames_missed && now > last_grab_s_) grab_interval_s_ = now - last_grab_s_;
+  last_grab_s_ = now;
   // fixed number of draws per grab keeps the random stream independent of the outcomes
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const double drop_draw = uni(rng_);
@@ -140,7 +144,7 @@ std::optional<Frame> CameraCore::grab() {
   const std::uint64_t sequence = sequence_++;
   if (drop_draw < params_.drop_probability) {
     if (!frames_missed) return std::nullopt;
-    capture_s = now - 1.0 / params_.frame_rate_hz;  // the newest frame is lost, the one before it is not
+    capture_s = now - period;  // the newest frame is lost, the one before it is not
   }
 
   Frame frame;

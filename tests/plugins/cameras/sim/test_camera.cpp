@@ -131,6 +131,18 @@ TEST(SimCamera, ADropAfterAStallLosesOnlyTheNewestFrame) {
   EXPECT_NEAR(late->timestamp_s, r->time_s() - 0.1, 1e-9);
   ASSERT_TRUE(r->step(0.1).ok());
   EXPECT_FALSE(cam.grab().has_value());  // back on time
+
+  // One frame per grab (frame_rate_hz 0, the experiment's setting): the period is the grabs' cadence.
+  c.frame_rate_hz = 0;
+  vs::CameraCore per_grab(c, r, r->world());
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(r->step(0.1).ok());
+    EXPECT_FALSE(per_grab.grab().has_value());
+  }
+  ASSERT_TRUE(r->step(2.5).ok());
+  const auto after = per_grab.grab();
+  ASSERT_TRUE(after.has_value());
+  EXPECT_NEAR(after->timestamp_s, r->time_s() - 0.1, 1e-9);
 }
 
 TEST(SimCamera, FrozenFramesRepeatThePreviousImage) {

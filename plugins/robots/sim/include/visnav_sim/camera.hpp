@@ -6,7 +6,8 @@
 //     but when more than 1.5 frame periods of simulated time passed since the last grab (the
 //     robot's compute froze, SimulationControl::step jumped), the camera kept capturing
 //     meanwhile: a drop then loses only the newest frame and the one a period earlier is
-//     delivered (captured at t - 1/frame_rate_hz); with probability freeze_probability the previous image is returned again (new
+//     delivered (captured a period before t; the period is 1/frame_rate_hz, or with
+//     frame_rate_hz 0 the usual time between grabs); with probability freeze_probability the previous image is returned again (new
 //     timestamp and sequence, same pixels).
 //  2. render at the robot's true pose at (t - latency_s) (RobotCore::pose_at); the frame's
 //     timestamp is that capture time t - latency_s.
@@ -99,7 +100,8 @@ class CameraCore {
   std::mt19937_64 rng_;
   std::uint64_t sequence_ = 0;
   double next_frame_s_ = 0.0;
-  double last_grab_s_ = -1.0;  // simulated time of the last grab that was due (< 0: none yet)
+  double last_grab_s_ = -1.0;     // simulated time of the last grab that was due (< 0: none yet)
+  double grab_interval_s_ = 0.0;  // frame_rate_hz 0: the usual time between grabs (0: unknown)
   cv::Mat render_buffer_;
   cv::Mat blur_buffer_;
   cv::Mat noise_buffer_;

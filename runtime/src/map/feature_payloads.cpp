@@ -10,12 +10,12 @@
 
 #include <opencv2/core.hpp>
 
-#include "feature_binary_io.hpp"
+#include "visnav/byte_io.hpp"
 
 namespace visnav::feature_replay {
 
 namespace {
-namespace io = payload_io;
+namespace io = visnav::byte_io;
 constexpr char kMagicA[4] = {'V', 'N', 'F', 'A'};
 constexpr char kMagicB[4] = {'V', 'N', 'F', 'B'};
 std::size_t row_bytes(int cols, int type) { return static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type); }

@@ -14,13 +14,14 @@
 #include <chrono>
 #include <ctime>
 
-#include "binary_io.hpp"
+#include "visnav/byte_io.hpp"
 #include "visnav/feature_replay/local_map.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/map.hpp"
 
 namespace visnav::feature_replay {
 namespace fs = std::filesystem;
+namespace io = visnav::byte_io;
 
 namespace {
 

@@ -1,5 +1,8 @@
-// Little-endian writer/reader for the payload bodies. The reader never reads past the end: every
-// getter returns false once the input is exhausted, and the caller turns that into an Error.
+// visnav SDK — little-endian byte writer/reader for binary payload bodies (the feature payload
+// codecs and the feature primitive's experiences file use it; plugins may too).
+// The reader never reads past the end: every getter returns false once the input is exhausted,
+// and the caller turns that into an Error. Header-only; no state beyond the buffer it is given.
+// Thread-safety: one Writer/Reader per thread.
 #pragma once
 
 #include <bit>
@@ -10,7 +13,7 @@
 #include <type_traits>
 #include <vector>
 
-namespace visnav::feature_replay::io {
+namespace visnav::byte_io {
 
 static_assert(std::endian::native == std::endian::little, "payload code assumes a little-endian host");
 
@@ -20,12 +23,15 @@ class Writer {
   template <typename T>
   void put(T value) {
     static_assert(std::is_trivially_copyable_v<T>);
-    const auto* p = reinterpret_cast<const std::uint8_t*>(&value);
-    out_.insert(out_.end(), p, p + sizeof(T));
+    bytes(&value, sizeof(T));
   }
+  // resize + memcpy rather than vector::insert of a pointer range: GCC 12 at -O3 reports a false
+  // -Wstringop-overflow for the inlined insert in this library.
   void bytes(const void* data, std::size_t n) {
-    const auto* p = static_cast<const std::uint8_t*>(data);
-    out_.insert(out_.end(), p, p + n);
+    if (n == 0) return;
+    const std::size_t at = out_.size();
+    out_.resize(at + n);
+    std::memcpy(out_.data() + at, data, n);
   }
 
  private:
@@ -69,4 +75,4 @@ inline float from_fixed_px(std::int16_t v) { return static_cast<float>(v) / 8.0f
 /// Descriptor element kinds in the payloads.
 enum class DescKind : std::uint8_t { binary = 0, float32 = 1 };
 
-}  // namespace visnav::feature_replay::io
+}  // namespace visnav::byte_io

@@ -31,6 +31,7 @@ class Reader {
   template <typename Fn>
   Status entries(const YAML::Node& n, const std::string& what, std::initializer_list<const char*> known, Fn&& fn) const {
     if (!n.IsMap()) return at(n, what + ": expected a map");
+    VISNAV_TRY(first_visit(n, what));
     std::set<std::string> seen;
     for (auto it = n.begin(); it != n.end(); ++it) {
       VISNAV_TRY(spend(it->first, what));
@@ -61,6 +62,20 @@ class Reader {
     return ok();
   }
 
+  /// Refuses a list or map met a second time. yaml-cpp resolves an alias to the anchored node
+  /// itself, so a second visit carries the anchor's text position: two distinct collections
+  /// never start at the same place. This names an alias at its first use, before walking the
+  /// anchored collection again (`spend` remains the bound for anything this misses).
+  [[nodiscard]] Status first_visit(const YAML::Node& n, const std::string& what) const {
+    const YAML::Mark m = n.Mark();
+    if (m.is_null()) return ok();  // a node built in memory has no place in the text
+    if (!collections_seen_.emplace(m.line, m.column).second) {
+      return at(n, what + ": the list or map written here is used again through a YAML alias (aliases are not allowed in a map graph)",
+                ErrorCode::limit);
+    }
+    return ok();
+  }
+
   [[nodiscard]] Result<std::string> text(const YAML::Node& key, const YAML::Node& v, const std::string& what) const {
     if (v.IsNull()) return at(key, what + ": key '" + key.Scalar() + "' has no value");
     if (!v.IsScalar()) return at(v, what + ": key '" + key.Scalar() + "' must be a single value");
@@ -85,6 +100,7 @@ class Reader {
  private:
   const std::string& file_;
   mutable std::size_t entries_left_;
+  mutable std::set<std::pair<int, int>> collections_seen_;  ///< (line, column) of each list and map walked
 };
 
 std::string quoted(std::string_view s) {
@@ -235,6 +251,7 @@ Status parse_node(Reader& r, const YAML::Node& item, RawGraph& raw) {
     } else {  // outgoing
       if (v.IsNull()) return ok();
       if (!v.IsSequence()) return r.at(v, what + ": 'outgoing' must be a list of {edge, azimuth_rad}");
+      if (auto first = r.first_visit(v, what + " outgoing"); !first) return first;
       for (const auto& o : v) {
         std::string edge;
         double az = 0.0;
@@ -305,6 +322,7 @@ Status parse_edge(Reader& r, const YAML::Node& item, RawGraph& raw) {
     } else {  // statistics
       if (v.IsNull()) return ok();
       if (!v.IsMap()) return r.at(v, what + ": statistics must be a map of name: number");
+      if (auto first = r.first_visit(v, what + " statistics"); !first) return first;
       for (auto it = v.begin(); it != v.end(); ++it) {
         if (auto spent = r.spend(it->first, what + " statistics"); !spent) return spent;
         if (!it->first.IsScalar() || !map_format::valid_kind(it->first.Scalar())) {
@@ -374,6 +392,7 @@ Result<RawGraph> parse_full(const std::string& text_in, const std::string& file_
         (key == "nodes" ? have_nodes : have_edges) = true;
         if (v.IsNull()) return ok();
         if (!v.IsSequence()) return r.at(v, "'" + key + "' must be a list");
+        if (auto first = r.first_visit(v, "'" + key + "'"); !first) return first;
         for (const auto& item : v) VISNAV_TRY(key == "nodes" ? parse_node(r, item, raw) : parse_edge(r, item, raw));
       }
       return ok();

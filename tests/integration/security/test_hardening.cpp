@@ -347,6 +347,12 @@ TEST(AliasBomb, MapGraphIsRefusedFastAndSmall) {
     return !opened.ok() && contains(opened.error().message, "aliases are not allowed");
   });
   expect_cheap_refusal(cost, "map graph alias bomb");
+  // The alias is named at its first use, pointing at the anchored map's line (edge e0's), and
+  // not found by walking the anchored map again until the entry budget runs out.
+  auto opened = MapStore::open(dir.string());
+  ASSERT_FALSE(opened.ok());
+  EXPECT_TRUE(contains(opened.error().message, "graph.yaml:508: edge #2 statistics")) << opened.error().message;
+  EXPECT_TRUE(contains(opened.error().message, "used again through a YAML alias")) << opened.error().message;
   fs::remove_all(dir);
 }
 

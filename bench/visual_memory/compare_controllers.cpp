@@ -210,6 +210,7 @@ vm::ReplayParams params_for(const std::string& controller, bool coarse, std::mt1
   p.lambda = g_lambda;
   p.centroid_gain_radps = g_lambda;
   p.switch_rule = g_switch_rule;
+  p.lateral_gain_radps_per_m = 0.0;  // seed 004's laws exactly (the lateral term is ours: visual_memory_lateral)
   if (coarse) {
     std::bernoulli_distribution sign(0.5);
     auto factor = [&] { return sign(rng) ? 1.1 : 0.9; };

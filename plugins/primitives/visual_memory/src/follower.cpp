@@ -235,6 +235,24 @@ void MemoryFollower::control(FollowStep& out, const PoseEstimate& pose) {
   }
   double omega = law.angular_radps.value_or(0.0);
   if (!law.angular_radps) out.detail += (out.detail.empty() ? "" : "; ") + law.reason;
+  if (pose.ok) {
+    // The image laws align the view, which leaves a lateral offset to decay only as fast as the
+    // features' mean inverse depth (docs/visual_memory.md). Camera x is right: a robot right of
+    // the taught line (x > 0) turns left (ω > 0).
+    // Measured from the taught chord previous reference → I_i, not from I_i's optical axis: on
+    // a curve the axis leaves the taught path behind I_i by the sagitta (κd²/2, 0.1 m at 0.7 m
+    // on a 2.2 m radius), the chord by a quarter of that.
+    const cv::Vec3d p = pose.position_in_reference_m();
+    double path_x_m = 0.0;
+    if (target_ > 0) {
+      const cv::Vec3d& prev = ref.t_from_prev_m;  // the previous reference's camera in I_i's frame
+      if (prev[2] < -1e-3) path_x_m = prev[0] * (p[2] / prev[2]);
+    }
+    out.lateral_m = p[0] - path_x_m;
+    if (law.angular_radps && params_.lateral_gain_radps_per_m > 0.0 && std::isfinite(out.lateral_m)) {
+      omega += params_.lateral_gain_radps_per_m * std::clamp(out.lateral_m, -params_.lateral_clamp_m, params_.lateral_clamp_m);
+    }
+  }
   out.saturated = std::abs(omega) > params_.max_angular_radps;
   omega = std::clamp(omega, -params_.max_angular_radps, params_.max_angular_radps);
   out.turning = std::abs(out.offset_norm) > params_.turn_offset_norm ||

@@ -85,6 +85,11 @@ const ParamSchema<ReplayParams>& ReplayParams::schema() {
           .field("turn_speed_mps", &P::turn_speed_mps, "forward speed in detected turns, m/s").range(0.01, 3.0)
           .field("turn_offset_norm", &P::turn_offset_norm, "centroid shift that marks a turn (normalised)").range(0.0, 2.0)
           .field("max_angular_radps", &P::max_angular_radps, "angular speed clamp, rad/s").range(0.01, 5.0)
+          .field("lateral_gain_radps_per_m", &P::lateral_gain_radps_per_m,
+                 "lateral term k_y: omega += k_y * (lateral offset from the PnP pose), rad/s per m; 0 = the papers' laws")
+          .range(0.0, 10.0)
+          .field("lateral_clamp_m", &P::lateral_clamp_m, "largest lateral offset the lateral term acts on, m")
+          .range(0.01, 10.0)
           .field("klt_window_px", &P::klt_window_px, "KLT window side, px (odd)").range(5, 61)
           .field("klt_levels", &P::klt_levels, "KLT pyramid levels").range(0, 6)
           .field("klt_max_fb_error_px", &P::klt_max_fb_error_px, "KLT forward-backward error limit, px").range(0.05, 10.0)

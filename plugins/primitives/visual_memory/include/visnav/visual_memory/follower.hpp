@@ -18,7 +18,8 @@
 //  5. Goal: the last reference is reached when ε starts to rise below switch_error_px or the
 //     pose says passed (seed 003 Sec. II-C); goal_overshoot_m past the edge's length ends the
 //     edge by odometry with its own status.
-//  6. Control: the selected law (controllers.hpp); a law that cannot be evaluated this frame
+//  6. Control: the selected law (controllers.hpp), plus lateral_gain_radps_per_m times the
+//     camera's lateral offset from the pose (not in the seeds; 0 = off); a law that cannot be evaluated this frame
 //     (RH/IJP/IJC without a pose or depths) falls back to AIJCA and says so in the status.
 //     Turns (seed 003): the centroid offset to I_i, or the taught offset I_i → I_{i+1}, above
 //     turn_offset_norm slows to turn_speed_mps.
@@ -73,6 +74,9 @@ struct FollowStep {
   bool pose_ok = false;
   double image_error_px = 0.0;  ///< ε_i
   double offset_norm = 0.0;     ///< centroid offset x_c - x_n, normalised
+  /// The camera's lateral offset from the taught chord (previous reference → I_i), along I_i's x
+  /// axis (right positive), m, from the pose; 0 without a pose.
+  double lateral_m = 0.0;
   bool turning = false;
   bool saturated = false;
   double confidence = 0.0;      ///< tracked share of I_i's features, scaled, [0, 1]

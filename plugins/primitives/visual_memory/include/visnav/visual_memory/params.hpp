@@ -68,6 +68,13 @@ struct ReplayParams {
   double turn_speed_mps = 0.15;       ///< v during detected turns (seed 003 Sec. II-C)
   double turn_offset_norm = 0.15;     ///< a turn: centroid shift current→next or next→next-next above this
   double max_angular_radps = 0.8;     ///< ω clamp (the step reports `saturated`)
+  /// Not in the seeds: ω += k_y · x, x the camera's lateral offset (m, right positive) from the
+  /// taught chord between the previous reference and I_i, from the PnP pose, so a lateral offset
+  /// is steered out instead of decaying only with the features' mean inverse depth (measured:
+  /// 0.27 → 0.05 m left after 14 m from 0.5 m, docs/visual_memory.md). 0 gives the papers' laws
+  /// exactly. Only on frames with a pose; |x| is taken at most `lateral_clamp_m`.
+  double lateral_gain_radps_per_m = 0.3;
+  double lateral_clamp_m = 1.0;       ///< largest lateral offset the lateral term acts on, m
   int klt_window_px = 21;
   int klt_levels = 3;
   double klt_max_fb_error_px = 1.0;

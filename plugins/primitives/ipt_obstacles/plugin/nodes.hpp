@@ -25,6 +25,7 @@
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
+#include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav/ipt_obstacles/polar_map.hpp"
 
@@ -141,6 +142,12 @@ class AvoidObstacles : public bt::StatefulActionNode {
 /// starts again with `carried_m` set to the along-track distance already covered: the replay's
 /// distance before the obstacle plus the detour's progress projected on that line, so the edge
 /// keeps counting and its visual correction resumes. No gap: failure with the reason.
+/// Moving obstacles (look_frames > 0): before a detour the robot stops and watches the corridor
+/// for look_frames frames (MotionWatch, frame differencing of the standing camera). No motion:
+/// the obstacle stands, detour as above. Motion (a person crossing): wait until the corridor has
+/// been still for clear_frames frames, then resume the replay where it stopped (the stale
+/// contact points are dropped; a person who stopped in the corridor is found again by the IPT
+/// and, standing, detoured). Still moving after max_wait_frames: failure with the reason.
 /// Register the edge kinds to it in FollowRoute's `primitives` port.
 class ReplayAvoiding : public bt::DecoratorNode {
  public:
@@ -154,6 +161,12 @@ class ReplayAvoiding : public bt::DecoratorNode {
   /// obstacle, failure (reason logged, robot stopped) when no lane is free for
   /// max_blocked_cycles or no along-line progress for max_stall_cycles.
   bt::NodeStatus lane_step(const Odometry& odom);
+  /// Starts the detour of the `detour` port from the current pose (robot already stopped).
+  bt::NodeStatus begin_detour(const Odometry& odom);
+  /// One cycle of the stop-and-look phase (see the class comment).
+  bt::NodeStatus look_step(const Odometry& odom);
+  /// The replay child starts again at the along-track distance reached (after a detour or a wait).
+  void resume_child(const Odometry& odom, const std::string& why);
 
   HostServices& host_;
   PipelineRunner runner_;
@@ -165,6 +178,13 @@ class ReplayAvoiding : public bt::DecoratorNode {
   double lane_best_s_m_ = 0.0;
   CorridorMemory corridor_;
   bool detouring_ = false;
+  bool looking_ = false;           // stopped, watching the corridor for motion
+  bool saw_motion_ = false;
+  int look_frames_ = 0, still_frames_ = 0, wait_frames_ = 0, settle_frames_ = 0;
+  std::uint64_t watch_sequence_ = 0;
+  bool have_watch_sequence_ = false;
+  std::optional<MotionWatch> watch_;
+  cv::Mat watch_grey_;
   bool child_started_ = false;
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
   double replay_done_m_ = 0.0;     // edge distance covered when the detour began

@@ -1,0 +1,82 @@
+// Frame differencing over the corridor ahead of a standing robot (see the header).
+#include "visnav/ipt_obstacles/motion_watch.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace visnav::ipt {
+
+Status MotionWatchParams::validate() const {
+  if (auto st = schema().check(*this); !st) return st.error().with_default_code(ErrorCode::out_of_range);
+  if (far_m <= near_m)
+    return Error{"far_m " + std::to_string(far_m) + " must exceed near_m " + std::to_string(near_m), ErrorCode::inconsistent,
+                 ErrorLocation({}, 0, "far_m")};
+  return ok();
+}
+
+const ParamSchema<MotionWatchParams>& MotionWatchParams::schema() {
+  using P = MotionWatchParams;
+  static const auto s = ParamSchema<P>{}
+                            .field("near_m", &P::near_m, "corridor start ahead of the robot centre, m").range(0.0, 20.0)
+                            .field("far_m", &P::far_m, "corridor end, m").range(0.1, 50.0)
+                            .field("half_width_m", &P::half_width_m, "corridor half width, m").range(0.05, 10.0)
+                            .field("diff_threshold", &P::diff_threshold, "grey-level change that counts").range(1.0, 255.0)
+                            .field("min_changed_px", &P::min_changed_px, "changed mask pixels that count as motion")
+                            .range(1, 1000000);
+  return s;
+}
+
+Result<MotionWatch> MotionWatch::create(const IptCamera& camera, const MotionWatchParams& params) {
+  VISNAV_TRY(camera.validate());
+  VISNAV_TRY(params.validate());
+  MotionWatch w(camera, params);
+  w.mask_ = cv::Mat::zeros(camera.height_px, camera.width_px, CV_8UC1);
+  const LensPose lens = lens_pose(camera, Pose2D{});
+  // Rows from 2 px below the horizon (ranges there are unreliable) to the bottom.
+  const int first_row = std::clamp(static_cast<int>(std::ceil(horizon_row_px(camera) + 2.0)), 0, camera.height_px);
+  for (int u = 0; u < camera.width_px; ++u) {
+    for (int v = first_row; v < camera.height_px; ++v) {
+      const GroundHit hit = back_project(camera, lens, {static_cast<double>(u), static_cast<double>(v)});
+      if (!hit.valid()) continue;
+      const cv::Point2d p = to_robot_frame(Pose2D{}, hit.ground_m);
+      const bool inside = p.x > params.near_m && p.x <= params.far_m && std::abs(p.y) <= params.half_width_m;
+      if (inside) w.mask_.at<std::uint8_t>(v, u) = 255;
+      // Beyond far_m but within the corridor's width: what stands in the corridor occludes it.
+      if (p.x > params.far_m && std::abs(p.y) * params.far_m / p.x <= params.half_width_m)
+        w.mask_.at<std::uint8_t>(v, u) = 255;
+    }
+  }
+  if (cv::countNonZero(w.mask_) == 0)
+    return Error{"motion watch: the corridor ahead is not in the camera's view", ErrorCode::out_of_range,
+                 ErrorLocation({}, 0, "far_m")};
+  return w;
+}
+
+Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey) {
+  if (grey.type() != CV_8UC1 || grey.rows != camera_.height_px || grey.cols != camera_.width_px)
+    return Error{"motion watch: expected a " + std::to_string(camera_.width_px) + "x" + std::to_string(camera_.height_px) +
+                     " grey image",
+                 ErrorCode::invalid_value};
+  cv::blur(grey, blurred_, cv::Size(5, 5));
+  if (!have_previous_) {
+    blurred_.copyTo(previous_);
+    have_previous_ = true;
+    last_changed_px_ = 0;
+    return std::optional<int>{};
+  }
+  const double mean_prev = cv::mean(previous_, mask_)[0], mean_now = cv::mean(blurred_, mask_)[0];
+  const double gain = mean_now > 1.0 ? mean_prev / mean_now : 1.0;
+  blurred_.convertTo(diff_, CV_16S, gain);
+  cv::Mat prev16;
+  previous_.convertTo(prev16, CV_16S);
+  cv::absdiff(diff_, prev16, diff_);
+  cv::Mat changed = diff_ > params_.diff_threshold;
+  changed &= mask_;
+  last_changed_px_ = cv::countNonZero(changed);
+  blurred_.copyTo(previous_);
+  return std::optional<int>{last_changed_px_};
+}
+
+}  // namespace visnav::ipt

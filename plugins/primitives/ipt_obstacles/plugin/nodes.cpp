@@ -330,6 +330,10 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   ports.push_back(bt::input_port<double>("motion_threshold", "18",
                                          "moving obstacles: grey-level change of a pixel that counts (frame difference)"));
   ports.push_back(bt::input_port<int>("motion_min_px", "80", "moving obstacles: changed corridor pixels that count as motion"));
+  ports.push_back(bt::input_port<double>("moving_stop_m", "2.0",
+                                         "moving obstacles: while replaying, what moves (or stands) in the corridor this "
+                                         "close (ground-compensated frame difference, ±1.2 m wide) stops the robot to "
+                                         "look; 0 = off"));
   return ports;
 }
 
@@ -361,6 +365,8 @@ NodeStatus ReplayAvoiding::tick() {
     auto carried = get_input<double>("carried_m");
     replay_origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
     child_started_ = true;
+    if (drive_watch_) drive_watch_->reset();
+    drive_hits_ = 0;
   }
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
@@ -391,13 +397,21 @@ NodeStatus ReplayAvoiding::tick() {
       return NodeStatus::failure;
     }
     if (*look == 0) return begin_detour(*odom);
+    begin_look(*odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
+    return NodeStatus::running;
+  }
+  auto near = moving_near(*odom);
+  if (!near) {
+    host_.logger().error(path(), near.error().message);
+    halt_child();
     stop(host_);
-    looking_ = true;
-    saw_motion_ = false;
-    look_frames_ = still_frames_ = wait_frames_ = settle_frames_ = 0;
-    have_watch_sequence_ = false;
-    if (watch_) watch_->reset();
-    host_.logger().info(path(), "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
+    return NodeStatus::failure;
+  }
+  if (*near) {
+    halt_child();
+    replay_done_m_ = odom->distance_m - replay_origin_m_;
+    detour_start_ = odom->pose;
+    begin_look(*odom, "something moves close ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
     return NodeStatus::running;
   }
   const NodeStatus st = child()->execute_tick();
@@ -418,9 +432,58 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
   (void)set_output("confident_at_m", odom.distance_m);
   (void)set_output("image_changed_at_m", odom.distance_m);
   host_.logger().info(path(), why + ": the edge resumes at " + std::to_string(carried) + " m");
+  if (drive_watch_) drive_watch_->reset();
+  drive_hits_ = 0;
   corridor_.clear();
   runner_.restart();
   child_started_ = false;
+}
+
+void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
+  (void)odom;
+  stop(host_);
+  looking_ = true;
+  saw_motion_ = false;
+  look_frames_ = still_frames_ = wait_frames_ = settle_frames_ = 0;
+  have_watch_sequence_ = false;
+  have_drive_sequence_ = false;
+  drive_hits_ = 0;
+  if (watch_) watch_->reset();
+  if (drive_watch_) drive_watch_->reset();
+  host_.logger().info(path(), why);
+}
+
+Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
+  VISNAV_ASSIGN(const double stop_m, get_input<double>("moving_stop_m"));
+  if (stop_m <= 0.0 || odom.distance_m < drive_quiet_until_m_) return false;
+  FrameBus* bus = host_.frame_bus();
+  auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
+  if (!frame || frame->image.empty() || (have_drive_sequence_ && frame->sequence == drive_sequence_)) return false;
+  have_drive_sequence_ = true;
+  drive_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, watch_grey_, cv::COLOR_BGR2GRAY);
+  else watch_grey_ = frame->image;
+  if (!drive_watch_) {
+    VISNAV_ASSIGN(IptCamera camera, read_camera(*this, watch_grey_));
+    MotionWatchParams params;
+    VISNAV_ASSIGN(params.diff_threshold, get_input<double>("motion_threshold"));
+    VISNAV_ASSIGN(params.min_changed_px, get_input<int>("motion_min_px"));
+    params.far_m = stop_m;
+    params.half_width_m = 1.2;
+    auto made = MotionWatch::create(camera, params);
+    if (!made) return made.error().with_context("port 'moving_stop_m'");
+    drive_watch_.emplace(std::move(*made));
+  }
+  // The robot's motion since the previous frame, in the previous robot frame.
+  const Pose2D& a = drive_watch_pose_;
+  const double c = std::cos(a.heading_rad), s = std::sin(a.heading_rad);
+  const double dx = odom.pose.x_m - a.x_m, dy = odom.pose.y_m - a.y_m;
+  const Pose2D motion{c * dx + s * dy, -s * dx + c * dy, std::remainder(odom.pose.heading_rad - a.heading_rad, 2.0 * CV_PI)};
+  drive_watch_pose_ = odom.pose;
+  VISNAV_ASSIGN(const auto changed, drive_watch_->observe(watch_grey_, motion));
+  if (!changed) return false;
+  drive_hits_ = drive_watch_->moving() ? drive_hits_ + 1 : 0;
+  return drive_hits_ >= 2;
 }
 
 NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
@@ -474,7 +537,14 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
                                       " changed pixels): wait until it is clear");
     } else if (++look_frames_ >= *look) {
       looking_ = false;
-      return begin_detour(odom);  // it stands: drive around it
+      auto blocked = corridor_.blocked(*this, odom);
+      if (!blocked) return fail_with(blocked.error().message);
+      if (*blocked) return begin_detour(odom);  // it stands: drive around it
+      // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
+      // parallax of something standing near (or a false alarm); go on, and let the IPT judge.
+      drive_quiet_until_m_ = odom.distance_m + 0.5;
+      resume_child(odom, "nothing moves ahead");
+      return NodeStatus::running;
     }
     return NodeStatus::running;
   }
@@ -483,6 +553,7 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   still_frames_ = moving ? 0 : still_frames_ + 1;
   if (still_frames_ < *clear) return NodeStatus::running;
   looking_ = false;
+  drive_quiet_until_m_ = odom.distance_m + 0.3;  // let the IPT look again before the frame difference
   resume_child(odom, "the corridor is clear after " + std::to_string(wait_frames_) + " frames of waiting");
   return NodeStatus::running;
 }

@@ -167,6 +167,11 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus look_step(const Odometry& odom);
   /// The replay child starts again at the along-track distance reached (after a detour or a wait).
   void resume_child(const Odometry& odom, const std::string& why);
+  /// While replaying: true when the ground-compensated frame difference shows something moving
+  /// or standing within moving_stop_m ahead on two frames in a row (a person stepping in).
+  Result<bool> moving_near(const Odometry& odom);
+  /// Stops the robot and starts the stop-and-look phase.
+  void begin_look(const Odometry& odom, const std::string& why);
 
   HostServices& host_;
   PipelineRunner runner_;
@@ -184,6 +189,12 @@ class ReplayAvoiding : public bt::DecoratorNode {
   std::uint64_t watch_sequence_ = 0;
   bool have_watch_sequence_ = false;
   std::optional<MotionWatch> watch_;
+  std::optional<MotionWatch> drive_watch_;  // the near corridor while driving (moving_stop_m)
+  Pose2D drive_watch_pose_;
+  std::uint64_t drive_sequence_ = 0;
+  bool have_drive_sequence_ = false;
+  int drive_hits_ = 0;
+  double drive_quiet_until_m_ = -1e300;     // odometer reading before which moving_near() is not asked
   cv::Mat watch_grey_;
   bool child_started_ = false;
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0

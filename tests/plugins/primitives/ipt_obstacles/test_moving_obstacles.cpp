@@ -10,8 +10,10 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "error_expect.hpp"
+#include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav_sim/render.hpp"
 #include "visnav_sim/robot.hpp"
 #include "visnav_sim/world.hpp"
@@ -177,6 +179,82 @@ TEST(MovingObstacles, ObstacleFileAddsToTheWorldPerRun) {
   p.obstacles = bad.string();
   EXPECT_FALSE(SimRobot::create(p).ok());
   fs::remove_all(dir);
+}
+
+// MotionWatch on frames of a standing camera (the thesis rig): the person crossing the corridor
+// is motion, sensor noise and an exposure step are not, a person walking beside the corridor is not.
+TEST(MotionWatch, SeesAPersonCrossingTheCorridorAndNothingElse) {
+  auto world = world_or_die(kWorld);
+  ASSERT_NE(world, nullptr);
+  CameraModel model;
+  model.hfov_deg = 65.5;
+  model.height_m = 0.43;
+  model.pitch_down_deg = 9.0;
+  Renderer renderer(world, model);
+  ipt::IptCamera camera;
+  camera.fx_px = camera.fy_px = model.fx();
+  camera.height_m = 0.43;
+  camera.pitch_rad = -9.0 * CV_PI / 180.0;
+  auto watch = ipt::MotionWatch::create(camera, ipt::MotionWatchParams{});
+  ASSERT_TRUE(watch.ok()) << watch.error().message;
+  cv::RNG rng(7);
+  cv::Mat bgr, grey, noise(240, 320, CV_16S);
+  auto frame = [&](const Pose2D& robot, double t, double gain) {
+    renderer.render(robot, bgr, nullptr, nullptr, t);
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    grey.convertTo(noise, CV_16S, gain);
+    cv::Mat n(240, 320, CV_16S);
+    rng.fill(n, cv::RNG::NORMAL, 0.0, 3.0);  // the experiment's sensor noise
+    noise += n;
+    noise.convertTo(grey, CV_8U);
+    auto changed = watch->observe(grey);
+    EXPECT_TRUE(changed.ok());
+    return changed.ok() && changed->has_value() ? **changed : -1;
+  };
+  // Person crossing 3 m ahead (it is on the robot's line at t = 6 s).
+  EXPECT_EQ(frame({0, 0, 0}, 5.6, 1.0), -1);  // first frame: nothing to compare with
+  EXPECT_TRUE(frame({0, 0, 0}, 5.7, 1.0) > 0 && watch->moving());
+  // Nothing moves (before start_s), with a 6 % exposure step: no motion.
+  watch->reset();
+  frame({0, 0, 0}, 0.0, 1.0);
+  const int still = frame({0, 0, 0}, 0.1, 1.06);
+  EXPECT_FALSE(watch->moving()) << still << " changed pixels";
+  // Robot facing away from the person's line (looking down -x): the person walks behind it.
+  watch->reset();
+  frame({0, 0, CV_PI}, 5.6, 1.0);
+  frame({0, 0, CV_PI}, 5.7, 1.0);
+  EXPECT_FALSE(watch->moving());
+  // Driving 3 cm per frame over the empty grass (before the person starts): the ground-plane
+  // warp lines the frames up, nothing counts; driving while the person crosses 1.5 m ahead of
+  // the robot (person at x = 3, robot at x = 1.5): it does.
+  ipt::MotionWatchParams near;
+  near.far_m = 2.0;
+  near.half_width_m = 1.2;
+  auto driving = ipt::MotionWatch::create(camera, near);
+  ASSERT_TRUE(driving.ok());
+  std::swap(*watch, *driving);
+  frame({0.0, 0.0, 0.0}, 0.0, 1.0);
+  for (int k = 1; k <= 5; ++k) {
+    renderer.render({0.03 * k, 0.0, 0.0}, bgr, nullptr, nullptr, 0.1 * k);
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    auto changed = watch->observe(grey, Pose2D{0.03, 0.0, 0.0});
+    ASSERT_TRUE(changed.ok() && changed->has_value());
+    EXPECT_FALSE(watch->moving()) << "frame " << k << ": " << **changed << " changed pixels";
+  }
+  watch->reset();
+  renderer.render({1.5, 0.0, 0.0}, bgr, nullptr, nullptr, 5.6);
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  ASSERT_TRUE(watch->observe(grey, Pose2D{}).ok());
+  renderer.render({1.53, 0.0, 0.0}, bgr, nullptr, nullptr, 5.7);
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  auto crossing = watch->observe(grey, Pose2D{0.03, 0.0, 0.0});
+  ASSERT_TRUE(crossing.ok() && crossing->has_value());
+  EXPECT_TRUE(watch->moving()) << **crossing << " changed pixels";
+  // Bad input: wrong image size.
+  EXPECT_TRUE(fails_with(watch->observe(cv::Mat(10, 10, CV_8UC1)), ErrorCode::invalid_value));
+  ipt::MotionWatchParams bad;
+  bad.far_m = 0.2;
+  EXPECT_TRUE(fails_with(ipt::MotionWatch::create(camera, bad), ErrorCode::inconsistent, At{{}, 0, "far_m"}));
 }
 
 }  // namespace

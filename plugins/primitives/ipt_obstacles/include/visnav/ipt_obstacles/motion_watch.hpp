@@ -14,6 +14,9 @@
 // width |y|·far_m/x ≤ half_width_m (a person standing in the corridor occludes the ground behind
 // it, so its legs and body cover those pixels).
 //
+// A moving robot (observe(grey, motion)) compares the previous frame warped through the ground
+// plane by the odometry motion: ground texture lines up, things above the ground or moving do not.
+//
 // Not thread-safe (scratch buffers); one per node.
 #pragma once
 
@@ -46,7 +49,12 @@ class MotionWatch {
   /// Changed pixels inside the corridor between the previous frame and `grey` (CV_8UC1 of the
   /// camera's size); nullopt for the first frame after reset() (nothing to compare with).
   /// Error: wrong image size/type.
-  Result<std::optional<int>> observe(const cv::Mat& grey);
+  Result<std::optional<int>> observe(const cv::Mat& grey) { return observe(grey, Pose2D{}); }
+  /// The same for a moving robot: `motion` is the robot's pose now in its frame at the previous
+  /// frame (odometry). The previous frame is warped onto this one through the ground plane
+  /// (the homography of the IPT camera for that motion), so the ground lines up and what
+  /// changes is what stands above it (parallax, growing with nearness) or moves.
+  Result<std::optional<int>> observe(const cv::Mat& grey, const Pose2D& motion);
   /// True when the last observe() counted at least min_changed_px.
   [[nodiscard]] bool moving() const { return last_changed_px_ >= params_.min_changed_px; }
   void reset() { have_previous_ = false; last_changed_px_ = 0; }
@@ -58,7 +66,7 @@ class MotionWatch {
   IptCamera camera_;
   MotionWatchParams params_;
   cv::Mat mask_;
-  cv::Mat previous_, blurred_, diff_;
+  cv::Mat previous_, blurred_, diff_, warped_, valid_;
   bool have_previous_ = false;
   int last_changed_px_ = 0;
 };

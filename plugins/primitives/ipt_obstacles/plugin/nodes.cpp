@@ -468,8 +468,10 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
     MotionWatchParams params;
     VISNAV_ASSIGN(params.diff_threshold, get_input<double>("motion_threshold"));
     VISNAV_ASSIGN(params.min_changed_px, get_input<int>("motion_min_px"));
-    params.far_m = stop_m;
+    params.near_m = 0.8;  // below, a millimetre of odometry error is a pixel of ground
+    params.far_m = std::max(stop_m, 1.3);
     params.half_width_m = 1.2;
+    params.min_changed_px *= 4;  // driving: a person 2 m ahead changes thousands of pixels
     auto made = MotionWatch::create(camera, params);
     if (!made) return made.error().with_context("port 'moving_stop_m'");
     drive_watch_.emplace(std::move(*made));
@@ -482,7 +484,27 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
   drive_watch_pose_ = odom.pose;
   VISNAV_ASSIGN(const auto changed, drive_watch_->observe(watch_grey_, motion));
   if (!changed) return false;
-  drive_hits_ = drive_watch_->moving() ? drive_hits_ + 1 : 0;
+  host_.logger().log(LogLevel::debug, path(),
+                     "near corridor: " + std::to_string(*changed) + " changed pixels, motion " + std::to_string(motion.x_m) +
+                         " m " + std::to_string(motion.heading_rad) + " rad");
+  // Fine ground texture shimmers under the nearest-texel renderer (and a real sensor) as the
+  // robot moves: a few hundred pixels change on gravel with nothing there. What counts is a
+  // count well above the recent level (median of the last 10 frames) on two frames in a row.
+  int level = 0;
+  if (!drive_counts_.empty()) {
+    std::vector<int> sorted = drive_counts_;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    level = sorted[sorted.size() / 2];
+  }
+  // Only at cruising speed (≥ 2 cm per frame) and with a level known: the shimmer grows with
+  // the speed, so counts while starting or stopping say nothing about it.
+  const bool cruising = std::abs(motion.x_m) >= 0.02;
+  const bool hit = cruising && drive_counts_.size() >= 5 && drive_watch_->moving() && *changed > 3 * level;
+  if (cruising && !hit) {
+    drive_counts_.push_back(*changed);
+    if (drive_counts_.size() > 10) drive_counts_.erase(drive_counts_.begin());
+  }
+  drive_hits_ = hit ? drive_hits_ + 1 : 0;
   return drive_hits_ >= 2;
 }
 

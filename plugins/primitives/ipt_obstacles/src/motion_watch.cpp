@@ -54,6 +54,46 @@ Result<MotionWatch> MotionWatch::create(const IptCamera& camera, const MotionWat
   return w;
 }
 
+namespace {
+
+/// Ground-plane homography (current pixel -> previous pixel) for a robot motion `motion` (now
+/// in the previous robot frame), from four ground points seen now; nullopt when one leaves the
+/// previous view.
+std::optional<cv::Mat> ground_homography(const IptCamera& camera, const Pose2D& motion) {
+  const LensPose lens = lens_pose(camera, Pose2D{});
+  const double v_top = std::max(horizon_row_px(camera) + 0.35 * (camera.height_px - horizon_row_px(camera)), 0.0);
+  const double v_bottom = camera.height_px - 5.0;
+  const cv::Point2f now_px[4] = {{10.0f, static_cast<float>(v_top)},
+                                 {static_cast<float>(camera.width_px - 10), static_cast<float>(v_top)},
+                                 {10.0f, static_cast<float>(v_bottom)},
+                                 {static_cast<float>(camera.width_px - 10), static_cast<float>(v_bottom)}};
+  cv::Point2f prev_px[4];
+  const double c = std::cos(motion.heading_rad), s = std::sin(motion.heading_rad);
+  for (int k = 0; k < 4; ++k) {
+    const GroundHit hit = back_project(camera, lens, now_px[k]);
+    if (!hit.valid()) return std::nullopt;
+    const cv::Vec3d g_prev(motion.x_m + c * hit.ground_m.x - s * hit.ground_m.y,
+                           motion.y_m + s * hit.ground_m.x + c * hit.ground_m.y, 0.0);
+    const auto px = project_point(camera, lens, g_prev);
+    if (!px) return std::nullopt;
+    prev_px[k] = cv::Point2f(static_cast<float>(px->x), static_cast<float>(px->y));
+  }
+  return cv::getPerspectiveTransform(now_px, prev_px);
+}
+
+}  // namespace
+
+int MotionWatch::count_changed(const cv::Mat& previous, const cv::Mat& valid) {
+  const double mean_prev = cv::mean(previous, valid)[0], mean_now = cv::mean(blurred_, valid)[0];
+  const double gain = mean_now > 1.0 ? mean_prev / mean_now : 1.0;
+  blurred_.convertTo(diff_, CV_16S, gain);
+  previous.convertTo(prev16_, CV_16S);
+  cv::absdiff(diff_, prev16_, diff_);
+  cv::Mat changed = diff_ > params_.diff_threshold;
+  changed &= valid;
+  return cv::countNonZero(changed);
+}
+
 Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2D& motion) {
   if (grey.type() != CV_8UC1 || grey.rows != camera_.height_px || grey.cols != camera_.width_px)
     return Error{"motion watch: expected a " + std::to_string(camera_.width_px) + "x" + std::to_string(camera_.height_px) +
@@ -67,52 +107,36 @@ Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2
     return std::optional<int>{};
   }
   const bool moved = std::abs(motion.x_m) + std::abs(motion.y_m) + std::abs(motion.heading_rad) > 1e-9;
-  if (moved) {
-    // Ground-plane homography current pixel -> previous pixel from four ground points seen now.
-    const LensPose lens = lens_pose(camera_, Pose2D{});
-    const double v_top = std::max(horizon_row_px(camera_) + 0.35 * (camera_.height_px - horizon_row_px(camera_)), 0.0);
-    const double v_bottom = camera_.height_px - 5.0;
-    const cv::Point2f now_px[4] = {{10.0f, static_cast<float>(v_top)},
-                                   {static_cast<float>(camera_.width_px - 10), static_cast<float>(v_top)},
-                                   {10.0f, static_cast<float>(v_bottom)},
-                                   {static_cast<float>(camera_.width_px - 10), static_cast<float>(v_bottom)}};
-    cv::Point2f prev_px[4];
-    const double c = std::cos(motion.heading_rad), s = std::sin(motion.heading_rad);
-    for (int k = 0; k < 4; ++k) {
-      const GroundHit hit = back_project(camera_, lens, now_px[k]);
-      if (!hit.valid()) return Error{"motion watch: no ground in the image", ErrorCode::out_of_range};
-      const cv::Vec3d g_prev(motion.x_m + c * hit.ground_m.x - s * hit.ground_m.y,
-                             motion.y_m + s * hit.ground_m.x + c * hit.ground_m.y, 0.0);
-      const auto px = project_point(camera_, lens, g_prev);
-      if (!px) {  // the motion was too large to line the frames up: start again from this one
-        blurred_.copyTo(previous_);
-        last_changed_px_ = 0;
-        return std::optional<int>{};
-      }
-      prev_px[k] = cv::Point2f(static_cast<float>(px->x), static_cast<float>(px->y));
-    }
-    const cv::Mat H = cv::getPerspectiveTransform(now_px, prev_px);
-    cv::warpPerspective(previous_, warped_, H, previous_.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                        cv::BORDER_REPLICATE);
-    std::swap(previous_, warped_);
-    // Pixels the previous frame did not see (and a 2 px margin of the blur) are not compared.
-    cv::Mat all(previous_.size(), CV_8UC1, cv::Scalar(255));
-    cv::warpPerspective(all, valid_, H, previous_.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
-                        cv::Scalar(0));
-    cv::erode(valid_, valid_, cv::Mat(), cv::Point(-1, -1), 3);
-    cv::bitwise_and(valid_, mask_, valid_);
+  if (!moved) {
+    last_changed_px_ = count_changed(previous_, mask_);
   } else {
-    valid_ = mask_;
+    // The odometry motion is known to a few millimetres only, and a frame is not taken exactly
+    // at the odometry's time; near the robot a millimetre of ground is a pixel. So the motion's
+    // scale is searched (0.5-1.5, the fewest changed pixels wins): the ground lines up, a
+    // person walking across does not with any scale of the robot's motion.
+    int best = -1;
+    for (const double k : {1.0, 0.75, 1.25, 0.5, 1.5}) {
+      const auto H = ground_homography(camera_, Pose2D{k * motion.x_m, k * motion.y_m, k * motion.heading_rad});
+      if (!H) continue;
+      cv::warpPerspective(previous_, warped_, *H, previous_.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                          cv::BORDER_REPLICATE);
+      // Pixels the previous frame did not see (and a margin for the blur) are not compared.
+      cv::Mat all(previous_.size(), CV_8UC1, cv::Scalar(255));
+      cv::warpPerspective(all, valid_, *H, previous_.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
+                          cv::BORDER_CONSTANT, cv::Scalar(0));
+      cv::erode(valid_, valid_, cv::Mat(), cv::Point(-1, -1), 3);
+      cv::bitwise_and(valid_, mask_, valid_);
+      const int n = count_changed(warped_, valid_);
+      if (best < 0 || n < best) best = n;
+      if (best < params_.min_changed_px) break;
+    }
+    if (best < 0) {  // the motion was too large to line the frames up: start again from this one
+      blurred_.copyTo(previous_);
+      last_changed_px_ = 0;
+      return std::optional<int>{};
+    }
+    last_changed_px_ = best;
   }
-  const double mean_prev = cv::mean(previous_, valid_)[0], mean_now = cv::mean(blurred_, valid_)[0];
-  const double gain = mean_now > 1.0 ? mean_prev / mean_now : 1.0;
-  blurred_.convertTo(diff_, CV_16S, gain);
-  cv::Mat prev16;
-  previous_.convertTo(prev16, CV_16S);
-  cv::absdiff(diff_, prev16, diff_);
-  cv::Mat changed = diff_ > params_.diff_threshold;
-  changed &= valid_;
-  last_changed_px_ = cv::countNonZero(changed);
   blurred_.copyTo(previous_);
   return std::optional<int>{last_changed_px_};
 }

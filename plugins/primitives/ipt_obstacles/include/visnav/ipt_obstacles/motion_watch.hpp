@@ -52,8 +52,9 @@ class MotionWatch {
   Result<std::optional<int>> observe(const cv::Mat& grey) { return observe(grey, Pose2D{}); }
   /// The same for a moving robot: `motion` is the robot's pose now in its frame at the previous
   /// frame (odometry). The previous frame is warped onto this one through the ground plane
-  /// (the homography of the IPT camera for that motion), so the ground lines up and what
-  /// changes is what stands above it (parallax, growing with nearness) or moves.
+  /// (the homography of the IPT camera for that motion, its scale searched over 0.5-1.5 for
+  /// the odometry's error and timing), so the ground lines up and what changes is what stands
+  /// above it (parallax, growing with nearness) or moves.
   Result<std::optional<int>> observe(const cv::Mat& grey, const Pose2D& motion);
   /// True when the last observe() counted at least min_changed_px.
   [[nodiscard]] bool moving() const { return last_changed_px_ >= params_.min_changed_px; }
@@ -66,7 +67,10 @@ class MotionWatch {
   IptCamera camera_;
   MotionWatchParams params_;
   cv::Mat mask_;
-  cv::Mat previous_, blurred_, diff_, warped_, valid_;
+  /// Pixels of the mask `valid` whose blurred grey level differs from `previous` by more than
+  /// the threshold, after scaling to the same mean brightness.
+  int count_changed(const cv::Mat& previous, const cv::Mat& valid);
+  cv::Mat previous_, blurred_, diff_, warped_, valid_, prev16_;
   bool have_previous_ = false;
   int last_changed_px_ = 0;
 };

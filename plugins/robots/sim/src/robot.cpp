@@ -428,6 +428,9 @@ std::vector<Error> SimRobot::check_params(const ConfigNode& params) {
   auto p = RobotParams::schema().parse(params);
   if (p && !p->world.empty())
     if (auto st = check_world_file(p->world, params); !st) problems.push_back(std::move(st).error());
+  if (p && p->world.empty() && !p->obstacles.empty())
+    problems.push_back(Error{params.where().str() + ": key 'obstacles': needs a 'world' to add them to", ErrorCode::missing,
+                             ErrorLocation(params.where().file, params.where().line, "world")});
   if (p && problems.empty() && !p->obstacles.empty()) {
     // Report a bad obstacle file before the run (at the file's line, else at the key).
     auto path = resolve_world_path(p->world, params.where().file);

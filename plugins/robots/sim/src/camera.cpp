@@ -277,7 +277,9 @@ Status SimCamera::reconfigure(const ConfigNode& params) {
   const bool back_to_robot_world = p.world.empty() && !params_.world.empty();
   params_ = p;
   if (core_) {
-    if (!world) world = back_to_robot_world ? robot_->world() : core_->renderer().world_ptr();
+    // Without a world of its own the camera shows the robot's, which may have changed (obstacles
+    // placed for a replay).
+    if (!world) world = back_to_robot_world || p.world.empty() ? robot_->world() : core_->renderer().world_ptr();
     if (world == nullptr) return fail("sim camera: no world to render");
     core_ = std::make_unique<CameraCore>(params_, robot_, world);
   }

@@ -150,6 +150,19 @@ RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<con
   history_.emplace_back(0.0, pose_);
 }
 
+void RobotCore::set_world(std::shared_ptr<const World> world) {
+  std::lock_guard lock(mutex_);
+  world_ = std::move(world);
+  shapes_.clear();
+  in_contact_.clear();
+  if (world_ && params_.body_radius_m > 0.0) {
+    shapes_ = collision_shapes(*world_, params_.body_height_m, params_.trunk_radius_m);
+    in_contact_.assign(shapes_.size(), 0);
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+      in_contact_[i] = distance_to_shape(shapes_[i], {pose_.x_m, pose_.y_m}, shape_offset(i, time_s_)) < params_.body_radius_m ? 1 : 0;
+  }
+}
+
 RobotParams RobotCore::params() const {
   std::lock_guard lock(mutex_);
   return params_;
@@ -159,7 +172,6 @@ void RobotCore::set_params(const RobotParams& params) {
   std::lock_guard lock(mutex_);
   RobotParams p = params;
   p.world = params_.world;
-  p.obstacles = params_.obstacles;
   p.kinematics = params_.kinematics;
   p.start_pose = params_.start_pose;
   p.displacement_lateral_m = params_.displacement_lateral_m;
@@ -461,10 +473,19 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const ConfigNode& params, Hos
 Status SimRobot::reconfigure(const ConfigNode& params) {
   VISNAV_ASSIGN(RobotParams p, RobotParams::schema().parse(params));
   const RobotParams cur = core_->params();
-  if (p.world != cur.world || p.obstacles != cur.obstacles || p.kinematics != cur.kinematics || p.start_pose != cur.start_pose ||
+  if (p.world != cur.world || p.kinematics != cur.kinematics || p.start_pose != cur.start_pose ||
       p.displacement_lateral_m != cur.displacement_lateral_m || p.displacement_longitudinal_m != cur.displacement_longitudinal_m ||
       p.displacement_heading_deg != cur.displacement_heading_deg)
-    return fail("sim robot: world, obstacles, kinematics, start_pose and displacement_* cannot change while running");
+    return fail("sim robot: world, kinematics, start_pose and displacement_* cannot change while running");
+  if (p.obstacles != cur.obstacles) {
+    // Obstacles placed for the next run (visnav experiment --obstacles: the replay only).
+    if (p.world.empty()) return Error{"key 'obstacles': needs a 'world' to add them to", ErrorCode::missing, {{}, 0, "world"}};
+    auto path = resolve_world_path(p.world, params.where().file);
+    if (!path) return path.error().with_context("key 'world'");
+    auto world = load_world_with_obstacles(*path, p.obstacles, params.where().file);
+    if (!world) return world.error().with_context("key 'obstacles'");
+    core_->set_world(*world);
+  }
   core_->set_params(p);
   return ok();
 }

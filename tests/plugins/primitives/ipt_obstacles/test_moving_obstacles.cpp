@@ -178,6 +178,26 @@ TEST(MovingObstacles, ObstacleFileAddsToTheWorldPerRun) {
   EXPECT_EQ((*robot)->core()->world()->movers.size(), 1u);
   p.obstacles = bad.string();
   EXPECT_FALSE(SimRobot::create(p).ok());
+  // Teach without, replay with: the experiment reconfigures the running robot for the replay.
+  p.obstacles.clear();
+  p.body_radius_m = 0.25;
+  auto taught = SimRobot::create(p);
+  ASSERT_TRUE(taught.ok()) << taught.error().message;
+  EXPECT_TRUE((*taught)->core()->world()->walls.empty());
+  auto replay = visnav::parse_yaml_string("world: " + world_file.string() + "\nobstacles: " + good.string() +
+                                              "\nbody_radius_m: 0.25\n",
+                                          "replay.yaml");
+  ASSERT_TRUE(replay.ok());
+  ASSERT_TRUE((*taught)->reconfigure(*replay).ok());
+  EXPECT_EQ((*taught)->core()->world()->movers.size(), 1u);
+  for (int i = 0; i < 60; ++i) {  // drive from the origin into the van at x = 5 +- 2.4
+    ASSERT_TRUE((*taught)->send_command(Twist{1.0, 0.0}).ok());
+    ASSERT_TRUE((*taught)->step(0.1).ok());
+  }
+  // (pushing on against it records a contact again each time a sub-step ends clear of it)
+  ASSERT_GE((*taught)->collisions().size(), 1u);
+  EXPECT_EQ((*taught)->collisions()[0].obstacle, "van");
+  EXPECT_NEAR((*taught)->core()->ground_truth().x_m, 5.0 - 2.4 - 0.25, 0.05);
   fs::remove_all(dir);
 }
 

@@ -172,7 +172,13 @@ class RobotCore {
   [[nodiscard]] int freeze_count() const;
   [[nodiscard]] double frozen_s() const;
   /// World the robot drives in (may be null).
-  [[nodiscard]] const std::shared_ptr<const World>& world() const { return world_; }
+  [[nodiscard]] std::shared_ptr<const World> world() const {
+    std::lock_guard lock(mutex_);
+    return world_;
+  }
+  /// Replaces the world (a replay with obstacles placed per run: the same world plus an obstacle
+  /// file); the collision shapes are rebuilt, contacts restarted at the current pose.
+  void set_world(std::shared_ptr<const World> world);
 
  private:
   void substep_locked(double dt_s);

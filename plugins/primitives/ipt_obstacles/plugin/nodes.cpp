@@ -321,6 +321,19 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                          "odometer when a detour ends: the detour was driven on the IPT, not blind"));
   ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
                                          "the replay's frozen-image count, restarted likewise after a detour"));
+  ports.push_back(bt::input_port<int>("look_frames", "8",
+                                      "moving obstacles: frames the stopped robot watches the corridor before a detour "
+                                      "(motion: wait instead); 0 = detour at once"));
+  ports.push_back(bt::input_port<int>("clear_frames", "15", "moving obstacles: still frames before the replay resumes"));
+  ports.push_back(bt::input_port<int>("max_wait_frames", "600",
+                                      "moving obstacles: frames of waiting for the corridor to clear before failing"));
+  ports.push_back(bt::input_port<double>("motion_threshold", "18",
+                                         "moving obstacles: grey-level change of a pixel that counts (frame difference)"));
+  ports.push_back(bt::input_port<int>("motion_min_px", "80", "moving obstacles: changed corridor pixels that count as motion"));
+  ports.push_back(bt::input_port<double>("moving_stop_m", "2.0",
+                                         "moving obstacles: while replaying, what moves (or stands) in the corridor this "
+                                         "close (ground-compensated frame difference, ±1.2 m wide) stops the robot to "
+                                         "look; 0 = off"));
   return ports;
 }
 
@@ -344,23 +357,16 @@ NodeStatus ReplayAvoiding::tick() {
     lane_.reset();
     detouring_ = false;
     if (st == NodeStatus::failure) return NodeStatus::failure;
-    // Back on the line: the edge continues from the along-track distance reached.
-    const double along_m = (odom->pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
-                           (odom->pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
-    const double carried = replay_done_m_ + along_m;
-    (void)set_output("carried_m", carried);
-    (void)set_output("confident_at_m", odom->distance_m);
-    (void)set_output("image_changed_at_m", odom->distance_m);
-    host_.logger().info(path(), "detour done: the edge resumes at " + std::to_string(carried) + " m");
-    corridor_.clear();
-    runner_.restart();
-    child_started_ = false;
+    resume_child(*odom, "detour done");
     return NodeStatus::running;
   }
+  if (looking_) return look_step(*odom);
   if (!child_started_) {
     auto carried = get_input<double>("carried_m");
     replay_origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
     child_started_ = true;
+    if (drive_watch_) drive_watch_->reset();
+    drive_hits_ = 0;
   }
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
@@ -381,11 +387,203 @@ NodeStatus ReplayAvoiding::tick() {
     return NodeStatus::failure;
   }
   if (*blocked) {
-    auto ahead = get_input<double>("goal_ahead_m");
-    if (!ahead) return NodeStatus::failure;
     halt_child();
     replay_done_m_ = odom->distance_m - replay_origin_m_;
     detour_start_ = odom->pose;
+    auto look = get_input<int>("look_frames");
+    if (!look || *look < 0) {
+      host_.logger().error(path(), !look ? look.error().message : "port 'look_frames': must be >= 0");
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    if (*look == 0) return begin_detour(*odom);
+    begin_look(*odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
+    return NodeStatus::running;
+  }
+  auto near = moving_near(*odom);
+  if (!near) {
+    host_.logger().error(path(), near.error().message);
+    halt_child();
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*near) {
+    halt_child();
+    replay_done_m_ = odom->distance_m - replay_origin_m_;
+    detour_start_ = odom->pose;
+    begin_look(*odom, "something moves close ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
+    return NodeStatus::running;
+  }
+  const NodeStatus st = child()->execute_tick();
+  if (st != NodeStatus::running) {
+    child_started_ = false;
+    corridor_.clear();
+  }
+  return st;
+}
+
+void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) {
+  // The edge continues from the along-track distance reached (a detour's progress projected on
+  // the line; nothing after a wait).
+  const double along_m = (odom.pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
+                         (odom.pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
+  const double carried = replay_done_m_ + along_m;
+  (void)set_output("carried_m", carried);
+  (void)set_output("confident_at_m", odom.distance_m);
+  (void)set_output("image_changed_at_m", odom.distance_m);
+  host_.logger().info(path(), why + ": the edge resumes at " + std::to_string(carried) + " m");
+  if (drive_watch_) drive_watch_->reset();
+  drive_hits_ = 0;
+  corridor_.clear();
+  runner_.restart();
+  child_started_ = false;
+}
+
+void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
+  (void)odom;
+  stop(host_);
+  looking_ = true;
+  saw_motion_ = false;
+  look_frames_ = still_frames_ = wait_frames_ = settle_frames_ = 0;
+  have_watch_sequence_ = false;
+  have_drive_sequence_ = false;
+  drive_hits_ = 0;
+  if (watch_) watch_->reset();
+  if (drive_watch_) drive_watch_->reset();
+  host_.logger().info(path(), why);
+}
+
+Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
+  VISNAV_ASSIGN(const double stop_m, get_input<double>("moving_stop_m"));
+  if (stop_m <= 0.0 || odom.distance_m < drive_quiet_until_m_) return false;
+  FrameBus* bus = host_.frame_bus();
+  auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
+  if (!frame || frame->image.empty() || (have_drive_sequence_ && frame->sequence == drive_sequence_)) return false;
+  have_drive_sequence_ = true;
+  drive_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, watch_grey_, cv::COLOR_BGR2GRAY);
+  else watch_grey_ = frame->image;
+  if (!drive_watch_) {
+    VISNAV_ASSIGN(IptCamera camera, read_camera(*this, watch_grey_));
+    MotionWatchParams params;
+    VISNAV_ASSIGN(params.diff_threshold, get_input<double>("motion_threshold"));
+    VISNAV_ASSIGN(params.min_changed_px, get_input<int>("motion_min_px"));
+    params.near_m = 0.8;  // below, a millimetre of odometry error is a pixel of ground
+    params.far_m = std::max(stop_m, 1.3);
+    params.half_width_m = 1.2;
+    params.min_changed_px *= 4;  // driving: a person 2 m ahead changes thousands of pixels
+    auto made = MotionWatch::create(camera, params);
+    if (!made) return made.error().with_context("port 'moving_stop_m'");
+    drive_watch_.emplace(std::move(*made));
+  }
+  // The robot's motion since the previous frame, in the previous robot frame.
+  const Pose2D& a = drive_watch_pose_;
+  const double c = std::cos(a.heading_rad), s = std::sin(a.heading_rad);
+  const double dx = odom.pose.x_m - a.x_m, dy = odom.pose.y_m - a.y_m;
+  const Pose2D motion{c * dx + s * dy, -s * dx + c * dy, std::remainder(odom.pose.heading_rad - a.heading_rad, 2.0 * CV_PI)};
+  drive_watch_pose_ = odom.pose;
+  VISNAV_ASSIGN(const auto changed, drive_watch_->observe(watch_grey_, motion));
+  if (!changed) return false;
+  host_.logger().log(LogLevel::debug, path(),
+                     "near corridor: " + std::to_string(*changed) + " changed pixels, motion " + std::to_string(motion.x_m) +
+                         " m " + std::to_string(motion.heading_rad) + " rad");
+  // Fine ground texture shimmers under the nearest-texel renderer (and a real sensor) as the
+  // robot moves: a few hundred pixels change on gravel with nothing there. What counts is a
+  // count well above the recent level (median of the last 10 frames) on two frames in a row.
+  int level = 0;
+  if (!drive_counts_.empty()) {
+    std::vector<int> sorted = drive_counts_;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    level = sorted[sorted.size() / 2];
+  }
+  // Only at cruising speed (≥ 2 cm per frame) and with a level known: the shimmer grows with
+  // the speed, so counts while starting or stopping say nothing about it.
+  const bool cruising = std::abs(motion.x_m) >= 0.02;
+  const bool hit = cruising && drive_counts_.size() >= 5 && drive_watch_->moving() && *changed > 3 * level;
+  if (cruising && !hit) {
+    drive_counts_.push_back(*changed);
+    if (drive_counts_.size() > 10) drive_counts_.erase(drive_counts_.begin());
+  }
+  drive_hits_ = hit ? drive_hits_ + 1 : 0;
+  return drive_hits_ >= 2;
+}
+
+NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
+  stop(host_);
+  FrameBus* bus = host_.frame_bus();
+  auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
+  if (!frame || frame->image.empty() || (have_watch_sequence_ && frame->sequence == watch_sequence_)) return NodeStatus::running;
+  have_watch_sequence_ = true;
+  watch_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, watch_grey_, cv::COLOR_BGR2GRAY);
+  else watch_grey_ = frame->image;
+  auto fail_with = [&](const std::string& message) {
+    host_.logger().error(path(), message);
+    looking_ = false;
+    stop(host_);
+    return NodeStatus::failure;
+  };
+  if (!watch_) {
+    auto camera = read_camera(*this, watch_grey_);
+    if (!camera) return fail_with(camera.error().message);
+    MotionWatchParams params;
+    auto threshold = get_input<double>("motion_threshold");
+    auto min_px = get_input<int>("motion_min_px");
+    if (!threshold) return fail_with(threshold.error().message);
+    if (!min_px) return fail_with(min_px.error().message);
+    params.diff_threshold = *threshold;
+    params.min_changed_px = *min_px;
+    auto lookahead = get_input<double>("lookahead_m");
+    if (lookahead) params.far_m = std::max(params.near_m + 0.5, *lookahead + 1.0);
+    auto made = MotionWatch::create(*camera, params);
+    if (!made) return fail_with("port 'motion_threshold'/'motion_min_px': " + made.error().message);
+    watch_.emplace(std::move(*made));
+  }
+  // Compare only frames of a standing camera: wait until the odometry says stopped.
+  if (std::abs(odom.twist.linear_mps) > 0.01 || std::abs(odom.twist.angular_radps) > 0.01 || settle_frames_++ < 2) {
+    watch_->reset();
+    return NodeStatus::running;
+  }
+  auto changed = watch_->observe(watch_grey_);
+  if (!changed) return fail_with(changed.error().message);
+  if (!*changed) return NodeStatus::running;
+  const bool moving = watch_->moving();
+  auto look = get_input<int>("look_frames");
+  auto clear = get_input<int>("clear_frames");
+  auto max_wait = get_input<int>("max_wait_frames");
+  if (!look || !clear || !max_wait) return fail_with("ports 'look_frames', 'clear_frames', 'max_wait_frames' must be integers");
+  if (!saw_motion_) {
+    if (moving) {
+      saw_motion_ = true;
+      host_.logger().info(path(), "a moving obstacle in the corridor (" + std::to_string(**changed) +
+                                      " changed pixels): wait until it is clear");
+    } else if (++look_frames_ >= *look) {
+      looking_ = false;
+      auto blocked = corridor_.blocked(*this, odom);
+      if (!blocked) return fail_with(blocked.error().message);
+      if (*blocked) return begin_detour(odom);  // it stands: drive around it
+      // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
+      // parallax of something standing near (or a false alarm); go on, and let the IPT judge.
+      drive_quiet_until_m_ = odom.distance_m + 0.5;
+      resume_child(odom, "nothing moves ahead");
+      return NodeStatus::running;
+    }
+    return NodeStatus::running;
+  }
+  if (++wait_frames_ > *max_wait)
+    return fail_with("stopped: a moving obstacle stayed in the corridor ahead for " + std::to_string(wait_frames_) + " frames");
+  still_frames_ = moving ? 0 : still_frames_ + 1;
+  if (still_frames_ < *clear) return NodeStatus::running;
+  looking_ = false;
+  drive_quiet_until_m_ = odom.distance_m + 0.3;  // let the IPT look again before the frame difference
+  resume_child(odom, "the corridor is clear after " + std::to_string(wait_frames_) + " frames of waiting");
+  return NodeStatus::running;
+}
+
+NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
+  {
+    auto ahead = get_input<double>("goal_ahead_m");
+    if (!ahead) return NodeStatus::failure;
     auto mode = get_input<std::string>("detour");
     if (!mode || (*mode != "lane" && *mode != "thesis")) {
       host_.logger().error(path(), !mode ? mode.error().message
@@ -406,20 +604,20 @@ NodeStatus ReplayAvoiding::tick() {
       if (clearance) params.clearance_m = *clearance;
       if (widest) params.max_offset_m = *widest;
       Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
-      if (st) st = detour_.begin(*this, odom->pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
+      if (st) st = detour_.begin(*this, odom.pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
       if (!st) {
         host_.logger().error(path(), st.error().message);
         stop(host_);
         return NodeStatus::failure;
       }
       detour_.end();
-      lane_.emplace(params, odom->pose);
+      lane_.emplace(params, odom.pose);
       lane_.value().add_points(corridor_.points());
       lane_kind_ = LaneDecision::Kind::blocked;
       lane_target_m_ = 1e9;
       lane_blocked_cycles_ = lane_stall_cycles_ = 0;
       lane_best_s_m_ = 0.0;
-    } else if (auto st = detour_.begin(*this, odom->pose, *ahead); !st) {
+    } else if (auto st = detour_.begin(*this, odom.pose, *ahead); !st) {
       host_.logger().error(path(), st.error().message);
       stop(host_);
       return NodeStatus::failure;
@@ -428,12 +626,6 @@ NodeStatus ReplayAvoiding::tick() {
     detouring_ = true;
     return NodeStatus::running;
   }
-  const NodeStatus st = child()->execute_tick();
-  if (st != NodeStatus::running) {
-    child_started_ = false;
-    corridor_.clear();
-  }
-  return st;
 }
 
 NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
@@ -488,7 +680,8 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
 }
 
 void ReplayAvoiding::halt() {
-  if (detouring_) stop(host_);
+  if (detouring_ || looking_) stop(host_);
+  looking_ = false;
   detour_.end();
   lane_.reset();
   detouring_ = false;

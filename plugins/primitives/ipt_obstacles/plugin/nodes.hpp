@@ -25,6 +25,7 @@
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
+#include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav/ipt_obstacles/polar_map.hpp"
 
@@ -141,6 +142,12 @@ class AvoidObstacles : public bt::StatefulActionNode {
 /// starts again with `carried_m` set to the along-track distance already covered: the replay's
 /// distance before the obstacle plus the detour's progress projected on that line, so the edge
 /// keeps counting and its visual correction resumes. No gap: failure with the reason.
+/// Moving obstacles (look_frames > 0): before a detour the robot stops and watches the corridor
+/// for look_frames frames (MotionWatch, frame differencing of the standing camera). No motion:
+/// the obstacle stands, detour as above. Motion (a person crossing): wait until the corridor has
+/// been still for clear_frames frames, then resume the replay where it stopped (the stale
+/// contact points are dropped; a person who stopped in the corridor is found again by the IPT
+/// and, standing, detoured). Still moving after max_wait_frames: failure with the reason.
 /// Register the edge kinds to it in FollowRoute's `primitives` port.
 class ReplayAvoiding : public bt::DecoratorNode {
  public:
@@ -154,6 +161,17 @@ class ReplayAvoiding : public bt::DecoratorNode {
   /// obstacle, failure (reason logged, robot stopped) when no lane is free for
   /// max_blocked_cycles or no along-line progress for max_stall_cycles.
   bt::NodeStatus lane_step(const Odometry& odom);
+  /// Starts the detour of the `detour` port from the current pose (robot already stopped).
+  bt::NodeStatus begin_detour(const Odometry& odom);
+  /// One cycle of the stop-and-look phase (see the class comment).
+  bt::NodeStatus look_step(const Odometry& odom);
+  /// The replay child starts again at the along-track distance reached (after a detour or a wait).
+  void resume_child(const Odometry& odom, const std::string& why);
+  /// While replaying: true when the ground-compensated frame difference shows something moving
+  /// or standing within moving_stop_m ahead on two frames in a row (a person stepping in).
+  Result<bool> moving_near(const Odometry& odom);
+  /// Stops the robot and starts the stop-and-look phase.
+  void begin_look(const Odometry& odom, const std::string& why);
 
   HostServices& host_;
   PipelineRunner runner_;
@@ -165,6 +183,20 @@ class ReplayAvoiding : public bt::DecoratorNode {
   double lane_best_s_m_ = 0.0;
   CorridorMemory corridor_;
   bool detouring_ = false;
+  bool looking_ = false;           // stopped, watching the corridor for motion
+  bool saw_motion_ = false;
+  int look_frames_ = 0, still_frames_ = 0, wait_frames_ = 0, settle_frames_ = 0;
+  std::uint64_t watch_sequence_ = 0;
+  bool have_watch_sequence_ = false;
+  std::optional<MotionWatch> watch_;
+  std::optional<MotionWatch> drive_watch_;  // the near corridor while driving (moving_stop_m)
+  Pose2D drive_watch_pose_;
+  std::uint64_t drive_sequence_ = 0;
+  bool have_drive_sequence_ = false;
+  int drive_hits_ = 0;
+  std::vector<int> drive_counts_;            // recent changed-pixel counts while driving (the texture's level)
+  double drive_quiet_until_m_ = -1e300;     // odometer reading before which moving_near() is not asked
+  cv::Mat watch_grey_;
   bool child_started_ = false;
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
   double replay_done_m_ = 0.0;     // edge distance covered when the detour began

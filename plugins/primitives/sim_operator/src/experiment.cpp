@@ -101,7 +101,7 @@ constexpr const char* kUsage =
     "                         [--seed S] [--jobs J] [--radius M] [--maps hybrid,feature,path] [--ideal]\n"
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
     "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--port N.p=v]...\n"
-    "                         [--learn-loops N] [--experience-teach A]\n"
+    "                         [--learn-loops N] [--experience-teach A] [--obstacles FILE]\n"
     "\n"
     "The seed 000 Sec. 6 experiment, repeated over independent random runs. For each map style and\n"
     "each seed: teach the route R (a waypoint script, config/routes/) in the simulated world W with\n"
@@ -143,6 +143,8 @@ constexpr const char* kUsage =
     "  --set k=v             config override for both runs, e.g. --set robot.params.odom_scale_error_sd_pct=5\n"
     "  --teach-set k=v       config override for the teach run only\n"
     "  --replay-set k=v      config override for the replay run only\n"
+    "  --obstacles FILE      obstacle file added to the world for the replays (not the teach): YAML\n"
+    "                        'obstacles:' list, docs/sim.md; same as --replay-set robot.params.obstacles=FILE\n"
     "  --port Node.port=v    set a port on every such node of the replay trees (learning loops\n"
     "                        too, not the teach), e.g. --port ReplayFeatureEdge.gain=0.5; how\n"
     "                        `visnav tune` reaches primitive gains (docs/bt.md, port overrides)\n"
@@ -196,6 +198,10 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--set") { VISNAV_ASSIGN(std::string v, in.value()); o.overrides.push_back(v); }
     else if (arg == "--teach-set") { VISNAV_ASSIGN(std::string v, in.value()); o.teach_overrides.push_back(v); }
     else if (arg == "--replay-set") { VISNAV_ASSIGN(std::string v, in.value()); o.replay_overrides.push_back(v); }
+    else if (arg == "--obstacles") {  // issue 16: obstacles placed for the replays only
+      VISNAV_ASSIGN(std::string v, in.value());
+      o.replay_overrides.push_back("robot.params.obstacles=" + v);
+    }
     else if (arg == "--port") {
       VISNAV_ASSIGN(std::string v, in.value());
       VISNAV_TRY(bt::parse_port_override(v));

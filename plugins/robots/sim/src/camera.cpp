@@ -171,7 +171,7 @@ std::optional<Frame> CameraCore::grab() {
       params_.latency_s > 0.0 || capture_s < now ? robot_->pose_at(frame.timestamp_s) : robot_->ground_truth();
   cv::Mat out = take_buffer(params_.grey ? CV_8UC1 : CV_8UC3);
   cv::Mat& target = params_.grey ? render_buffer_ : out;
-  renderer_.render(pose, target);
+  renderer_.render(pose, target, nullptr, nullptr, frame.timestamp_s);  // moving obstacles where they were then
   std::mt19937_64 saved = rng_;
   rng_.seed(noise_seed);
   apply_appearance(target, robot_->true_twist());
@@ -179,6 +179,7 @@ std::optional<Frame> CameraCore::grab() {
   if (params_.grey) cv::cvtColor(render_buffer_, out, cv::COLOR_BGR2GRAY);
   last_image_ = out;
   last_pose_ = pose;
+  last_time_s_ = frame.timestamp_s;
   have_last_ = true;
   frame.image = out;
   return frame;
@@ -186,7 +187,7 @@ std::optional<Frame> CameraCore::grab() {
 
 void CameraCore::last_labels(cv::Mat& labels) {
   cv::Mat scratch;
-  renderer_.render(last_pose_, scratch, &labels);
+  renderer_.render(last_pose_, scratch, &labels, nullptr, last_time_s_);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -276,7 +277,9 @@ Status SimCamera::reconfigure(const ConfigNode& params) {
   const bool back_to_robot_world = p.world.empty() && !params_.world.empty();
   params_ = p;
   if (core_) {
-    if (!world) world = back_to_robot_world ? robot_->world() : core_->renderer().world_ptr();
+    // Without a world of its own the camera shows the robot's, which may have changed (obstacles
+    // placed for a replay).
+    if (!world) world = back_to_robot_world || p.world.empty() ? robot_->world() : core_->renderer().world_ptr();
     if (world == nullptr) return fail("sim camera: no world to render");
     core_ = std::make_unique<CameraCore>(params_, robot_, world);
   }

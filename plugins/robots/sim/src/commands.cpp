@@ -325,7 +325,7 @@ int cmd_teleop(const std::vector<std::string>& args, std::ostream& out, std::ost
       const Odometry odo = *robot->latest_odometry();
       samples.push_back(DriveSample{robot->time_s(), gt, odo, state.command, 0, ""});
       if (view && robot->time_s() >= next_view_s) {
-        view->render(gt, frame);
+        view->render(gt, frame, nullptr, nullptr, robot->time_s());
         VISNAV_TRY(write_png(*a->get("--view"), frame));
         next_view_s += 1.0;
       }

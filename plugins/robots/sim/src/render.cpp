@@ -106,7 +106,7 @@ Renderer::Renderer(std::shared_ptr<const World> world, CameraModel model, Render
       fog_lut_[i] = static_cast<std::uint16_t>(std::lround(256.0 * (1.0 - std::exp(-(static_cast<double>(i) * 0.25) / w.fog_distance_m))));
 }
 
-void Renderer::render(const Pose2D& robot_pose_world, cv::Mat& bgr, cv::Mat* labels, cv::Mat* object_ids) {
+void Renderer::render(const Pose2D& robot_pose_world, cv::Mat& bgr, cv::Mat* labels, cv::Mat* object_ids, double time_s) {
   bgr.create(model_.height_px, model_.width_px, CV_8UC3);
   if (labels != nullptr) labels->create(model_.height_px, model_.width_px, CV_8UC1);
   if (object_ids != nullptr) object_ids->create(model_.height_px, model_.width_px, CV_16UC1);
@@ -116,11 +116,11 @@ void Renderer::render(const Pose2D& robot_pose_world, cv::Mat& bgr, cv::Mat* lab
   if (with_labels) {
     if (shadows) render_ground<true, true>(pose, bgr, labels, object_ids);
     else render_ground<true, false>(pose, bgr, labels, object_ids);
-    render_walls<true>(pose, bgr, labels, object_ids);
+    render_walls<true>(pose, bgr, labels, object_ids, time_s);
   } else {
     if (shadows) render_ground<false, true>(pose, bgr, labels, object_ids);
     else render_ground<false, false>(pose, bgr, labels, object_ids);
-    render_walls<false>(pose, bgr, labels, object_ids);
+    render_walls<false>(pose, bgr, labels, object_ids, time_s);
   }
 }
 
@@ -233,7 +233,7 @@ void Renderer::render_ground(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labe
 }
 
 template <bool kLabels>
-void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids) {
+void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids, double time_s) {
   const World& w = *world_;
   if (w.walls.empty()) return;
   const int W = model_.width_px, H = model_.height_px;
@@ -246,13 +246,15 @@ void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* label
 
   for (size_t wi = 0; wi < w.walls.size(); ++wi) {
     const Wall& wall = w.walls[wi];
-    const cv::Vec3d p0(wall.from.x, wall.from.y, 0.0);
-    const cv::Vec3d along(wall.to.x - wall.from.x, wall.to.y - wall.from.y, 0.0);
+    const cv::Point2d shift = w.wall_offset(wall, time_s);  // moving obstacles
+    const cv::Point2d from = wall.from + shift, to = wall.to + shift;
+    const cv::Vec3d p0(from.x, from.y, 0.0);
+    const cv::Vec3d along(to.x - from.x, to.y - from.y, 0.0);
     const double len = cv::norm(along);
     const cv::Vec3d e = along / len;
     // cheap reject: wall entirely behind the camera
-    const cv::Vec3d corners_w[4] = {{wall.from.x, wall.from.y, wall.base_m}, {wall.to.x, wall.to.y, wall.base_m},
-                                    {wall.to.x, wall.to.y, wall.top_m}, {wall.from.x, wall.from.y, wall.top_m}};
+    const cv::Vec3d corners_w[4] = {{from.x, from.y, wall.base_m}, {to.x, to.y, wall.base_m},
+                                    {to.x, to.y, wall.top_m}, {from.x, from.y, wall.top_m}};
     cv::Vec3d cam[4];
     bool any_front = false;
     for (int k = 0; k < 4; ++k) {

@@ -41,6 +41,7 @@ const ParamSchema<RobotParams>& RobotParams::schema() {
   static const auto s =
       ParamSchema<RobotParams>{}
           .field("world", &RobotParams::world, "world file or name (config/worlds/<name>.yaml); empty = none")
+          .field("obstacles", &RobotParams::obstacles, "obstacle file added to the world for this run (YAML 'obstacles:' list, docs/sim.md); empty = none")
           .field("kinematics", &RobotParams::kinematics, "drive model").one_of({"diff_drive", "car_like", "tracked"})
           .field("max_linear_mps", &RobotParams::max_linear_mps, "forward speed limit, m/s").range(0.01, 20)
           .field("max_reverse_mps", &RobotParams::max_reverse_mps, "reverse speed limit, m/s").range(0, 20)
@@ -104,18 +105,20 @@ std::vector<CollisionShape> collision_shapes(const World& world, double body_hei
       if (!seen) shapes.push_back({c, c, trunk_radius_m, w.name});
       continue;
     }
-    shapes.push_back({w.from, w.to, 0.0, w.name});
+    shapes.push_back({w.from, w.to, 0.0, w.name, w.mover});
   }
   return shapes;
 }
 
 namespace {
 
-double distance_to_shape(const CollisionShape& s, const cv::Point2d& p) {
+/// Distance from `p` to the shape displaced by `offset` (a moving obstacle's; zero otherwise).
+double distance_to_shape(const CollisionShape& s, const cv::Point2d& p, const cv::Point2d& offset = {0, 0}) {
   const cv::Point2d d = s.to - s.from;
+  const cv::Point2d from = s.from + offset;
   const double len2 = d.dot(d);
-  const double t = len2 > 0.0 ? std::clamp((p - s.from).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return cv::norm(p - (s.from + t * d)) - s.radius_m;
+  const double t = len2 > 0.0 ? std::clamp((p - from).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return cv::norm(p - (from + t * d)) - s.radius_m;
 }
 
 }  // namespace
@@ -140,11 +143,24 @@ RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<con
     in_contact_.assign(shapes_.size(), 0);
     // A robot placed touching an obstacle starts in contact with it (no collision recorded).
     for (std::size_t i = 0; i < shapes_.size(); ++i)
-      in_contact_[i] = distance_to_shape(shapes_[i], {pose_.x_m, pose_.y_m}) < params_.body_radius_m ? 1 : 0;
+      in_contact_[i] = distance_to_shape(shapes_[i], {pose_.x_m, pose_.y_m}, shape_offset(i, 0.0)) < params_.body_radius_m ? 1 : 0;
   }
   published_.timestamp_s = 0.0;
   next_publish_s_ = 1.0 / params_.odom_rate_hz;
   history_.emplace_back(0.0, pose_);
+}
+
+void RobotCore::set_world(std::shared_ptr<const World> world) {
+  std::lock_guard lock(mutex_);
+  world_ = std::move(world);
+  shapes_.clear();
+  in_contact_.clear();
+  if (world_ && params_.body_radius_m > 0.0) {
+    shapes_ = collision_shapes(*world_, params_.body_height_m, params_.trunk_radius_m);
+    in_contact_.assign(shapes_.size(), 0);
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+      in_contact_[i] = distance_to_shape(shapes_[i], {pose_.x_m, pose_.y_m}, shape_offset(i, time_s_)) < params_.body_radius_m ? 1 : 0;
+  }
 }
 
 RobotParams RobotCore::params() const {
@@ -275,13 +291,28 @@ void RobotCore::substep_locked(double dt) {
   if (!shapes_.empty()) {
     const cv::Point2d p0(before.x_m, before.y_m), p1(pose_.x_m, pose_.y_m);
     for (std::size_t i = 0; i < shapes_.size(); ++i) {
-      const double d1 = distance_to_shape(shapes_[i], p1);
+      const cv::Point2d off1 = shape_offset(i, time_s_ + dt);
+      const double d1 = distance_to_shape(shapes_[i], p1, off1);
       if (d1 >= params_.body_radius_m) {
         in_contact_[i] = 0;
         continue;
       }
-      const double d0 = distance_to_shape(shapes_[i], p0);
-      if (d1 >= d0) continue;  // touching but moving away (or along): allowed
+      if (shapes_[i].mover >= 0) {
+        // A moving obstacle: contact when it came closer (by its motion or ours); the robot is
+        // held back only if its own step brought it closer.
+        const double d0 = distance_to_shape(shapes_[i], p0, shape_offset(i, time_s_));
+        if (d1 < d0) {
+          // One contact per obstacle, not per face of its ring.
+          bool touching = false;
+          for (std::size_t j = 0; j < shapes_.size(); ++j) touching = touching || (in_contact_[j] && shapes_[j].mover == shapes_[i].mover);
+          if (!touching) collisions_.push_back(SimCollision{time_s_ + dt, before, shapes_[i].name});
+          in_contact_[i] = 1;
+        }
+        if (distance_to_shape(shapes_[i], p0, off1) <= d1) continue;
+      } else {
+        const double d0 = distance_to_shape(shapes_[i], p0);
+        if (d1 >= d0) continue;  // touching but moving away (or along): allowed
+      }
       // Blocked: the step is not taken and the robot stops against the obstacle.
       pose_ = before;
       velocity_ = Twist{};
@@ -393,7 +424,11 @@ Result<std::unique_ptr<SimRobot>> SimRobot::create(const RobotParams& params, co
   if (!params.world.empty()) {
     auto path = resolve_world_path(params.world, relative_to);
     if (!path) return path.error().with_context("key 'world'");
-    VISNAV_ASSIGN(world, load_world_cached(*path));
+    auto loaded = load_world_with_obstacles(*path, params.obstacles, relative_to);
+    if (!loaded) return loaded.error().with_context(params.obstacles.empty() ? "key 'world'" : "key 'obstacles'");
+    world = *loaded;
+  } else if (!params.obstacles.empty()) {
+    return Error{"key 'obstacles': needs a 'world' to add them to", ErrorCode::missing, ErrorLocation({}, 0, "world")};
   }
   auto core = std::make_shared<RobotCore>(params, resolve_start(params, world.get()), world);
   return std::unique_ptr<SimRobot>(new SimRobot(std::move(core)));
@@ -405,6 +440,16 @@ std::vector<Error> SimRobot::check_params(const ConfigNode& params) {
   auto p = RobotParams::schema().parse(params);
   if (p && !p->world.empty())
     if (auto st = check_world_file(p->world, params); !st) problems.push_back(std::move(st).error());
+  if (p && p->world.empty() && !p->obstacles.empty())
+    problems.push_back(Error{params.where().str() + ": key 'obstacles': needs a 'world' to add them to", ErrorCode::missing,
+                             ErrorLocation(params.where().file, params.where().line, "world")});
+  if (p && problems.empty() && !p->obstacles.empty()) {
+    // Report a bad obstacle file before the run (at the file's line, else at the key).
+    auto path = resolve_world_path(p->world, params.where().file);
+    auto world = path ? load_world_with_obstacles(*path, p->obstacles, params.where().file)
+                      : Result<std::shared_ptr<const World>>(path.error());
+    if (!world) problems.push_back(world.error().with_context("key 'obstacles'"));
+  }
   return problems;
 }
 
@@ -432,6 +477,15 @@ Status SimRobot::reconfigure(const ConfigNode& params) {
       p.displacement_lateral_m != cur.displacement_lateral_m || p.displacement_longitudinal_m != cur.displacement_longitudinal_m ||
       p.displacement_heading_deg != cur.displacement_heading_deg)
     return fail("sim robot: world, kinematics, start_pose and displacement_* cannot change while running");
+  if (p.obstacles != cur.obstacles) {
+    // Obstacles placed for the next run (visnav experiment --obstacles: the replay only).
+    if (p.world.empty()) return Error{"key 'obstacles': needs a 'world' to add them to", ErrorCode::missing, {{}, 0, "world"}};
+    auto path = resolve_world_path(p.world, params.where().file);
+    if (!path) return path.error().with_context("key 'world'");
+    auto world = load_world_with_obstacles(*path, p.obstacles, params.where().file);
+    if (!world) return world.error().with_context("key 'obstacles'");
+    core_->set_world(*world);
+  }
   core_->set_params(p);
   return ok();
 }

@@ -3,6 +3,7 @@
 #include "visnav_sim/world.hpp"
 
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -171,17 +172,56 @@ Status parse_trees(World& world, const ConfigNode& list) {
   return ok();
 }
 
+// Motion keys of an obstacle: `path` (waypoints after `at`), `speed_mps`, `start_s`, `motion`.
+// Returns the mover's index in world.movers, or -1 for a static obstacle.
+Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& name, const cv::Point2d& at) {
+  const ConfigNode* path = o.find("path");
+  if (path == nullptr) {
+    for (const char* key : {"speed_mps", "start_s", "motion"})
+      if (const ConfigNode* n = o.find(key))
+        return node_error(*n, name + ": key '" + key + "' needs 'path' (the waypoints the obstacle moves through)",
+                          ErrorCode::missing, "path");
+    return -1;
+  }
+  MovingObstacle m;
+  m.name = name;
+  VISNAV_ASSIGN(const auto points, as_points(*path, "path", 1));
+  m.path.push_back(at);
+  for (const auto& p : points) {
+    if (cv::norm(p - m.path.back()) < 1e-6)
+      return node_error(*path, name + ": key 'path': repeated point " + pt(p) + " (the first segment starts at 'at')",
+                        ErrorCode::invalid_value, "path");
+    m.path.push_back(p);
+  }
+  if (o.find("speed_mps") == nullptr) return node_error(o, name + ": a moving obstacle needs 'speed_mps'", ErrorCode::missing, "speed_mps");
+  VISNAV_ASSIGN(m.speed_mps, get_double(o, "speed_mps", 1.0, 0.01, 20.0));
+  VISNAV_ASSIGN(m.start_s, get_double(o, "start_s", 0.0, 0.0, 1e6));
+  VISNAV_ASSIGN(const std::string motion, get_string(o, "motion", "once"));
+  if (motion == "once") m.motion = MovingObstacle::Motion::once;
+  else if (motion == "loop") m.motion = MovingObstacle::Motion::loop;
+  else if (motion == "back_and_forth") m.motion = MovingObstacle::Motion::back_and_forth;
+  else
+    return node_error(*o.find("motion"), name + ": key 'motion': unknown value '" + motion + "' (known: once, loop, back_and_forth)",
+                      ErrorCode::out_of_range, "motion");
+  world.movers.push_back(std::move(m));
+  return static_cast<int>(world.movers.size()) - 1;
+}
+
 // `obstacles:` (issue 16): shorthands that expand into closed rings of walls of class
 // `obstacle` (so they render, label and collide like any wall). Kinds: `box` (size_m: [length
-// along yaw, width]), `van` (a box with a parked van's default size 4.8 x 1.9 x 1.9 m) and
-// `post` (a regular polygon of `sides` faces inscribed in radius_m). Tops are not drawn: an
-// obstacle lower than the camera shows the inside of its far faces from above.
+// along yaw, width]), `van` (a box with a parked van's default size 4.8 x 1.9 x 1.9 m), `post`
+// (a regular polygon of `sides` faces inscribed in radius_m) and `person` (a post of a walking
+// adult's size: 0.25 m radius, 1.75 m tall, 8 sides). Any kind moves when it has a `path`.
+// Tops are not drawn: an obstacle lower than the camera shows the inside of its far faces from
+// above.
 Status parse_obstacles(World& world, const ConfigNode& list) {
   if (!list.is_sequence()) return node_error(list, "key 'obstacles': expected a list");
   int index = 0;
   for (const auto& o : list.items()) {
     const std::string what = "obstacle " + std::to_string(index++);
-    VISNAV_TRY(check_keys(o, {"name", "kind", "at", "yaw_deg", "size_m", "radius_m", "sides", "height_m", "texture"}, what));
+    VISNAV_TRY(check_keys(o, {"name", "kind", "at", "yaw_deg", "size_m", "radius_m", "sides", "height_m", "texture", "path",
+                              "speed_mps", "start_s", "motion"},
+                          what));
     VISNAV_ASSIGN(const std::string name, get_string(o, "name", what));
     VISNAV_ASSIGN(const std::string kind, get_string(o, "kind", "box"));
     const ConfigNode* at = o.find("at");
@@ -202,26 +242,32 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
         if (size[0] < 0.01 || size[1] < 0.01) return node_error(*n, name + ": size_m must be at least 0.01 m");
       }
       if (o.find("radius_m") != nullptr || o.find("sides") != nullptr)
-        return node_error(o, name + ": 'radius_m' and 'sides' are for kind 'post'");
+        return node_error(o, name + ": 'radius_m' and 'sides' are for kinds 'post' and 'person'", ErrorCode::invalid_value,
+                          o.find("radius_m") != nullptr ? "radius_m" : "sides");
       const double hl = size[0] / 2, hw = size[1] / 2;
       ring = {c - hl * ax - hw * ay, c + hl * ax - hw * ay, c + hl * ax + hw * ay, c - hl * ax + hw * ay};
-    } else if (kind == "post") {
-      VISNAV_ASSIGN(height_m, get_double(o, "height_m", 1.2, 0.01, 100.0));
-      VISNAV_ASSIGN(const double radius_m, get_double(o, "radius_m", 0.06, 0.005, 10.0));
+    } else if (kind == "post" || kind == "person") {
+      const bool person = kind == "person";
+      VISNAV_ASSIGN(height_m, get_double(o, "height_m", person ? 1.75 : 1.2, 0.01, 100.0));
+      VISNAV_ASSIGN(const double radius_m, get_double(o, "radius_m", person ? 0.25 : 0.06, 0.005, 10.0));
       VISNAV_ASSIGN(const double sides_d, get_double(o, "sides", 8.0, 3.0, 64.0));
-      if (o.find("size_m") != nullptr) return node_error(o, name + ": 'size_m' is for kinds 'box' and 'van'");
+      if (o.find("size_m") != nullptr)
+        return node_error(*o.find("size_m"), name + ": 'size_m' is for kinds 'box' and 'van'", ErrorCode::invalid_value, "size_m");
       const int sides = static_cast<int>(std::lround(sides_d));
       for (int k = 0; k < sides; ++k) {
         const double a = yaw + 2.0 * CV_PI * k / sides;
         ring.push_back(c + radius_m * cv::Point2d(std::cos(a), std::sin(a)));
       }
     } else {
-      return node_error(*o.find("kind"), name + ": unknown kind '" + kind + "' (known: box, post, van)", ErrorCode::out_of_range,
-                        "kind");
+      return node_error(*o.find("kind"), name + ": unknown kind '" + kind + "' (known: box, person, post, van)",
+                        ErrorCode::out_of_range, "kind");
     }
-    for (std::size_t i = 0; i < ring.size(); ++i)
+    VISNAV_ASSIGN(const int mover, parse_motion(world, o, name, c));
+    for (std::size_t i = 0; i < ring.size(); ++i) {
       VISNAV_TRY(add_wall(world, ring[i], ring[(i + 1) % ring.size()], 0.0, height_m, texture, LabelClass::obstacle,
                           name, o));
+      world.walls.back().mover = mover;
+    }
   }
   return ok();
 }
@@ -385,6 +431,32 @@ cv::Vec3b label_color(LabelClass label) {
   return {0, 0, 0};
 }
 
+cv::Point2d MovingObstacle::position_at(double time_s) const {
+  if (path.size() < 2 || time_s <= start_s) return path.empty() ? cv::Point2d(0, 0) : path.front();
+  // The polyline walked: closed for `loop` (back to the start along the closing segment).
+  const bool closed = motion == Motion::loop;
+  const std::size_t segments = closed ? path.size() : path.size() - 1;
+  double length_m = 0.0;
+  for (std::size_t i = 0; i < segments; ++i) length_m += cv::norm(path[(i + 1) % path.size()] - path[i]);
+  double s = speed_mps * (time_s - start_s);
+  switch (motion) {
+    case Motion::once: s = std::min(s, length_m); break;
+    case Motion::loop: s = std::fmod(s, length_m); break;
+    case Motion::back_and_forth: {
+      s = std::fmod(s, 2.0 * length_m);
+      if (s > length_m) s = 2.0 * length_m - s;
+      break;
+    }
+  }
+  for (std::size_t i = 0; i < segments; ++i) {
+    const cv::Point2d a = path[i], b = path[(i + 1) % path.size()];
+    const double seg = cv::norm(b - a);
+    if (s <= seg || i + 1 == segments) return a + (b - a) * (std::min(s, seg) / seg);
+    s -= seg;
+  }
+  return path.back();
+}
+
 int World::region_at(double x_m, double y_m) const {
   const double gx = (x_m - region_map_origin_m.x) / region_map_resolution_m;
   const double gy = (y_m - region_map_origin_m.y) / region_map_resolution_m;
@@ -503,6 +575,26 @@ Result<std::shared_ptr<const World>> load_world_cached(const std::string& path) 
   VISNAV_ASSIGN(auto world, load_world(path));
   cache[key] = {mtime, world};
   return world;
+}
+
+Result<std::shared_ptr<const World>> add_obstacles(const World& base, const std::string& obstacles_path) {
+  VISNAV_ASSIGN(ConfigNode doc, parse_yaml_path(obstacles_path));
+  if (!doc.is_map() || doc.find("obstacles") == nullptr)
+    return node_error(doc, "an obstacle file has one top-level key 'obstacles'", ErrorCode::missing, "obstacles");
+  VISNAV_TRY(check_keys(doc, {"obstacles"}, "the obstacle file"));
+  // Textures and region map are shared (cv::Mat headers), walls and movers copied: cheap.
+  auto world = std::make_shared<World>(base);
+  VISNAV_TRY(parse_obstacles(*world, *doc.find("obstacles")));
+  if (world->walls.size() >= 0x7FFF) return node_error(doc, "too many walls (max 32766)");
+  return std::shared_ptr<const World>(std::move(world));
+}
+
+Result<std::shared_ptr<const World>> load_world_with_obstacles(const std::string& world_path, const std::string& obstacles_path,
+                                                               const std::string& relative_to) {
+  VISNAV_ASSIGN(auto world, load_world_cached(world_path));
+  if (obstacles_path.empty()) return world;
+  VISNAV_ASSIGN(const std::string path, resolve_data_path(obstacles_path, relative_to, "obstacles"));
+  return add_obstacles(*world, path);
 }
 
 Result<std::string> resolve_world_path(const std::string& name_or_path, const std::string& relative_to) {

@@ -4,7 +4,8 @@
 //    wall must end in FAILURE with the reason logged, not run forever;
 //  * replay with avoidance (trees/replay_route_avoiding.xml): a 12 m feature edge taught on a
 //    clear gravel path, replayed with a van parked on it (seed 002's field report): the replay
-//    detours around the van, resumes the edge at the along-track distance reached, and succeeds.
+//    detours around the van, resumes the edge at the along-track distance reached, and succeeds;
+//    replayed with a person crossing in front (an obstacle file placed per run): it waits.
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -86,6 +87,20 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
     EXPECT_NE(replay.output.find("obstacle ahead at"), std::string::npos) << replay.output;
     EXPECT_NE(replay.output.find("detour done: the edge resumes at"), std::string::npos) << replay.output;
   }
+  // A person crossing the path at x = 6 m (1 m/s, from 14 s: the robot is 2-3 m before it) placed
+  // per run: the robot sees it move, stops, waits until the corridor is still and completes the
+  // edge without touching it (docs/obstacles.md, "Moving obstacles").
+  write(dir / "person.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 4], path: [[6, -4]], speed_mps: 1.0, "
+                             "start_s: 14, texture: van}\n");
+  const CliRun crossing = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --set robot.params.obstacles=" +
+                                      (dir / "person.yaml").string() + " --map " + map +
+                                      " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8",
+                                  "replay_route_avoiding.xml");
+  EXPECT_EQ(crossing.status, 0) << crossing.output;
+  EXPECT_EQ(crossing.output.find("collision with"), std::string::npos) << crossing.output;
+  EXPECT_NE(crossing.output.find("a moving obstacle in the corridor"), std::string::npos) << crossing.output;
+  EXPECT_NE(crossing.output.find("the corridor is clear after"), std::string::npos) << crossing.output;
+  EXPECT_EQ(crossing.output.find(": detour"), std::string::npos) << crossing.output;
   std::filesystem::remove_all(dir);
 }
 

@@ -111,6 +111,7 @@ class CameraCore {
   double exposure_log_ = 0.0;       // OU state of the auto-exposure flicker
   double exposure_time_s_ = -1.0;   // simulated time of its last update (< 0: not started)
   Pose2D last_pose_;
+  double last_time_s_ = 0.0;  // capture time of the last rendered frame (moving obstacles)
   bool have_last_ = false;
 };
 

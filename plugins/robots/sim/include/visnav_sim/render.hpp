@@ -85,9 +85,10 @@ class Renderer {
 
   /// Renders the view from `robot_pose_world` into `bgr` (CV_8UC3, (re)allocated only if the
   /// size/type differs). `labels` (CV_8UC1 LabelClass) and `object_ids` (CV_16UC1) are
-  /// filled when non-null.
+  /// filled when non-null. `time_s` (simulated seconds since the run started) places the
+  /// world's moving obstacles (World::movers); static worlds look the same at any time.
   void render(const Pose2D& robot_pose_world, cv::Mat& bgr, cv::Mat* labels = nullptr,
-              cv::Mat* object_ids = nullptr);
+              cv::Mat* object_ids = nullptr, double time_s = 0.0);
 
   [[nodiscard]] const CameraModel& model() const { return model_; }
   [[nodiscard]] const World& world() const { return *world_; }
@@ -98,7 +99,7 @@ class Renderer {
   template <bool kLabels, bool kShadows>
   void render_ground(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids);
   template <bool kLabels>
-  void render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids);
+  void render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids, double time_s);
 
   std::shared_ptr<const World> world_;
   CameraModel model_;

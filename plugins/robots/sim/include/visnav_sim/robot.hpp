@@ -35,7 +35,10 @@
 // posts), or to a tree's trunk (a disc of trunk_radius_m at the tree's centre), is not taken:
 // the robot stops there (velocity zero) and the contact is recorded (collisions()); motion
 // away from the obstacle is still possible. One contact is recorded per obstacle until the
-// body is clear of it again.
+// body is clear of it again. Moving obstacles (World::movers) are placed at the sub-step's
+// time; one that comes closer than body_radius_m is a collision whether the robot or the
+// obstacle moved (a person walking into a standing robot counts); the robot is stopped only by
+// its own motion towards it (the obstacle passes through the disc: it does not push).
 // A reading is published at t = 0 and then every 1/odom_rate_hz of simulated time (at the
 // end of the step that crosses the publication time; its timestamp is that step's time).
 // Odometry.distance_m is the signed measured path length.
@@ -73,6 +76,7 @@ namespace visnav::sim {
 
 struct RobotParams {
   std::string world;         ///< world file or name (config/worlds/<name>.yaml); "" = none (camera brings its own)
+  std::string obstacles;     ///< obstacle file added to the world (per-run placement); "" = none
   std::string kinematics = "diff_drive";
   double max_linear_mps = 1.0;
   double max_reverse_mps = 0.5;
@@ -129,6 +133,7 @@ struct CollisionShape {
   cv::Point2d to;
   double radius_m = 0.0;
   std::string name;
+  int mover = -1;  ///< World::movers index of a moving obstacle (shape displaced by its offset_at(t)), else -1
 };
 /// The collision shapes of a world for a body of `body_height_m`.
 [[nodiscard]] std::vector<CollisionShape> collision_shapes(const World& world, double body_height_m,
@@ -167,10 +172,21 @@ class RobotCore {
   [[nodiscard]] int freeze_count() const;
   [[nodiscard]] double frozen_s() const;
   /// World the robot drives in (may be null).
-  [[nodiscard]] const std::shared_ptr<const World>& world() const { return world_; }
+  [[nodiscard]] std::shared_ptr<const World> world() const {
+    std::lock_guard lock(mutex_);
+    return world_;
+  }
+  /// Replaces the world (a replay with obstacles placed per run: the same world plus an obstacle
+  /// file); the collision shapes are rebuilt, contacts restarted at the current pose.
+  void set_world(std::shared_ptr<const World> world);
 
  private:
   void substep_locked(double dt_s);
+  /// Displacement of collision shape i at simulated time t (moving obstacles; else zero).
+  [[nodiscard]] cv::Point2d shape_offset(std::size_t i, double time_s) const {
+    const int m = shapes_[i].mover;
+    return m < 0 ? cv::Point2d(0, 0) : world_->movers[static_cast<std::size_t>(m)].offset_at(time_s);
+  }
   void publish_locked();
 
   mutable std::mutex mutex_;

@@ -85,6 +85,27 @@ struct Wall {
   int texture = 0;
   LabelClass label = LabelClass::wall;
   SourceLocation where;
+  int mover = -1;  ///< index into World::movers when the wall belongs to a moving obstacle, else -1
+};
+
+/// An obstacle that moves (issue 16: a walking person, a moving box). Its walls are stored in
+/// World::walls at the first point of `path` (with Wall::mover set) and are displaced by
+/// offset_at(t) at simulated time t, seconds since the run started; the renderer and the
+/// robot's collision check apply the offset. The motion is a constant speed along the polyline
+/// (no turning of the body: it translates).
+struct MovingObstacle {
+  enum class Motion { once, loop, back_and_forth };
+  std::string name;
+  std::vector<cv::Point2d> path;  ///< world metres, >= 2 points; path[0] is the obstacle's `at`
+  double speed_mps = 1.0;         ///< > 0
+  double start_s = 0.0;           ///< stands at path[0] until then
+  Motion motion = Motion::once;   ///< once: stops at the last point; loop: back to path[0] along
+                                  ///< the closing segment and again; back_and_forth: reverses at the ends
+
+  /// Position of the obstacle's reference point (path[0] at rest) at simulated time `time_s`.
+  [[nodiscard]] cv::Point2d position_at(double time_s) const;
+  /// position_at(time_s) - path[0]: what is added to the obstacle's walls.
+  [[nodiscard]] cv::Point2d offset_at(double time_s) const { return position_at(time_s) - path.front(); }
 };
 
 struct World {
@@ -94,6 +115,7 @@ struct World {
   std::vector<Texture> textures;
   std::vector<GroundRegion> regions;
   std::vector<Wall> walls;
+  std::vector<MovingObstacle> movers;  ///< moving obstacles; their walls are in `walls` (Wall::mover)
 
   int default_texture = 0;  ///< ground outside every region
   LabelClass default_label = LabelClass::ground;
@@ -114,6 +136,10 @@ struct World {
   [[nodiscard]] LabelClass ground_label_at(double x_m, double y_m) const;
   /// Texture index by name, or -1.
   [[nodiscard]] int texture_index(std::string_view wanted) const;
+  /// Displacement of a wall at simulated time `time_s`: zero unless it belongs to a moving obstacle.
+  [[nodiscard]] cv::Point2d wall_offset(const Wall& wall, double time_s) const {
+    return wall.mover < 0 ? cv::Point2d(0, 0) : movers[static_cast<std::size_t>(wall.mover)].offset_at(time_s);
+  }
   /// Bounding box of regions and walls (world metres): x, y, width, height.
   [[nodiscard]] cv::Rect2d bounds() const;
 };
@@ -128,6 +154,16 @@ struct World {
 /// load_world() with a process-wide cache keyed by the canonical path (worlds are immutable,
 /// textures are large). Thread-safe.
 [[nodiscard]] Result<std::shared_ptr<const World>> load_world_cached(const std::string& path);
+
+/// A copy of `base` with the obstacles of an obstacle file added (per-run placement, issue 16):
+/// YAML with one top-level key `obstacles:`, a list in the world file's `obstacles:` syntax
+/// (docs/sim.md); textures are the world's. Errors name the obstacle file's line and key.
+[[nodiscard]] Result<std::shared_ptr<const World>> add_obstacles(const World& base, const std::string& obstacles_path);
+/// load_world_cached(world_path), plus add_obstacles() when `obstacles_path` is not empty
+/// (resolved against `relative_to` like a world name).
+[[nodiscard]] Result<std::shared_ptr<const World>> load_world_with_obstacles(const std::string& world_path,
+                                                                             const std::string& obstacles_path,
+                                                                             const std::string& relative_to = {});
 
 /// Resolves a world name or path: an existing file as given; else relative to `relative_to`
 /// (a file or folder, e.g. the config file naming the world); else `<name>` or `<name>.yaml`

@@ -1,0 +1,78 @@
+// visnav IPT obstacles — watching the corridor ahead for motion while the robot stands (issue 16:
+// a person crossing in front of a replaying robot).
+//
+// The IPT needs the lens to move between two frames (a pair): a standing robot sees nothing
+// new, and a crossing person's features break the epipolar geometry of a pair anyway. With the
+// camera standing, motion is what a frame difference shows: MotionWatch counts the pixels of
+// the corridor mask whose grey level changed by more than diff_threshold between two frames,
+// after a 5x5 box blur (sensor noise) and with the second frame scaled to the first's mean
+// brightness inside the mask (auto-exposure flicker changes every pixel at once).
+//
+// The corridor mask: pixels from 2 rows below the horizon down whose ground point (IPT with the
+// robot at the origin, robot frame x forward, y left) lies near_m < x ≤ far_m, |y| ≤
+// half_width_m, plus those whose ground point lies beyond far_m within the corridor's angular
+// width |y|·far_m/x ≤ half_width_m (a person standing in the corridor occludes the ground behind
+// it, so its legs and body cover those pixels).
+//
+// A moving robot (observe(grey, motion)) compares the previous frame warped through the ground
+// plane by the odometry motion: ground texture lines up, things above the ground or moving do not.
+//
+// Not thread-safe (scratch buffers); one per node.
+#pragma once
+
+#include <optional>
+
+#include <opencv2/core/mat.hpp>
+
+#include "visnav/ipt_obstacles/ipt.hpp"
+#include "visnav/params.hpp"
+#include "visnav/result.hpp"
+
+namespace visnav::ipt {
+
+struct MotionWatchParams {
+  double near_m = 0.3;          ///< corridor starts this far ahead of the robot centre, m
+  double far_m = 3.5;           ///< and ends here, m
+  double half_width_m = 0.8;    ///< half width of the corridor, m
+  double diff_threshold = 18.0;  ///< grey levels (after blur and brightness normalisation)
+  int min_changed_px = 80;      ///< changed mask pixels that count as motion
+
+  [[nodiscard]] Status validate() const;
+  static const ParamSchema<MotionWatchParams>& schema();
+};
+
+class MotionWatch {
+ public:
+  /// Error: camera or params invalid, or the corridor is not in view (empty mask).
+  static Result<MotionWatch> create(const IptCamera& camera, const MotionWatchParams& params);
+
+  /// Changed pixels inside the corridor between the previous frame and `grey` (CV_8UC1 of the
+  /// camera's size); nullopt for the first frame after reset() (nothing to compare with).
+  /// Error: wrong image size/type.
+  Result<std::optional<int>> observe(const cv::Mat& grey) { return observe(grey, Pose2D{}); }
+  /// The same for a moving robot: `motion` is the robot's pose now in its frame at the previous
+  /// frame (odometry). The previous frame is warped onto this one through the ground plane
+  /// (the homography of the IPT camera for that motion, its scale searched over 0.5-1.5 for
+  /// the odometry's error and timing), so the ground lines up and what changes is what stands
+  /// above it (parallax, growing with nearness) or moves.
+  Result<std::optional<int>> observe(const cv::Mat& grey, const Pose2D& motion);
+  /// True when the last observe() counted at least min_changed_px.
+  [[nodiscard]] bool moving() const { return last_changed_px_ >= params_.min_changed_px; }
+  void reset() { have_previous_ = false; last_changed_px_ = 0; }
+  /// The corridor mask (CV_8UC1, 255 inside).
+  [[nodiscard]] const cv::Mat& mask() const { return mask_; }
+
+ private:
+  MotionWatch(const IptCamera& camera, const MotionWatchParams& params) : camera_(camera), params_(params) {}
+  IptCamera camera_;
+  MotionWatchParams params_;
+  cv::Mat mask_;
+  /// Pixels of the mask `valid` whose blurred grey level differs from `previous` by more than
+  /// the threshold, after scaling to the same mean brightness.
+  int count_changed(const cv::Mat& previous, const cv::Mat& valid);
+  cv::Mat previous_, blurred_, diff_, warped_, valid_, prev16_;
+  bool have_previous_ = false;
+  int last_changed_px_ = 0;
+};
+
+}  // namespace visnav::ipt

@@ -308,6 +308,9 @@ struct RunTrace {
   std::vector<std::vector<cv::Point2d>> lap_paths;
   cv::Point2d taught_end;
   double taught_end_heading_rad = 0.0;
+  /// Where a replayed loop must end: the taught end, or for a robot that turns on arcs the end
+  /// of the last taught edge (the closing arc after it moved the robot on to the first edge's start).
+  cv::Point2d loop_end;
   cv::Point2d replay_start;
 };
 
@@ -341,7 +344,7 @@ cv::Mat draw_trajectories(const sim::World& world, const sim::Route& route, cons
     const double s = t.lap_paths.size() > 1 ? static_cast<double>(k) / static_cast<double>(t.lap_paths.size() - 1) : 1.0;
     polyline(t.lap_paths[k], cv::Scalar(0, 255 * (1.0 - s), 255), 2);
   }
-  cv::circle(img, px(t.taught_end), 6, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+  cv::circle(img, px(t.loop_end), 6, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
   cv::circle(img, px(t.replay_start), 6, cv::Scalar(255, 0, 255), 2, cv::LINE_AA);
   for (const auto& l : run.loops) {
     if (l.finished) cv::drawMarker(img, px(l.end), l.completed ? cv::Scalar(0, 0, 255) : cv::Scalar(255, 0, 0),
@@ -416,6 +419,19 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   }
   r.teach_errors = run_errors_text(*teach_config);
   r.replay_errors = run_errors_text(*replay_config);
+  // A robot that cannot turn on the spot (car_like): the operator drives corners as arcs of its
+  // minimum turning radius and the replay's FollowRoute turns on arcs of it (docs/platforms.md).
+  // Set before the user's --port, which may still override it; nothing is added otherwise.
+  double turning_radius_m = 0.0;
+  if (auto rp = sim::RobotParams::schema().parse(teach_config->robot.params); rp && rp->kinematics == "car_like")
+    turning_radius_m = rp->min_turning_radius_m;
+  std::vector<bt::PortOverride> teach_ports;
+  if (turning_radius_m > 0.0) {
+    std::ostringstream radius;
+    radius << std::setprecision(17) << turning_radius_m;
+    teach_ports.push_back({"ScriptedOperator", "min_turning_radius_m", radius.str()});
+    replay_ports.insert(replay_ports.begin(), bt::PortOverride{"FollowRoute", "min_turning_radius_m", radius.str()});
+  }
   const fs::path map_dir = dir / "map";
   fs::remove_all(map_dir, ec);
   SessionOptions so;
@@ -448,7 +464,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   const Pose2D teach_start = sim->ground_truth_pose();
 
   {  // --- teach
-    auto teach = session->load_tree(project_file("trees/teach_hybrid_route.xml"));
+    auto teach = session->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
     if (!teach) {
       r.setup_error = teach.error().message;
       return done();
@@ -498,6 +514,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   // stored, not after the operator's closing turn to face the first edge.
   t.taught_end_heading_rad = t.taught_edge_ends.empty() ? sim->ground_truth_pose().heading_rad
                                                         : t.taught_edge_ends.back().pose.heading_rad;
+  t.loop_end = turning_radius_m > 0.0 && !t.taught_edge_ends.empty() ? xy(t.taught_edge_ends.back().pose) : t.taught_end;
   t.teach_path.push_back(t.taught_end);
   for (auto& e : t.taught_edge_ends)
     if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
@@ -530,7 +547,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     }
     auto drive = std::move(*drive_made);
     SimulationControl* drive_sim = drive->robot().simulation();
-    auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"));
+    auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
     if (!tree || drive_sim == nullptr) {
       r.setup_error = "experience drive: " + (tree ? std::string("no simulated robot") : tree.error().message);
       return done();
@@ -692,7 +709,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   }
   r.stop_reason = stop_reason;
   r.replay_start = t.replay_start;
-  r.taught_end = t.taught_end;
+  r.taught_end = t.loop_end;
 
   // --- loops
   std::vector<cv::Point2d> finished_ends;
@@ -710,8 +727,8 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
       l.end = xy(sim->ground_truth_pose());
       l.failure = "not driven: the replay stopped in loop " + std::to_string(lap_ends.size() + 1);
     }
-    l.error_m = cv::norm(l.end - t.taught_end);
-    const cv::Point2d c = components(l.end - t.taught_end, t.taught_end_heading_rad);
+    l.error_m = cv::norm(l.end - t.loop_end);
+    const cv::Point2d c = components(l.end - t.loop_end, t.taught_end_heading_rad);
     l.along_m = c.x;
     l.cross_m = c.y;
     if (l.finished) {
@@ -721,7 +738,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     }
     r.loops.push_back(std::move(l));
   }
-  r.metrics = accuracy_repeatability(finished_ends, t.taught_end);
+  r.metrics = accuracy_repeatability(finished_ends, t.loop_end);
 
   // --- files
   std::ofstream csv(dir / "loops.csv");

@@ -431,6 +431,8 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     radius << std::setprecision(17) << turning_radius_m;
     teach_ports.push_back({"ScriptedOperator", "min_turning_radius_m", radius.str()});
     replay_ports.insert(replay_ports.begin(), bt::PortOverride{"FollowRoute", "min_turning_radius_m", radius.str()});
+    // ReplayFeatureEdge's start-view search turns on the spot to scan; a car would stand still.
+    replay_ports.insert(replay_ports.begin(), bt::PortOverride{"ReplayFeatureEdge", "scan_deg", "0"});
   }
   const fs::path map_dir = dir / "map";
   fs::remove_all(map_dir, ec);

@@ -59,6 +59,25 @@ double turn_command_radps(double error_rad, const TurnParams& params) {
   return std::copysign(magnitude, error_rad);
 }
 
+Status ArcTurnParams::validate() const {
+  if (!(min_turning_radius_m >= 0.0 && min_turning_radius_m <= 100.0))
+    return fail(ErrorCode::out_of_range, {"", 0, "min_turning_radius_m"},
+                "value " + std::to_string(min_turning_radius_m) + " must be in [0, 100] m");
+  if (!(speed_mps > 0.0 && speed_mps <= 2.0))
+    return fail(ErrorCode::out_of_range, {"", 0, "arc_speed_mps"},
+                "value " + std::to_string(speed_mps) + " must be in (0, 2] m/s");
+  return ok();
+}
+
+Twist arc_turn_command(double error_rad, const TurnParams& turn, const ArcTurnParams& arc) {
+  if (!arc.arcs()) return Twist{0.0, turn_command_radps(error_rad, turn)};
+  if (!(std::abs(error_rad) > turn.tolerance_rad)) return Twist{};
+  // The curvature bound is a bound on ω/v: at the arc's speed, ω may not exceed v / R.
+  const double w_max = std::min(turn.max_angular_radps, arc.speed_mps / arc.min_turning_radius_m);
+  const double w = std::clamp(std::abs(turn.gain_per_s * error_rad), std::min(turn.min_angular_radps, w_max), w_max);
+  return Twist{arc.speed_mps, std::copysign(w, error_rad)};
+}
+
 double turn_between_edges_rad(const EdgeRecord& previous, const EdgeRecord& next) {
   double end_heading = previous.azimuth_rad;
   if (auto it = previous.statistics.find("end_heading_rad"); it != previous.statistics.end()) end_heading = it->second;

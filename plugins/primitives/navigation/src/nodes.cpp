@@ -52,6 +52,23 @@ bt::PortsList turn_ports() {
           bt::input_port<double>("turn_gain_per_s", "1.5", "proportional gain of the turn controller")};
 }
 
+bt::PortsList arc_ports() {
+  return {bt::input_port<double>("min_turning_radius_m", "0",
+                                 "0: turn in place; > 0: the robot cannot turn on the spot (car-like): the turn is "
+                                 "driven as a forward arc of at least this radius (|angular| <= arc_speed_mps / R), m"),
+          bt::input_port<double>("arc_speed_mps", "0.3", "forward speed on such an arc turn, m/s (0, 2]")};
+}
+
+Result<ArcTurnParams> read_arc_params(const bt::TreeNode& node) {
+  ArcTurnParams p;
+  VISNAV_ASSIGN(p.min_turning_radius_m, node.get_input<double>("min_turning_radius_m"));
+  VISNAV_ASSIGN(p.speed_mps, node.get_input<double>("arc_speed_mps"));
+  VISNAV_TRY(p.validate());
+  return p;
+}
+
+bool moving(const Twist& t) { return t.linear_mps != 0.0 || t.angular_radps != 0.0; }
+
 Result<TurnParams> read_turn_params(const bt::TreeNode& node, const char* tol, const char* speed, const char* gain) {
   TurnParams p;
   VISNAV_ASSIGN(p.tolerance_rad, node.get_input<double>(tol));
@@ -124,6 +141,7 @@ bt::PortsList TurnToAzimuth::provided_ports() {
       bt::input_port<std::string>("edge", "", "if set: turn to the start azimuth of this map edge instead"),
       bt::input_port<bool>("relative", "false", "azimuth_rad is relative to the heading at the start")};
   for (auto& p : turn_ports()) ports.push_back(std::move(p));
+  for (auto& p : arc_ports()) ports.push_back(std::move(p));
   return ports;
 }
 
@@ -131,6 +149,9 @@ NodeStatus TurnToAzimuth::on_start() {
   auto params = read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s");
   if (!params) return fail_node(host_, *this, params.error().message);
   params_ = *params;
+  auto arc = read_arc_params(*this);
+  if (!arc) return fail_node(host_, *this, arc.error().message);
+  arc_ = *arc;
   auto heading = current_heading_rad(host_);
   if (!heading) return fail_node(host_, *this, "no odometry");
   auto edge = get_input<std::string>("edge");
@@ -152,12 +173,12 @@ NodeStatus TurnToAzimuth::on_start() {
 NodeStatus TurnToAzimuth::on_running() {
   auto heading = current_heading_rad(host_);
   if (!heading) return fail_node(host_, *this, "no odometry");
-  const double w = turn_command_radps(wrap_angle_rad(target_rad_ - *heading), params_);
-  if (w == 0.0) {
+  const Twist c = arc_turn_command(wrap_angle_rad(target_rad_ - *heading), params_, arc_);
+  if (!moving(c)) {
     stop_robot(host_);
     return NodeStatus::success;
   }
-  command(host_, 0.0, w);
+  command(host_, c.linear_mps, c.angular_radps);
   return NodeStatus::running;
 }
 
@@ -194,7 +215,7 @@ bt::PortsList FollowRoute::provided_ports() {
       bt::input_port<std::vector<std::string>>("route", "{route}", "edge ids to traverse (from PlanRoute)"),
       bt::input_port<std::vector<std::string>>("primitives", kDefaultReplayKinds,
                                                 "which child node replays which edge kind (kind=NodeID;...)"),
-      bt::input_port<bool>("turn_at_nodes", "true", "turn in place to the next edge's azimuth at each node"),
+      bt::input_port<bool>("turn_at_nodes", "true", "turn to the next edge's azimuth at each node (in place, or an arc with min_turning_radius_m > 0)"),
       bt::input_port<std::vector<std::string>>(
           "heading_holding_kinds", "feature_segment;feature_localmaps",
           "edge kinds whose primitive ends on the taught heading (turns are measured from the heading at "
@@ -239,6 +260,7 @@ bt::PortsList FollowRoute::provided_ports() {
       bt::inout_port<std::string>("previous_edge", "{previous_edge}",
                                   "last edge traversed (kept across runs so patrol loops turn relatively)")};
   for (auto& p : turn_ports()) ports.push_back(std::move(p));
+  for (auto& p : arc_ports()) ports.push_back(std::move(p));
   return ports;
 }
 
@@ -295,6 +317,7 @@ Status FollowRoute::start() {
   checkpointed_m_.reset();
   checkpoint_warned_ = false;
   VISNAV_ASSIGN(turn_, read_turn_params(*this, "turn_tolerance_rad", "turn_speed_radps", "turn_gain_per_s"));
+  VISNAV_ASSIGN(arc_, read_arc_params(*this));
   child_for_edge_.clear();
   for (const auto& edge_id : route_) {
     const EdgeRecord* edge = map->find_edge(edge_id);
@@ -331,13 +354,17 @@ NodeStatus FollowRoute::tick() {
         auto previous = get_input<std::string>("previous_edge");
         const EdgeRecord* prev = previous ? map.find_edge(*previous) : nullptr;
         turn_target_ = turn_target_rad(prev, edge, *heading);
+        arc_start_m_.reset();
+        if (FrameBus* bus = host_.frame_bus())
+          if (auto odom = bus->latest_odometry()) arc_start_m_ = odom->distance_m;
       }
-      const double w = turn_command_radps(wrap_angle_rad(*turn_target_ - *heading), turn_);
-      if (w != 0.0) {
-        command(host_, 0.0, w);
+      const Twist c = arc_turn_command(wrap_angle_rad(*turn_target_ - *heading), turn_, arc_);
+      if (moving(c)) {
+        command(host_, c.linear_mps, c.angular_radps);
         return NodeStatus::running;
       }
-      stop_robot(host_);
+      // An arc turn ends moving: the next edge's child takes over without a stop.
+      if (!arc_.arcs()) stop_robot(host_);
     }
     turning_ = false;
     turn_target_.reset();
@@ -351,8 +378,15 @@ NodeStatus FollowRoute::tick() {
       if (const EdgeRecord* prev = map.find_edge(ended_edge_)) {
         double taught_gap_m = 0.0;
         if (auto it = edge.statistics.find(kStartGapStatistic); it != edge.statistics.end()) taught_gap_m = it->second;
-        carried_m = carried_distance_m(odom->distance_m - *ended_at_m_, taught_gap_m,
-                                       turn_between_edges_rad(*prev, edge), max_carry_m_);
+        if (arc_.arcs() && turn_at_nodes_ && arc_start_m_) {
+          // Arc turn: the taught gap is the taught arc, which this arc drove again; only the
+          // overshoot before the arc started is carried.
+          carried_m = carried_distance_m(*arc_start_m_ - *ended_at_m_, 0.0, turn_between_edges_rad(*prev, edge),
+                                         max_carry_m_);
+        } else {
+          carried_m = carried_distance_m(odom->distance_m - *ended_at_m_, taught_gap_m,
+                                         turn_between_edges_rad(*prev, edge), max_carry_m_);
+        }
       }
     }
     // The first edge of a route started from the middle (a relocalised robot): the rest of it.

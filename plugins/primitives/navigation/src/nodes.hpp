@@ -29,7 +29,8 @@ class PlanRoute final : public bt::SyncActionNode {
   HostServices& host_;
 };
 
-/// Turns in place to an absolute azimuth, a relative angle, or a map edge's start azimuth.
+/// Turns in place (or, with min_turning_radius_m > 0, on a forward arc) to an absolute azimuth,
+/// a relative angle, or a map edge's start azimuth.
 class TurnToAzimuth final : public bt::StatefulActionNode {
  public:
   TurnToAzimuth(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -41,6 +42,7 @@ class TurnToAzimuth final : public bt::StatefulActionNode {
  private:
   HostServices& host_;
   TurnParams params_;
+  ArcTurnParams arc_;
   double target_rad_ = 0.0;
 };
 
@@ -84,6 +86,8 @@ class FollowRoute final : public bt::ControlNode {
   KindMap kinds_;
   std::vector<std::size_t> child_for_edge_;
   TurnParams turn_;
+  ArcTurnParams arc_;                      ///< min_turning_radius_m > 0: turns are driven as arcs
+  std::optional<double> arc_start_m_;      ///< odometric distance when the current node's turn began
   bool turn_at_nodes_ = true;
   bool carry_overshoot_ = true;
   double max_carry_m_ = 0.5;

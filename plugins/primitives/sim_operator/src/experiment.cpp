@@ -148,6 +148,10 @@ constexpr const char* kUsage =
     "  --port Node.port=v    set a port on every such node of the replay trees (learning loops\n"
     "                        too, not the teach), e.g. --port ReplayFeatureEdge.gain=0.5; how\n"
     "                        `visnav tune` reaches primitive gains (docs/bt.md, port overrides)\n"
+    "A car-like sim robot (robot.params.kinematics=car_like) cannot turn on the spot: the experiment\n"
+    "then sets ScriptedOperator/FollowRoute min_turning_radius_m to the robot's (corners driven as\n"
+    "arcs), ReplayFeatureEdge.scan_deg=0, and measures loops at the last taught edge's end\n"
+    "(docs/navigation.md, \"Robots that cannot turn on the spot\"; --port still overrides).\n"
     "\n"
     "Output: DIR/report.md (the table and every run's per-loop errors), DIR/summary.json (the table's\n"
     "figures, machine-readable), DIR/errors.png (error per loop, every run; failed loops marked),\n"
@@ -314,6 +318,9 @@ struct RunTrace {
   std::vector<std::vector<cv::Point2d>> lap_paths;
   cv::Point2d taught_end;
   double taught_end_heading_rad = 0.0;
+  /// Where a replayed loop must end: the taught end, or for a robot that turns on arcs the end
+  /// of the last taught edge (the closing arc after it moved the robot on to the first edge's start).
+  cv::Point2d loop_end;
   cv::Point2d replay_start;
 };
 
@@ -347,7 +354,7 @@ cv::Mat draw_trajectories(const sim::World& world, const sim::Route& route, cons
     const double s = t.lap_paths.size() > 1 ? static_cast<double>(k) / static_cast<double>(t.lap_paths.size() - 1) : 1.0;
     polyline(t.lap_paths[k], cv::Scalar(0, 255 * (1.0 - s), 255), 2);
   }
-  cv::circle(img, px(t.taught_end), 6, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+  cv::circle(img, px(t.loop_end), 6, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
   cv::circle(img, px(t.replay_start), 6, cv::Scalar(255, 0, 255), 2, cv::LINE_AA);
   for (const auto& l : run.loops) {
     if (l.finished) cv::drawMarker(img, px(l.end), l.completed ? cv::Scalar(0, 0, 255) : cv::Scalar(255, 0, 0),
@@ -422,6 +429,21 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   }
   r.teach_errors = run_errors_text(*teach_config);
   r.replay_errors = run_errors_text(*replay_config);
+  // A robot that cannot turn on the spot (car_like): the operator drives corners as arcs of its
+  // minimum turning radius and the replay's FollowRoute turns on arcs of it (docs/platforms.md).
+  // Set before the user's --port, which may still override it; nothing is added otherwise.
+  double turning_radius_m = 0.0;
+  if (auto rp = sim::RobotParams::schema().parse(teach_config->robot.params); rp && rp->kinematics == "car_like")
+    turning_radius_m = rp->min_turning_radius_m;
+  std::vector<bt::PortOverride> teach_ports;
+  if (turning_radius_m > 0.0) {
+    std::ostringstream radius;
+    radius << std::setprecision(17) << turning_radius_m;
+    teach_ports.push_back({"ScriptedOperator", "min_turning_radius_m", radius.str()});
+    replay_ports.insert(replay_ports.begin(), bt::PortOverride{"FollowRoute", "min_turning_radius_m", radius.str()});
+    // ReplayFeatureEdge's start-view search turns on the spot to scan; a car would stand still.
+    replay_ports.insert(replay_ports.begin(), bt::PortOverride{"ReplayFeatureEdge", "scan_deg", "0"});
+  }
   const fs::path map_dir = dir / "map";
   fs::remove_all(map_dir, ec);
   SessionOptions so;
@@ -454,7 +476,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   const Pose2D teach_start = sim->ground_truth_pose();
 
   {  // --- teach
-    auto teach = session->load_tree(project_file("trees/teach_hybrid_route.xml"));
+    auto teach = session->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
     if (!teach) {
       r.setup_error = teach.error().message;
       return done();
@@ -504,6 +526,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   // stored, not after the operator's closing turn to face the first edge.
   t.taught_end_heading_rad = t.taught_edge_ends.empty() ? sim->ground_truth_pose().heading_rad
                                                         : t.taught_edge_ends.back().pose.heading_rad;
+  t.loop_end = turning_radius_m > 0.0 && !t.taught_edge_ends.empty() ? xy(t.taught_edge_ends.back().pose) : t.taught_end;
   t.teach_path.push_back(t.taught_end);
   for (auto& e : t.taught_edge_ends)
     if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
@@ -536,7 +559,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     }
     auto drive = std::move(*drive_made);
     SimulationControl* drive_sim = drive->robot().simulation();
-    auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"));
+    auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
     if (!tree || drive_sim == nullptr) {
       r.setup_error = "experience drive: " + (tree ? std::string("no simulated robot") : tree.error().message);
       return done();
@@ -698,7 +721,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   }
   r.stop_reason = stop_reason;
   r.replay_start = t.replay_start;
-  r.taught_end = t.taught_end;
+  r.taught_end = t.loop_end;
 
   // --- loops
   std::vector<cv::Point2d> finished_ends;
@@ -716,8 +739,8 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
       l.end = xy(sim->ground_truth_pose());
       l.failure = "not driven: the replay stopped in loop " + std::to_string(lap_ends.size() + 1);
     }
-    l.error_m = cv::norm(l.end - t.taught_end);
-    const cv::Point2d c = components(l.end - t.taught_end, t.taught_end_heading_rad);
+    l.error_m = cv::norm(l.end - t.loop_end);
+    const cv::Point2d c = components(l.end - t.loop_end, t.taught_end_heading_rad);
     l.along_m = c.x;
     l.cross_m = c.y;
     if (l.finished) {
@@ -727,7 +750,7 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     }
     r.loops.push_back(std::move(l));
   }
-  r.metrics = accuracy_repeatability(finished_ends, t.taught_end);
+  r.metrics = accuracy_repeatability(finished_ends, t.loop_end);
 
   // --- files
   std::ofstream csv(dir / "loops.csv");

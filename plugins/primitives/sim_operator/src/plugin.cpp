@@ -1,5 +1,6 @@
 // `sim_operator` nodes plugin: ScriptedOperator, the unattended "person" who teaches a route
 // in the simulator (see operator_core.hpp).
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -54,6 +55,11 @@ class ScriptedOperator final : public bt::StatefulActionNode {
                                                       "route leg kind -> map edge kind"),
             bt::input_port<std::string>("force_kind", "", "teach every leg with this edge kind (e.g. a feature-only map)"),
             bt::input_port<double>("speed_mps", "0.5", "driving speed"),
+            bt::input_port<double>("min_turning_radius_m", "0",
+                                   "0: turn in place at each waypoint; > 0: the robot cannot turn tighter (car-like), "
+                                   "each corner is driven as an arc of this radius that starts R*tan(turn/2) before "
+                                   "the waypoint, not taught (the node is where the arc starts), m"),
+            bt::input_port<double>("arc_speed_mps", "0.3", "forward speed on a corner arc (<= speed_mps)"),
             bt::output_port<std::string>("primitive", "{primitive}", "edge kind being taught; empty while turning"),
             bt::output_port<bool>("closing", "{teach_closing}",
                                   "closed route: true once every leg is driven, while the operator turns to face "
@@ -69,7 +75,9 @@ class ScriptedOperator final : public bt::StatefulActionNode {
     auto kinds = get_input<std::vector<std::string>>("kinds");
     auto force = get_input<std::string>("force_kind");
     auto speed = get_input<double>("speed_mps");
-    if (!file || !kinds || !force || !speed) return failed("bad ports");
+    auto radius = get_input<double>("min_turning_radius_m");
+    auto arc_speed = get_input<double>("arc_speed_mps");
+    if (!file || !kinds || !force || !speed || !radius || !arc_speed) return failed("bad ports");
     auto route = read_waypoint_route(*file);
     if (!route) return failed(route.error().message);
     auto kind_map = nav::parse_kind_map(*kinds);
@@ -84,7 +92,11 @@ class ScriptedOperator final : public bt::StatefulActionNode {
     if (!legs) return failed(*file + ": " + legs.error().message);
     OperatorParams params;
     params.speed_mps = *speed;
+    params.min_turning_radius_m = *radius;
+    params.arc_speed_mps = std::min(*arc_speed, *speed);
     if (auto st = params.validate(); !st) return failed(st.error().message);
+    if (auto arcs = leg_arcs(*legs, route->closed, params.min_turning_radius_m); !arcs)
+      return failed(*file + ": " + arcs.error().message);
     core_.emplace(std::move(*legs), params, route->closed);
     (void)set_output("done", false);
     (void)set_output("closing", false);
@@ -132,8 +144,8 @@ class ScriptedOperator final : public bt::StatefulActionNode {
 Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& host) {
   return registry.register_node<ScriptedOperator>(
       "ScriptedOperator",
-      "Simulated operator: drives a waypoint route leg by leg (turn in place, drive straight) on the sim robot "
-      "and publishes the primitive being taught",
+      "Simulated operator: drives a waypoint route leg by leg (turn in place, or an arc for a car-like robot; "
+      "drive straight) on the sim robot and publishes the primitive being taught",
       [&host](const std::string& name, const bt::NodeConfig& config) {
         return std::make_unique<ScriptedOperator>(name, config, host);
       });

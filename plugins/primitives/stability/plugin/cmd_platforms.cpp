@@ -44,9 +44,9 @@ struct Row {
 std::vector<Row> default_rows() {
   return {
       {"diff_drive", "differential drive (reference)", {"robot.params.kinematics=diff_drive"}, ""},
-      {"car_like", "car-like (Ackermann)", {"robot.params.kinematics=car_like"},
-       "the scripted teach operator and the replay turn on the spot at every node, which a car-like robot "
-       "cannot (the teach stalls at the first corner); add the row with --add-row once they drive arcs"},
+      // The experiment sees car_like and has the operator and FollowRoute turn on arcs of the
+      // robot's min_turning_radius_m (1 m by default) instead of on the spot (docs/navigation.md).
+      {"car_like", "car-like (Ackermann, 1 m turning radius)", {"robot.params.kinematics=car_like"}, ""},
       {"tracked", "tracked (skid)", {"robot.params.kinematics=tracked"}, ""},
       {"odom_5hz", "5 Hz odometry", {"robot.params.odom_rate_hz=5"}, ""},
       {"camera_15hz", "15 Hz camera (and 15 Hz ticks)", {"camera.params.frame_rate_hz=15", "run.rate_hz=15"}, ""},

@@ -177,12 +177,23 @@ Result<std::vector<ModelEdge>> closed_route(const MapStore& map, const std::vect
   if (route.back()->to != route.front()->from)
     return fail(ErrorCode::inconsistent, {map.graph_path()}, "the route is not closed: it ends at node '" + route.back()->to +
                 "' but starts at '" + route.front()->from + "'");
+  // A map taught by a robot that cannot turn on the spot (ScriptedOperator with
+  // min_turning_radius_m) has its nodes where the corner arcs start, and each edge starts where
+  // an arc ended (start gap about R·|θ|): the chord between nodes would cut the corners. Such a
+  // map is recognised by the navigation plugin's edge statistic "start_gap_m" (the distance
+  // driven between two edges, centimetres for a turn on the spot) and its straight edges'
+  // start azimuths are used instead.
+  constexpr double kArcGapM = 0.5;
+  const bool taught_on_arcs = std::any_of(route.begin(), route.end(), [](const EdgeRecord* e) {
+    auto it = e->statistics.find("start_gap_m");
+    return it != e->statistics.end() && it->second > kArcGapM;
+  });
   std::vector<ModelEdge> out;
   for (const EdgeRecord* e : route) {
     ModelEdge m{e->id, e->kind, e->length_m, e->azimuth_rad};
     const NodeRecord* a = map.find_node(e->from);
     const NodeRecord* b = map.find_node(e->to);
-    if (a != nullptr && b != nullptr && a->position_hint && b->position_hint) {
+    if (!taught_on_arcs && a != nullptr && b != nullptr && a->position_hint && b->position_hint) {
       const double dx = b->position_hint->x_m - a->position_hint->x_m;
       const double dy = b->position_hint->y_m - a->position_hint->y_m;
       if (std::hypot(dx, dy) > 1e-6) m.direction_rad = std::atan2(dy, dx);

@@ -34,6 +34,52 @@ TEST(NavigationCore, TurnCommandSaturatesHasFloorAndStopsInsideTolerance) {
   EXPECT_NEAR(turn_command_radps(0.2, p), 0.3, 1e-12);
 }
 
+TEST(NavigationCore, ArcTurnNeverExceedsTheCurvatureBoundAndDrivesTheTurnToItsEnd) {
+  TurnParams turn;
+  ArcTurnParams arc;
+  arc.min_turning_radius_m = 1.5;
+  arc.speed_mps = 0.3;
+  ASSERT_TRUE(arc.validate().ok());
+  // Over the whole range of errors: forward, |w| / v <= 1 / R, the turn's sign.
+  for (double e = -3.1; e <= 3.1; e += 0.01) {
+    const Twist c = arc_turn_command(e, turn, arc);
+    if (std::abs(e) <= turn.tolerance_rad) {
+      EXPECT_EQ(c.linear_mps, 0.0);
+      EXPECT_EQ(c.angular_radps, 0.0);
+      continue;
+    }
+    EXPECT_EQ(c.linear_mps, 0.3);
+    EXPECT_LE(std::abs(c.angular_radps) / c.linear_mps, 1.0 / 1.5 + 1e-12) << e;
+    EXPECT_GT(c.angular_radps * e, 0.0) << e;
+  }
+  EXPECT_NEAR(arc_turn_command(1.0, turn, arc).angular_radps, 0.2, 1e-12);  // saturated at v / R
+  // Integrated, a 90-degree arc turn ends within tolerance having moved about R along and R across.
+  double x = 0, y = 0, h = 0;
+  int ticks = 0;
+  for (; ticks < 1000; ++ticks) {
+    const Twist c = arc_turn_command(wrap_angle_rad(std::numbers::pi / 2 - h), turn, arc);
+    if (c.linear_mps == 0.0) break;
+    h += c.angular_radps * 0.02;
+    x += c.linear_mps * 0.02 * std::cos(h);
+    y += c.linear_mps * 0.02 * std::sin(h);
+  }
+  ASSERT_LT(ticks, 1000);
+  EXPECT_NEAR(h, std::numbers::pi / 2, turn.tolerance_rad + 1e-9);
+  EXPECT_NEAR(x, 1.5, 0.05);
+  EXPECT_GT(y, 1.5);  // the proportional tail goes on a little past the ideal arc's end
+  EXPECT_LT(y, 1.8);
+  // R = 0: the in-place turn, unchanged (diff-drive).
+  EXPECT_EQ(arc_turn_command(0.2, turn, ArcTurnParams{}).linear_mps, 0.0);
+  EXPECT_EQ(arc_turn_command(0.2, turn, ArcTurnParams{}).angular_radps, turn_command_radps(0.2, turn));
+  // Bad parameters name the key.
+  ArcTurnParams bad;
+  bad.min_turning_radius_m = -0.5;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("min_turning_radius_m")));
+  bad = ArcTurnParams{};
+  bad.speed_mps = 0.0;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("arc_speed_mps")));
+}
+
 TEST(NavigationCore, TurnParamsValidation) {
   TurnParams p;
   EXPECT_TRUE(p.validate().ok());

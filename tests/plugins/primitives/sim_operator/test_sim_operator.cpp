@@ -7,6 +7,7 @@
 #include "experiment.hpp"
 #include "operator_core.hpp"
 #include "visnav/config.hpp"
+#include "visnav_sim/robot.hpp"
 
 using namespace visnav;
 using namespace visnav::simop;
@@ -121,6 +122,101 @@ TEST(ScriptedOperator, ParamsValidation) {
   EXPECT_TRUE(p.validate().ok());
   p.speed_mps = 0.0;
   EXPECT_FALSE(p.validate().ok());
+  p = OperatorParams{};
+  p.min_turning_radius_m = -1.0;
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::out_of_range, key_only("min_turning_radius_m")));
+  p = OperatorParams{};
+  p.arc_speed_mps = p.speed_mps + 0.1;
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::out_of_range, key_only("arc_speed_mps")));
+}
+
+TEST(ScriptedOperator, CornerArcsTakeRTanHalfTurnOffEachLegAndTooShortLegsAreRefused) {
+  // 6 x 4 rectangle, closed: four 90-degree corners, d = R tan(45 deg) = R on both sides of each.
+  const std::vector<cv::Point2d> c = {{0, 0}, {6, 0}, {6, 4}, {0, 4}};
+  std::vector<OperatorLeg> legs;
+  for (int i = 0; i < 4; ++i) legs.push_back({c[i], c[(i + 1) % 4], "feature_segment"});
+  auto arcs = leg_arcs(legs, true, 1.5);
+  ASSERT_TRUE(arcs.ok()) << arcs.error().message;
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(arcs->lead_in_m[i], 1.5, 1e-12);
+    EXPECT_NEAR(arcs->lead_out_m[i], 1.5, 1e-12);
+  }
+  // Open: no arc into the first leg, none after the last; a 45-degree corner takes R tan(22.5).
+  const std::vector<OperatorLeg> bend = {{{0, 0}, {5, 0}, "feature_segment"}, {{5, 0}, {9, 4}, "feature_segment"}};
+  auto open = leg_arcs(bend, false, 2.0);
+  ASSERT_TRUE(open.ok());
+  EXPECT_EQ(open->lead_in_m[0], 0.0);
+  EXPECT_NEAR(open->lead_out_m[0], 2.0 * std::tan(std::numbers::pi / 8), 1e-12);
+  EXPECT_NEAR(open->lead_in_m[1], 2.0 * std::tan(std::numbers::pi / 8), 1e-12);
+  EXPECT_EQ(open->lead_out_m[1], 0.0);
+  // R = 2.5: the 4 m legs would need 5 m of arcs.
+  EXPECT_TRUE(fails_with(leg_arcs(legs, true, 2.5), ErrorCode::out_of_range, key_only("min_turning_radius_m")));
+  // A U-turn cannot be one arc at a node.
+  const std::vector<OperatorLeg> back = {{{0, 0}, {4, 0}, "feature_segment"}, {{4, 0}, {0, 0}, "feature_segment"}};
+  EXPECT_TRUE(fails_with(leg_arcs(back, true, 0.5), ErrorCode::out_of_range, key_only("min_turning_radius_m")));
+  // R = 0: turning in place, nothing taken off.
+  auto none = leg_arcs(legs, true, 0.0);
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(none->lead_out_m[2], 0.0);
+}
+
+TEST(ScriptedOperator, TeachesACarLikeRobotRoundTheRectangleOnArcsWithinItsTurningRadius) {
+  // The simulator's car-like kinematics (|w| <= |v| / R): the operator must get round every
+  // corner, end each taught leg where its corner arc starts (R before the corner) and start the
+  // next where it ends (R after), and close the loop at the first edge's start.
+  const double radius_m = 1.0;
+  const std::vector<cv::Point2d> c = {{0, 0}, {6, 0}, {6, 4}, {0, 4}};
+  std::vector<OperatorLeg> legs;
+  for (int i = 0; i < 4; ++i) legs.push_back({c[i], c[(i + 1) % 4], "feature_segment"});
+  sim::RobotParams rp;
+  rp.kinematics = "car_like";
+  rp.min_turning_radius_m = radius_m;
+  rp.start_pose = {0.0, 0.0, 0.0};
+  ASSERT_TRUE(rp.validate().ok());
+  sim::RobotCore robot(rp, Pose2D{0.0, 0.0, 0.0}, nullptr);
+  OperatorParams params;
+  params.min_turning_radius_m = radius_m;
+  ScriptedOperatorCore op(legs, params, true);
+  std::vector<cv::Point2d> edge_ends, edge_starts;
+  std::string last = "?";
+  bool in_place = false;
+  OperatorAction a;
+  int ticks = 0;
+  for (; ticks < 4000; ++ticks) {
+    const Pose2D pose = robot.ground_truth();
+    a = op.update(pose);
+    if (a.primitive != last) {
+      (a.primitive.empty() ? edge_ends : edge_starts).push_back({pose.x_m, pose.y_m});
+      last = a.primitive;
+    }
+    if (a.done) break;
+    // The operator never asks for a curvature tighter than 1 / R, never turns on the spot.
+    if (a.command.angular_radps != 0.0) {
+      if (a.primitive.empty()) {
+        EXPECT_LE(std::abs(a.command.angular_radps), a.command.linear_mps / radius_m + 1e-9);
+      }
+      if (a.command.linear_mps == 0.0) in_place = true;
+    }
+    robot.command(a.command);
+    ASSERT_TRUE(robot.step(0.1).ok());
+  }
+  ASSERT_LT(ticks, 4000) << "the car-like teach stalled";
+  EXPECT_FALSE(in_place);
+  ASSERT_EQ(edge_starts.size(), 4u);
+  ASSERT_EQ(edge_ends.size(), 5u);  // "?" -> "" at the first update, then one per leg
+  // First edge starts R along the first leg (where the closing arc will end).
+  EXPECT_NEAR(edge_starts[0].x, 1.0, 0.1);
+  EXPECT_NEAR(edge_starts[0].y, 0.0, 0.05);
+  // Each edge ends R before its corner (the node) and the next starts about R after it.
+  const std::vector<cv::Point2d> expected_ends = {{5, 0}, {6, 3}, {1, 4}, {0, 1}};
+  const std::vector<cv::Point2d> expected_starts = {{6, 1}, {5, 4}, {0, 3}};
+  for (int i = 0; i < 4; ++i) EXPECT_LT(cv::norm(edge_ends[i + 1] - expected_ends[i]), 0.15) << "edge " << i;
+  // (the arc's proportional tail, as FollowRoute's, ends it a little further on: < 0.35 m)
+  for (int i = 0; i < 3; ++i) EXPECT_LT(cv::norm(edge_starts[i + 1] - expected_starts[i]), 0.35) << "edge " << i + 1;
+  // Closed: the closing arc ends facing the first leg, near where the first edge started.
+  const Pose2D end = robot.ground_truth();
+  EXPECT_NEAR(std::remainder(end.heading_rad, 2 * std::numbers::pi), 0.0, 0.05);
+  EXPECT_LT(cv::norm(cv::Point2d(end.x_m, end.y_m) - edge_starts[0]), 0.3);
 }
 
 TEST(ExperimentMetrics, SpreadIsMeanSampleSdAndWorst) {

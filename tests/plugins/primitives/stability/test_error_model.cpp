@@ -163,6 +163,17 @@ TEST(ErrorModel, ClosedRouteFromAMapUsesTheTaughtNodePositions) {
   EXPECT_NEAR(rep->lateral_contraction, std::exp(-0.366 * 12.0), 1e-12);
   EXPECT_NEAR(rep->along_track_contraction, std::exp(-0.055 * 12.0), 1e-12);
 
+  // Taught on corner arcs (a car-like robot, start gap > 0.5 m): the nodes are where the arcs
+  // start, so the edges' start azimuths are used instead of the chords.
+  ASSERT_TRUE(map->set_edge_statistic("e1", "start_gap_m", 1.6).ok());
+  auto arcs = vs::closed_route(*map);
+  ASSERT_TRUE(arcs.ok()) << arcs.error().message;
+  for (const auto& e : *arcs) EXPECT_NEAR(e.direction_rad, 0.3, 1e-12) << e.id;
+  ASSERT_TRUE(map->set_edge_statistic("e1", "start_gap_m", 0.05).ok());  // a stop after a turn on the spot
+  auto spot = vs::closed_route(*map);
+  ASSERT_TRUE(spot.ok());
+  EXPECT_NEAR((*spot)[1].direction_rad, pi / 2.0, 1e-12);
+
   auto open = vs::closed_route(*map, {"e1", "e2"});
   EXPECT_TRUE(fails_with(open, ErrorCode::inconsistent, At{"graph.yaml"}));
   auto missing = vs::closed_route(*map, {"nope"});

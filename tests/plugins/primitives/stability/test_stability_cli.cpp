@@ -218,7 +218,9 @@ TEST(PlatformsCli, RunsOneExperimentPerRowAndTabulatesIt) {
       << r.out;  // exit 1 with a summary is tabulated
   EXPECT_NE(r.out.find("| no |"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("| 1-3 s compute freezes, 2 per minute | `robot.params.freeze_rate_per_min=2`"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("| car-like (Ackermann) | - | not run: the scripted teach operator"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("| car-like (Ackermann, 1 m turning radius) | `robot.params.kinematics=car_like` | 25/25 |"),
+            std::string::npos)
+      << r.out;
   EXPECT_TRUE(fs::exists(dir / "platforms.md"));
   r = run_cli("platforms --rows nope");
   EXPECT_EQ(r.status, 2) << r.out;

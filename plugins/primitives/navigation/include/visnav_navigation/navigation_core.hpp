@@ -13,6 +13,7 @@
 #include "visnav/map.hpp"
 #include "visnav/params.hpp"
 #include "visnav/result.hpp"
+#include "visnav/types.hpp"
 
 namespace visnav::nav {
 
@@ -33,6 +34,24 @@ struct TurnParams {
 /// Angular-velocity command for a remaining heading error (target − current, wrapped);
 /// 0 when |error| ≤ tolerance.
 [[nodiscard]] double turn_command_radps(double error_rad, const TurnParams& params);
+
+/// Turning a robot that cannot turn on the spot (car-like): the heading change is driven as a
+/// forward arc whose curvature never exceeds 1 / min_turning_radius_m.
+struct ArcTurnParams {
+  double min_turning_radius_m = 0.0;  ///< 0: turn in place (turn_command_radps); > 0: arc, m
+  double speed_mps = 0.3;             ///< forward speed on the arc, m/s
+
+  /// Errors (code out_of_range, key min_turning_radius_m / arc_speed_mps): negative or > 100 m
+  /// radius, speed outside (0, 2] m/s.
+  [[nodiscard]] Status validate() const;
+  [[nodiscard]] bool arcs() const { return min_turning_radius_m > 0.0; }
+};
+
+/// Velocity command for a remaining heading error (target − current, wrapped) driven as an arc:
+/// linear = speed_mps, |angular| = gain·|error| clamped to [min, max] of `turn` and never above
+/// speed_mps / min_turning_radius_m (so |angular| / linear <= 1 / R); a zero twist once
+/// |error| <= tolerance. With arc.min_turning_radius_m == 0: {0, turn_command_radps(...)}.
+[[nodiscard]] Twist arc_turn_command(double error_rad, const TurnParams& turn, const ArcTurnParams& arc);
 
 /// Heading change the robot must make at the node between two consecutive edges of a route:
 /// the start azimuth of `next` minus the heading at the end of `previous` (edge statistic

@@ -98,7 +98,9 @@ struct StabilityReport {
 /// The closed route of a map: the edges `edge_ids` in that order, or (empty) every edge in
 /// insertion order. Consecutive edges must chain (to == next from) and the last must end where
 /// the first starts. The direction of an edge is the chord between its nodes' position hints
-/// when both have one (taught odometry), else its start azimuth. Errors name the map and edge.
+/// when both have one (taught odometry), else its start azimuth; on a map taught on corner arcs
+/// (a car-like robot: some edge's statistic start_gap_m > 0.5 m) always the start azimuth, since
+/// its nodes sit where the arcs start. Errors name the map and edge.
 [[nodiscard]] Result<std::vector<ModelEdge>> closed_route(const MapStore& map, const std::vector<std::string>& edge_ids = {});
 
 }  // namespace visnav::stability

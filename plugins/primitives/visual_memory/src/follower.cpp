@@ -65,7 +65,11 @@ double MemoryFollower::taught_offset_norm(int from) const {
 }
 
 bool MemoryFollower::relocalise(const cv::Mat& grey) {
-  if (!orb_) orb_ = cv::ORB::create(params_.orb_features);
+  const bool sift = params_.relocalise_detector == "sift";
+  if (!orb_) {
+    if (sift) orb_ = cv::SIFT::create(params_.orb_features);
+    else orb_ = cv::ORB::create(params_.orb_features);
+  }
   std::vector<cv::KeyPoint> kp;
   cv::Mat desc;
   try {
@@ -77,7 +81,7 @@ bool MemoryFollower::relocalise(const cv::Mat& grey) {
   const int count = static_cast<int>(memory_.references.size());
   const int lo = std::max(count > 1 ? 1 : 0, target_ - params_.relocalise_window);
   const int hi = std::min(count - 1, target_ + params_.relocalise_window);
-  cv::BFMatcher matcher(cv::NORM_HAMMING);
+  cv::BFMatcher matcher(sift ? cv::NORM_L2 : cv::NORM_HAMMING);
   int best = -1, best_inliers = 0;
   cv::Mat best_H;
   for (int k = lo; k <= hi; ++k) {

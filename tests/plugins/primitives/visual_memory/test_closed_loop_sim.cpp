@@ -152,6 +152,15 @@ TEST(VisualMemoryClosedLoop, FullCoverStopsThenRelocalisesOrFailsWithAReason) {
   EXPECT_FALSE(brief.moved_while_lost);
   EXPECT_TRUE(brief.goal);
   p.max_lost_frames = 20;
+  // Seed 003's wide-baseline matcher (SIFT) relocalises the same way.
+  vm::ReplayParams with_sift = p;
+  with_sift.relocalise_detector = "sift";
+  const Outcome sift = replay(taught_short(), with_sift, 401, visnav::Pose2D{0.0, 0.0, 0.0}, cover(8.0, 9.5));
+  std::printf("covered 1.5 s, SIFT: %s, %d lost frames, %d relocalisations\n", sift.goal ? "goal" : "NO GOAL",
+              sift.lost_frames, sift.relocalised);
+  EXPECT_GE(sift.relocalised, 2);
+  EXPECT_FALSE(sift.moved_while_lost);
+  EXPECT_TRUE(sift.goal);
   const Outcome forever = replay(taught_short(), p, 402, visnav::Pose2D{0.0, 0.0, 0.0}, cover(8.0, 1e9));
   std::printf("covered for good: %s\n", forever.failed ? forever.failure.c_str() : "NOT FAILED");
   EXPECT_TRUE(forever.failed);

@@ -23,7 +23,8 @@
 //     (RH/IJP/IJC without a pose or depths) falls back to AIJCA and says so in the status.
 //     Turns (seed 003): the centroid offset to I_i, or the taught offset I_i → I_{i+1}, above
 //     turn_offset_norm slows to turn_speed_mps.
-//  7. Lost: fewer than min_tracked features → wide-baseline relocalisation (ORB + ratio test +
+//  7. Lost: fewer than min_tracked features → wide-baseline relocalisation (ORB, or SIFT as in
+//     seed 003 with relocalise_detector=sift, + ratio test +
 //     homography RANSAC against references current ± relocalise_window, the best one becomes
 //     I_i and its features are initialised through the homography and KLT); after
 //     max_lost_frames failed frames the step fails with a reason. The first frame localises
@@ -116,7 +117,7 @@ class MemoryFollower {
   Intrinsics intrinsics_;
   KltParams klt_;
   ControlGains gains_;
-  cv::Ptr<cv::ORB> orb_;
+  cv::Ptr<cv::Feature2D> orb_;  ///< the relocalisation detector (ORB or SIFT)
   std::vector<std::optional<std::pair<std::vector<cv::KeyPoint>, cv::Mat>>> orb_cache_;
 
   int target_ = 0;

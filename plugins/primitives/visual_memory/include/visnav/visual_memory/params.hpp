@@ -88,7 +88,9 @@ struct ReplayParams {
   double switch_odometry_margin_m = 1.0;  ///< a reference this far behind the odometric distance is passed regardless
   int max_lost_frames = 30;           ///< consecutive frames without relocalising before the step fails
   int relocalise_window = 2;          ///< references searched either side of the current one
-  int orb_features = 500;             ///< relocalisation ORB features per image
+  /// Wide-baseline relocalisation: "orb" (binary, fast) or "sift" (seed 003's choice [8]).
+  std::string relocalise_detector = "orb";
+  int orb_features = 500;             ///< relocalisation features per image (ORB or SIFT)
   double orb_ratio = 0.8;             ///< Lowe ratio test
   int min_relocalise_inliers = 15;    ///< homography inliers to accept a relocalisation
   /// Map the frame's brightness (mean, standard deviation) onto the reference image's before

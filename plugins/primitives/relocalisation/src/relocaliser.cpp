@@ -64,7 +64,19 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .range(0.0, 128.0)
           .field("prior_sigma_m", &P::prior_sigma_m,
                  "odometry prior: spread along the route around the believed position, m (0 = no prior)")
-          .range(0.0, 100000.0);
+          .range(0.0, 100000.0)
+          .field("thumbnail_candidates", &P::thumbnail_candidates,
+                 "thumbnail places (path_following edges) voting per frame, the most alike first")
+          .range(0, 100)
+          .field("min_thumbnail_ncc", &P::min_thumbnail_ncc,
+                 "normalised cross-correlation from which a thumbnail place votes")
+          .range(0.0, 1.0)
+          .field("thumbnail_vote_weight", &P::thumbnail_vote_weight,
+                 "a thumbnail vote scores ncc x this (a feature vote scores inliers x confidence)")
+          .range(0.0, 1000.0)
+          .field("thumbnail_max_shift_deg", &P::thumbnail_max_shift_deg,
+                 "heading offsets searched when comparing thumbnails, deg")
+          .range(0.0, 90.0);
   return s;
 }
 

@@ -1,9 +1,13 @@
 // Lookup + histogram verification of one frame (see verifier.hpp).
 #include "visnav/relocalisation/verifier.hpp"
 
+#include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include <opencv2/core.hpp>
+
+#include "visnav/path_payload.hpp"
 
 namespace visnav::reloc {
 
@@ -28,8 +32,27 @@ std::string blank_reason(const cv::Mat& image, const Features& features, const R
 
 PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading,
                              Detector* detector)
-    : index_(index), map_(map), source_(map, detector), estimator_(heading) {
+    : index_(index), map_(map), source_(map, detector), estimator_(heading), horizontal_fov_deg_(heading.horizontal_fov_deg) {
   code_.resize(static_cast<std::size_t>(index_.code_words()));
+}
+
+Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& image, const RelocaliseParams& params) {
+  std::vector<PlaceVote> out;
+  thumbnail_hits_.clear();
+  if (index_.thumbnail_places.empty() || params.thumbnail_candidates <= 0) return out;
+  VISNAV_ASSIGN(cv::Mat thumb,
+                path_payload::make_thumbnail(image, index_.thumbnail_width_px, index_.thumbnail_height_px));
+  const cv::Mat live = normalise_thumbnail(thumb);
+  const double px_per_deg = index_.thumbnail_width_px / horizontal_fov_deg_;
+  const int max_shift = static_cast<int>(std::lround(params.thumbnail_max_shift_deg * px_per_deg));
+  index_.query_thumbnails(live, max_shift, params.thumbnail_candidates, params.min_thumbnail_ncc, thumbnail_hits_);
+  for (const ThumbnailHit& h : thumbnail_hits_) {
+    const PlaceRef& ref = index_.thumbnail_places[h.place];
+    // Live shifted right: the robot is turned left of the taught heading (CCW positive).
+    const double offset_rad = h.shift_px / px_per_deg * std::numbers::pi / 180.0;
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, h.ncc, offset_rad, h.ncc * params.thumbnail_vote_weight});
+  }
+  return out;
 }
 
 std::vector<RouteEdge> PlaceVerifier::route_edges() const {

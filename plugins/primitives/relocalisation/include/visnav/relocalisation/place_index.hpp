@@ -50,13 +50,34 @@ namespace visnav::reloc {
 
 inline constexpr const char* kIndexFile = "place_index.bin";
 inline constexpr char kIndexMagic[8] = {'V', 'N', 'A', 'V', 'P', 'I', 'D', 'X'};
-inline constexpr std::uint32_t kIndexVersion = 1;
+inline constexpr std::uint32_t kIndexVersion = 2;  ///< 2: + detector, thumbnail places (1 is still read)
 inline constexpr const char* kSegmentKind = "feature_segment";
 inline constexpr const char* kLocalMapsKind = "feature_localmaps";
 inline constexpr const char* kMemoryKind = "visual_memory";
+inline constexpr const char* kPathKind = "path_following";
 
-/// True for the edge kinds the index covers (the feature primitive's and visual_memory).
+/// True for the edge kinds the index lists (the feature primitive's, visual_memory and
+/// path_following; a path_following edge taught before thumbnails existed is listed without places).
 [[nodiscard]] bool indexable_kind(std::string_view kind);
+/// True for the kinds whose places carry binary descriptors (BoW code + histogram verification).
+[[nodiscard]] bool describable_kind(std::string_view kind);
+
+/// A thumbnail normalised for comparison (CV_32FC1): each pixel minus the mean of its 5 x 5
+/// neighbourhood, divided by that neighbourhood's standard deviation (+2 grey levels), the
+/// local contrast normalisation of SeqSLAM, so a darker or brighter view of the same place compares alike.
+[[nodiscard]] cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8);
+
+/// Zero-mean normalised cross-correlation of two normalised thumbnails of one size, `live`
+/// shifted right by `shift_px` columns against `reference` (compared over the overlap; at least
+/// half the width must overlap, else -1).
+[[nodiscard]] double thumbnail_ncc(const cv::Mat& live, const cv::Mat& reference, int shift_px);
+
+/// One thumbnail hit: the best shift of a thumbnail place.
+struct ThumbnailHit {
+  std::uint32_t place = 0;  ///< index into PlaceIndex::thumbnail_places
+  double ncc = -1.0;
+  int shift_px = 0;         ///< live view shifted right by this much (the robot turned left: + heading offset)
+};
 
 struct PlaceIndexParams {
   int vocabulary_words = 1024;       ///< bits of a place code (multiple of 64)
@@ -96,6 +117,28 @@ class PlaceIndex {
   std::vector<PlaceRef> places;
   cv::Mat vocabulary;                 ///< vocabulary_words rows of descriptor bytes, CV_8UC1
   std::vector<std::uint64_t> codes;   ///< places.size() * code_words(), row-major
+  /// Which detector described the visual_memory references (its config type, e.g. "star_brief";
+  /// empty: the map has no visual_memory edge, or a version-1 index that did not record it).
+  std::string detector;
+  /// Fingerprint of that detector: CRC-32 of the keypoints and descriptors it gives on the first
+  /// visual_memory reference image of the index (0: no visual_memory place, or a version-1 index).
+  /// detector_fingerprint() recomputes it with another detector; a difference means another
+  /// detector (type or params) and the index's codes would be meaningless for its frames.
+  std::uint32_t detector_fingerprint = 0;
+  /// path_following places: one per stored thumbnail (VPF2 payloads), compared by thumbnail_ncc.
+  std::vector<PlaceRef> thumbnail_places;
+  int thumbnail_width_px = 0;
+  int thumbnail_height_px = 0;
+  std::vector<cv::Mat> thumbnails;    ///< per thumbnail place, CV_8UC1 as stored
+  std::vector<cv::Mat> normalised;    ///< per thumbnail place, normalise_thumbnail (not stored)
+
+  /// True when `edge` (index into edges) has at least one place of either kind.
+  [[nodiscard]] bool covers(std::uint32_t edge) const;
+  /// The thumbnail places most like `live` (a normalised thumbnail of the index's size), each at
+  /// its best shift within +-max_shift_px, best first, at most `k` with ncc >= min_ncc; one
+  /// brute-force pass over every thumbnail place and shift.
+  void query_thumbnails(const cv::Mat& live, int max_shift_px, int k, double min_ncc,
+                        std::vector<ThumbnailHit>& out) const;
 
   /// 64-bit words per code.
   [[nodiscard]] int code_words() const { return params.vocabulary_words / 64; }
@@ -157,11 +200,22 @@ class PlaceSource {
 };
 
 /// Builds the index of every indexable edge of `map` (payloads read and verified by the store).
-/// `detector` describes the reference images of visual_memory edges (see PlaceSource).
+/// `detector` describes the reference images of visual_memory edges (see PlaceSource);
+/// `detector_type` (its config type) is recorded in the index when the map has such edges.
+/// path_following edges contribute their thumbnails (none for a VPF1 payload: listed, not covered).
 /// Errors: no indexable edge, float descriptors, a payload that does not decode (named), a
 /// visual_memory edge without a detector (invalid_value naming the edge).
 [[nodiscard]] Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params,
-                                                   Detector* detector = nullptr, const IndexProgress& progress = {});
+                                                   Detector* detector = nullptr, const IndexProgress& progress = {},
+                                                   const std::string& detector_type = {});
+/// The fingerprint `detector` gives on the first visual_memory reference image of `map` among
+/// `index`'s edges (see PlaceIndex::detector_fingerprint); 0 when there is no such edge.
+[[nodiscard]] Result<std::uint32_t> detector_fingerprint(const MapStore& map, const PlaceIndex& index, Detector& detector);
+/// Ok when frames described by `detector` may be looked up in `index`: an index without
+/// visual_memory places, or one whose fingerprint `detector` reproduces. Else an `inconsistent`
+/// error naming the recorded detector and the rebuild command (a version-1 index with
+/// visual_memory places recorded none: refused too, it cannot be checked).
+[[nodiscard]] Status check_detector(const MapStore& map, const PlaceIndex& index, Detector* detector);
 
 /// Path of the index file of a map folder.
 [[nodiscard]] std::string index_path(const std::string& map_dir);

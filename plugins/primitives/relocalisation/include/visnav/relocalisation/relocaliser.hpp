@@ -65,6 +65,11 @@ struct RelocaliseParams {
   int min_features = 25;              ///< a frame with fewer features is blank
   double min_image_stddev = 6.0;      ///< a frame whose grey-level standard deviation is below is blank
   double prior_sigma_m = 0.0;         ///< odometry prior spread along the route, m (0 = no prior)
+  // Thumbnail places (path_following edges; PlaceVerifier::thumbnail_votes).
+  int thumbnail_candidates = 3;       ///< best thumbnail places voting per frame
+  double min_thumbnail_ncc = 0.75;    ///< a thumbnail place votes from this correlation up
+  double thumbnail_vote_weight = 20.0;  ///< a thumbnail vote's score is ncc x this (a feature vote's is inliers x confidence)
+  double thumbnail_max_shift_deg = 30.0;  ///< heading offsets searched when comparing thumbnails, deg
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RelocaliseParams>& schema();

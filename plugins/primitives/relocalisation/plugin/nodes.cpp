@@ -65,6 +65,7 @@ struct RelocaliseNodeParams {
                       {"prior_sigma_m", "prior_sigma_m"},
                       {"thumbnail_candidates", "thumbnail_candidates"},
                       {"min_thumbnail_ncc", "min_thumbnail_ncc"},
+                      {"thumbnail_confident_ncc", "thumbnail_confident_ncc"},
                       {"thumbnail_vote_weight", "thumbnail_vote_weight"},
                       {"thumbnail_max_shift_deg", "thumbnail_max_shift_deg"}})
             .field("look_around_deg", &P::look_around_deg,

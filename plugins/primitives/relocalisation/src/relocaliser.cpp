@@ -71,8 +71,11 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .field("min_thumbnail_ncc", &P::min_thumbnail_ncc,
                  "normalised cross-correlation from which a thumbnail place votes")
           .range(0.0, 1.0)
+          .field("thumbnail_confident_ncc", &P::thumbnail_confident_ncc,
+                 "correlation of a fully confident thumbnail vote (its confidence is ncc / this, at most 1)")
+          .range(0.05, 1.0)
           .field("thumbnail_vote_weight", &P::thumbnail_vote_weight,
-                 "a thumbnail vote scores ncc x this (a feature vote scores inliers x confidence)")
+                 "a thumbnail vote scores confidence x this (a feature vote scores inliers x confidence)")
           .range(0.0, 1000.0)
           .field("thumbnail_max_shift_deg", &P::thumbnail_max_shift_deg,
                  "heading offsets searched when comparing thumbnails, deg")

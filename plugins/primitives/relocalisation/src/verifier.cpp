@@ -1,6 +1,7 @@
 // Lookup + histogram verification of one frame (see verifier.hpp).
 #include "visnav/relocalisation/verifier.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -50,7 +51,8 @@ Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& ima
     const PlaceRef& ref = index_.thumbnail_places[h.place];
     // Live shifted right: the robot is turned left of the taught heading (CCW positive).
     const double offset_rad = h.shift_px / px_per_deg * std::numbers::pi / 180.0;
-    out.push_back(PlaceVote{ref.edge, ref.distance_m, h.ncc, offset_rad, h.ncc * params.thumbnail_vote_weight});
+    const double confidence = std::min(1.0, h.ncc / params.thumbnail_confident_ncc);
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, confidence, offset_rad, confidence * params.thumbnail_vote_weight});
   }
   return out;
 }

@@ -240,7 +240,7 @@ TEST_F(HybridMap, AViewOfAThumbnailPlaceVotesForItWithTheHeadingOffset) {
     ASSERT_FALSE(votes->empty()) << k;
     const PlaceVote& v = votes->front();
     if (v.edge == path && std::abs(v.distance_m - 0.5 * k) < 1e-6) ++right;
-    EXPECT_GE(v.confidence, rp.min_thumbnail_ncc);
+    EXPECT_GE(v.confidence, std::min(1.0, rp.min_thumbnail_ncc / rp.thumbnail_confident_ncc));
     EXPECT_NEAR(v.heading_offset_rad * 180.0 / M_PI, 4.7, 1.0);
     EXPECT_NEAR(v.score, v.confidence * rp.thumbnail_vote_weight, 1e-9);
   }

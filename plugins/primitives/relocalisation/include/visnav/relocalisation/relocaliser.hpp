@@ -67,8 +67,9 @@ struct RelocaliseParams {
   double prior_sigma_m = 0.0;         ///< odometry prior spread along the route, m (0 = no prior)
   // Thumbnail places (path_following edges; PlaceVerifier::thumbnail_votes).
   int thumbnail_candidates = 3;       ///< best thumbnail places voting per frame
-  double min_thumbnail_ncc = 0.75;    ///< a thumbnail place votes from this correlation up
-  double thumbnail_vote_weight = 20.0;  ///< a thumbnail vote's score is ncc x this (a feature vote's is inliers x confidence)
+  double min_thumbnail_ncc = 0.4;     ///< a thumbnail place votes from this correlation up
+  double thumbnail_confident_ncc = 0.6;  ///< correlation of a fully confident thumbnail vote (confidence = ncc / this, <= 1)
+  double thumbnail_vote_weight = 40.0;  ///< a thumbnail vote's score is confidence x this (a feature vote's is inliers x confidence)
   double thumbnail_max_shift_deg = 30.0;  ///< heading offsets searched when comparing thumbnails, deg
 
   [[nodiscard]] Status validate() const;

@@ -39,7 +39,8 @@ class PlaceVerifier {
   /// Verified thumbnail places of one frame (path_following edges): the frame's thumbnail
   /// (path_payload::make_thumbnail, normalise_thumbnail) against every thumbnail place, each at
   /// its best horizontal shift within thumbnail_max_shift_deg; the thumbnail_candidates best
-  /// reaching min_thumbnail_ncc vote with confidence = ncc, score = ncc x thumbnail_vote_weight
+  /// reaching min_thumbnail_ncc vote with confidence = min(1, ncc / thumbnail_confident_ncc),
+  /// score = confidence x thumbnail_vote_weight
   /// and heading offset = shift x horizontal_fov / thumbnail width. Empty when the index has no
   /// thumbnail place. Error: an image make_thumbnail refuses.
   Result<std::vector<PlaceVote>> thumbnail_votes(const cv::Mat& image, const RelocaliseParams& params);

@@ -67,7 +67,8 @@ struct RelocaliseNodeParams {
                       {"min_thumbnail_ncc", "min_thumbnail_ncc"},
                       {"thumbnail_confident_ncc", "thumbnail_confident_ncc"},
                       {"thumbnail_vote_weight", "thumbnail_vote_weight"},
-                      {"thumbnail_max_shift_deg", "thumbnail_max_shift_deg"}})
+                      {"thumbnail_max_shift_deg", "thumbnail_max_shift_deg"},
+                      {"max_along_uncertainty_m", "max_along_uncertainty_m"}})
             .field("look_around_deg", &P::look_around_deg,
                    "turn in place this far left, then right, then back while taking frames (0 = stand still), deg")
             .range(0.0, 180.0)
@@ -174,6 +175,9 @@ class Relocalise final : public bt::StatefulActionNode {
         bt::output_port<double>("turn_rad", "{reloc_turn_rad}",
                                 "turn that faces the taught heading (-heading_offset_rad), for TurnToAzimuth relative"),
         bt::output_port<double>("confidence", "{reloc_confidence}", "[0, 1]"),
+        bt::output_port<double>("along_uncertainty_m", "{reloc_along_uncertainty_m}",
+                                "how far the truth may be from distance_m along the route (place spacing, "
+                                "spread of the frames' votes), m"),
         bt::output_port<std::string>("status", "{reloc_status}",
                                      "localised, ambiguous, not_on_map, camera_blocked, or not_indexed (prior_edge "
                                      "is of a kind the index does not cover, e.g. path_following)"),
@@ -261,6 +265,7 @@ class Relocalise final : public bt::StatefulActionNode {
     (void)set_output("edge", edge_id);
     (void)set_output("distance_m", a.distance_m);
     (void)set_output("heading_offset_rad", a.heading_offset_rad);
+    (void)set_output("along_uncertainty_m", a.along_uncertainty_m);
     (void)set_output("turn_rad", -a.heading_offset_rad);
     host_.logger().info(path(), a.reason + "; heading offset " + fmt(a.heading_offset_rad * 180.0 / std::numbers::pi, 1) +
                                     " deg, confidence " + fmt(a.confidence));

@@ -79,7 +79,11 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .range(0.0, 1000.0)
           .field("thumbnail_max_shift_deg", &P::thumbnail_max_shift_deg,
                  "heading offsets searched when comparing thumbnails, deg")
-          .range(0.0, 90.0);
+          .range(0.0, 90.0)
+          .field("max_along_uncertainty_m", &P::max_along_uncertainty_m,
+                 "an answer less certain along the route than this (place spacing, spread of the votes) is "
+                 "ambiguous, m (0 = no limit)")
+          .range(0.0, 1000.0);
   return s;
 }
 
@@ -147,6 +151,7 @@ RelocAnswer Relocaliser::decide() const {
     double confidence;
     double score;
     int frame;
+    double along_uncertainty_m;
   };
   std::vector<Moved> votes;
   int frame_index = 0;
@@ -160,7 +165,7 @@ RelocAnswer Relocaliser::decide() const {
         // then and now (a robot creeping 30 deg off the taught heading advances 0.87 m per metre).
         const double along_m = moved_m * std::cos(v.heading_offset_rad + 0.5 * turned_rad);
         votes.push_back({v.edge, v.distance_m + along_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
-                         v.score > 0.0 ? v.score : v.confidence, frame_index});
+                         v.score > 0.0 ? v.score : v.confidence, frame_index, v.along_uncertainty_m});
       }
     ++frame_index;
   }
@@ -182,6 +187,7 @@ RelocAnswer Relocaliser::decide() const {
     std::vector<double> best;        // per usable frame: best vote score
     std::vector<double> confidence;  // per usable frame: best vote confidence
     std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
+    std::vector<double> peak_uncertainty_m;  // per usable frame: its best vote's along_uncertainty_m
     double score = 0.0;
     int support = 0;
   };
@@ -199,7 +205,7 @@ RelocAnswer Relocaliser::decide() const {
     if (into == nullptr) {
       const auto n = static_cast<std::size_t>(usable);
       hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(n, 0.0),
-                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
+                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
       into = &hyps.back();
       into_delta = 0.0;
     }
@@ -212,7 +218,10 @@ RelocAnswer Relocaliser::decide() const {
     into->sin_sum += v.score * std::sin(v.heading_rad);
     into->cos_sum += v.score * std::cos(v.heading_rad);
     auto& b = into->best[static_cast<std::size_t>(v.frame)];
-    if (v.score > b) into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
+    if (v.score > b) {
+      into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
+      into->peak_uncertainty_m[static_cast<std::size_t>(v.frame)] = v.along_uncertainty_m;
+    }
     b = std::max(b, v.score);
     auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
     c = std::max(c, v.confidence);
@@ -289,20 +298,40 @@ RelocAnswer Relocaliser::decide() const {
                     " < " + fmt(params_.min_answer_confidence) + ")";
     return answer;
   }
-  answer.status = RelocStatus::localised;
-  answer.edge = best.edge;
   const RouteEdge& e = edges_[best.edge];
   // Along the edge: the median of the frames' best votes (the centre of all votes within the
   // tolerance leans towards the side with more, weaker neighbours).
-  std::vector<double> peaks;
+  std::vector<double> peaks, spacing;
   for (std::size_t i = 0; i < best.best.size(); ++i)
-    if (best.best[i] > 0.0) peaks.push_back(best.peak_m[i]);
-  std::nth_element(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(peaks.size() / 2), peaks.end());
-  answer.distance_m = std::clamp(peaks.empty() ? best.centre_m : peaks[peaks.size() / 2], 0.0, e.length_m);
+    if (best.best[i] > 0.0) {
+      peaks.push_back(best.peak_m[i]);
+      spacing.push_back(best.peak_uncertainty_m[i]);
+    }
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double centre_m = peaks.empty() ? best.centre_m : median(peaks);
+  std::vector<double> deviation;
+  for (double x : peaks) deviation.push_back(std::abs(x - centre_m));
+  const double uncertainty_m = std::max(median(spacing), 1.4826 * median(deviation));
+  answer.along_uncertainty_m = uncertainty_m;
+  if (params_.max_along_uncertainty_m > 0.0 && uncertainty_m > params_.max_along_uncertainty_m) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: the best place, " + place_name(best) + ", is uncertain along the route (+-" +
+                    fmt(uncertainty_m) + " m > " + fmt(params_.max_along_uncertainty_m) +
+                    " m: places too far apart or frames disagreeing where)";
+    return answer;
+  }
+  answer.status = RelocStatus::localised;
+  answer.edge = best.edge;
+  answer.distance_m = std::clamp(centre_m, 0.0, e.length_m);
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
   answer.confidence = confidence;
   answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +
-                  std::to_string(usable) + " frames agree" +
+                  std::to_string(usable) + " frames agree, +-" + fmt(uncertainty_m) + " m along" +
                   (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"
                                         : std::string());
   return answer;

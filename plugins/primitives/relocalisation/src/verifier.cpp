@@ -35,6 +35,21 @@ PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const
                              Detector* detector)
     : index_(index), map_(map), source_(map, detector), estimator_(heading), horizontal_fov_deg_(heading.horizontal_fov_deg) {
   code_.resize(static_cast<std::size_t>(index_.code_words()));
+  // Places are stored edge by edge, by increasing distance (build_place_index).
+  auto spacing = [&](const std::vector<PlaceRef>& refs) {
+    std::vector<double> out(refs.size(), 0.0);
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+      const double length_m = index_.edges[refs[i].edge].length_m;
+      const double d = refs[i].distance_m;
+      const double before = i > 0 && refs[i - 1].edge == refs[i].edge ? d - refs[i - 1].distance_m : d;
+      const double after = i + 1 < refs.size() && refs[i + 1].edge == refs[i].edge ? refs[i + 1].distance_m - d
+                                                                                   : length_m - d;
+      out[i] = 0.5 * std::max(0.0, std::max(before, after));
+    }
+    return out;
+  };
+  place_uncertainty_m_ = spacing(index_.places);
+  thumbnail_uncertainty_m_ = spacing(index_.thumbnail_places);
 }
 
 Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& image, const RelocaliseParams& params) {
@@ -52,7 +67,8 @@ Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& ima
     // Live shifted right: the robot is turned left of the taught heading (CCW positive).
     const double offset_rad = h.shift_px / px_per_deg * std::numbers::pi / 180.0;
     const double confidence = std::min(1.0, h.ncc / params.thumbnail_confident_ncc);
-    out.push_back(PlaceVote{ref.edge, ref.distance_m, confidence, offset_rad, confidence * params.thumbnail_vote_weight});
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, confidence, offset_rad, confidence * params.thumbnail_vote_weight,
+                            thumbnail_uncertainty_m_[h.place]});
   }
   return out;
 }
@@ -86,7 +102,8 @@ Result<std::vector<PlaceVote>> PlaceVerifier::votes(const Features& current, dou
                   estimator_.estimate(feature_replay::ReferenceView{f->descriptors, f->positions_px}, current,
                                       image_width_px));
     if (!e.valid || e.confidence < min_confidence) continue;
-    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence});
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence,
+                            place_uncertainty_m_[c.place]});
   }
   return out;
 }

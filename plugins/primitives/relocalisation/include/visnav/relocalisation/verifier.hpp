@@ -57,6 +57,8 @@ class PlaceVerifier {
   std::vector<std::uint64_t> code_;
   std::vector<PlaceCandidate> candidates_;
   std::vector<ThumbnailHit> thumbnail_hits_;
+  std::vector<double> place_uncertainty_m_;      ///< per place: PlaceVote::along_uncertainty_m
+  std::vector<double> thumbnail_uncertainty_m_;  ///< per thumbnail place
   double horizontal_fov_deg_ = 60.0;
 };
 

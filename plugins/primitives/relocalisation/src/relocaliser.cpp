@@ -328,6 +328,29 @@ RelocAnswer Relocaliser::decide() const {
   answer.status = RelocStatus::localised;
   answer.edge = best.edge;
   answer.distance_m = std::clamp(centre_m, 0.0, e.length_m);
+  // Votes moved past the end of the edge (the robot crept over its end node) or before its start:
+  // the answer is on the edge that continues there, when exactly one does (clamping would put it
+  // back on the node, as far off as the robot went past it).
+  auto only = [&](auto&& pred) -> std::optional<std::uint32_t> {
+    std::optional<std::uint32_t> found;
+    for (std::uint32_t i = 0; i < edges_.size(); ++i)
+      if (i != best.edge && pred(edges_[i])) {
+        if (found) return std::nullopt;
+        found = i;
+      }
+    return found;
+  };
+  if (centre_m > e.length_m) {
+    if (auto next = only([&](const RouteEdge& x) { return x.from == e.to; })) {
+      answer.edge = *next;
+      answer.distance_m = std::clamp(centre_m - e.length_m, 0.0, edges_[*next].length_m);
+    }
+  } else if (centre_m < 0.0) {
+    if (auto prev = only([&](const RouteEdge& x) { return x.to == e.from; })) {
+      answer.edge = *prev;
+      answer.distance_m = std::clamp(edges_[*prev].length_m + centre_m, 0.0, edges_[*prev].length_m);
+    }
+  }
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
   answer.confidence = confidence;
   answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +

@@ -232,3 +232,16 @@ TEST(Relocaliser, PlacesFarApartGiveAnUncertainAnswerThatALimitRefuses) {
   EXPECT_EQ(spread.status, RelocStatus::ambiguous) << spread.reason;
   EXPECT_GT(spread.along_uncertainty_m, 1.0);
 }
+
+TEST(Relocaliser, VotesMovedPastAnEdgesEndAreAnsweredOnTheNextEdge) {
+  // Every frame saw the place 0.2 m before the end of e0 (10 m) and the robot crept 1.2 m since:
+  // it is 1 m into e1, not on the node.
+  RelocaliseParams p;
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) r.add(frame({{0, 9.8, 0.8, 0.0, 20.0}}, 0.1 * i));
+  r.add(frame({{0, 9.8, 0.8, 0.0, 20.0}}, 0.1 * (p.max_frames - 1) + 0.1));
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_EQ(a.edge, 1u) << a.reason;
+  EXPECT_NEAR(a.distance_m, 0.4, 0.15) << a.reason;  // median of 9.8 + (1.2 .. 0) past 10 m
+}

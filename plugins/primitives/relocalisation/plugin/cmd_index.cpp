@@ -108,8 +108,8 @@ int run_reloc_index(int argc, char** argv, HostServices& host) {
         std::fprintf(stderr, "reloc-index: %s\n", st.error().message.c_str());
         return 1;
       }
-    std::printf("%s: valid, %zu places and %zu thumbnail places over %zu edges\n", index_path(map_dir).c_str(),
-                index->places.size(), index->thumbnail_places.size(), index->edges.size());
+    std::printf("%s: valid, %zu places over %zu edges, %zu thumbnail places\n", index_path(map_dir).c_str(),
+                index->places.size(), index->edges.size(), index->thumbnail_places.size());
     return 0;
   }
   const auto t0 = std::chrono::steady_clock::now();
@@ -130,8 +130,9 @@ int run_reloc_index(int argc, char** argv, HostServices& host) {
   double length_m = 0.0;
   for (const auto& e : index->edges) length_m += e.length_m;
   const std::size_t bytes = index->byte_size();
-  std::printf("%s: %zu places and %zu thumbnail places over %zu edges (%.1f m), %zu bytes (%.0f bytes/m), built in %.2f s\n",
-              index_path(map_dir).c_str(), index->places.size(), index->thumbnail_places.size(), index->edges.size(), length_m, bytes,
+  std::printf("%s: %zu places over %zu edges (%.1f m), %zu thumbnail places, %zu bytes (%.0f bytes/m), built in %.2f s\n",
+              index_path(map_dir).c_str(), index->places.size(), index->edges.size(), length_m,
+              index->thumbnail_places.size(), bytes,
               length_m > 0.0 ? static_cast<double>(bytes) / length_m : 0.0, seconds);
   return 0;
 }

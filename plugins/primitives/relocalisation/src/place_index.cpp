@@ -259,7 +259,6 @@ std::vector<std::uint8_t> PlaceIndex::serialize() const {
   for (std::uint64_t c : codes) body.put<std::uint64_t>(c);
   // Version 2: the detector and the thumbnail places.
   body.put_string(detector);
-  body.put<std::uint32_t>(detector_fingerprint);
   body.put<std::int32_t>(thumbnail_width_px);
   body.put<std::int32_t>(thumbnail_height_px);
   body.put<std::uint32_t>(static_cast<std::uint32_t>(thumbnail_places.size()));
@@ -351,13 +350,11 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
   }
   if (*version == 1) return index;
   auto det = r.get_string();
-  auto fingerprint = r.get<std::uint32_t>();
   auto tw = r.get<std::int32_t>();
   auto th = r.get<std::int32_t>();
   auto thumb_count = r.get<std::uint32_t>();
-  if (!det || !fingerprint || !tw || !th || !thumb_count) return bad("thumbnail header");
+  if (!det || !tw || !th || !thumb_count) return bad("thumbnail header");
   index.detector = *det;
-  index.detector_fingerprint = *fingerprint;
   if (*thumb_count > 0 && (*tw < 8 || *th < 4 || *tw > 512 || *th > 512)) return bad("thumbnail size");
   index.thumbnail_width_px = *tw;
   index.thumbnail_height_px = *th;
@@ -605,53 +602,48 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
     VISNAV_TRY(index.encode(f->descriptors, {index.codes.data() + p * w, w}));
   }
   if (progress) progress("codes", static_cast<double>(index.places.size()), static_cast<double>(index.places.size()));
-  if (detector != nullptr) {
-    VISNAV_ASSIGN(index.detector_fingerprint, detector_fingerprint(map, index, *detector));
-    if (index.detector_fingerprint != 0) index.detector = detector_type.empty() ? "the run's detector" : detector_type;
-  }
+  const bool has_memory = std::any_of(index.edges.begin(), index.edges.end(),
+                                      [](const IndexedEdge& e) { return e.kind == kMemoryKind; });
+  if (has_memory) index.detector = detector_type.empty() ? "the run's detector" : detector_type;
   return index;
 }
 
-Result<std::uint32_t> detector_fingerprint(const MapStore& map, const PlaceIndex& index, Detector& detector) {
-  for (const auto& e : index.edges) {
-    if (e.kind != kMemoryKind) continue;
-    VISNAV_ASSIGN(std::vector<std::uint8_t> body, map.read_payload(e.id));
-    auto m = visual_memory::VisualMemory::decode(body);
-    if (!m) return m.error().with_context(map.payload_path(e.id));
-    if (m->references.empty()) continue;
-    Features f;
-    if (auto st = detector.detect(m->references.front().image, f); !st)
-      return st.error().with_context("edge " + e.id + " reference 0");
-    std::uint32_t crc = 0;
-    const auto n = static_cast<std::uint32_t>(f.keypoints.size());
-    crc = map_format::crc32({reinterpret_cast<const std::uint8_t*>(&n), sizeof n}, crc);
-    for (const auto& kp : f.keypoints) {
-      const float xy[2] = {kp.pt.x, kp.pt.y};
-      crc = map_format::crc32({reinterpret_cast<const std::uint8_t*>(xy), sizeof xy}, crc);
-    }
-    const cv::Mat d = f.descriptors.isContinuous() ? f.descriptors : f.descriptors.clone();
-    if (!d.empty()) crc = map_format::crc32({d.data, d.total() * d.elemSize()}, crc);
-    return crc == 0 ? 1u : crc;  // 0 means "none"
-  }
-  return 0u;
-}
-
 Status check_detector(const MapStore& map, const PlaceIndex& index, Detector* detector) {
-  const bool has_memory = std::any_of(index.edges.begin(), index.edges.end(), [&](const IndexedEdge& e) {
-    return e.kind == kMemoryKind && index.covers(static_cast<std::uint32_t>(&e - index.edges.data()));
-  });
-  if (!has_memory) return ok();
-  const std::string file = index_path(map.dir());
-  const std::string rebuild = " (rebuild it with `visnav reloc-index " + map.dir() + " --detector TYPE`, TYPE the run's detector)";
-  if (index.detector_fingerprint == 0)
-    return fail(ErrorCode::inconsistent, file + ": the place index does not record which detector described its "
-                                                "visual_memory references (built by an older visnav)" + rebuild);
-  if (detector == nullptr)
-    return fail(ErrorCode::invalid_value, "Relocalise needs a detector (config section detector:)");
-  VISNAV_ASSIGN(const std::uint32_t now, detector_fingerprint(map, index, *detector));
-  if (now != index.detector_fingerprint)
-    return fail(ErrorCode::inconsistent, file + ": stale place index: its visual_memory references were described by " +
-                                             index.detector + ", another detector (type or params) than the run's" + rebuild);
+  // The first (up to) three visual_memory places, described again and coded.
+  std::vector<std::size_t> probe;
+  for (std::size_t p = 0; p < index.places.size() && probe.size() < 3; ++p)
+    if (index.edges[index.places[p].edge].kind == kMemoryKind) probe.push_back(p);
+  if (probe.empty()) return ok();
+  if (detector == nullptr) return fail(ErrorCode::invalid_value, "Relocalise needs a detector (config section detector:)");
+  PlaceSource source(map, detector);
+  std::vector<std::uint64_t> code(static_cast<std::size_t>(index.code_words()));
+  double agreement = 0.0;
+  for (std::size_t p : probe) {
+    const PlaceRef& ref = index.places[p];
+    VISNAV_ASSIGN(const PlaceFeatures* f, source.features(index.edges[ref.edge].id, ref.distance_m));
+    if (auto st = index.encode(f->descriptors, code); !st)
+      return fail(ErrorCode::inconsistent, index_path(map.dir()) + ": the run's detector cannot be used with this place index (" +
+                                               st.error().message + "); rebuild it with `visnav reloc-index " + map.dir() +
+                                               " --detector TYPE`, TYPE the run's detector");
+    const auto stored = index.code(p);
+    int both = 0, either = 0;
+    for (std::size_t w = 0; w < code.size(); ++w) {
+      both += std::popcount(code[w] & stored[w]);
+      either += std::popcount(code[w] | stored[w]);
+    }
+    agreement += either > 0 ? static_cast<double>(both) / either : 1.0;
+  }
+  agreement /= static_cast<double>(probe.size());
+  if (agreement < kMinDetectorAgreement) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f", agreement);
+    return fail(ErrorCode::inconsistent,
+                index_path(map.dir()) + ": stale place index: its visual_memory references were described by " +
+                    (index.detector.empty() ? std::string("another detector") : index.detector) +
+                    ", and the run's detector describes them differently (words shared " + buf + " < " +
+                    std::to_string(kMinDetectorAgreement).substr(0, 4) + "): rebuild it with `visnav reloc-index " +
+                    map.dir() + " --detector TYPE`, TYPE the run's detector");
+  }
   return ok();
 }
 

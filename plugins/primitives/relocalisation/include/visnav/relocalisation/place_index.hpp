@@ -117,14 +117,10 @@ class PlaceIndex {
   std::vector<PlaceRef> places;
   cv::Mat vocabulary;                 ///< vocabulary_words rows of descriptor bytes, CV_8UC1
   std::vector<std::uint64_t> codes;   ///< places.size() * code_words(), row-major
-  /// Which detector described the visual_memory references (its config type, e.g. "star_brief";
-  /// empty: the map has no visual_memory edge, or a version-1 index that did not record it).
+  /// Which detector described the visual_memory references (its config type, e.g. "star_brief",
+  /// or "the run's detector" when built by a node; empty: no visual_memory place, or a version-1
+  /// index). Informative: check_detector() compares codes, not names.
   std::string detector;
-  /// Fingerprint of that detector: CRC-32 of the keypoints and descriptors it gives on the first
-  /// visual_memory reference image of the index (0: no visual_memory place, or a version-1 index).
-  /// detector_fingerprint() recomputes it with another detector; a difference means another
-  /// detector (type or params) and the index's codes would be meaningless for its frames.
-  std::uint32_t detector_fingerprint = 0;
   /// path_following places: one per stored thumbnail (VPF2 payloads), compared by thumbnail_ncc.
   std::vector<PlaceRef> thumbnail_places;
   int thumbnail_width_px = 0;
@@ -208,13 +204,15 @@ class PlaceSource {
 [[nodiscard]] Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params,
                                                    Detector* detector = nullptr, const IndexProgress& progress = {},
                                                    const std::string& detector_type = {});
-/// The fingerprint `detector` gives on the first visual_memory reference image of `map` among
-/// `index`'s edges (see PlaceIndex::detector_fingerprint); 0 when there is no such edge.
-[[nodiscard]] Result<std::uint32_t> detector_fingerprint(const MapStore& map, const PlaceIndex& index, Detector& detector);
 /// Ok when frames described by `detector` may be looked up in `index`: an index without
-/// visual_memory places, or one whose fingerprint `detector` reproduces. Else an `inconsistent`
-/// error naming the recorded detector and the rebuild command (a version-1 index with
-/// visual_memory places recorded none: refused too, it cannot be checked).
+/// visual_memory places, or one whose first (up to) three visual_memory places, described again
+/// with `detector` and coded with the vocabulary, share on average at least
+/// kMinDetectorAgreement of their words with the stored codes (|A and B| / |A or B|). The same
+/// detector gives nearly the stored codes (its adaptive threshold may pick a few other keypoints);
+/// another detector's descriptors fall into other words. Else an `inconsistent` error naming the
+/// detector recorded and the rebuild command. Cost: the detector run on every reference image of
+/// the visual_memory edge(s) holding those places (PlaceSource describes an edge at once).
+inline constexpr double kMinDetectorAgreement = 0.5;
 [[nodiscard]] Status check_detector(const MapStore& map, const PlaceIndex& index, Detector* detector);
 
 /// Path of the index file of a map folder.

@@ -102,6 +102,34 @@ void BM_Query(benchmark::State& state) {
 
 }  // namespace
 
+/// Thumbnail places (path_following edges): `length_m` of path edge, one 64x24 thumbnail every
+/// 0.5 m (the path teacher's spacing); a query compares one live thumbnail with every place at
+/// every shift within +-30 deg (PlaceIndex::query_thumbnails, what Relocalise does per frame).
+void BM_ThumbnailScan(benchmark::State& state) {
+  const double length_m = static_cast<double>(state.range(0));
+  std::mt19937 rng(5);
+  PlaceIndex index;
+  index.edges.push_back({"p0", kPathKind, length_m, 0});
+  index.thumbnail_width_px = 64;
+  index.thumbnail_height_px = 24;
+  const auto places = static_cast<std::size_t>(length_m / 0.5);
+  for (std::size_t p = 0; p < places; ++p) {
+    index.thumbnail_places.push_back({0, static_cast<float>(0.5 * static_cast<double>(p))});
+    cv::Mat t = random_rows(rng, 24, 64);
+    index.normalised.push_back(normalise_thumbnail(t));
+    index.thumbnails.push_back(std::move(t));
+  }
+  const cv::Mat live = normalise_thumbnail(random_rows(rng, 24, 64));
+  std::vector<ThumbnailHit> hits;
+  for (auto _ : state) {
+    index.query_thumbnails(live, 32, 3, 0.4, hits);
+    benchmark::DoNotOptimize(hits.data());
+  }
+  state.counters["places"] = static_cast<double>(places);
+  state.counters["bytes_per_m"] = static_cast<double>(index.byte_size()) / length_m;
+}
+
+BENCHMARK(BM_ThumbnailScan)->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ScanOnly)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Query)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

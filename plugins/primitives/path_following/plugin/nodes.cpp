@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "visnav/map.hpp"
+#include "visnav/path_payload.hpp"
 #include "visnav/primitive.hpp"
 #include "visnav/path_following/path_follower.hpp"
 #include "visnav/path_following/path_loss_monitor.hpp"
@@ -15,35 +16,27 @@ namespace visnav::path_following {
 namespace {
 
 constexpr const char* kKind = "path_following";
-constexpr std::uint32_t kPayloadMagic = 0x56504631;  // "VPF1": appearance summary, version 1
 
-/// Appearance summary payload: the path's reference colour models.
-std::vector<std::uint8_t> encode_models(const std::vector<ColourModel>& models) {
-  PayloadWriter w;
-  w.put<std::uint32_t>(kPayloadMagic);
-  w.put<std::uint32_t>(static_cast<std::uint32_t>(models.size()));
-  for (const auto& m : models) {
-    for (int i = 0; i < 3; ++i) w.put<double>(m.mean[i]);
+// The payload codec is the SDK's (visnav/path_payload.hpp: VPF1 colour models only, VPF2 also
+// the thumbnails relocalisation indexes); these convert the colour models to and from it.
+std::vector<path_payload::ColourModelData> to_data(const std::vector<ColourModel>& models) {
+  std::vector<path_payload::ColourModelData> out(models.size());
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    for (int i = 0; i < 3; ++i) out[k].mean[static_cast<std::size_t>(i)] = models[k].mean[i];
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) w.put<double>(m.cov(r, c));
+      for (int c = 0; c < 3; ++c) out[k].cov[static_cast<std::size_t>(r * 3 + c)] = models[k].cov(r, c);
   }
-  return w.take();
+  return out;
 }
 
 Result<std::vector<ColourModel>> decode_models(std::span<const std::uint8_t> bytes) {
-  PayloadReader r(bytes);
-  VISNAV_ASSIGN(auto magic, r.get<std::uint32_t>());
-  if (magic != kPayloadMagic) return fail("not a path-following appearance summary (bad magic)");
-  VISNAV_ASSIGN(auto count, r.get<std::uint32_t>());
-  if (count > 64) return fail("implausible number of colour models: " + std::to_string(count));
-  std::vector<ColourModel> models(count);
-  for (auto& m : models) {
-    for (int i = 0; i < 3; ++i) { VISNAV_ASSIGN(m.mean[i], r.get<double>()); }
-    for (int rr = 0; rr < 3; ++rr)
-      for (int c = 0; c < 3; ++c) { VISNAV_ASSIGN(m.cov(rr, c), r.get<double>()); }
-    if (!m.mean.allFinite() || !m.cov.allFinite()) return fail("non-finite colour model");
+  VISNAV_ASSIGN(path_payload::PathPayload p, path_payload::PathPayload::decode(bytes));
+  std::vector<ColourModel> models(p.models.size());
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    for (int i = 0; i < 3; ++i) models[k].mean[i] = p.models[k].mean[static_cast<std::size_t>(i)];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) models[k].cov(r, c) = p.models[k].cov[static_cast<std::size_t>(r * 3 + c)];
   }
-  if (!r.at_end()) return fail("trailing bytes after the colour models");
   return models;
 }
 
@@ -161,6 +154,7 @@ class PathReplayer final : public EdgeReplayer {
 struct TeachPathParams {
   PathFollowerParams follower = tuned_follower();
   int learn_every = 5;  ///< learn the path appearance every N frames
+  double thumbnail_spacing_m = 0.5;  ///< a place thumbnail every this much edge distance (0 = none), m
 
   [[nodiscard]] Status validate() const {
     VISNAV_TRY(schema().check(*this));
@@ -170,6 +164,11 @@ struct TeachPathParams {
     static const auto s = ParamSchema<TeachPathParams>{}
                               .field("learn_every", &TeachPathParams::learn_every, "learn the path appearance every N frames")
                               .range(1, 100000)
+                              .field("thumbnail_spacing_m", &TeachPathParams::thumbnail_spacing_m,
+                                     "store a low-resolution grey thumbnail of the view every this much edge "
+                                     "distance, for relocalisation's place index (0 = none: the edge cannot be "
+                                     "recognised), m")
+                              .range(0.0, 100.0)
                               .include(&TeachPathParams::follower, PathFollowerParams::schema(), kFollowerPorts);
     return s;
   }
@@ -185,11 +184,18 @@ class PathTeacher final : public EdgeTeacher {
   Status begin(const TeachStart& /*start*/) override {
     VISNAV_ASSIGN(PathFollower made, PathFollower::create(params_.follower));
     follower_.emplace(std::move(made));
+    thumbnails_.clear();
     return ok();
   }
 
   Status step(const TeachInput& in) override {
     if (in.frame == nullptr || in.frame_problem != nullptr) return ok();
+    // A thumbnail at the first frame and then every thumbnail_spacing_m of edge distance.
+    if (params_.thumbnail_spacing_m > 0.0 &&
+        (thumbnails_.empty() || in.edge_distance_m >= thumbnails_.back().distance_m + params_.thumbnail_spacing_m)) {
+      VISNAV_ASSIGN(cv::Mat thumb, path_payload::make_thumbnail(in.frame->image));
+      thumbnails_.push_back({in.edge_distance_m, std::move(thumb)});
+    }
     if (frames_++ % params_.learn_every != 0) return ok();
     if (follower_->process(in.frame->image, estimate_).ok() && estimate_.status == PathStatus::ok) {
       summary_.add_frame(follower_->reference_models());
@@ -202,7 +208,12 @@ class PathTeacher final : public EdgeTeacher {
     TaughtEdge edge;
     edge.kind = kKind;
     const std::vector<ColourModel> models = summary_.summary();
-    edge.payload = encode_models(models);
+    path_payload::PathPayload payload;
+    payload.models = to_data(models);
+    payload.thumbnails = std::move(thumbnails_);
+    thumbnails_.clear();
+    edge.payload = payload.encode();
+    edge.statistics["thumbnails"] = static_cast<double>(payload.thumbnails.size());
     edge.statistics["colour_models"] = static_cast<double>(models.size());
     edge.statistics["frames_path_seen"] = static_cast<double>(seen_ok_);
     return edge;
@@ -215,6 +226,7 @@ class PathTeacher final : public EdgeTeacher {
   AppearanceSummary summary_;  ///< the path's appearance over the edge (see path_follower.hpp)
   int frames_ = 0;
   int seen_ok_ = 0;
+  std::vector<path_payload::Thumbnail> thumbnails_;  ///< by increasing edge distance
 };
 
 }  // namespace

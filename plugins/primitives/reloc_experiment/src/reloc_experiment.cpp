@@ -2,6 +2,8 @@
 #include "reloc_experiment.hpp"
 
 #include <algorithm>
+#include <array>
+#include <map>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -57,7 +59,9 @@ const char* const kUsage =
     "  --reloc P=V      another Relocalise port, e.g. --reloc min_answer_confidence=0.3 (repeatable)\n"
     "  --kind K         edge kind of every taught leg: feature_segment (default, trees/teach_hybrid_route.xml)\n"
     "                   or visual_memory (trees/teach_hybrid_visual_memory.xml; the index describes the\n"
-    "                   reference images with the config's detector; replays need --replays 0)\n"
+    "                   reference images with the config's detector; replays need --replays 0), or hybrid\n"
+    "                   (the route's own kinds: feature_segment and path_following legs, the path edges\n"
+    "                   indexed by their thumbnails)\n"
     "  --seed S         random seed of the start poses and error models (default 1)\n"
     "  --out DIR        output folder: map/, trials.csv, run.log (default /tmp/visnav_reloc_experiment)\n"
     "\n"
@@ -129,6 +133,7 @@ struct TaughtEdge {
   double start_m = 0.0;  // teach-run odometric distance at the edge's start
   double length_m = 0.0;
   Pose2D end_truth;      // where its end node was taught
+  std::string kind;
 };
 
 std::string fixed(double v, int digits) {
@@ -172,8 +177,8 @@ Result<Options> parse(int argc, char** argv) {
       o.reloc_names += "|" + kv.substr(0, eq);
     } else if (a == "--kind") {
       VISNAV_ASSIGN(o.kind, in.value());
-      if (o.kind != "feature_segment" && o.kind != "visual_memory")
-        return fail(ErrorCode::invalid_value, "--kind: '" + o.kind + "' is not feature_segment or visual_memory");
+      if (o.kind != "feature_segment" && o.kind != "visual_memory" && o.kind != "hybrid")
+        return fail(ErrorCode::invalid_value, "--kind: '" + o.kind + "' is not feature_segment, visual_memory or hybrid");
     } else if (a == "--creep-m") {
       VISNAV_ASSIGN(o.creep_m, in.number(0, 5));
     } else if (a == "--seed") {
@@ -236,7 +241,9 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     auto tree = (*session)->load_tree(
         project_file(memory ? "trees/teach_hybrid_visual_memory.xml" : "trees/teach_hybrid_route.xml"));
     if (!tree) return setup_error(tree.error().message);
-    if (auto st = set_blackboard_values(*tree, {"route_file=" + route_file, "force_kind=" + o.kind,
+    // hybrid: the route's own kinds (feature_segment and path_following legs).
+    if (auto st = set_blackboard_values(*tree, {"route_file=" + route_file,
+                                                "force_kind=" + (o.kind == "hybrid" ? std::string() : o.kind),
                                                 "close_loop=true"});
         !st)
       return setup_error(st.error().message);
@@ -245,7 +252,9 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       return od ? od->distance_m : 0.0;
     };
     tree->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-      if (to != bt::NodeStatus::success || node.registration_id() != teacher) return;
+      if (to != bt::NodeStatus::success ||
+          (node.registration_id() != teacher && !(o.kind == "hybrid" && node.registration_id() == "TeachPathEdge")))
+        return;
       TaughtEdge e;
       if (auto id = node.blackboard().get<std::string>("taught_edge")) e.id = *id;
       e.start_m = odom_m();  // the end for now; the start is end - length below
@@ -266,6 +275,7 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
       const EdgeRecord* rec = (*session)->map()->find_edge(e.id);
       if (rec == nullptr) return setup_error("taught edge '" + e.id + "' is not in the map");
       e.length_m = rec->length_m;
+      e.kind = rec->kind;
       e.start_m -= rec->length_m;
     }
     std::printf("taught %zu %s edges, %.1f m (odometric), %.0f s wall\n", taught.size(), o.kind.c_str(),
@@ -281,7 +291,9 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
   auto appearance = appearance_overrides(o.appearance);
   std::ofstream csv(dir / "trials.csv");
   csv << "trial,truth_edge,truth_distance_m,lateral_m,heading_deg,status,edge,distance_m,along_error_m,verdict,"
-         "confidence,relocalise_wall_s,replay\n";
+         "confidence,relocalise_wall_s,replay,truth_kind\n";
+  // Per kind of the edge the robot stood on: correct, refused, wrong.
+  std::map<std::string, std::array<int, 3>> by_kind;
   int correct = 0, wrong = 0, ambiguous = 0, not_on_map = 0, blocked = 0, other = 0;
   int replays_run = 0, replays_completed = 0;
   double relocalise_wall_s = 0.0;
@@ -438,7 +450,9 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
     csv << trial << ',' << truth_edge.id << ',' << fixed(truth_d, 3) << ',' << fixed(lateral_m, 3) << ','
         << fixed(heading_rad * 180.0 / std::numbers::pi, 1) << ',' << status << ',' << edge << ',' << fixed(d, 3) << ','
         << fixed(along_error_m, 3) << ',' << verdict << ','
-        << fixed(tree->blackboard().get<double>("reloc_confidence").value_or(0.0), 3) << ',' << fixed(wall_s, 3) << ",\"" << replay_result << "\"\n";
+        << fixed(tree->blackboard().get<double>("reloc_confidence").value_or(0.0), 3) << ',' << fixed(wall_s, 3) << ",\"" << replay_result << "\"," << truth_edge.kind << "\n";
+    auto& tally = by_kind[truth_edge.kind];
+    ++tally[verdict == "correct" ? 0 : verdict == "wrong" ? 2 : 1];
     std::printf("trial %3d: truth %s at %5.2f m (lateral %+.2f m, heading %+5.1f deg): %-14s %s %s -> %s%s%s\n", trial + 1,
                 truth_edge.id.c_str(), truth_d, lateral_m, heading_rad * 180.0 / std::numbers::pi, status.c_str(),
                 edge.c_str(), status == "localised" ? fixed(d, 2).c_str() : "", verdict.c_str(),
@@ -457,6 +471,9 @@ int run_reloc_experiment(int argc, char** argv, HostServices& host) {
   std::printf("  relocalise wall time %.2f s per trial (frames + on-demand index build in the first)\n",
               relocalise_wall_s / n);
   if (o.replays > 0) std::printf("  replays from there completed %d of %d\n", replays_completed, replays_run);
+  for (const auto& [kind, t] : by_kind)
+    std::printf("  starts on %s edges: %d: correct %d, refused %d, wrong %d\n", kind.c_str(), t[0] + t[1] + t[2], t[0],
+                t[1], t[2]);
   std::printf("  per trial: %s\n", (dir / "trials.csv").string().c_str());
   return 0;
 }

@@ -20,10 +20,12 @@ const char* const kIndexUsage =
     "edges store (feature_segment, feature_localmaps) and from the reference images of its\n"
     "visual_memory edges, described with --detector: a whole-image binary code per taught place,\n"
     "used by the Relocalise node. A map taught before the index existed gets one this way; a damaged\n"
-    "or stale index is replaced. path_following edges are not indexed (nothing varies along them).\n"
+    "or stale index is replaced. path_following edges taught with thumbnails (payload VPF2) add one\n"
+    "thumbnail place per stored thumbnail; older ones (VPF1) are listed but have no place.\n"
     "Prints places, size, bytes per metre and build time.\n"
     "\n"
-    "  --check     only verify the existing index (checksum, format, edges match the map); no write\n"
+    "  --check     only verify the existing index (checksum, format, edges match the map; with\n"
+    "              --detector also that it described the visual_memory references); no write\n"
     "  --detector TYPE      detector that describes visual_memory reference images (required when the\n"
     "              map has such edges): the detector Relocalise will run with, e.g. star_brief\n"
     "  --detector-set K=V   a parameter of that detector (repeatable), as in its config params: block\n"
@@ -79,20 +81,6 @@ int run_reloc_index(int argc, char** argv, HostServices& host) {
     std::fprintf(stderr, "reloc-index: %s\n", map.error().message.c_str());
     return 1;
   }
-  if (check) {
-    auto index = load_place_index(map_dir);
-    if (!index) {
-      std::fprintf(stderr, "reloc-index: %s\n", index.error().message.c_str());
-      return 1;
-    }
-    if (auto st = index->matches(*map); !st) {
-      std::fprintf(stderr, "reloc-index: %s\n", st.error().message.c_str());
-      return 1;
-    }
-    std::printf("%s: valid, %zu places over %zu edges\n", index_path(map_dir).c_str(), index->places.size(),
-                index->edges.size());
-    return 0;
-  }
   std::unique_ptr<Detector> detector;
   if (!detector_type.empty()) {
     auto made = host.create_detector(detector_type, detector_sets);
@@ -104,11 +92,31 @@ int run_reloc_index(int argc, char** argv, HostServices& host) {
   } else if (!detector_sets.entries().empty()) {
     return cli::usage_error("reloc-index", "--detector-set needs --detector", kIndexUsage);
   }
+  if (check) {
+    auto index = load_place_index(map_dir);
+    if (!index) {
+      std::fprintf(stderr, "reloc-index: %s\n", index.error().message.c_str());
+      return 1;
+    }
+    if (auto st = index->matches(*map); !st) {
+      std::fprintf(stderr, "reloc-index: %s\n", st.error().message.c_str());
+      return 1;
+    }
+    // With --detector: also that the visual_memory references were described by that detector.
+    if (detector)
+      if (auto st = check_detector(*map, *index, detector.get()); !st) {
+        std::fprintf(stderr, "reloc-index: %s\n", st.error().message.c_str());
+        return 1;
+      }
+    std::printf("%s: valid, %zu places over %zu edges, %zu thumbnail places\n", index_path(map_dir).c_str(),
+                index->places.size(), index->edges.size(), index->thumbnail_places.size());
+    return 0;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   cli::ProgressLine progress;
   auto index = build_place_index(*map, *params, detector.get(), [&](const char* phase, double done, double total) {
     progress.show(phase, done, total, "");
-  });
+  }, detector_type);
   progress.end();
   if (!index) {
     std::fprintf(stderr, "reloc-index: %s\n", index.error().message.c_str());
@@ -122,8 +130,9 @@ int run_reloc_index(int argc, char** argv, HostServices& host) {
   double length_m = 0.0;
   for (const auto& e : index->edges) length_m += e.length_m;
   const std::size_t bytes = index->byte_size();
-  std::printf("%s: %zu places over %zu edges (%.1f m), %zu bytes (%.0f bytes/m), built in %.2f s\n",
-              index_path(map_dir).c_str(), index->places.size(), index->edges.size(), length_m, bytes,
+  std::printf("%s: %zu places over %zu edges (%.1f m), %zu thumbnail places, %zu bytes (%.0f bytes/m), built in %.2f s\n",
+              index_path(map_dir).c_str(), index->places.size(), index->edges.size(), length_m,
+              index->thumbnail_places.size(), bytes,
               length_m > 0.0 ? static_cast<double>(bytes) / length_m : 0.0, seconds);
   return 0;
 }

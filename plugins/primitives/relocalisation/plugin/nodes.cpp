@@ -62,7 +62,13 @@ struct RelocaliseNodeParams {
                       {"min_answer_confidence", "min_answer_confidence"},
                       {"min_features", "min_features"},
                       {"min_image_stddev", "min_image_stddev"},
-                      {"prior_sigma_m", "prior_sigma_m"}})
+                      {"prior_sigma_m", "prior_sigma_m"},
+                      {"thumbnail_candidates", "thumbnail_candidates"},
+                      {"min_thumbnail_ncc", "min_thumbnail_ncc"},
+                      {"thumbnail_confident_ncc", "thumbnail_confident_ncc"},
+                      {"thumbnail_vote_weight", "thumbnail_vote_weight"},
+                      {"thumbnail_max_shift_deg", "thumbnail_max_shift_deg"},
+                      {"max_along_uncertainty_m", "max_along_uncertainty_m"}})
             .field("look_around_deg", &P::look_around_deg,
                    "turn in place this far left, then right, then back while taking frames (0 = stand still), deg")
             .range(0.0, 180.0)
@@ -123,6 +129,8 @@ Result<std::shared_ptr<const PlaceIndex>> index_for(const MapStore& map, Detecto
   auto loaded = load_place_index(map.dir());
   if (loaded) {
     VISNAV_TRY(loaded->matches(map));
+    // visual_memory places described by another detector than the run's: refused, never queried.
+    VISNAV_TRY(check_detector(map, *loaded, detector));
     return std::make_shared<const PlaceIndex>(std::move(*loaded));
   }
   if (loaded.error().code != ErrorCode::not_found) return std::move(loaded).error();
@@ -167,6 +175,9 @@ class Relocalise final : public bt::StatefulActionNode {
         bt::output_port<double>("turn_rad", "{reloc_turn_rad}",
                                 "turn that faces the taught heading (-heading_offset_rad), for TurnToAzimuth relative"),
         bt::output_port<double>("confidence", "{reloc_confidence}", "[0, 1]"),
+        bt::output_port<double>("along_uncertainty_m", "{reloc_along_uncertainty_m}",
+                                "how far the truth may be from distance_m along the route (place spacing, "
+                                "spread of the frames' votes), m"),
         bt::output_port<std::string>("status", "{reloc_status}",
                                      "localised, ambiguous, not_on_map, camera_blocked, or not_indexed (prior_edge "
                                      "is of a kind the index does not cover, e.g. path_following)"),
@@ -218,6 +229,11 @@ class Relocalise final : public bt::StatefulActionNode {
       if (!votes) return failed(votes.error().message);
       fv.votes = std::move(*votes);
     }
+    if (!fv.blank) {  // path_following places: the frame's thumbnail
+      auto thumb_votes = verifier_->thumbnail_votes(frame->image, params_.decision);
+      if (!thumb_votes) return failed(thumb_votes.error().message);
+      fv.votes.insert(fv.votes.end(), thumb_votes->begin(), thumb_votes->end());
+    }
     const std::size_t vote_count = fv.votes.size();
     relocaliser_->add(std::move(fv));
     const RelocAnswer a = relocaliser_->decide();
@@ -249,6 +265,7 @@ class Relocalise final : public bt::StatefulActionNode {
     (void)set_output("edge", edge_id);
     (void)set_output("distance_m", a.distance_m);
     (void)set_output("heading_offset_rad", a.heading_offset_rad);
+    (void)set_output("along_uncertainty_m", a.along_uncertainty_m);
     (void)set_output("turn_rad", -a.heading_offset_rad);
     host_.logger().info(path(), a.reason + "; heading offset " + fmt(a.heading_offset_rad * 180.0 / std::numbers::pi, 1) +
                                     " deg, confidence " + fmt(a.confidence));
@@ -273,16 +290,21 @@ class Relocalise final : public bt::StatefulActionNode {
     heading.horizontal_fov_deg = params_.horizontal_fov_deg;
     verifier_.emplace(*index_, *map, heading, host_.active_detector());
     relocaliser_.emplace(params_.decision, verifier_->route_edges());
-    // Edges the index does not cover (path_following: one colour model per edge, nothing that
-    // varies along it). A robot on one of them cannot be recognised: not_on_map says they exist,
-    // and a prior on one is answered not_indexed before anything moves.
+    // Edges the index does not cover (path_following edges taught before thumbnails: one colour
+    // model per edge, nothing that varies along it). A robot on one of them cannot be recognised:
+    // not_on_map says they exist, and a prior on one is answered not_indexed before anything moves.
     not_indexed_.clear();
     unindexed_note_.clear();
     int unindexed = 0;
     double unindexed_m = 0.0;
     std::string kinds;
+    auto covered = [&](const std::string& id) {
+      for (std::size_t i = 0; i < index_->edges.size(); ++i)
+        if (index_->edges[i].id == id) return index_->covers(static_cast<std::uint32_t>(i));
+      return false;
+    };
     for (const EdgeRecord& e : map->edges())
-      if (!indexable_kind(e.kind)) {
+      if (!covered(e.id)) {
         ++unindexed;
         unindexed_m += e.length_m;
         if (kinds.find(e.kind) == std::string::npos) kinds += (kinds.empty() ? "" : ", ") + e.kind;
@@ -292,10 +314,10 @@ class Relocalise final : public bt::StatefulActionNode {
                         " m, are not indexed: the robot may be on one of them)";
     VISNAV_ASSIGN(const std::string prior_edge, get_input<std::string>("prior_edge"));
     if (const EdgeRecord* rec = prior_edge.empty() ? nullptr : map->find_edge(prior_edge);
-        rec != nullptr && !indexable_kind(rec->kind)) {
+        rec != nullptr && !covered(rec->id)) {
       not_indexed_ = "not indexed: the prior edge " + prior_edge + " is a " + rec->kind +
-                     " edge, a kind the place index does not cover (nothing along it to recognise); drive to a "
-                     "node or onto an indexed edge first";
+                     " edge without places in the index (a path_following edge taught before thumbnails: "
+                     "nothing along it to recognise); drive to a node or onto an indexed edge first";
       return ok();
     }
     if (!prior_edge.empty()) {
@@ -433,11 +455,13 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
     if (!required) return failed(required.error().message);
     required_ = *required;
     if (*keep)
-      if (auto loaded = load_place_index(map->dir()); loaded && loaded->matches(*map)) return NodeStatus::success;
+      if (auto loaded = load_place_index(map->dir());
+          loaded && loaded->matches(*map) && check_detector(*map, *loaded, host_.active_detector()))
+        return NodeStatus::success;
     // A map of path_following edges only has nothing to index: not an error at the end of a teach.
-    if (std::none_of(map->edges().begin(), map->edges().end(), [](const EdgeRecord& e) { return indexable_kind(e.kind); })) {
-      host_.logger().info(path(), "no edge to index (the place index covers feature_segment, feature_localmaps "
-                                  "and visual_memory edges)");
+    if (std::none_of(map->edges().begin(), map->edges().end(), [](const EdgeRecord& e) { return describable_kind(e.kind); })) {
+      host_.logger().info(path(), "no edge to index (the place index needs feature_segment, feature_localmaps "
+                                  "or visual_memory edges; path_following thumbnails are indexed beside them)");
       return NodeStatus::success;
     }
     if (auto st = map->flush(); !st) return failed(st.error().message);
@@ -447,6 +471,7 @@ class BuildPlaceIndex final : public bt::SyncActionNode {
     if (!built) return failed(built.error().message);
     if (auto st = save_place_index(map->dir(), *built); !st) return failed(st.error().message);
     host_.logger().info(path(), "place index: " + std::to_string(built->places.size()) + " places, " +
+                                    std::to_string(built->thumbnail_places.size()) + " thumbnail places, " +
                                     std::to_string(built->byte_size()) + " bytes, built in " +
                                     fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2) +
                                     " s");

@@ -16,7 +16,10 @@
 #include <optional>
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "visnav/feature_payloads.hpp"
+#include "visnav/path_payload.hpp"
 #include "visnav/visual_memory_payload.hpp"
 
 namespace visnav::reloc {
@@ -25,8 +28,56 @@ namespace fs = std::filesystem;
 using feature_replay::LocalMapPath;
 using feature_replay::SegmentMap;
 
-bool indexable_kind(std::string_view kind) {
+bool describable_kind(std::string_view kind) {
   return kind == kSegmentKind || kind == kLocalMapsKind || kind == kMemoryKind;
+}
+
+bool indexable_kind(std::string_view kind) { return describable_kind(kind) || kind == kPathKind; }
+
+cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8) {
+  cv::Mat f, mean, sq, mean_sq;
+  thumbnail_u8.convertTo(f, CV_32F);
+  cv::blur(f, mean, cv::Size(5, 5), cv::Point(-1, -1), cv::BORDER_REFLECT);
+  cv::blur(f.mul(f), mean_sq, cv::Size(5, 5), cv::Point(-1, -1), cv::BORDER_REFLECT);
+  cv::Mat var = mean_sq - mean.mul(mean);
+  cv::max(var, 0.0, var);
+  cv::Mat sd;
+  cv::sqrt(var, sd);
+  cv::Mat out = (f - mean) / (sd + 2.0f);
+  return out;
+}
+
+double thumbnail_ncc(const cv::Mat& live, const cv::Mat& reference, int shift_px) {
+  const int w = live.cols;
+  const int h = live.rows;
+  const int overlap = w - std::abs(shift_px);
+  if (2 * overlap < w || reference.size() != live.size()) return -1.0;
+  // live column x + shift_px shows what reference column x showed.
+  const int ref0 = shift_px >= 0 ? 0 : -shift_px;
+  const int live0 = shift_px >= 0 ? shift_px : 0;
+  double sa = 0.0, sb = 0.0, saa = 0.0, sbb = 0.0, sab = 0.0;
+  for (int y = 0; y < h; ++y) {
+    const float* a = live.ptr<float>(y) + live0;
+    const float* b = reference.ptr<float>(y) + ref0;
+    float ra = 0.f, rb = 0.f, raa = 0.f, rbb = 0.f, rab = 0.f;
+    for (int x = 0; x < overlap; ++x) {
+      ra += a[x];
+      rb += b[x];
+      raa += a[x] * a[x];
+      rbb += b[x] * b[x];
+      rab += a[x] * b[x];
+    }
+    sa += ra;
+    sb += rb;
+    saa += raa;
+    sbb += rbb;
+    sab += rab;
+  }
+  const double n = static_cast<double>(overlap) * h;
+  const double va = saa - sa * sa / n;
+  const double vb = sbb - sb * sb / n;
+  if (va <= 1e-9 || vb <= 1e-9) return -1.0;
+  return (sab - sa * sb / n) / std::sqrt(va * vb);
 }
 
 const ParamSchema<PlaceIndexParams>& PlaceIndexParams::schema() {
@@ -140,6 +191,32 @@ Status PlaceIndex::encode(const cv::Mat& descriptors, std::span<std::uint64_t> o
   return ok();
 }
 
+bool PlaceIndex::covers(std::uint32_t edge) const {
+  for (const auto& p : places)
+    if (p.edge == edge) return true;
+  for (const auto& p : thumbnail_places)
+    if (p.edge == edge) return true;
+  return false;
+}
+
+void PlaceIndex::query_thumbnails(const cv::Mat& live, int max_shift_px, int k, double min_ncc,
+                                  std::vector<ThumbnailHit>& out) const {
+  out.clear();
+  if (k <= 0 || live.empty() || live.cols != thumbnail_width_px || live.rows != thumbnail_height_px) return;
+  for (std::size_t p = 0; p < normalised.size(); ++p) {
+    ThumbnailHit best{static_cast<std::uint32_t>(p), -1.0, 0};
+    for (int s = -max_shift_px; s <= max_shift_px; ++s) {
+      const double c = thumbnail_ncc(live, normalised[p], s);
+      if (c > best.ncc) best = {static_cast<std::uint32_t>(p), c, s};
+    }
+    if (best.ncc >= min_ncc) out.push_back(best);
+  }
+  const auto keep = std::min<std::size_t>(static_cast<std::size_t>(k), out.size());
+  std::partial_sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(keep), out.end(),
+                    [](const ThumbnailHit& a, const ThumbnailHit& b) { return a.ncc > b.ncc; });
+  out.resize(keep);
+}
+
 void PlaceIndex::query(std::span<const std::uint64_t> q, int k, std::vector<PlaceCandidate>& out) const {
   out.clear();
   const std::size_t w = static_cast<std::size_t>(code_words());
@@ -180,6 +257,17 @@ std::vector<std::uint8_t> PlaceIndex::serialize() const {
     body.put<float>(p.distance_m);
   }
   for (std::uint64_t c : codes) body.put<std::uint64_t>(c);
+  // Version 2: the detector and the thumbnail places.
+  body.put_string(detector);
+  body.put<std::int32_t>(thumbnail_width_px);
+  body.put<std::int32_t>(thumbnail_height_px);
+  body.put<std::uint32_t>(static_cast<std::uint32_t>(thumbnail_places.size()));
+  for (std::size_t i = 0; i < thumbnail_places.size(); ++i) {
+    body.put<std::uint32_t>(thumbnail_places[i].edge);
+    body.put<float>(thumbnail_places[i].distance_m);
+    const cv::Mat t = thumbnails[i].isContinuous() ? thumbnails[i] : thumbnails[i].clone();
+    body.put_bytes({t.data, t.total()});
+  }
   const std::vector<std::uint8_t>& b = body.bytes();
   PayloadWriter file;
   for (char ch : kIndexMagic) file.put<std::uint8_t>(static_cast<std::uint8_t>(ch));
@@ -201,8 +289,8 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
   const auto crc = head.get<std::uint32_t>();
   const auto length = head.get<std::uint64_t>();
   if (!version || !crc || !length) return index_error(name, "truncated header");
-  if (*version != kIndexVersion)
-    return index_error(name, "format version " + std::to_string(*version) + ", this build reads " +
+  if (*version != kIndexVersion && *version != 1)
+    return index_error(name, "format version " + std::to_string(*version) + ", this build reads 1 and " +
                                  std::to_string(kIndexVersion));
   if (*length != file.size() - kHeader)
     return index_error(name, "body length " + std::to_string(*length) + " bytes, file holds " +
@@ -245,7 +333,8 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
   auto place_count = r.get<std::uint32_t>();
   if (!place_count) return bad("place count");
   const std::size_t w = static_cast<std::size_t>(index.code_words());
-  if (static_cast<std::size_t>(*place_count) * (8 + 8 * w) != r.remaining()) return bad("place table size");
+  const std::size_t table = static_cast<std::size_t>(*place_count) * (8 + 8 * w);
+  if (*version == 1 ? table != r.remaining() : table > r.remaining()) return bad("place table size");
   index.places.resize(*place_count);
   for (auto& p : index.places) {
     auto e = r.get<std::uint32_t>();
@@ -259,6 +348,31 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
     if (!v) return bad("codes");
     c = *v;
   }
+  if (*version == 1) return index;
+  auto det = r.get_string();
+  auto tw = r.get<std::int32_t>();
+  auto th = r.get<std::int32_t>();
+  auto thumb_count = r.get<std::uint32_t>();
+  if (!det || !tw || !th || !thumb_count) return bad("thumbnail header");
+  index.detector = *det;
+  if (*thumb_count > 0 && (*tw < 8 || *th < 4 || *tw > 512 || *th > 512)) return bad("thumbnail size");
+  index.thumbnail_width_px = *tw;
+  index.thumbnail_height_px = *th;
+  if (*thumb_count > r.remaining()) return bad("thumbnail count");
+  for (std::uint32_t i = 0; i < *thumb_count; ++i) {
+    auto e = r.get<std::uint32_t>();
+    auto d = r.get<float>();
+    auto px = r.get_bytes();
+    if (!e || !d || !px || *e >= index.edges.size() || !std::isfinite(*d) ||
+        px->size() != static_cast<std::size_t>(*tw) * static_cast<std::size_t>(*th))
+      return bad("thumbnail place " + std::to_string(i));
+    index.thumbnail_places.push_back({*e, *d});
+    cv::Mat t(*th, *tw, CV_8UC1);
+    std::memcpy(t.data, px->data(), px->size());
+    index.normalised.push_back(normalise_thumbnail(t));
+    index.thumbnails.push_back(std::move(t));
+  }
+  if (!r.at_end()) return bad("trailing bytes");
   return index;
 }
 
@@ -405,7 +519,7 @@ Result<const PlaceFeatures*> PlaceSource::features(const std::string& edge_id, d
 // ----------------------------------------------------------------------------------- build
 
 Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params, Detector* detector,
-                                     const IndexProgress& progress) {
+                                     const IndexProgress& progress, const std::string& detector_type) {
   VISNAV_TRY(params.validate());
   if (params.vocabulary_words % 64 != 0)
     return fail(ErrorCode::out_of_range, "vocabulary_words: " + std::to_string(params.vocabulary_words) +
@@ -421,13 +535,38 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
   std::vector<const EdgeRecord*> edges;
   for (const auto& e : map.edges())
     if (indexable_kind(e.kind)) edges.push_back(&e);
-  if (edges.empty())
+  if (std::none_of(edges.begin(), edges.end(), [](const EdgeRecord* e) { return describable_kind(e->kind); }))
     return fail(ErrorCode::not_found,
-                map.dir() + ": no edge to index (the index covers feature_segment, feature_localmaps and visual_memory)");
+                map.dir() + ": no edge to index (the index needs feature_segment, feature_localmaps or visual_memory "
+                            "edges; path_following thumbnails are indexed beside them)");
   for (std::size_t ei = 0; ei < edges.size(); ++ei) {
     const EdgeRecord& e = *edges[ei];
     if (progress) progress("places", static_cast<double>(ei), static_cast<double>(edges.size()));
     index.edges.push_back({e.id, e.kind, e.length_m, e.payload_bytes});
+    if (e.kind == kPathKind) {
+      // Thumbnail places (VPF2); a VPF1 payload has none: the edge is listed, not covered.
+      VISNAV_ASSIGN(std::vector<std::uint8_t> body, map.read_payload(e.id));
+      auto payload = path_payload::PathPayload::decode(body);
+      if (!payload) return payload.error().with_context(map.payload_path(e.id));
+      if (payload->thumbnails.empty()) continue;
+      if (index.thumbnail_places.empty()) {
+        index.thumbnail_width_px = payload->thumbnail_width_px;
+        index.thumbnail_height_px = payload->thumbnail_height_px;
+      }
+      if (payload->thumbnail_width_px != index.thumbnail_width_px ||
+          payload->thumbnail_height_px != index.thumbnail_height_px)
+        return fail(ErrorCode::inconsistent, "edge " + e.id + ": thumbnails of " +
+                                                 std::to_string(payload->thumbnail_width_px) + "x" +
+                                                 std::to_string(payload->thumbnail_height_px) + " px differ from the map's " +
+                                                 std::to_string(index.thumbnail_width_px) + "x" +
+                                                 std::to_string(index.thumbnail_height_px));
+      for (auto& t : payload->thumbnails) {
+        index.thumbnail_places.push_back({static_cast<std::uint32_t>(ei), static_cast<float>(t.distance_m)});
+        index.normalised.push_back(normalise_thumbnail(t.image));
+        index.thumbnails.push_back(std::move(t.image));
+      }
+      continue;
+    }
     VISNAV_ASSIGN(std::vector<float> distances, source.place_distances(e, params.segment_spacing_m));
     for (float d : distances) {
       VISNAV_ASSIGN(const PlaceFeatures* f, source.features(e.id, d));
@@ -463,7 +602,49 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
     VISNAV_TRY(index.encode(f->descriptors, {index.codes.data() + p * w, w}));
   }
   if (progress) progress("codes", static_cast<double>(index.places.size()), static_cast<double>(index.places.size()));
+  const bool has_memory = std::any_of(index.edges.begin(), index.edges.end(),
+                                      [](const IndexedEdge& e) { return e.kind == kMemoryKind; });
+  if (has_memory) index.detector = detector_type.empty() ? "the run's detector" : detector_type;
   return index;
+}
+
+Status check_detector(const MapStore& map, const PlaceIndex& index, Detector* detector) {
+  // The first (up to) three visual_memory places, described again and coded.
+  std::vector<std::size_t> probe;
+  for (std::size_t p = 0; p < index.places.size() && probe.size() < 3; ++p)
+    if (index.edges[index.places[p].edge].kind == kMemoryKind) probe.push_back(p);
+  if (probe.empty()) return ok();
+  if (detector == nullptr) return fail(ErrorCode::invalid_value, "Relocalise needs a detector (config section detector:)");
+  PlaceSource source(map, detector);
+  std::vector<std::uint64_t> code(static_cast<std::size_t>(index.code_words()));
+  double agreement = 0.0;
+  for (std::size_t p : probe) {
+    const PlaceRef& ref = index.places[p];
+    VISNAV_ASSIGN(const PlaceFeatures* f, source.features(index.edges[ref.edge].id, ref.distance_m));
+    if (auto st = index.encode(f->descriptors, code); !st)
+      return fail(ErrorCode::inconsistent, index_path(map.dir()) + ": the run's detector cannot be used with this place index (" +
+                                               st.error().message + "); rebuild it with `visnav reloc-index " + map.dir() +
+                                               " --detector TYPE`, TYPE the run's detector");
+    const auto stored = index.code(p);
+    int both = 0, either = 0;
+    for (std::size_t w = 0; w < code.size(); ++w) {
+      both += std::popcount(code[w] & stored[w]);
+      either += std::popcount(code[w] | stored[w]);
+    }
+    agreement += either > 0 ? static_cast<double>(both) / either : 1.0;
+  }
+  agreement /= static_cast<double>(probe.size());
+  if (agreement < kMinDetectorAgreement) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f", agreement);
+    return fail(ErrorCode::inconsistent,
+                index_path(map.dir()) + ": stale place index: its visual_memory references were described by " +
+                    (index.detector.empty() ? std::string("another detector") : index.detector) +
+                    ", and the run's detector describes them differently (words shared " + buf + " < " +
+                    std::to_string(kMinDetectorAgreement).substr(0, 4) + "): rebuild it with `visnav reloc-index " +
+                    map.dir() + " --detector TYPE`, TYPE the run's detector");
+  }
+  return ok();
 }
 
 // ------------------------------------------------------------------------------------ files

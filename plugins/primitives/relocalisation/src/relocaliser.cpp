@@ -64,7 +64,26 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .range(0.0, 128.0)
           .field("prior_sigma_m", &P::prior_sigma_m,
                  "odometry prior: spread along the route around the believed position, m (0 = no prior)")
-          .range(0.0, 100000.0);
+          .range(0.0, 100000.0)
+          .field("thumbnail_candidates", &P::thumbnail_candidates,
+                 "thumbnail places (path_following edges) voting per frame, the most alike first")
+          .range(0, 100)
+          .field("min_thumbnail_ncc", &P::min_thumbnail_ncc,
+                 "normalised cross-correlation from which a thumbnail place votes")
+          .range(0.0, 1.0)
+          .field("thumbnail_confident_ncc", &P::thumbnail_confident_ncc,
+                 "correlation of a fully confident thumbnail vote (its confidence is ncc / this, at most 1)")
+          .range(0.05, 1.0)
+          .field("thumbnail_vote_weight", &P::thumbnail_vote_weight,
+                 "a thumbnail vote scores confidence x this (a feature vote scores inliers x confidence)")
+          .range(0.0, 1000.0)
+          .field("thumbnail_max_shift_deg", &P::thumbnail_max_shift_deg,
+                 "heading offsets searched when comparing thumbnails, deg")
+          .range(0.0, 90.0)
+          .field("max_along_uncertainty_m", &P::max_along_uncertainty_m,
+                 "an answer less certain along the route than this (place spacing, spread of the votes) is "
+                 "ambiguous, m (0 = no limit)")
+          .range(0.0, 1000.0);
   return s;
 }
 
@@ -132,6 +151,7 @@ RelocAnswer Relocaliser::decide() const {
     double confidence;
     double score;
     int frame;
+    double along_uncertainty_m;
   };
   std::vector<Moved> votes;
   int frame_index = 0;
@@ -145,7 +165,7 @@ RelocAnswer Relocaliser::decide() const {
         // then and now (a robot creeping 30 deg off the taught heading advances 0.87 m per metre).
         const double along_m = moved_m * std::cos(v.heading_offset_rad + 0.5 * turned_rad);
         votes.push_back({v.edge, v.distance_m + along_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
-                         v.score > 0.0 ? v.score : v.confidence, frame_index});
+                         v.score > 0.0 ? v.score : v.confidence, frame_index, v.along_uncertainty_m});
       }
     ++frame_index;
   }
@@ -167,6 +187,7 @@ RelocAnswer Relocaliser::decide() const {
     std::vector<double> best;        // per usable frame: best vote score
     std::vector<double> confidence;  // per usable frame: best vote confidence
     std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
+    std::vector<double> peak_uncertainty_m;  // per usable frame: its best vote's along_uncertainty_m
     double score = 0.0;
     int support = 0;
   };
@@ -184,7 +205,7 @@ RelocAnswer Relocaliser::decide() const {
     if (into == nullptr) {
       const auto n = static_cast<std::size_t>(usable);
       hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(n, 0.0),
-                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
+                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
       into = &hyps.back();
       into_delta = 0.0;
     }
@@ -197,7 +218,10 @@ RelocAnswer Relocaliser::decide() const {
     into->sin_sum += v.score * std::sin(v.heading_rad);
     into->cos_sum += v.score * std::cos(v.heading_rad);
     auto& b = into->best[static_cast<std::size_t>(v.frame)];
-    if (v.score > b) into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
+    if (v.score > b) {
+      into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
+      into->peak_uncertainty_m[static_cast<std::size_t>(v.frame)] = v.along_uncertainty_m;
+    }
     b = std::max(b, v.score);
     auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
     c = std::max(c, v.confidence);
@@ -274,20 +298,63 @@ RelocAnswer Relocaliser::decide() const {
                     " < " + fmt(params_.min_answer_confidence) + ")";
     return answer;
   }
-  answer.status = RelocStatus::localised;
-  answer.edge = best.edge;
   const RouteEdge& e = edges_[best.edge];
   // Along the edge: the median of the frames' best votes (the centre of all votes within the
   // tolerance leans towards the side with more, weaker neighbours).
-  std::vector<double> peaks;
+  std::vector<double> peaks, spacing;
   for (std::size_t i = 0; i < best.best.size(); ++i)
-    if (best.best[i] > 0.0) peaks.push_back(best.peak_m[i]);
-  std::nth_element(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(peaks.size() / 2), peaks.end());
-  answer.distance_m = std::clamp(peaks.empty() ? best.centre_m : peaks[peaks.size() / 2], 0.0, e.length_m);
+    if (best.best[i] > 0.0) {
+      peaks.push_back(best.peak_m[i]);
+      spacing.push_back(best.peak_uncertainty_m[i]);
+    }
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double centre_m = peaks.empty() ? best.centre_m : median(peaks);
+  std::vector<double> deviation;
+  for (double x : peaks) deviation.push_back(std::abs(x - centre_m));
+  const double uncertainty_m = std::max(median(spacing), 1.4826 * median(deviation));
+  answer.along_uncertainty_m = uncertainty_m;
+  if (params_.max_along_uncertainty_m > 0.0 && uncertainty_m > params_.max_along_uncertainty_m) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: the best place, " + place_name(best) + ", is uncertain along the route (+-" +
+                    fmt(uncertainty_m) + " m > " + fmt(params_.max_along_uncertainty_m) +
+                    " m: places too far apart or frames disagreeing where)";
+    return answer;
+  }
+  answer.status = RelocStatus::localised;
+  answer.edge = best.edge;
+  answer.distance_m = std::clamp(centre_m, 0.0, e.length_m);
+  // Votes moved past the end of the edge (the robot crept over its end node) or before its start:
+  // the answer is on the edge that continues there, when exactly one does (clamping would put it
+  // back on the node, as far off as the robot went past it).
+  auto only = [&](auto&& pred) -> std::optional<std::uint32_t> {
+    std::optional<std::uint32_t> found;
+    for (std::uint32_t i = 0; i < edges_.size(); ++i)
+      if (i != best.edge && pred(edges_[i])) {
+        if (found) return std::nullopt;
+        found = i;
+      }
+    return found;
+  };
+  if (centre_m > e.length_m) {
+    if (auto next = only([&](const RouteEdge& x) { return x.from == e.to; })) {
+      answer.edge = *next;
+      answer.distance_m = std::clamp(centre_m - e.length_m, 0.0, edges_[*next].length_m);
+    }
+  } else if (centre_m < 0.0) {
+    if (auto prev = only([&](const RouteEdge& x) { return x.to == e.from; })) {
+      answer.edge = *prev;
+      answer.distance_m = std::clamp(edges_[*prev].length_m + centre_m, 0.0, edges_[*prev].length_m);
+    }
+  }
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
   answer.confidence = confidence;
   answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +
-                  std::to_string(usable) + " frames agree" +
+                  std::to_string(usable) + " frames agree, +-" + fmt(uncertainty_m) + " m along" +
                   (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"
                                         : std::string());
   return answer;

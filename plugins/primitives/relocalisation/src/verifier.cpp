@@ -1,9 +1,14 @@
 // Lookup + histogram verification of one frame (see verifier.hpp).
 #include "visnav/relocalisation/verifier.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include <opencv2/core.hpp>
+
+#include "visnav/path_payload.hpp"
 
 namespace visnav::reloc {
 
@@ -28,8 +33,44 @@ std::string blank_reason(const cv::Mat& image, const Features& features, const R
 
 PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const feature_replay::HeadingParams& heading,
                              Detector* detector)
-    : index_(index), map_(map), source_(map, detector), estimator_(heading) {
+    : index_(index), map_(map), source_(map, detector), estimator_(heading), horizontal_fov_deg_(heading.horizontal_fov_deg) {
   code_.resize(static_cast<std::size_t>(index_.code_words()));
+  // Places are stored edge by edge, by increasing distance (build_place_index).
+  auto spacing = [&](const std::vector<PlaceRef>& refs) {
+    std::vector<double> out(refs.size(), 0.0);
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+      const double length_m = index_.edges[refs[i].edge].length_m;
+      const double d = refs[i].distance_m;
+      const double before = i > 0 && refs[i - 1].edge == refs[i].edge ? d - refs[i - 1].distance_m : d;
+      const double after = i + 1 < refs.size() && refs[i + 1].edge == refs[i].edge ? refs[i + 1].distance_m - d
+                                                                                   : length_m - d;
+      out[i] = 0.5 * std::max(0.0, std::max(before, after));
+    }
+    return out;
+  };
+  place_uncertainty_m_ = spacing(index_.places);
+  thumbnail_uncertainty_m_ = spacing(index_.thumbnail_places);
+}
+
+Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& image, const RelocaliseParams& params) {
+  std::vector<PlaceVote> out;
+  thumbnail_hits_.clear();
+  if (index_.thumbnail_places.empty() || params.thumbnail_candidates <= 0) return out;
+  VISNAV_ASSIGN(cv::Mat thumb,
+                path_payload::make_thumbnail(image, index_.thumbnail_width_px, index_.thumbnail_height_px));
+  const cv::Mat live = normalise_thumbnail(thumb);
+  const double px_per_deg = index_.thumbnail_width_px / horizontal_fov_deg_;
+  const int max_shift = static_cast<int>(std::lround(params.thumbnail_max_shift_deg * px_per_deg));
+  index_.query_thumbnails(live, max_shift, params.thumbnail_candidates, params.min_thumbnail_ncc, thumbnail_hits_);
+  for (const ThumbnailHit& h : thumbnail_hits_) {
+    const PlaceRef& ref = index_.thumbnail_places[h.place];
+    // Live shifted right: the robot is turned left of the taught heading (CCW positive).
+    const double offset_rad = h.shift_px / px_per_deg * std::numbers::pi / 180.0;
+    const double confidence = std::min(1.0, h.ncc / params.thumbnail_confident_ncc);
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, confidence, offset_rad, confidence * params.thumbnail_vote_weight,
+                            thumbnail_uncertainty_m_[h.place]});
+  }
+  return out;
 }
 
 std::vector<RouteEdge> PlaceVerifier::route_edges() const {
@@ -61,7 +102,8 @@ Result<std::vector<PlaceVote>> PlaceVerifier::votes(const Features& current, dou
                   estimator_.estimate(feature_replay::ReferenceView{f->descriptors, f->positions_px}, current,
                                       image_width_px));
     if (!e.valid || e.confidence < min_confidence) continue;
-    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence});
+    out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence,
+                            place_uncertainty_m_[c.place]});
   }
   return out;
 }

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "visnav/path_payload.hpp"
 #include "path_session.hpp"
 #include "visnav/runner.hpp"
 
@@ -52,7 +53,21 @@ TEST(FollowPathEdge, TeachesThenFollowsThePathBackToItsCentreFromHalfAMetreOff) 
   EXPECT_EQ(edge.kind, "path_following");
   EXPECT_NEAR(edge.length_m, 5.0, 0.1);
   EXPECT_GE(edge.statistics.at("colour_models"), 1.0);
-  EXPECT_LT(edge.payload_bytes, 2000u);  // the edge stores almost nothing (seed 000 Sec. 2, 4.)
+  // The edge stores almost nothing for following (seed 000 Sec. 2, 4.): the colour models, plus a
+  // 64x24 grey thumbnail every 0.5 m for relocalisation's place index (VPF2, visnav/path_payload.hpp).
+  auto body = map.read_payload(edge.id);
+  ASSERT_TRUE(body.ok()) << body.error().message;
+  auto payload = path_payload::PathPayload::decode(*body);
+  ASSERT_TRUE(payload.ok()) << payload.error().message;
+  EXPECT_EQ(payload->version, 2u);
+  ASSERT_GE(payload->thumbnails.size(), 10u);
+  ASSERT_LE(payload->thumbnails.size(), 11u);
+  EXPECT_EQ(edge.statistics.at("thumbnails"), static_cast<double>(payload->thumbnails.size()));
+  for (std::size_t k = 1; k < payload->thumbnails.size(); ++k)
+    EXPECT_NEAR(payload->thumbnails[k].distance_m - payload->thumbnails[k - 1].distance_m, 0.5, 0.06);
+  EXPECT_EQ(payload->thumbnails[0].image.size(),
+            cv::Size(path_payload::kThumbnailWidthPx, path_payload::kThumbnailHeightPx));
+  EXPECT_LT(edge.payload_bytes, 2000u + payload->thumbnails.size() * (8u + 64u * 24u));
   EXPECT_TRUE(map.validate().empty());
 
   // replay from 0.5 m to the left of the centre line (the path is 1.6 m wide along +x)

@@ -14,6 +14,7 @@
 
 #include "visnav/feature_payloads.hpp"
 #include "visnav/map.hpp"
+#include "visnav/path_payload.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/relocalisation/verifier.hpp"
 
@@ -220,7 +221,7 @@ TEST(PlaceIndex, MapWithoutFeatureEdgesOrWithFloatDescriptorsIsRefused) {
   map->set_sync(false);
   auto a = map->add_node(node("a"));
   auto b = map->add_node(node("b"));
-  ASSERT_TRUE(map->add_edge(edge(*a, *b, "path_following", 3.0), std::vector<std::uint8_t>{1, 2, 3}).ok());
+  ASSERT_TRUE(map->add_edge(edge(*a, *b, "path_following", 3.0), path_payload::PathPayload{}.encode()).ok());
   auto none = build_place_index(*map, small_params());
   ASSERT_FALSE(none.ok());
   EXPECT_EQ(none.error().code, ErrorCode::not_found);

@@ -26,6 +26,8 @@ namespace {
 /// ORB on the image, 32-byte descriptors (the test's stand-in for a detector plugin).
 class OrbDetector final : public Detector {
  public:
+  explicit OrbDetector(int features = 300, int wta_k = 2)
+      : orb_(cv::ORB::create(features, 1.2f, 8, 31, 0, wta_k)) {}
   Status detect(const cv::Mat& image, Features& out) override {
     out.keypoints.clear();
     orb_->detectAndCompute(image, cv::noArray(), out.keypoints, out.descriptors);
@@ -34,7 +36,7 @@ class OrbDetector final : public Detector {
   [[nodiscard]] DescriptorNorm norm() const override { return DescriptorNorm::hamming; }
 
  private:
-  cv::Ptr<cv::ORB> orb_ = cv::ORB::create(300);
+  cv::Ptr<cv::ORB> orb_;
 };
 
 /// A textured 320x240 grey image of its own (blurred noise: many corners, none shared).
@@ -162,4 +164,27 @@ TEST_F(MemoryMap, AnIndexBuiltBeforeVisualMemoryWasIndexedIsStale) {
   const Status stale = old.matches(*map_);
   ASSERT_FALSE(stale.ok());
   EXPECT_EQ(stale.error().code, ErrorCode::inconsistent);
+}
+
+TEST_F(MemoryMap, TheIndexRecordsItsDetectorAndRefusesAnotherOne) {
+  OrbDetector detector;
+  auto index = build_place_index(*map_, params(), &detector, {}, "orb");
+  ASSERT_TRUE(index.ok()) << index.error().message;
+  EXPECT_EQ(index->detector, "orb");
+  auto back = PlaceIndex::deserialize(index->serialize(), "place_index.bin");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->detector, "orb");
+  // The same detector (another instance, same params) passes.
+  OrbDetector same;
+  EXPECT_TRUE(check_detector(*map_, *back, &same).ok());
+  // Another detector of the same width (ORB's 3-point BRIEF tests: other bits, same 32 bytes)
+  // is refused, naming the recorded one and the fix.
+  OrbDetector other(300, 3);
+  auto st = check_detector(*map_, *back, &other);
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, ErrorCode::inconsistent);
+  EXPECT_NE(st.error().message.find("orb"), std::string::npos) << st.error().message;
+  EXPECT_NE(st.error().message.find("reloc-index"), std::string::npos) << st.error().message;
+  // No detector at all: an error, not a crash.
+  EXPECT_FALSE(check_detector(*map_, *back, nullptr).ok());
 }

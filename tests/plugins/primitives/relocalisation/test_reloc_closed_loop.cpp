@@ -36,6 +36,7 @@
 #include "visnav/bt/tree.hpp"
 #include "visnav/feature_payloads.hpp"
 #include "visnav/map.hpp"
+#include "visnav/path_payload.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/runner.hpp"
 #include "temp_folder.hpp"
@@ -326,7 +327,9 @@ TEST(RelocClosedLoopSim, RelocalisesOnAVisualMemoryEdgeAndRefusesAPriorOnAnUnind
     EXPECT_NEAR(*d, truth_m, 1.0);
   }
   {
-    // A path_following edge added to the map: a prior on it is answered not_indexed at once.
+    // A path_following edge taught before thumbnails (VPF1: colour models only) added to the map:
+    // the index rebuilt (the stale one is refused) lists it without places, and a prior on it is
+    // answered not_indexed at once.
     std::string path_edge;
     {
       auto map = MapStore::open(map_dir);
@@ -336,7 +339,11 @@ TEST(RelocClosedLoopSim, RelocalisesOnAVisualMemoryEdgeAndRefusesAPriorOnAnUnind
       e.to = map->edges()[0].to;
       e.kind = "path_following";
       e.length_m = 4.0;
-      auto id = map->add_edge(e, std::vector<std::uint8_t>{1, 2, 3});
+      PayloadWriter w;  // the VPF1 layout: magic, model count, 12 doubles per model
+      w.put<std::uint32_t>(path_payload::kMagicV1);
+      w.put<std::uint32_t>(1);
+      for (int i = 0; i < 12; ++i) w.put<double>(i == 3 || i == 7 || i == 11 ? 4.0 : 1.0);
+      auto id = map->add_edge(e, w.take());
       ASSERT_TRUE(id.ok()) << id.error().message;
       path_edge = *id;
     }
@@ -346,6 +353,23 @@ TEST(RelocClosedLoopSim, RelocalisesOnAVisualMemoryEdgeAndRefusesAPriorOnAnUnind
     const Pose2D before = sim->ground_truth_pose();
     std::optional<bt::Tree> holder;
     bt::Tree* tree = nullptr;
+    const RunReport stale = relocalise_only(*session, tmp, "creep_m=\"1\"", &tree, holder);
+    EXPECT_EQ(stale.outcome, RunOutcome::failure);
+    EXPECT_NE(bb_string(*tree, "reloc_reason").find("stale place index"), std::string::npos)
+        << bb_string(*tree, "reloc_reason");
+    {
+      const std::string xml = tmp.file("rebuild.xml");
+      std::ofstream(xml) << R"(<root BTCPP_format="4" main_tree_to_execute="B"><BehaviorTree ID="B">
+  <BuildPlaceIndex only_if_missing="true"/>
+</BehaviorTree></root>)";
+      auto rebuild = session->load_tree(xml);
+      ASSERT_TRUE(rebuild.ok()) << rebuild.error().message;
+      ASSERT_EQ(run_tree(*session, *rebuild).outcome, RunOutcome::success);
+      auto index = reloc::load_place_index(map_dir);
+      ASSERT_TRUE(index.ok()) << index.error().message;
+      EXPECT_EQ(index->edges.size(), 5u);
+      EXPECT_TRUE(index->thumbnail_places.empty());
+    }
     const RunReport report = relocalise_only(
         *session, tmp, "creep_m=\"1\" prior_edge=\"" + path_edge + "\" prior_sigma_m=\"2\"", &tree, holder);
     EXPECT_EQ(report.outcome, RunOutcome::failure);
@@ -383,7 +407,7 @@ TEST(RelocClosedLoopSim, BuildPlaceIndexAtTheEndOfATeachNeverLosesTheTaughtMap) 
     ASSERT_TRUE(na.ok() && nb.ok());
     a = *na;
     b = *nb;
-    ASSERT_TRUE(map->add_edge(edge(a, b, "path_following", 3.0), std::vector<std::uint8_t>{1, 2, 3}).ok());
+    ASSERT_TRUE(map->add_edge(edge(a, b, "path_following", 3.0), path_payload::PathPayload{}.encode()).ok());
   }
   auto tick_once = [&](const std::string& attributes) {
     auto session = make_session(map_dir, {});

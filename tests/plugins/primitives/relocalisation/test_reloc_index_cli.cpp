@@ -111,6 +111,9 @@ TEST(RelocIndexCommand, DescribesVisualMemoryReferencesWithTheGivenDetector) {
   ASSERT_TRUE(fs::exists(map_dir + "/place_index.bin"));
   const CliRun check = reloc_index(map_dir + " --check");
   EXPECT_EQ(check.status, 0) << check.output;
+  // The same detector described the references: the index passes the detector check too.
+  const CliRun same = reloc_index(map_dir + " --check --detector star_brief");
+  EXPECT_EQ(same.status, 0) << same.output;
 
   // One flipped byte: --check refuses the index, naming the file.
   std::vector<char> bytes;

@@ -203,3 +203,45 @@ TEST(Relocaliser, MotionIsProjectedOnTheEdgeWithTheHeadingOffset) {
   EXPECT_NEAR(a.distance_m, 3.0 + 2.0 * std::cos(0.5), 0.01);
   EXPECT_EQ(a.support, p.frames);
 }
+
+TEST(Relocaliser, PlacesFarApartGiveAnUncertainAnswerThatALimitRefuses) {
+  // Every frame's best vote is a place whose neighbours are 3 m away (+-1.5 m), or 0.25 m.
+  auto run = [](double place_uncertainty_m, double limit_m) {
+    RelocaliseParams p;
+    p.max_along_uncertainty_m = limit_m;
+    Relocaliser r(p, loop());
+    for (int i = 0; i < p.max_frames; ++i) r.add(frame({{1, 4.0, 0.8, 0.0, 20.0, place_uncertainty_m}}));
+    return r.decide();
+  };
+  const RelocAnswer coarse = run(1.5, 0.0);  // no limit: answered, saying how uncertain
+  ASSERT_EQ(coarse.status, RelocStatus::localised) << coarse.reason;
+  EXPECT_NEAR(coarse.along_uncertainty_m, 1.5, 1e-9);
+  const RelocAnswer refused = run(1.5, 1.0);
+  EXPECT_EQ(refused.status, RelocStatus::ambiguous) << refused.reason;
+  const RelocAnswer fine = run(0.125, 1.0);
+  ASSERT_EQ(fine.status, RelocStatus::localised) << fine.reason;
+  EXPECT_NEAR(fine.along_uncertainty_m, 0.125, 1e-9);
+
+  // Dense places but frames disagreeing where (best votes 1.5 m apart, alternating): the spread counts.
+  RelocaliseParams p;
+  p.max_along_uncertainty_m = 1.0;
+  p.place_tolerance_m = 2.0;
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) r.add(frame({{1, i % 2 == 0 ? 3.0 : 4.5, 0.8, 0.0, 20.0, 0.125}}));
+  const RelocAnswer spread = r.decide();
+  EXPECT_EQ(spread.status, RelocStatus::ambiguous) << spread.reason;
+  EXPECT_GT(spread.along_uncertainty_m, 1.0);
+}
+
+TEST(Relocaliser, VotesMovedPastAnEdgesEndAreAnsweredOnTheNextEdge) {
+  // Every frame saw the place 0.2 m before the end of e0 (10 m) and the robot crept 1.2 m since:
+  // it is 1 m into e1, not on the node.
+  RelocaliseParams p;
+  Relocaliser r(p, loop());
+  for (int i = 0; i < p.max_frames; ++i) r.add(frame({{0, 9.8, 0.8, 0.0, 20.0}}, 0.1 * i));
+  r.add(frame({{0, 9.8, 0.8, 0.0, 20.0}}, 0.1 * (p.max_frames - 1) + 0.1));
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_EQ(a.edge, 1u) << a.reason;
+  EXPECT_NEAR(a.distance_m, 0.4, 0.15) << a.reason;  // median of 9.8 + (1.2 .. 0) past 10 m
+}

@@ -50,13 +50,34 @@ namespace visnav::reloc {
 
 inline constexpr const char* kIndexFile = "place_index.bin";
 inline constexpr char kIndexMagic[8] = {'V', 'N', 'A', 'V', 'P', 'I', 'D', 'X'};
-inline constexpr std::uint32_t kIndexVersion = 1;
+inline constexpr std::uint32_t kIndexVersion = 2;  ///< 2: + detector, thumbnail places (1 is still read)
 inline constexpr const char* kSegmentKind = "feature_segment";
 inline constexpr const char* kLocalMapsKind = "feature_localmaps";
 inline constexpr const char* kMemoryKind = "visual_memory";
+inline constexpr const char* kPathKind = "path_following";
 
-/// True for the edge kinds the index covers (the feature primitive's and visual_memory).
+/// True for the edge kinds the index lists (the feature primitive's, visual_memory and
+/// path_following; a path_following edge taught before thumbnails existed is listed without places).
 [[nodiscard]] bool indexable_kind(std::string_view kind);
+/// True for the kinds whose places carry binary descriptors (BoW code + histogram verification).
+[[nodiscard]] bool describable_kind(std::string_view kind);
+
+/// A thumbnail normalised for comparison (CV_32FC1): each pixel minus the mean of its 5 x 5
+/// neighbourhood, divided by that neighbourhood's standard deviation (+2 grey levels), the
+/// local contrast normalisation of SeqSLAM, so a darker or brighter view of the same place compares alike.
+[[nodiscard]] cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8);
+
+/// Zero-mean normalised cross-correlation of two normalised thumbnails of one size, `live`
+/// shifted right by `shift_px` columns against `reference` (compared over the overlap; at least
+/// half the width must overlap, else -1).
+[[nodiscard]] double thumbnail_ncc(const cv::Mat& live, const cv::Mat& reference, int shift_px);
+
+/// One thumbnail hit: the best shift of a thumbnail place.
+struct ThumbnailHit {
+  std::uint32_t place = 0;  ///< index into PlaceIndex::thumbnail_places
+  double ncc = -1.0;
+  int shift_px = 0;         ///< live view shifted right by this much (the robot turned left: + heading offset)
+};
 
 struct PlaceIndexParams {
   int vocabulary_words = 1024;       ///< bits of a place code (multiple of 64)
@@ -96,6 +117,24 @@ class PlaceIndex {
   std::vector<PlaceRef> places;
   cv::Mat vocabulary;                 ///< vocabulary_words rows of descriptor bytes, CV_8UC1
   std::vector<std::uint64_t> codes;   ///< places.size() * code_words(), row-major
+  /// Which detector described the visual_memory references (its config type, e.g. "star_brief",
+  /// or "the run's detector" when built by a node; empty: no visual_memory place, or a version-1
+  /// index). Informative: check_detector() compares codes, not names.
+  std::string detector;
+  /// path_following places: one per stored thumbnail (VPF2 payloads), compared by thumbnail_ncc.
+  std::vector<PlaceRef> thumbnail_places;
+  int thumbnail_width_px = 0;
+  int thumbnail_height_px = 0;
+  std::vector<cv::Mat> thumbnails;    ///< per thumbnail place, CV_8UC1 as stored
+  std::vector<cv::Mat> normalised;    ///< per thumbnail place, normalise_thumbnail (not stored)
+
+  /// True when `edge` (index into edges) has at least one place of either kind.
+  [[nodiscard]] bool covers(std::uint32_t edge) const;
+  /// The thumbnail places most like `live` (a normalised thumbnail of the index's size), each at
+  /// its best shift within +-max_shift_px, best first, at most `k` with ncc >= min_ncc; one
+  /// brute-force pass over every thumbnail place and shift.
+  void query_thumbnails(const cv::Mat& live, int max_shift_px, int k, double min_ncc,
+                        std::vector<ThumbnailHit>& out) const;
 
   /// 64-bit words per code.
   [[nodiscard]] int code_words() const { return params.vocabulary_words / 64; }
@@ -157,11 +196,24 @@ class PlaceSource {
 };
 
 /// Builds the index of every indexable edge of `map` (payloads read and verified by the store).
-/// `detector` describes the reference images of visual_memory edges (see PlaceSource).
+/// `detector` describes the reference images of visual_memory edges (see PlaceSource);
+/// `detector_type` (its config type) is recorded in the index when the map has such edges.
+/// path_following edges contribute their thumbnails (none for a VPF1 payload: listed, not covered).
 /// Errors: no indexable edge, float descriptors, a payload that does not decode (named), a
 /// visual_memory edge without a detector (invalid_value naming the edge).
 [[nodiscard]] Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams& params,
-                                                   Detector* detector = nullptr, const IndexProgress& progress = {});
+                                                   Detector* detector = nullptr, const IndexProgress& progress = {},
+                                                   const std::string& detector_type = {});
+/// Ok when frames described by `detector` may be looked up in `index`: an index without
+/// visual_memory places, or one whose first (up to) three visual_memory places, described again
+/// with `detector` and coded with the vocabulary, share on average at least
+/// kMinDetectorAgreement of their words with the stored codes (|A and B| / |A or B|). The same
+/// detector gives nearly the stored codes (its adaptive threshold may pick a few other keypoints);
+/// another detector's descriptors fall into other words. Else an `inconsistent` error naming the
+/// detector recorded and the rebuild command. Cost: the detector run on every reference image of
+/// the visual_memory edge(s) holding those places (PlaceSource describes an edge at once).
+inline constexpr double kMinDetectorAgreement = 0.5;
+[[nodiscard]] Status check_detector(const MapStore& map, const PlaceIndex& index, Detector* detector);
 
 /// Path of the index file of a map folder.
 [[nodiscard]] std::string index_path(const std::string& map_dir);

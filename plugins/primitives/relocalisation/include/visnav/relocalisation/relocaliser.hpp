@@ -25,6 +25,8 @@
 //     is supported by fewer than min_agreement of the frames once max_frames are used;
 //   * ambiguous    — a second, distinct place scores more than max_runner_up_ratio of the best
 //     (e.g. the two ends of a repetitive loop) once max_frames are used;
+//   * ambiguous also — the answer's along-track uncertainty (place spacing, spread of the frames'
+//     votes) exceeds max_along_uncertainty_m (> 0): places too far apart to say where between them;
 //   * localised    — the best hypothesis is supported by at least `frames` frames and by
 //     min_agreement of the usable frames, no distinct place comes close, and the answer's
 //     confidence reaches min_answer_confidence (a weaker one waits for more frames and is
@@ -65,6 +67,15 @@ struct RelocaliseParams {
   int min_features = 25;              ///< a frame with fewer features is blank
   double min_image_stddev = 6.0;      ///< a frame whose grey-level standard deviation is below is blank
   double prior_sigma_m = 0.0;         ///< odometry prior spread along the route, m (0 = no prior)
+  // Thumbnail places (path_following edges; PlaceVerifier::thumbnail_votes).
+  int thumbnail_candidates = 3;       ///< best thumbnail places voting per frame
+  double min_thumbnail_ncc = 0.4;     ///< a thumbnail place votes from this correlation up
+  double thumbnail_confident_ncc = 0.6;  ///< correlation of a fully confident thumbnail vote (confidence = ncc / this, <= 1)
+  double thumbnail_vote_weight = 40.0;  ///< a thumbnail vote's score is confidence x this (a feature vote's is inliers x confidence)
+  double thumbnail_max_shift_deg = 30.0;  ///< heading offsets searched when comparing thumbnails, deg
+  /// A localised answer whose along-track uncertainty (RelocAnswer::along_uncertainty_m) exceeds
+  /// this is answered ambiguous instead, m (0 = no limit).
+  double max_along_uncertainty_m = 0.0;
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<RelocaliseParams>& schema();
@@ -88,6 +99,9 @@ struct PlaceVote {
   /// inliers x confidence: the confidence saturates at a few dozen inliers, so places a few metres
   /// apart that see the same far walls would tie on it, while their inlier counts still differ.
   double score = 0.0;
+  /// How far the truth may be from `distance_m` when this place is the nearest one: half the
+  /// larger gap to the neighbouring places of its edge (0 = unknown). The verifier sets it.
+  double along_uncertainty_m = 0.0;
 };
 
 /// What one frame contributed.
@@ -108,6 +122,10 @@ struct RelocAnswer {
   double heading_offset_rad = 0.0;    ///< at the newest frame
   double confidence = 0.0;            ///< [0, 1]: agreement x mean vote confidence x distinctiveness
   int support = 0;                    ///< frames that voted for the answer
+  /// Along-track uncertainty of distance_m, m: the larger of the median place spacing term of the
+  /// frames' best votes (PlaceVote::along_uncertainty_m) and 1.4826 x the median absolute deviation
+  /// of those votes' positions (moved to the newest frame).
+  double along_uncertainty_m = 0.0;
   int usable_frames = 0;
   int blank_frames = 0;
   std::string reason;                 ///< one line: why this answer (names the places for ambiguous)

@@ -36,6 +36,14 @@ class PlaceVerifier {
   /// a payload that cannot be read.
   Result<std::vector<PlaceVote>> votes(const Features& current, double image_width_px, int candidates,
                                        double min_confidence);
+  /// Verified thumbnail places of one frame (path_following edges): the frame's thumbnail
+  /// (path_payload::make_thumbnail, normalise_thumbnail) against every thumbnail place, each at
+  /// its best horizontal shift within thumbnail_max_shift_deg; the thumbnail_candidates best
+  /// reaching min_thumbnail_ncc vote with confidence = min(1, ncc / thumbnail_confident_ncc),
+  /// score = confidence x thumbnail_vote_weight
+  /// and heading offset = shift x horizontal_fov / thumbnail width. Empty when the index has no
+  /// thumbnail place. Error: an image make_thumbnail refuses.
+  Result<std::vector<PlaceVote>> thumbnail_votes(const cv::Mat& image, const RelocaliseParams& params);
   /// The index's edges as the Relocaliser's route graph (from/to taken from the map).
   [[nodiscard]] std::vector<RouteEdge> route_edges() const;
   /// Hits of the last lookup (before verification).
@@ -48,6 +56,10 @@ class PlaceVerifier {
   feature_replay::HeadingEstimator estimator_;
   std::vector<std::uint64_t> code_;
   std::vector<PlaceCandidate> candidates_;
+  std::vector<ThumbnailHit> thumbnail_hits_;
+  std::vector<double> place_uncertainty_m_;      ///< per place: PlaceVote::along_uncertainty_m
+  std::vector<double> thumbnail_uncertainty_m_;  ///< per thumbnail place
+  double horizontal_fov_deg_ = 60.0;
 };
 
 }  // namespace visnav::reloc

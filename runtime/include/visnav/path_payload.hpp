@@ -1,0 +1,185 @@
+// visnav SDK — the payload of `path_following` edges and its codec. It belongs to the
+// path-following primitive; it is in the SDK so that other plugins read those edges without
+// including a plugin's headers (the place index of relocalisation indexes the thumbnails, issue
+// 21). Header-only (like byte_io.hpp): the runtime itself never reads these payloads.
+//
+// Two versions, both read:
+//   VPF1 (magic 0x56504631 "1FPV" little endian): the path's appearance summary only, count n,
+//        n x (mean: 3 doubles, covariance: 9 doubles, row-major) in the HSV-cone feature space of
+//        the path follower (path_follower.hpp). No thumbnail: such an edge cannot be recognised.
+//   VPF2 (magic 0x56504632): the same colour models, then thumbnail width, height (int32 each),
+//        count m, m x (distance_m: double, width x height grey bytes, row-major). A thumbnail is the
+//        upper kThumbnailRowsShare of the teach frame, grey, area-downsampled to width x height
+//        (make_thumbnail), taken every ~0.5 m of odometric edge distance; it is stored as is (not
+//        normalised: the reader normalises it for its own comparison).
+// decode() checks every count, every number's finiteness, the thumbnail size and order; a body
+// that does not decode is an error (parse_error), never a crash.
+// Ownership: value types; thumbnails are cv::Mat (CV_8UC1, owned, never written after decode).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "visnav/map.hpp"
+#include "visnav/result.hpp"
+
+namespace visnav::path_payload {
+
+inline constexpr std::uint32_t kMagicV1 = 0x56504631;
+inline constexpr std::uint32_t kMagicV2 = 0x56504632;
+inline constexpr int kThumbnailWidthPx = 64;
+inline constexpr int kThumbnailHeightPx = 24;
+/// The thumbnail covers the rows above this share of the image height (the far scenery; the
+/// bottom quarter is the path surface right in front of the robot, which changes with any
+/// lateral offset and looks alike everywhere).
+inline constexpr double kThumbnailRowsShare = 0.75;
+
+/// A Gaussian colour model: mean and covariance (row-major) in the HSV-cone feature space.
+struct ColourModelData {
+  std::array<double, 3> mean{};
+  std::array<double, 9> cov{};
+};
+
+struct Thumbnail {
+  double distance_m = 0.0;  ///< odometric distance along the edge when taken
+  cv::Mat image;            ///< CV_8UC1, width_px x height_px
+};
+
+struct PathPayload {
+  std::vector<ColourModelData> models;
+  int thumbnail_width_px = kThumbnailWidthPx;
+  int thumbnail_height_px = kThumbnailHeightPx;
+  std::vector<Thumbnail> thumbnails;  ///< by increasing distance; empty for a VPF1 payload
+  std::uint32_t version = 2;          ///< 1 or 2 as decoded; encode() always writes VPF2
+
+  [[nodiscard]] std::vector<std::uint8_t> encode() const;
+  static Result<PathPayload> decode(std::span<const std::uint8_t> body);
+};
+
+/// The thumbnail of a frame (grey CV_8UC1 or BGR CV_8UC3, at least 8 x 8 px): the upper
+/// kThumbnailRowsShare of it, grey, area-downsampled to width x height. Error: empty or
+/// unsupported image.
+[[nodiscard]] Result<cv::Mat> make_thumbnail(const cv::Mat& image, int width_px = kThumbnailWidthPx,
+                                             int height_px = kThumbnailHeightPx);
+
+// ------------------------------------------------------------------------------ implementation
+
+namespace detail {
+
+inline constexpr std::uint32_t kMaxModels = 64;
+inline constexpr std::uint32_t kMaxThumbnails = 1000000;
+inline constexpr int kMaxThumbnailSide = 512;
+
+inline Error bad(const std::string& what) { return fail(ErrorCode::parse_error, "path-following payload: " + what); }
+
+}  // namespace detail
+
+inline std::vector<std::uint8_t> PathPayload::encode() const {
+  PayloadWriter w;
+  w.put<std::uint32_t>(kMagicV2);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(models.size()));
+  for (const auto& m : models) {
+    for (double v : m.mean) w.put<double>(v);
+    for (double v : m.cov) w.put<double>(v);
+  }
+  w.put<std::int32_t>(thumbnail_width_px);
+  w.put<std::int32_t>(thumbnail_height_px);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(thumbnails.size()));
+  const std::size_t bytes = static_cast<std::size_t>(thumbnail_width_px) * static_cast<std::size_t>(thumbnail_height_px);
+  std::vector<std::uint8_t> row(bytes);
+  for (const auto& t : thumbnails) {
+    w.put<double>(t.distance_m);
+    // A thumbnail of another size or type is a bug of the writer (make_thumbnail makes them).
+    cv::Mat c = t.image.isContinuous() ? t.image : t.image.clone();
+    std::memcpy(row.data(), c.data, std::min(bytes, c.total() * c.elemSize()));
+    for (std::uint8_t b : row) w.put<std::uint8_t>(b);
+  }
+  return w.take();
+}
+
+inline Result<PathPayload> PathPayload::decode(std::span<const std::uint8_t> body) {
+  PayloadReader r(body);
+  PathPayload p;
+  auto magic = r.get<std::uint32_t>();
+  if (!magic) return detail::bad("truncated header");
+  if (*magic != kMagicV1 && *magic != kMagicV2) return detail::bad("not a path-following payload (bad magic)");
+  p.version = *magic == kMagicV1 ? 1 : 2;
+  auto count = r.get<std::uint32_t>();
+  if (!count) return detail::bad("truncated colour model count");
+  if (*count > detail::kMaxModels) return detail::bad("implausible number of colour models: " + std::to_string(*count));
+  p.models.resize(*count);
+  for (auto& m : p.models) {
+    for (double& v : m.mean) {
+      auto x = r.get<double>();
+      if (!x) return detail::bad("truncated colour model");
+      v = *x;
+    }
+    for (double& v : m.cov) {
+      auto x = r.get<double>();
+      if (!x) return detail::bad("truncated colour model");
+      v = *x;
+    }
+    for (double v : m.mean)
+      if (!std::isfinite(v)) return detail::bad("non-finite colour model");
+    for (double v : m.cov)
+      if (!std::isfinite(v)) return detail::bad("non-finite colour model");
+  }
+  if (p.version == 1) {
+    if (!r.at_end()) return detail::bad("trailing bytes after the colour models");
+    p.thumbnails.clear();
+    return p;
+  }
+  auto w = r.get<std::int32_t>();
+  auto h = r.get<std::int32_t>();
+  auto n = r.get<std::uint32_t>();
+  if (!w || !h || !n) return detail::bad("truncated thumbnail header");
+  if (*w < 8 || *h < 4 || *w > detail::kMaxThumbnailSide || *h > detail::kMaxThumbnailSide)
+    return detail::bad("thumbnail size " + std::to_string(*w) + "x" + std::to_string(*h) + " out of range");
+  const std::size_t bytes = static_cast<std::size_t>(*w) * static_cast<std::size_t>(*h);
+  if (*n > detail::kMaxThumbnails || static_cast<std::size_t>(*n) * (8 + bytes) != r.remaining())
+    return detail::bad(std::to_string(*n) + " thumbnails of " + std::to_string(bytes) + " bytes do not fill the " +
+               std::to_string(r.remaining()) + " bytes left");
+  p.thumbnail_width_px = *w;
+  p.thumbnail_height_px = *h;
+  p.thumbnails.resize(*n);
+  double last = -1e300;
+  for (std::size_t i = 0; i < p.thumbnails.size(); ++i) {
+    auto d = r.get<double>();
+    if (!d || !std::isfinite(*d) || *d < last)
+      return detail::bad("thumbnail " + std::to_string(i) + ": distance not finite or not increasing");
+    last = *d;
+    Thumbnail& t = p.thumbnails[i];
+    t.distance_m = *d;
+    t.image.create(*h, *w, CV_8UC1);
+    for (std::size_t b = 0; b < bytes; ++b) {
+      auto v = r.get<std::uint8_t>();
+      if (!v) return detail::bad("truncated thumbnail " + std::to_string(i));
+      t.image.data[b] = *v;
+    }
+  }
+  return p;
+}
+
+inline Result<cv::Mat> make_thumbnail(const cv::Mat& image, int width_px, int height_px) {
+  if (image.empty() || image.rows < 8 || image.cols < 8) return fail(ErrorCode::invalid_value, "thumbnail: image too small");
+  if (width_px < 8 || height_px < 4) return fail(ErrorCode::invalid_value, "thumbnail: size too small");
+  cv::Mat grey;
+  if (image.type() == CV_8UC3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else if (image.type() == CV_8UC1) grey = image;
+  else return fail(ErrorCode::invalid_value, "thumbnail: image must be CV_8UC1 or CV_8UC3");
+  const int rows = std::max(1, static_cast<int>(std::lround(kThumbnailRowsShare * grey.rows)));
+  cv::Mat out;
+  cv::resize(grey.rowRange(0, rows), out, cv::Size(width_px, height_px), 0.0, 0.0, cv::INTER_AREA);
+  return out;
+}
+
+}  // namespace visnav::path_payload

@@ -16,6 +16,7 @@
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/local_map.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
+#include "visnav/feature_replay/start_view_search.hpp"
 #include "visnav/map.hpp"
 #include "visnav/primitive.hpp"
 
@@ -192,7 +193,8 @@ struct FeatureReplayParams {
             .include(&P::heading, HeadingParams::schema(), {{"ratio", "ratio"}, {"min_confidence", "min_confidence"}})
             .field("scan_deg", &P::scan_deg,
                    "start-view search: when an edge's first frames do not see its taught start view, turn in "
-                   "place up to this far left and right to find it (0 = off), deg")
+                   "place up to this far left and right to find it (0 = off; at most the lost policy's max_heading_deviation_deg "
+                   "less 14 deg, so that a view found is not one the heading check refuses), deg")
             .range(0.0, 180.0)
             .field("scan_speed_radps", &P::scan_speed_radps, "start-view search: turn rate, rad/s")
             .range(0.0, 3.0)
@@ -223,123 +225,6 @@ struct FeatureReplayParams {
             .range(0.0, 1.0);
     return s;
   }
-};
-
-/// Start-view search (scan_deg > 0): when the first frames of an edge do not see the taught start
-/// view, the robot turns in place left then right by up to scan_deg, remembers the heading with
-/// the best match, turns there and starts the edge. An odometric turn at a node carries the teach
-/// run's heading drift (e.g. the turn that closes a loop: the whole loop's drift); this finds the
-/// view instead. When nothing matches it starts on the odometric heading and the lost policy decides.
-/// The probe must see the view near the image centre (start_max_offset): a view 40 deg off still
-/// overlaps a 60 deg camera's image enough for a confident match. The scan keeps the heading whose
-/// match is most confident and most centred.
-class StartViewSearch {
- public:
-  /// Only an edge started at its beginning searches its start view.
-  void begin(double scan_deg, double scan_speed_radps, double max_offset, double min_confidence, double started_m) {
-    scan_rad_ = scan_deg * std::numbers::pi / 180.0;
-    scan_speed_radps_ = scan_speed_radps;
-    max_offset_ = max_offset;
-    min_confidence_ = min_confidence;
-    phase_ = scan_rad_ > 0.0 && started_m < 0.3 ? Phase::probe : Phase::driving;
-    probe_frames_ = 0;
-    probe_confidence_sum_ = 0.0;
-    probe_offset_sum_ = 0.0;
-    best_confidence_ = -1.0;
-    best_score_ = -1.0;
-  }
-  [[nodiscard]] bool searching() const { return phase_ != Phase::driving; }
-  [[nodiscard]] bool probing() const { return phase_ == Phase::probe; }
-
-  /// One frame: the turn command while searching, nullopt once driving. `informative`: the map
-  /// holds something to see at the start (where it does not, e.g. open grass, there is no view to
-  /// search for). `offset_fraction`: |offset| of the match over the image width.
-  std::optional<Twist> update(double heading, double confidence, double offset_fraction, bool informative,
-                              Logger& logger, const std::string& who, const std::string& edge_id) {
-    if (phase_ == Phase::probe && !informative) phase_ = Phase::driving;
-    auto turn = [](double w) { return std::optional<Twist>(Twist{0.0, w}); };
-    auto unwrap = [&]() {
-      scan_turned_rad_ += wrap_angle_rad(heading - scan_last_rad_);
-      scan_last_rad_ = heading;
-    };
-    auto track = [&]() {
-      unwrap();
-      const double score = confidence * std::max(0.0, 1.0 - 2.0 * offset_fraction);
-      if (score > best_score_) {
-        best_score_ = score;
-        best_confidence_ = confidence;
-        best_turn_rad_ = scan_turned_rad_;
-      }
-    };
-    switch (phase_) {
-      case Phase::probe: {
-        // Three frames standing at the start: is the taught start view there?
-        probe_confidence_sum_ += confidence;
-        probe_offset_sum_ += confidence > 0.0 ? offset_fraction : 1.0;
-        if (++probe_frames_ < 3) return turn(0.0);
-        const double mean_confidence = probe_confidence_sum_ / probe_frames_;
-        const double mean_offset = probe_offset_sum_ / probe_frames_;
-        if (mean_confidence >= min_confidence_ && mean_offset <= max_offset_) {
-          phase_ = Phase::driving;
-          return std::nullopt;
-        }
-        logger.warn(who, "edge " + edge_id + ": start view not seen ahead (confidence " + format_double(mean_confidence) +
-                             ", offset " + format_double(mean_offset) + " of the width); searching by turning");
-        phase_ = Phase::scan_left;
-        scan_last_rad_ = heading;
-        scan_turned_rad_ = 0.0;
-        best_confidence_ = -1.0;
-        best_score_ = -1.0;
-        track();
-        return turn(scan_speed_radps_);
-      }
-      case Phase::scan_left:
-        track();
-        if (scan_turned_rad_ < scan_rad_) return turn(scan_speed_radps_);
-        phase_ = Phase::scan_right;
-        return turn(-scan_speed_radps_);
-      case Phase::scan_right:
-        track();
-        if (scan_turned_rad_ > -scan_rad_) return turn(-scan_speed_radps_);
-        if (best_confidence_ < min_confidence_) {
-          // Nothing matched anywhere: start on the odometric heading and leave it to the lost
-          // policy (a stretch that was hard to see when taught may still be driven on odometry).
-          logger.warn(who, "edge " + edge_id + ": start view not found within +-" + format_double(scan_rad_ * 180.0 / std::numbers::pi) +
-                               " deg; starting on the odometric heading");
-          best_turn_rad_ = 0.0;
-        }
-        phase_ = Phase::turn_to_best;
-        return turn(scan_speed_radps_);
-      case Phase::turn_to_best: {
-        unwrap();
-        const double left = best_turn_rad_ - scan_turned_rad_;
-        if (std::abs(left) > 0.03) return turn(std::copysign(std::min(scan_speed_radps_, 0.2 + std::abs(left)), left));
-        if (best_confidence_ >= min_confidence_)
-          logger.info(who, "edge " + edge_id + ": start view found " + format_double(scan_turned_rad_ * 180.0 / std::numbers::pi) +
-                               " deg from the odometric heading (confidence " + format_double(best_confidence_) + ")");
-        phase_ = Phase::driving;
-        return std::nullopt;
-      }
-      case Phase::driving: break;
-    }
-    return std::nullopt;
-  }
-
- private:
-  enum class Phase : std::uint8_t { probe, scan_left, scan_right, turn_to_best, driving };
-  Phase phase_ = Phase::driving;
-  double scan_rad_ = 0.0;
-  double scan_speed_radps_ = 0.4;
-  double min_confidence_ = 0.2;     // the lost policy's
-  double scan_last_rad_ = 0.0;      // previous heading (unwrapping)
-  double scan_turned_rad_ = 0.0;    // unwrapped turn since the scan started
-  double best_turn_rad_ = 0.0;
-  double best_confidence_ = -1.0;
-  double best_score_ = -1.0;        // confidence weighted by how centred the view is
-  double max_offset_ = 0.15;        // probe: mean |offset| / width at most this
-  int probe_frames_ = 0;
-  double probe_confidence_sum_ = 0.0;
-  double probe_offset_sum_ = 0.0;   // sum of |offset| / width (1 for a frame without a match)
 };
 
 /// Replays a feature edge of either style against each of its appearance experiences (the taught
@@ -414,8 +299,13 @@ class FeatureReplayer final : public EdgeReplayer {
         localmap_teacher_->begin();
       }
     }
-    search_.begin(params_.scan_deg, params_.scan_speed_radps, params_.start_max_offset, start.policy.min_confidence,
-                  start.odometry.distance_m - start.origin_m);
+    StartViewSearchParams search;
+    search.scan_rad = params_.scan_deg * std::numbers::pi / 180.0;
+    search.scan_speed_radps = params_.scan_speed_radps;
+    search.max_offset = params_.start_max_offset;
+    search.min_confidence = start.policy.min_confidence;
+    search.max_heading_deviation_rad = heading_check() ? start.policy.max_heading_deviation_rad : 0.0;
+    search_.begin(search, start.odometry.distance_m - start.origin_m);
     return ok();
   }
 

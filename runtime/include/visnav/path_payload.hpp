@@ -182,4 +182,55 @@ inline Result<cv::Mat> make_thumbnail(const cv::Mat& image, int width_px, int he
   return out;
 }
 
+/// The thumbnail comparison relocalisation and the path replay's along-track estimate share:
+/// each pixel minus its 5x5 neighbourhood mean over the neighbourhood's standard deviation (plus
+/// 2 grey levels, so flat sky does not amplify noise); CV_32FC1 of the thumbnail's size. Local
+/// normalisation makes the comparison indifferent to exposure and to slow shading changes.
+[[nodiscard]] inline cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8) {
+  cv::Mat f, mean, mean_sq;
+  thumbnail_u8.convertTo(f, CV_32F);
+  cv::blur(f, mean, cv::Size(5, 5), cv::Point(-1, -1), cv::BORDER_REFLECT);
+  cv::blur(f.mul(f), mean_sq, cv::Size(5, 5), cv::Point(-1, -1), cv::BORDER_REFLECT);
+  cv::Mat var = mean_sq - mean.mul(mean);
+  cv::max(var, 0.0, var);
+  cv::Mat sd;
+  cv::sqrt(var, sd);
+  return (f - mean) / (sd + 2.0f);
+}
+
+/// Zero-mean normalised cross-correlation of two normalised thumbnails of one size, the live one
+/// shifted by shift_px columns (live column x + shift_px shows what reference column x showed),
+/// over their overlap; -1 when the overlap is under half the width, the sizes differ or either is flat.
+[[nodiscard]] inline double thumbnail_ncc(const cv::Mat& live, const cv::Mat& reference, int shift_px) {
+  const int w = live.cols;
+  const int overlap = w - std::abs(shift_px);
+  if (2 * overlap < w || reference.size() != live.size() || live.type() != CV_32FC1 || reference.type() != CV_32FC1)
+    return -1.0;
+  const int ref0 = shift_px >= 0 ? 0 : -shift_px;
+  const int live0 = shift_px >= 0 ? shift_px : 0;
+  double sa = 0.0, sb = 0.0, saa = 0.0, sbb = 0.0, sab = 0.0;
+  for (int y = 0; y < live.rows; ++y) {
+    const float* a = live.ptr<float>(y) + live0;
+    const float* b = reference.ptr<float>(y) + ref0;
+    float ra = 0.f, rb = 0.f, raa = 0.f, rbb = 0.f, rab = 0.f;  // a row in float, the sum in double
+    for (int x = 0; x < overlap; ++x) {
+      ra += a[x];
+      rb += b[x];
+      raa += a[x] * a[x];
+      rbb += b[x] * b[x];
+      rab += a[x] * b[x];
+    }
+    sa += ra;
+    sb += rb;
+    saa += raa;
+    sbb += rbb;
+    sab += rab;
+  }
+  const double n = static_cast<double>(overlap) * live.rows;
+  const double va = saa - sa * sa / n;
+  const double vb = sbb - sb * sb / n;
+  if (va <= 1e-9 || vb <= 1e-9) return -1.0;  // a flat thumbnail correlates with nothing
+  return (sab - sa * sb / n) / std::sqrt(va * vb);
+}
+
 }  // namespace visnav::path_payload

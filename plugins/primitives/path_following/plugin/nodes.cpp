@@ -1,6 +1,7 @@
 #include "nodes.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -9,6 +10,7 @@
 #include "visnav/map.hpp"
 #include "visnav/path_payload.hpp"
 #include "visnav/primitive.hpp"
+#include "visnav/path_following/along_track.hpp"
 #include "visnav/path_following/path_follower.hpp"
 #include "visnav/path_following/path_loss_monitor.hpp"
 
@@ -55,16 +57,26 @@ PathFollowerParams tuned_follower() {
 
 struct FollowPathParams {
   PathFollowerParams follower = tuned_follower();
+  AlongTrackParams along;  ///< the edge's end from its taught thumbnails (along_track.hpp)
   double junction_clear_m = 2.0;     ///< junction mode for this long after the start node
   double junction_approach_m = 0.0;  ///< and this long before the end node; 0 = off
 
   [[nodiscard]] Status validate() const {
     VISNAV_TRY(schema().check(*this));
+    VISNAV_TRY(along.validate());
     return follower.validate();
   }
   static const ParamSchema<FollowPathParams>& schema() {
     static const auto s = ParamSchema<FollowPathParams>{}
                               .include(&FollowPathParams::follower, PathFollowerParams::schema(), kFollowerPorts)
+                              .include(&FollowPathParams::along, AlongTrackParams::schema(),
+                                       {{"along_gain", "along_gain"},
+                                        {"along_window_m", "along_window_m"},
+                                        {"along_max_shift_px", "along_max_shift_px"},
+                                        {"along_min_ncc", "along_min_ncc"},
+                                        {"along_min_contrast", "along_min_contrast"},
+                                        {"along_gate_m", "along_gate_m"},
+                                        {"along_max_shift_m", "along_max_shift_m"}})
                               .field("junction_clear_m", &FollowPathParams::junction_clear_m,
                                      "junction mode for this long after the start node (see path_follower.hpp), m")
                               .range(0.0, 1000.0)
@@ -85,7 +97,11 @@ class PathReplayer final : public EdgeReplayer {
   explicit PathReplayer(const Params& params) : params_(params), monitor_(params.follower.grace_s) {}
 
   Status begin(const ReplayStart& start) override {
+    VISNAV_ASSIGN(path_payload::PathPayload payload, path_payload::PathPayload::decode(start.payload));
     VISNAV_ASSIGN(std::vector<ColourModel> models, decode_models(start.payload));
+    along_.emplace(params_.along, payload.thumbnails);
+    logger_ = &start.logger;
+    node_path_ = std::string(start.node_path);
     VISNAV_ASSIGN(PathFollower made, PathFollower::create(params_.follower));
     follower_.emplace(std::move(made));
     follower_->set_taught_models(models);  // the gate (inactive when taught_gate_distance = 0)
@@ -97,12 +113,20 @@ class PathReplayer final : public EdgeReplayer {
 
   ReplayStep step(const ReplayInput& in) override {
     ReplayStep out;
-    out.distance_m = in.edge_distance_m;
+    // Where along the taught edge the robot is: odometry, corrected by the taught thumbnails.
+    if (along_->active() && in.frame_problem == nullptr) along_->update(in.frame.image, in.edge_distance_m);
+    const double taught_m = in.edge_distance_m + along_->shift_m();
+    out.distance_m = taught_m;
     out.offset_px = offset_px_;
-    if (in.edge_distance_m >= length_m_) {
+    if (taught_m >= length_m_) {
       out.finished = true;
-      out.informative = false;  // the end is odometric; this frame is not looked at
+      out.informative = false;  // the end is decided by distance; this frame is not steered on
       out.status = "edge done";
+      if (along_->active() && logger_ != nullptr)
+        logger_->info(node_path_, "edge " + edge_id_ + ": ended at " + format_m(in.edge_distance_m) + " m of odometry (" +
+                                      format_m(length_m_) + " m taught; along-track correction " +
+                                      format_m(along_->shift_m()) + " m from " + std::to_string(along_->accepted()) +
+                                      " of " + std::to_string(along_->accepted() + along_->rejected()) + " frames)");
       return out;
     }
     follower_->set_junction_mode(in.edge_distance_m < params_.junction_clear_m ||
@@ -140,8 +164,17 @@ class PathReplayer final : public EdgeReplayer {
   }
 
  private:
+  static std::string format_m(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f", v);
+    return buf;
+  }
+
   NavOverlay overlay_;
   Params params_;
+  std::optional<AlongTrackEstimator> along_;
+  Logger* logger_ = nullptr;
+  std::string node_path_;
   std::optional<PathFollower> follower_;
   PathEstimate estimate_;
   PathLossMonitor monitor_;

@@ -16,6 +16,7 @@
 #include <sstream>
 #include <thread>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -1002,10 +1003,18 @@ Result<std::vector<ExperimentRun>> run_experiment(const ExperimentOptions& o) {
   };
   const int threads =
       std::clamp(o.jobs > 0 ? o.jobs : static_cast<int>(std::thread::hardware_concurrency()), 1, static_cast<int>(jobs.size()));
+  // Same seed, same result: OpenCV splits some operations over its own threads, and how it splits
+  // them (which changes the order of floating-point sums) depends on how many of its threads are
+  // free, i.e. on the runs beside this one. Measured: seed 5 alone and seed 5 beside four others
+  // parted after 636 s of replay by 1e-5 rad of heading and ended 18 m apart (a collision in one,
+  // all loops in the other). Runs are the parallelism here; OpenCV's is off while they run.
+  const int opencv_threads = cv::getNumThreads();
+  cv::setNumThreads(1);
   std::vector<std::thread> pool;
   for (int k = 1; k < threads; ++k) pool.emplace_back(worker);
   worker();
   for (auto& th : pool) th.join();
+  cv::setNumThreads(opencv_threads);
   progress.end();
 
   // --- report

@@ -452,7 +452,13 @@ int PathFollower::extract_region(int segments, int used_models, const cv::Mat& l
     for (int x = 0; x < width; ++x) dst[x] = segment_is_path_[static_cast<std::size_t>(lab[x])] != 0 ? 255 : 0;
   }
   cv::Mat opened = opened_.rowRange(0, ground_rows);
-  if (!opening_kernel_.empty()) cv::morphologyEx(classified, opened, cv::MORPH_OPEN, opening_kernel_);
+  // BORDER_ISOLATED: `classified` is a view of the top rows of a larger buffer, and without it
+  // OpenCV's filters read the rows below the view as if they were image (left over from earlier
+  // frames, or never written): the opening's last rows, and through them the region, then
+  // depended on heap contents, and the same seed drove differently beside other runs.
+  if (!opening_kernel_.empty())
+    cv::morphologyEx(classified, opened, cv::MORPH_OPEN, opening_kernel_, cv::Point(-1, -1), 1,
+                     cv::BORDER_CONSTANT | cv::BORDER_ISOLATED, cv::morphologyDefaultBorderValue());
   else classified.copyTo(opened);
 
   cv::Mat components = components_.rowRange(0, ground_rows);
@@ -597,7 +603,9 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   cv::Mat labels = labels_.rowRange(0, ground_rows);
   if (params_.seg_scale < 1.0) {
     const int small_rows = std::clamp(static_cast<int>(std::lround(ground_rows * params_.seg_scale)), 1, small_.rows);
-    cv::Mat small = small_.rowRange(0, small_rows);
+    // A header of its own (no parent extent): the segmenter smooths its input, and OpenCV's
+    // filters read a view's parent rows beyond the view as image (see extract_region).
+    cv::Mat small(small_rows, small_.cols, small_.type(), small_.data, small_.step);
     cv::Mat small_labels = small_labels_.rowRange(0, small_rows);
     cv::resize(blurred, small, small.size(), 0.0, 0.0, cv::INTER_AREA);
     segmenter_->processImage(small, small_labels);

@@ -16,7 +16,6 @@
 #include <sstream>
 #include <thread>
 
-#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -123,8 +122,7 @@ constexpr const char* kUsage =
     "  --loops N             replays of the closed route per run (default 5)\n"
     "  --seeds N             independent runs per map style (default 5)\n"
     "  --seed S              first seed (default 1): runs use S, S+1, ...; same seed, same result\n"
-    "  --jobs J              runs in parallel (default: the number of cores); results do not depend\n"
-    "                        on it: each run is single-threaded (OpenCV's threads are off meanwhile)\n"
+    "  --jobs J              runs in parallel (default: the number of cores); results do not depend on it\n"
     "  --radius M            a loop ending farther than M from the taught end failed (default 1.0)\n"
     "  --maps LIST           map styles, comma-separated: hybrid, feature, path (default hybrid,feature)\n"
     "  --ideal               every error model off: a noise-free regression run, not a result\n"
@@ -1004,18 +1002,10 @@ Result<std::vector<ExperimentRun>> run_experiment(const ExperimentOptions& o) {
   };
   const int threads =
       std::clamp(o.jobs > 0 ? o.jobs : static_cast<int>(std::thread::hardware_concurrency()), 1, static_cast<int>(jobs.size()));
-  // Same seed, same result: OpenCV splits some operations over its own threads, and how it splits
-  // them (which changes the order of floating-point sums) depends on how many of its threads are
-  // free, i.e. on the runs beside this one. Measured: seed 5 alone and seed 5 beside four others
-  // parted after 636 s of replay by 1e-5 rad of heading and ended 18 m apart (a collision in one,
-  // all loops in the other). Runs are the parallelism here; OpenCV's is off while they run.
-  const int opencv_threads = cv::getNumThreads();
-  cv::setNumThreads(1);
   std::vector<std::thread> pool;
   for (int k = 1; k < threads; ++k) pool.emplace_back(worker);
   worker();
   for (auto& th : pool) th.join();
-  cv::setNumThreads(opencv_threads);
   progress.end();
 
   // --- report

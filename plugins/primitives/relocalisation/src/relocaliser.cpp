@@ -80,6 +80,10 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .field("thumbnail_max_shift_deg", &P::thumbnail_max_shift_deg,
                  "heading offsets searched when comparing thumbnails, deg")
           .range(0.0, 90.0)
+          .field("thumbnail_coarse_candidates", &P::thumbnail_coarse_candidates,
+                 "thumbnail places kept by the half-resolution first pass for the full-resolution comparison "
+                 "(0 = compare every place at full resolution)")
+          .range(0, 100000)
           .field("max_along_uncertainty_m", &P::max_along_uncertainty_m,
                  "an answer less certain along the route than this (place spacing, spread of the votes) is "
                  "ambiguous, m (0 = no limit)")

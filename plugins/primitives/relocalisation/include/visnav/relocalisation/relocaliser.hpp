@@ -73,6 +73,9 @@ struct RelocaliseParams {
   double thumbnail_confident_ncc = 0.6;  ///< correlation of a fully confident thumbnail vote (confidence = ncc / this, <= 1)
   double thumbnail_vote_weight = 40.0;  ///< a thumbnail vote's score is confidence x this (a feature vote's is inliers x confidence)
   double thumbnail_max_shift_deg = 30.0;  ///< heading offsets searched when comparing thumbnails, deg
+  /// Two-pass thumbnail search: the places kept by the half-resolution pass for the full one
+  /// (PlaceIndex::query_thumbnails; 0 = one exhaustive pass).
+  int thumbnail_coarse_candidates = 32;
   /// A localised answer whose along-track uncertainty (RelocAnswer::along_uncertainty_m) exceeds
   /// this is answered ambiguous instead, m (0 = no limit).
   double max_along_uncertainty_m = 0.0;

@@ -49,6 +49,16 @@ PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const
     return out;
   };
   place_uncertainty_m_ = spacing(index_.places);
+  // visual_memory references: the gaps to the neighbouring references of the same edge (0 at an
+  // edge end), for the relocaliser's nearest-place cells.
+  place_gaps_m_.assign(index_.places.size(), {0.0, 0.0});
+  for (std::size_t i = 0; i < index_.places.size(); ++i) {
+    const PlaceRef& p = index_.places[i];
+    if (index_.edges[p.edge].kind != kMemoryKind) continue;
+    if (i > 0 && index_.places[i - 1].edge == p.edge) place_gaps_m_[i].first = p.distance_m - index_.places[i - 1].distance_m;
+    if (i + 1 < index_.places.size() && index_.places[i + 1].edge == p.edge)
+      place_gaps_m_[i].second = index_.places[i + 1].distance_m - p.distance_m;
+  }
   thumbnail_uncertainty_m_ = spacing(index_.thumbnail_places);
 }
 
@@ -103,7 +113,7 @@ Result<std::vector<PlaceVote>> PlaceVerifier::votes(const Features& current, dou
                                       image_width_px));
     if (!e.valid || e.confidence < min_confidence) continue;
     out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence,
-                            place_uncertainty_m_[c.place]});
+                            place_uncertainty_m_[c.place], place_gaps_m_[c.place].first, place_gaps_m_[c.place].second});
   }
   return out;
 }

@@ -76,6 +76,12 @@ struct RelocaliseParams {
   /// Two-pass thumbnail search: the places kept by the half-resolution pass for the full one
   /// (PlaceIndex::query_thumbnails; 0 = one exhaustive pass).
   int thumbnail_coarse_candidates = 32;
+  /// Places with known gaps (PlaceVote::gap_before_m / gap_after_m): the fraction of the answer's
+  /// frames whose cells must cover the answer, else it is ambiguous (the frames disagree where).
+  double min_cell_agreement = 0.8;
+  /// Places with known gaps (PlaceVote::gap_before_m / gap_after_m): an answer whose frames' cells
+  /// overlap over a stretch longer than twice this is ambiguous, m.
+  double max_cell_uncertainty_m = 1.0;
   /// A localised answer whose along-track uncertainty (RelocAnswer::along_uncertainty_m) exceeds
   /// this is answered ambiguous instead, m (0 = no limit).
   double max_along_uncertainty_m = 0.0;
@@ -105,6 +111,12 @@ struct PlaceVote {
   /// How far the truth may be from `distance_m` when this place is the nearest one: half the
   /// larger gap to the neighbouring places of its edge (0 = unknown). The verifier sets it.
   double along_uncertainty_m = 0.0;
+  /// Distances from this place to the previous and the next place of its edge, m (0 = not given).
+  /// Given (the verifier does for visual_memory references, as far apart as the teacher made
+  /// them), a frame's vote says "nearer this place than its neighbours" and the answer is where
+  /// most frames' cells overlap (see decide()); not given, the median of the frames' votes.
+  double gap_before_m = 0.0;
+  double gap_after_m = 0.0;
 };
 
 /// What one frame contributed.

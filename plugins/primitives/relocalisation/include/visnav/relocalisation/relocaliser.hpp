@@ -32,6 +32,12 @@
 //     confidence reaches min_answer_confidence (a weaker one waits for more frames and is
 //     answered ambiguous at max_frames: in the campus experiment the answers below 0.5 were
 //     wrong as often as right).
+// Where along the edge (localised): the median of the frames' best votes in the best hypothesis;
+// when those votes carry the gaps to their neighbouring places (visual_memory references), the
+// middle of the stretch covered by most of the frames' nearest-place cells (from half the gap
+// behind the place to three quarters of the gap ahead, moved to the newest frame), and then
+// ambiguous also when fewer than min_cell_agreement of the frames' cells cover it or it is
+// longer than +-max_cell_uncertainty_m.
 // Never from one frame: `frames` >= 3.
 //
 // Held (hold(true), while the robot still has to creep forward): only the answers that must stop

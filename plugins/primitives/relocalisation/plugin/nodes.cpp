@@ -68,6 +68,9 @@ struct RelocaliseNodeParams {
                       {"thumbnail_confident_ncc", "thumbnail_confident_ncc"},
                       {"thumbnail_vote_weight", "thumbnail_vote_weight"},
                       {"thumbnail_max_shift_deg", "thumbnail_max_shift_deg"},
+                      {"thumbnail_coarse_candidates", "thumbnail_coarse_candidates"},
+                      {"min_cell_agreement", "min_cell_agreement"},
+                      {"max_cell_uncertainty_m", "max_cell_uncertainty_m"},
                       {"max_along_uncertainty_m", "max_along_uncertainty_m"}})
             .field("look_around_deg", &P::look_around_deg,
                    "turn in place this far left, then right, then back while taking frames (0 = stand still), deg")

@@ -199,21 +199,69 @@ bool PlaceIndex::covers(std::uint32_t edge) const {
   return false;
 }
 
-void PlaceIndex::query_thumbnails(const cv::Mat& live, int max_shift_px, int k, double min_ncc,
-                                  std::vector<ThumbnailHit>& out) const {
+cv::Mat coarse_thumbnail(const cv::Mat& thumbnail_u8) {
+  cv::Mat half;
+  cv::resize(thumbnail_u8, half, cv::Size(std::max(1, thumbnail_u8.cols / 2), std::max(1, thumbnail_u8.rows / 2)), 0, 0,
+             cv::INTER_AREA);
+  return normalise_thumbnail(half);
+}
+
+void PlaceIndex::prepare_thumbnails() {
+  normalised.clear();
+  coarse.clear();
+  normalised.reserve(thumbnails.size());
+  coarse.reserve(thumbnails.size());
+  for (const cv::Mat& t : thumbnails) {
+    normalised.push_back(normalise_thumbnail(t));
+    coarse.push_back(coarse_thumbnail(t));
+  }
+}
+
+void PlaceIndex::query_thumbnails(const cv::Mat& live_u8, int max_shift_px, int k, double min_ncc,
+                                  std::vector<ThumbnailHit>& out, int coarse_candidates) const {
   out.clear();
-  if (k <= 0 || live.empty() || live.cols != thumbnail_width_px || live.rows != thumbnail_height_px) return;
-  for (std::size_t p = 0; p < normalised.size(); ++p) {
-    ThumbnailHit best{static_cast<std::uint32_t>(p), -1.0, 0};
-    for (int s = -max_shift_px; s <= max_shift_px; ++s) {
-      const double c = thumbnail_ncc(live, normalised[p], s);
-      if (c > best.ncc) best = {static_cast<std::uint32_t>(p), c, s};
+  if (k <= 0 || live_u8.empty() || live_u8.cols != thumbnail_width_px || live_u8.rows != thumbnail_height_px) return;
+  const cv::Mat live = normalise_thumbnail(live_u8);
+  auto best_shift = [](const cv::Mat& a, const cv::Mat& b, int from, int to, std::uint32_t p) {
+    ThumbnailHit best{p, -1.0, 0};
+    for (int s = from; s <= to; ++s) {
+      const double c = thumbnail_ncc(a, b, s);
+      if (c > best.ncc) best = {p, c, s};
     }
-    if (best.ncc >= min_ncc) out.push_back(best);
+    return best;
+  };
+  const bool two_pass = coarse_candidates > 0 && normalised.size() > static_cast<std::size_t>(coarse_candidates) &&
+                        coarse.size() == normalised.size();
+  if (!two_pass) {
+    for (std::size_t p = 0; p < normalised.size(); ++p) {
+      ThumbnailHit best = best_shift(live, normalised[p], -max_shift_px, max_shift_px, static_cast<std::uint32_t>(p));
+      if (best.ncc >= min_ncc) out.push_back(best);
+    }
+  } else {
+    // Coarse pass at half resolution (a quarter of the pixels, half the shifts): every place at
+    // its best coarse shift; then the coarse_candidates best are searched at full resolution
+    // within +-2 px of twice their coarse shift (the coarse peak is 2 px wide at full scale).
+    const cv::Mat live_coarse = coarse_thumbnail(live_u8);
+    const int coarse_shift = (max_shift_px + 1) / 2;
+    std::vector<ThumbnailHit> rough(normalised.size());
+    for (std::size_t p = 0; p < coarse.size(); ++p)
+      rough[p] = best_shift(live_coarse, coarse[p], -coarse_shift, coarse_shift, static_cast<std::uint32_t>(p));
+    const auto keep = static_cast<std::ptrdiff_t>(coarse_candidates);
+    std::partial_sort(rough.begin(), rough.begin() + keep, rough.end(),
+                      [](const ThumbnailHit& a, const ThumbnailHit& b) { return a.ncc > b.ncc; });
+    for (std::ptrdiff_t i = 0; i < keep; ++i) {
+      const ThumbnailHit& r = rough[static_cast<std::size_t>(i)];
+      const int from = std::max(-max_shift_px, 2 * r.shift_px - 2);
+      const int to = std::min(max_shift_px, 2 * r.shift_px + 2);
+      ThumbnailHit best = best_shift(live, normalised[r.place], from, to, r.place);
+      if (best.ncc >= min_ncc) out.push_back(best);
+    }
   }
   const auto keep = std::min<std::size_t>(static_cast<std::size_t>(k), out.size());
   std::partial_sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(keep), out.end(),
-                    [](const ThumbnailHit& a, const ThumbnailHit& b) { return a.ncc > b.ncc; });
+                    [](const ThumbnailHit& a, const ThumbnailHit& b) {
+                      return a.ncc != b.ncc ? a.ncc > b.ncc : a.place < b.place;
+                    });
   out.resize(keep);
 }
 
@@ -369,10 +417,10 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
     index.thumbnail_places.push_back({*e, *d});
     cv::Mat t(*th, *tw, CV_8UC1);
     std::memcpy(t.data, px->data(), px->size());
-    index.normalised.push_back(normalise_thumbnail(t));
     index.thumbnails.push_back(std::move(t));
   }
   if (!r.at_end()) return bad("trailing bytes");
+  index.prepare_thumbnails();
   return index;
 }
 
@@ -562,7 +610,6 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
                                                  std::to_string(index.thumbnail_height_px));
       for (auto& t : payload->thumbnails) {
         index.thumbnail_places.push_back({static_cast<std::uint32_t>(ei), static_cast<float>(t.distance_m)});
-        index.normalised.push_back(normalise_thumbnail(t.image));
         index.thumbnails.push_back(std::move(t.image));
       }
       continue;
@@ -605,6 +652,7 @@ Result<PlaceIndex> build_place_index(const MapStore& map, const PlaceIndexParams
   const bool has_memory = std::any_of(index.edges.begin(), index.edges.end(),
                                       [](const IndexedEdge& e) { return e.kind == kMemoryKind; });
   if (has_memory) index.detector = detector_type.empty() ? "the run's detector" : detector_type;
+  index.prepare_thumbnails();
   return index;
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <optional>
 #include <utility>
 
 namespace visnav::reloc {
@@ -20,6 +21,45 @@ std::string fmt(double v, int digits = 2) {
   char buf[48];
   std::snprintf(buf, sizeof buf, "%.*f", digits, v);
   return buf;
+}
+
+/// The nearest-place cell of a vote whose neighbours are known: this fraction of the gap to the
+/// previous place behind it, of the gap to the next one ahead.
+constexpr double kCellBehind = 0.5;
+constexpr double kCellAhead = 0.75;
+
+/// The stretch covered by the most intervals: [lo_m, hi_m], how many cover it.
+struct Overlap {
+  double lo_m = 0.0;
+  double hi_m = 0.0;
+  int depth = 0;
+};
+
+/// The deepest stretch of `intervals` (of equally deep ones, the one whose middle is nearest
+/// `near`); nullopt when no interval has a positive length.
+std::optional<Overlap> deepest_overlap(const std::vector<std::pair<double, double>>& intervals, double near) {
+  std::vector<std::pair<double, int>> events;
+  for (const auto& [lo, hi] : intervals)
+    if (hi > lo) {
+      events.emplace_back(lo, +1);
+      events.emplace_back(hi, -1);
+    }
+  if (events.empty()) return std::nullopt;
+  // Ends before starts at one position: touching cells do not overlap.
+  std::sort(events.begin(), events.end(),
+            [](const auto& a, const auto& b) { return a.first != b.first ? a.first < b.first : a.second < b.second; });
+  int depth = 0;
+  std::optional<Overlap> best;
+  for (std::size_t i = 0; i + 1 < events.size(); ++i) {
+    depth += events[i].second;
+    const double lo = events[i].first, hi = events[i + 1].first;
+    if (depth <= 0 || !(hi > lo)) continue;
+    const double mid = 0.5 * (lo + hi);
+    if (!best || depth > best->depth ||
+        (depth == best->depth && std::abs(mid - near) < std::abs(0.5 * (best->lo_m + best->hi_m) - near)))
+      best = Overlap{lo, hi, depth};
+  }
+  return best;
 }
 
 }  // namespace
@@ -80,6 +120,18 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
           .field("thumbnail_max_shift_deg", &P::thumbnail_max_shift_deg,
                  "heading offsets searched when comparing thumbnails, deg")
           .range(0.0, 90.0)
+          .field("thumbnail_coarse_candidates", &P::thumbnail_coarse_candidates,
+                 "thumbnail places kept by the half-resolution first pass for the full-resolution comparison "
+                 "(0 = compare every place at full resolution)")
+          .range(0, 100000)
+          .field("min_cell_agreement", &P::min_cell_agreement,
+                 "places with known gaps (visual_memory references): fraction of the answer's frames whose "
+                 "nearest-place cells must overlap where it is, else ambiguous")
+          .range(0.0, 1.0)
+          .field("max_cell_uncertainty_m", &P::max_cell_uncertainty_m,
+                 "places with known gaps (visual_memory references): an answer the frames' nearest-place cells "
+                 "place only within more than +- this is ambiguous, m")
+          .range(0.05, 1000.0)
           .field("max_along_uncertainty_m", &P::max_along_uncertainty_m,
                  "an answer less certain along the route than this (place spacing, spread of the votes) is "
                  "ambiguous, m (0 = no limit)")
@@ -152,6 +204,8 @@ RelocAnswer Relocaliser::decide() const {
     double score;
     int frame;
     double along_uncertainty_m;
+    double gap_before_m;
+    double gap_after_m;
   };
   std::vector<Moved> votes;
   int frame_index = 0;
@@ -165,7 +219,8 @@ RelocAnswer Relocaliser::decide() const {
         // then and now (a robot creeping 30 deg off the taught heading advances 0.87 m per metre).
         const double along_m = moved_m * std::cos(v.heading_offset_rad + 0.5 * turned_rad);
         votes.push_back({v.edge, v.distance_m + along_m, wrap(v.heading_offset_rad + turned_rad), v.confidence,
-                         v.score > 0.0 ? v.score : v.confidence, frame_index, v.along_uncertainty_m});
+                         v.score > 0.0 ? v.score : v.confidence, frame_index, v.along_uncertainty_m, v.gap_before_m,
+                         v.gap_after_m});
       }
     ++frame_index;
   }
@@ -188,6 +243,7 @@ RelocAnswer Relocaliser::decide() const {
     std::vector<double> confidence;  // per usable frame: best vote confidence
     std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
     std::vector<double> peak_uncertainty_m;  // per usable frame: its best vote's along_uncertainty_m
+    std::vector<std::pair<double, double>> peak_gaps_m;  // per usable frame: its best vote's gaps
     double score = 0.0;
     int support = 0;
   };
@@ -205,7 +261,8 @@ RelocAnswer Relocaliser::decide() const {
     if (into == nullptr) {
       const auto n = static_cast<std::size_t>(usable);
       hyps.push_back(Hypothesis{v.edge, v.distance_m, 0.0, 0.0, 0.0, 0.0, std::vector<double>(n, 0.0),
-                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)});
+                                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0),
+                                std::vector<std::pair<double, double>>(n, {0.0, 0.0})});
       into = &hyps.back();
       into_delta = 0.0;
     }
@@ -221,6 +278,7 @@ RelocAnswer Relocaliser::decide() const {
     if (v.score > b) {
       into->peak_m[static_cast<std::size_t>(v.frame)] = on_edge_m;
       into->peak_uncertainty_m[static_cast<std::size_t>(v.frame)] = v.along_uncertainty_m;
+      into->peak_gaps_m[static_cast<std::size_t>(v.frame)] = {v.gap_before_m, v.gap_after_m};
     }
     b = std::max(b, v.score);
     auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
@@ -302,21 +360,58 @@ RelocAnswer Relocaliser::decide() const {
   // Along the edge: the median of the frames' best votes (the centre of all votes within the
   // tolerance leans towards the side with more, weaker neighbours).
   std::vector<double> peaks, spacing;
+  std::vector<std::pair<double, double>> cells;  // per frame: the nearest-place cell of its best vote
+  bool all_cells = true;
   for (std::size_t i = 0; i < best.best.size(); ++i)
     if (best.best[i] > 0.0) {
       peaks.push_back(best.peak_m[i]);
       spacing.push_back(best.peak_uncertainty_m[i]);
+      auto [before_m, after_m] = best.peak_gaps_m[i];
+      if (before_m <= 0.0) before_m = after_m;  // the first or last place of its edge
+      if (after_m <= 0.0) after_m = before_m;
+      if (before_m <= 0.0) all_cells = false;
+      cells.emplace_back(best.peak_m[i] - kCellBehind * before_m, best.peak_m[i] + kCellAhead * after_m);
     }
   auto median = [](std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
     return v[v.size() / 2];
   };
-  const double centre_m = peaks.empty() ? best.centre_m : median(peaks);
+  double centre_m = peaks.empty() ? best.centre_m : median(peaks);
+  // Places far apart (visual_memory references): the median of the votes lands where the
+  // sequence's middle frame was, up to half the creep behind the robot, and off by up to half
+  // the gap between places. Each vote says the robot was then about nearest its place — its
+  // cell reaches kCellAhead of the gap forwards, further than kCellBehind backwards, because a
+  // forward camera's view is contained in the view of the reference behind it, which keeps
+  // winning past the midpoint (campus traces, docs/relocalisation.md). The answer is the middle
+  // of the stretch most of those cells (moved to the newest frame) cover, so it follows the
+  // frames where the best place changes.
+  std::optional<Overlap> overlap;
+  if (all_cells && !cells.empty()) overlap = deepest_overlap(cells, centre_m);
+  if (overlap) centre_m = 0.5 * (overlap->lo_m + overlap->hi_m);
   std::vector<double> deviation;
   for (double x : peaks) deviation.push_back(std::abs(x - centre_m));
-  const double uncertainty_m = std::max(median(spacing), 1.4826 * median(deviation));
+  // With cells: half the stretch they overlap on (the frames say no more); else the place
+  // spacing or the spread of the votes.
+  const double uncertainty_m = overlap ? 0.5 * (overlap->hi_m - overlap->lo_m)
+                                       : std::max(median(spacing), 1.4826 * median(deviation));
   answer.along_uncertainty_m = uncertainty_m;
+  if (overlap) {
+    const double agreeing = static_cast<double>(overlap->depth) / static_cast<double>(cells.size());
+    std::string why;
+    if (agreeing < params_.min_cell_agreement)
+      why = "the frames disagree where along it (their nearest-place cells overlap in " + std::to_string(overlap->depth) +
+            " of " + std::to_string(cells.size()) + " frames)";
+    else if (uncertainty_m > params_.max_cell_uncertainty_m)
+      why = "the frames place it only within +-" + fmt(uncertainty_m) + " m (> " + fmt(params_.max_cell_uncertainty_m) +
+            " m: no change of the nearest place seen between places far apart)";
+    if (!why.empty()) {
+      if (!final_frame) return answer;
+      answer.status = RelocStatus::ambiguous;
+      answer.reason = "ambiguous: the best place, " + place_name(best) + ", but " + why;
+      return answer;
+    }
+  }
   if (params_.max_along_uncertainty_m > 0.0 && uncertainty_m > params_.max_along_uncertainty_m) {
     if (!final_frame) return answer;
     answer.status = RelocStatus::ambiguous;

@@ -49,6 +49,16 @@ PlaceVerifier::PlaceVerifier(const PlaceIndex& index, const MapStore& map, const
     return out;
   };
   place_uncertainty_m_ = spacing(index_.places);
+  // visual_memory references: the gaps to the neighbouring references of the same edge (0 at an
+  // edge end), for the relocaliser's nearest-place cells.
+  place_gaps_m_.assign(index_.places.size(), {0.0, 0.0});
+  for (std::size_t i = 0; i < index_.places.size(); ++i) {
+    const PlaceRef& p = index_.places[i];
+    if (index_.edges[p.edge].kind != kMemoryKind) continue;
+    if (i > 0 && index_.places[i - 1].edge == p.edge) place_gaps_m_[i].first = p.distance_m - index_.places[i - 1].distance_m;
+    if (i + 1 < index_.places.size() && index_.places[i + 1].edge == p.edge)
+      place_gaps_m_[i].second = index_.places[i + 1].distance_m - p.distance_m;
+  }
   thumbnail_uncertainty_m_ = spacing(index_.thumbnail_places);
 }
 
@@ -58,10 +68,10 @@ Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& ima
   if (index_.thumbnail_places.empty() || params.thumbnail_candidates <= 0) return out;
   VISNAV_ASSIGN(cv::Mat thumb,
                 path_payload::make_thumbnail(image, index_.thumbnail_width_px, index_.thumbnail_height_px));
-  const cv::Mat live = normalise_thumbnail(thumb);
   const double px_per_deg = index_.thumbnail_width_px / horizontal_fov_deg_;
   const int max_shift = static_cast<int>(std::lround(params.thumbnail_max_shift_deg * px_per_deg));
-  index_.query_thumbnails(live, max_shift, params.thumbnail_candidates, params.min_thumbnail_ncc, thumbnail_hits_);
+  index_.query_thumbnails(thumb, max_shift, params.thumbnail_candidates, params.min_thumbnail_ncc, thumbnail_hits_,
+                          params.thumbnail_coarse_candidates);
   for (const ThumbnailHit& h : thumbnail_hits_) {
     const PlaceRef& ref = index_.thumbnail_places[h.place];
     // Live shifted right: the robot is turned left of the taught heading (CCW positive).
@@ -103,7 +113,7 @@ Result<std::vector<PlaceVote>> PlaceVerifier::votes(const Features& current, dou
                                       image_width_px));
     if (!e.valid || e.confidence < min_confidence) continue;
     out.push_back(PlaceVote{ref.edge, ref.distance_m, e.confidence, -e.heading_correction_rad, e.inliers * e.confidence,
-                            place_uncertainty_m_[c.place]});
+                            place_uncertainty_m_[c.place], place_gaps_m_[c.place].first, place_gaps_m_[c.place].second});
   }
   return out;
 }

@@ -129,6 +129,44 @@ TEST(Thumbnail, CorrelationFindsTheShiftAndIgnoresBrightness) {
   EXPECT_EQ(thumbnail_ncc(live, ref, 40), -1.0);
 }
 
+TEST(Thumbnail, TwoPassSearchFindsWhatTheExhaustiveOneFinds) {
+  PlaceIndex index;
+  index.edges.push_back({"p0", kPathKind, 60.0, 0});
+  index.thumbnail_width_px = path_payload::kThumbnailWidthPx;
+  index.thumbnail_height_px = path_payload::kThumbnailHeightPx;
+  constexpr int kPlaces = 120;
+  for (int k = 0; k < kPlaces; ++k) {
+    index.thumbnail_places.push_back({0, 0.5f * static_cast<float>(k)});
+    index.thumbnails.push_back(*path_payload::make_thumbnail(view(200 + k)));
+  }
+  index.prepare_thumbnails();
+  ASSERT_EQ(index.coarse.size(), static_cast<std::size_t>(kPlaces));
+  EXPECT_EQ(index.coarse[0].size(), cv::Size(index.thumbnail_width_px / 2, index.thumbnail_height_px / 2));
+  std::vector<ThumbnailHit> exhaustive, two_pass;
+  // Odd and even shifts (the coarse pass sees every other one), both signs, a darker view.
+  const std::vector<std::pair<int, double>> cases = {{7, 15.0}, {33, -25.0}, {64, 0.0}, {90, 35.0}, {118, -5.0}};
+  for (const auto& [place, dx_px] : cases) {
+    cv::Mat live;
+    shifted(view(200 + place), dx_px).convertTo(live, -1, 0.7, 12.0);
+    const cv::Mat thumb = *path_payload::make_thumbnail(live);
+    index.query_thumbnails(thumb, 32, 3, 0.4, exhaustive, 0);
+    index.query_thumbnails(thumb, 32, 3, 0.4, two_pass, 16);
+    ASSERT_FALSE(exhaustive.empty()) << place;
+    ASSERT_FALSE(two_pass.empty()) << place;
+    EXPECT_EQ(exhaustive[0].place, static_cast<std::uint32_t>(place));
+    EXPECT_EQ(two_pass[0].place, exhaustive[0].place);
+    EXPECT_EQ(two_pass[0].shift_px, exhaustive[0].shift_px);
+    EXPECT_DOUBLE_EQ(two_pass[0].ncc, exhaustive[0].ncc);
+    EXPECT_EQ(two_pass[0].shift_px, static_cast<int>(std::lround(dx_px / 5.0))) << place;
+  }
+  // As many coarse candidates as places: the exhaustive pass, the same hits.
+  const cv::Mat thumb = *path_payload::make_thumbnail(view(250));
+  index.query_thumbnails(thumb, 32, 3, 0.4, exhaustive, 0);
+  index.query_thumbnails(thumb, 32, 3, 0.4, two_pass, kPlaces);
+  ASSERT_EQ(two_pass.size(), exhaustive.size());
+  for (std::size_t i = 0; i < exhaustive.size(); ++i) EXPECT_EQ(two_pass[i].place, exhaustive[i].place);
+}
+
 class HybridMap : public ::testing::Test {
  protected:
   void SetUp() override {

@@ -71,19 +71,24 @@ std::unique_ptr<Session> make_session(const std::string& map_dir, const std::vec
 
 /// Teaches `route` (four legs of kind `kind` of a closed rectangle) into `map_dir` with
 /// trees/`teach_tree`.
+/// `route` with a '/' is a route file path; `edges` the edges the teach must leave; an empty
+/// `kind` keeps the route's own kinds; `closed` closes the loop at the start node.
 void teach(const std::string& map_dir, const std::string& world, const std::string& route,
-           const std::string& teach_tree = "teach_feature_edge.xml", const std::string& kind = "feature_segment") {
+           const std::string& teach_tree = "teach_feature_edge.xml", const std::string& kind = "feature_segment",
+           std::size_t edges = 4, bool closed = true) {
   auto session = make_session(map_dir, {"robot.params.world=" + world});
   ASSERT_NE(session, nullptr);
   auto tree = session->load_tree(kSource + "/trees/" + teach_tree);
   ASSERT_TRUE(tree.ok()) << tree.error().message;
-  tree->blackboard().set("route_file", kSource + "/config/routes/" + route + ".yaml");
+  tree->blackboard().set("route_file", route.find('/') != std::string::npos
+                                           ? route
+                                           : kSource + "/config/routes/" + route + ".yaml");
   tree->blackboard().set("style", std::string("segment"));
   tree->blackboard().set("force_kind", kind);
-  tree->blackboard().set("close_loop", true);
+  tree->blackboard().set("close_loop", closed);
   const RunReport report = run_tree(*session, *tree);
   ASSERT_EQ(report.outcome, RunOutcome::success) << report.reason;
-  ASSERT_EQ(session->map()->edges().size(), 4u);
+  ASSERT_EQ(session->map()->edges().size(), edges);
   std::printf("teach %s: %.1f s wall\n", world.c_str(), report.wall_time_s);
 }
 
@@ -154,6 +159,64 @@ TEST(RelocClosedLoopSim, ReplaysTheRestOfTheRouteFromTheMiddleOfAnEdge) {
               report.wall_time_s);
   EXPECT_LT(error_m, 0.8) << "the rest of the route is driven to the start node";
   EXPECT_FALSE(fs::exists(map_dir + "/progress.yaml")) << "a finished route leaves no checkpoint to resume";
+}
+
+TEST(RelocClosedLoopSim, RelocalisesOnAPathEdgeByItsThumbnailsAndReplaysTheRestOfIt) {
+  // straight15m's gravel path: a 4 m feature leg, then an 11 m path_following leg (thumbnails
+  // every 0.5 m, the only places of that edge). The robot starts 6.5 m into the path leg, 0.15 m to
+  // the side and turned 10 deg: replay_from_here.xml must place it on the path edge by the
+  // thumbnails (two-pass search) and follow the path to the end of the route.
+  TempFolder tmp;
+  const std::string map_dir = tmp.file("map");
+  const std::string route = tmp.file("straight_path.yaml");
+  std::ofstream(route) << R"(route:
+  name: straight_path
+  world: straight15m
+  start: [0, 0, 0]
+  closed: false
+  waypoints:
+    - {at: [0, 0], kind: feature}
+    - {at: [4, 0], kind: path}
+    - {at: [15, 0]}
+)";
+  teach(map_dir, "straight15m", route, "teach_hybrid_route.xml", "", 2, false);
+  if (HasFatalFailure()) return;
+  std::string path_edge, goal;
+  {
+    auto map = MapStore::open(map_dir);
+    ASSERT_TRUE(map.ok());
+    ASSERT_EQ(map->edges()[1].kind, "path_following");
+    path_edge = map->edges()[1].id;
+    goal = map->edges()[1].to;
+    auto index = reloc::load_place_index(map_dir);
+    ASSERT_TRUE(index.ok()) << index.error().message;
+    EXPECT_GE(index->thumbnail_places.size(), 20u) << "a thumbnail every 0.5 m of the 11 m path edge";
+  }
+  auto session = make_session(map_dir, {"robot.params.world=straight15m", "robot.params.start_pose=10.5;0.15;10"});
+  ASSERT_NE(session, nullptr);
+  auto tree = session->load_tree(kSource + "/trees/replay_from_here.xml");
+  ASSERT_TRUE(tree.ok()) << tree.error().message;
+  tree->blackboard().set("goal", goal);
+  SimulationControl* sim = session->robot().simulation();
+  Pose2D at_answer{};
+  tree->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+    if (node.registration_id() == "Relocalise" && to == bt::NodeStatus::success) at_answer = sim->ground_truth_pose();
+  });
+  RunOptions run;
+  run.after_tick = [](const TickInfo& t) { return t.t_s < 200.0; };
+  const RunReport report = run_tree(*session, *tree, run);
+  EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason << " / " << bb_string(*tree, "reloc_reason");
+  EXPECT_EQ(bb_string(*tree, "reloc_edge"), path_edge) << bb_string(*tree, "reloc_reason");
+  auto d = tree->blackboard().get<double>("reloc_distance_m");
+  ASSERT_TRUE(d.ok());
+  const double truth_m = (at_answer.x_m - 4.0) * 1.03;  // odometric metres along the path leg
+  EXPECT_NEAR(*d, truth_m, 1.0) << "along-track error within 1 m";
+  const Pose2D end = sim->ground_truth_pose();
+  const double error_m = std::hypot(end.x_m - 15.0, end.y_m);
+  std::printf("path edge: relocalised at %.2f m (truth ~%.2f m); replay ended at (%.2f, %.2f), %.2f m from the "
+              "route's end, %.0f s simulated, %.1f s wall\n",
+              *d, truth_m, end.x_m, end.y_m, error_m, report.run_time_s, report.wall_time_s);
+  EXPECT_LT(error_m, 1.0) << "the rest of the path edge is followed to the route's end";
 }
 
 TEST(RelocClosedLoopSim, ResumesAStoppedMissionFromItsCheckpointAfterRelocalising) {

@@ -245,3 +245,67 @@ TEST(Relocaliser, VotesMovedPastAnEdgesEndAreAnsweredOnTheNextEdge) {
   EXPECT_EQ(a.edge, 1u) << a.reason;
   EXPECT_NEAR(a.distance_m, 0.4, 0.15) << a.reason;  // median of 9.8 + (1.2 .. 0) past 10 m
 }
+
+TEST(Relocaliser, PlacesWithKnownGapsAreAnsweredWhereTheFramesCellsOverlap) {
+  // References 2 m apart on e1 (2.0, 4.0); the robot creeps from 2.6 m to 3.6 m. The frames up to
+  // 3.1 m see the reference behind (2.0) best, the later ones the one ahead (4.0). Moved to the
+  // newest frame, the votes are 2.5-3.0 m and 4.0-4.4 m: their median (3.0 m) is 0.6 m behind
+  // the robot. Each vote's cell ([2.0 - 1.0, 2.0 + 1.5], [4.0 - 1.0, 4.0 + 1.5] moved) overlaps in
+  // every frame only on 3.4-4.0 m.
+  RelocaliseParams p;
+  p.place_tolerance_m = 2.0;  // one hypothesis for both references
+  auto run = [&](double gap_m) {
+    Relocaliser r(p, loop());
+    for (int i = 0; i <= 10; ++i) {
+      const double odom_m = 0.1 * i;
+      const double place_m = 2.6 + odom_m < 3.15 ? 2.0 : 4.0;
+      PlaceVote v{1, place_m, 0.8, 0.0};
+      v.gap_before_m = gap_m;
+      v.gap_after_m = gap_m;
+      r.add(frame({v}, odom_m));
+    }
+    return r.decide();
+  };
+  const RelocAnswer cells = run(2.0);
+  ASSERT_EQ(cells.status, RelocStatus::localised) << cells.reason;
+  EXPECT_EQ(cells.edge, 1u);
+  EXPECT_NEAR(cells.distance_m, 3.7, 0.05);  // the truth is 3.6 m
+  EXPECT_NEAR(cells.along_uncertainty_m, 0.3, 0.05);  // half the stretch all cells cover
+  const RelocAnswer median = run(0.0);        // gaps not given: the median of the moved votes
+  ASSERT_EQ(median.status, RelocStatus::localised) << median.reason;
+  EXPECT_NEAR(median.distance_m, 3.0, 0.05);
+}
+
+TEST(Relocaliser, PlacesFarApartAreAmbiguousWhenTheFramesCannotSayWhereBetweenThem) {
+  // References 3 m apart (2.0, 5.0); the robot creeps 1 m and sees 2.0 best all the way: it was
+  // always within 2.0's cell [0.5, 4.25], so now anywhere on 1.5-4.25 m (+-1.4 m): refused.
+  RelocaliseParams p;
+  auto run = [&](auto place_of) {
+    Relocaliser r(p, loop());
+    for (int i = 0; i < 12; ++i) {  // max_frames: the refusal is final
+      const double odom_m = 0.09 * i;
+      PlaceVote v{1, place_of(i), 0.8, 0.0};
+      v.gap_before_m = 3.0;
+      v.gap_after_m = 3.0;
+      r.add(frame({v}, odom_m));
+    }
+    return r.decide();
+  };
+  const RelocAnswer wide = run([](int) { return 2.0; });
+  EXPECT_EQ(wide.status, RelocStatus::ambiguous) << wide.reason;
+  EXPECT_NE(wide.reason.find("within"), std::string::npos) << wide.reason;
+  // Standing still, frames alternating between two references 0.6 m apart (one hypothesis)
+  // whose cells (+-0.2 m) do not overlap: 6 of 12 frames agree where, below min_cell_agreement.
+  const RelocAnswer torn = [&] {
+    Relocaliser r(p, loop());
+    for (int i = 0; i < 12; ++i) {  // max_frames: the refusal is final
+      PlaceVote v{1, i % 2 == 0 ? 2.0 : 2.6, 0.8, 0.0};
+      v.gap_before_m = 0.4;
+      v.gap_after_m = 0.4;
+      r.add(frame({v}, 0.0));
+    }
+    return r.decide();
+  }();
+  EXPECT_EQ(torn.status, RelocStatus::ambiguous) << torn.reason;
+  EXPECT_NE(torn.reason.find("disagree"), std::string::npos) << torn.reason;
+}

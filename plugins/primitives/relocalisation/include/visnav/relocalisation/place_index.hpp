@@ -67,6 +67,10 @@ inline constexpr const char* kPathKind = "path_following";
 /// local contrast normalisation of SeqSLAM, so a darker or brighter view of the same place compares alike.
 [[nodiscard]] cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8);
 
+/// The coarse thumbnail of the two-pass search: `thumbnail_u8` at half its width and height
+/// (area average), then normalise_thumbnail.
+[[nodiscard]] cv::Mat coarse_thumbnail(const cv::Mat& thumbnail_u8);
+
 /// Zero-mean normalised cross-correlation of two normalised thumbnails of one size, `live`
 /// shifted right by `shift_px` columns against `reference` (compared over the overlap; at least
 /// half the width must overlap, else -1).
@@ -127,14 +131,22 @@ class PlaceIndex {
   int thumbnail_height_px = 0;
   std::vector<cv::Mat> thumbnails;    ///< per thumbnail place, CV_8UC1 as stored
   std::vector<cv::Mat> normalised;    ///< per thumbnail place, normalise_thumbnail (not stored)
+  std::vector<cv::Mat> coarse;        ///< per thumbnail place, coarse_thumbnail (not stored)
+
+  /// Fills `normalised` and `coarse` from `thumbnails` (deserialize and build_place_index do).
+  void prepare_thumbnails();
 
   /// True when `edge` (index into edges) has at least one place of either kind.
   [[nodiscard]] bool covers(std::uint32_t edge) const;
-  /// The thumbnail places most like `live` (a normalised thumbnail of the index's size), each at
-  /// its best shift within +-max_shift_px, best first, at most `k` with ncc >= min_ncc; one
-  /// brute-force pass over every thumbnail place and shift.
-  void query_thumbnails(const cv::Mat& live, int max_shift_px, int k, double min_ncc,
-                        std::vector<ThumbnailHit>& out) const;
+  /// The thumbnail places most like `live_u8` (a CV_8UC1 thumbnail of the index's size, e.g.
+  /// path_payload::make_thumbnail of a frame), each at its best shift within +-max_shift_px, best
+  /// first (ties by place), at most `k` with ncc >= min_ncc. `coarse_candidates` 0: one exhaustive
+  /// pass over every place and shift. > 0 (and fewer than the places): two passes — every place
+  /// compared at half resolution (coarse_thumbnail, shifts within +-max_shift_px / 2), then only
+  /// the coarse_candidates best compared at full resolution within +-2 px of their coarse shift
+  /// (about a sixth of the exhaustive cost plus the refinement). Needs prepare_thumbnails().
+  void query_thumbnails(const cv::Mat& live_u8, int max_shift_px, int k, double min_ncc,
+                        std::vector<ThumbnailHit>& out, int coarse_candidates = 0) const;
 
   /// 64-bit words per code.
   [[nodiscard]] int code_words() const { return params.vocabulary_words / 64; }

@@ -32,6 +32,12 @@
 //     confidence reaches min_answer_confidence (a weaker one waits for more frames and is
 //     answered ambiguous at max_frames: in the campus experiment the answers below 0.5 were
 //     wrong as often as right).
+// Where along the edge (localised): the median of the frames' best votes in the best hypothesis;
+// when those votes carry the gaps to their neighbouring places (visual_memory references), the
+// middle of the stretch covered by most of the frames' nearest-place cells (from half the gap
+// behind the place to three quarters of the gap ahead, moved to the newest frame), and then
+// ambiguous also when fewer than min_cell_agreement of the frames' cells cover it or it is
+// longer than +-max_cell_uncertainty_m.
 // Never from one frame: `frames` >= 3.
 //
 // Held (hold(true), while the robot still has to creep forward): only the answers that must stop
@@ -73,6 +79,15 @@ struct RelocaliseParams {
   double thumbnail_confident_ncc = 0.6;  ///< correlation of a fully confident thumbnail vote (confidence = ncc / this, <= 1)
   double thumbnail_vote_weight = 40.0;  ///< a thumbnail vote's score is confidence x this (a feature vote's is inliers x confidence)
   double thumbnail_max_shift_deg = 30.0;  ///< heading offsets searched when comparing thumbnails, deg
+  /// Two-pass thumbnail search: the places kept by the half-resolution pass for the full one
+  /// (PlaceIndex::query_thumbnails; 0 = one exhaustive pass).
+  int thumbnail_coarse_candidates = 32;
+  /// Places with known gaps (PlaceVote::gap_before_m / gap_after_m): the fraction of the answer's
+  /// frames whose cells must cover the answer, else it is ambiguous (the frames disagree where).
+  double min_cell_agreement = 0.8;
+  /// Places with known gaps (PlaceVote::gap_before_m / gap_after_m): an answer whose frames' cells
+  /// overlap over a stretch longer than twice this is ambiguous, m.
+  double max_cell_uncertainty_m = 1.0;
   /// A localised answer whose along-track uncertainty (RelocAnswer::along_uncertainty_m) exceeds
   /// this is answered ambiguous instead, m (0 = no limit).
   double max_along_uncertainty_m = 0.0;
@@ -102,6 +117,12 @@ struct PlaceVote {
   /// How far the truth may be from `distance_m` when this place is the nearest one: half the
   /// larger gap to the neighbouring places of its edge (0 = unknown). The verifier sets it.
   double along_uncertainty_m = 0.0;
+  /// Distances from this place to the previous and the next place of its edge, m (0 = not given).
+  /// Given (the verifier does for visual_memory references, as far apart as the teacher made
+  /// them), a frame's vote says "nearer this place than its neighbours" and the answer is where
+  /// most frames' cells overlap (see decide()); not given, the median of the frames' votes.
+  double gap_before_m = 0.0;
+  double gap_after_m = 0.0;
 };
 
 /// What one frame contributed.

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "visnav/devices.hpp"
@@ -59,6 +60,8 @@ class PlaceVerifier {
   std::vector<ThumbnailHit> thumbnail_hits_;
   std::vector<double> place_uncertainty_m_;      ///< per place: PlaceVote::along_uncertainty_m
   std::vector<double> thumbnail_uncertainty_m_;  ///< per thumbnail place
+  /// per place: PlaceVote::gap_before_m / gap_after_m (visual_memory references only, else 0)
+  std::vector<std::pair<double, double>> place_gaps_m_;
   double horizontal_fov_deg_ = 60.0;
 };
 

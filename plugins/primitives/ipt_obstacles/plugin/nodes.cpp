@@ -314,8 +314,11 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                          "lane detour: an obstacle point holds the robot in its lane until it is this far "
                                          "behind (the obstacle's unseen length)"));
   ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
-                                         "edge distance already covered when the child starts (FollowRoute writes it; "
-                                         "rewritten after a detour)"));
+                                         "edge distance already covered when the child starts, taught m (FollowRoute "
+                                         "writes it; rewritten after a detour)"));
+  ports.push_back(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
+                                         "odometric metres per taught metre (FollowRoute's estimate, as the replay "
+                                         "child's port): the rewritten carried_m is in taught metres; unset counts as 1"));
   ports.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
                                          "the replay's last confident odometer reading (lost detection); set to the "
                                          "odometer when a detour ends: the detour was driven on the IPT, not blind"));
@@ -363,7 +366,10 @@ NodeStatus ReplayAvoiding::tick() {
   if (looking_) return look_step(*odom);
   if (!child_started_) {
     auto carried = get_input<double>("carried_m");
-    replay_origin_m_ = odom->distance_m - (carried && std::isfinite(*carried) ? *carried : 0.0);
+    // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
+    auto scale = get_input<double>("distance_scale");
+    scale_ = scale && *scale >= 0.5 && *scale <= 2.0 ? *scale : 1.0;
+    replay_origin_m_ = odom->distance_m - scale_ * (carried && std::isfinite(*carried) ? *carried : 0.0);
     child_started_ = true;
     if (drive_watch_) drive_watch_->reset();
     drive_hits_ = 0;
@@ -427,7 +433,7 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
   // the line; nothing after a wait).
   const double along_m = (odom.pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
                          (odom.pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
-  const double carried = replay_done_m_ + along_m;
+  const double carried = (replay_done_m_ + along_m) / scale_;  // odometric metres -> the edge's taught metres
   (void)set_output("carried_m", carried);
   (void)set_output("confident_at_m", odom.distance_m);
   (void)set_output("image_changed_at_m", odom.distance_m);
@@ -599,7 +605,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       if (auto behind = get_input<double>("behind_m")) params.behind_m = *behind;
       if (auto edge = get_input<std::string>("edge"); edge && !edge->empty() && host_.map() != nullptr)
         for (const auto& e : host_.map()->edges())
-          if (e.id == *edge) params.end_s_m = std::max(0.0, e.length_m - replay_done_m_);
+          if (e.id == *edge) params.end_s_m = std::max(0.0, scale_ * e.length_m - replay_done_m_);
       if (body) params.body_radius_m = *body;
       if (clearance) params.clearance_m = *clearance;
       if (widest) params.max_offset_m = *widest;
@@ -703,6 +709,14 @@ Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {
       }));
   VISNAV_TRY(registry.register_node<ReplayAvoiding>(
       "ReplayAvoiding", "Runs an edge's replay child; detours around obstacles in the corridor ahead and resumes it",
+      [&host](const std::string& name, const bt::NodeConfig& config) {
+        return std::make_unique<ReplayAvoiding>(name, config, host);
+      }));
+  // FollowRoute picks its child for an edge kind by node ID, and a decorator has one child: the
+  // path-following edges get the same node under a second ID (trees/replay_route_avoiding.xml).
+  VISNAV_TRY(registry.register_node<ReplayAvoiding>(
+      "ReplayPathAvoiding",
+      "ReplayAvoiding under a second node ID, for a second replay child under FollowRoute (e.g. FollowPathEdge)",
       [&host](const std::string& name, const bt::NodeConfig& config) {
         return std::make_unique<ReplayAvoiding>(name, config, host);
       }));

@@ -148,7 +148,10 @@ class AvoidObstacles : public bt::StatefulActionNode {
 /// been still for clear_frames frames, then resume the replay where it stopped (the stale
 /// contact points are dropped; a person who stopped in the corridor is found again by the IPT
 /// and, standing, detoured). Still moving after max_wait_frames: failure with the reason.
-/// Register the edge kinds to it in FollowRoute's `primitives` port.
+/// Register the edge kinds to it in FollowRoute's `primitives` port. The child may be any replay
+/// primitive with the adapter's carried_m port (ReplayFeatureEdge, FollowPathEdge); the same node
+/// is registered as ReplayPathAvoiding too, since FollowRoute picks a child per kind by node ID.
+/// Distances: the odometry's, divided by distance_scale where the edge's taught metres are meant.
 class ReplayAvoiding : public bt::DecoratorNode {
  public:
   ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -199,6 +202,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   cv::Mat watch_grey_;
   bool child_started_ = false;
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
+  double scale_ = 1.0;             // odometric metres per taught metre (distance_scale port)
   double replay_done_m_ = 0.0;     // edge distance covered when the detour began
   Pose2D detour_start_;
 };

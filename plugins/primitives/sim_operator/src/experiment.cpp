@@ -102,6 +102,7 @@ constexpr const char* kUsage =
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
     "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--port N.p=v]...\n"
     "                         [--learn-loops N] [--experience-teach A] [--obstacles FILE]\n"
+    "                         [--replay-tree FILE]\n"
     "\n"
     "The seed 000 Sec. 6 experiment, repeated over independent random runs. For each map style and\n"
     "each seed: teach the route R (a waypoint script, config/routes/) in the simulated world W with\n"
@@ -144,7 +145,12 @@ constexpr const char* kUsage =
     "  --teach-set k=v       config override for the teach run only\n"
     "  --replay-set k=v      config override for the replay run only\n"
     "  --obstacles FILE      obstacle file added to the world for the replays (not the teach): YAML\n"
-    "                        'obstacles:' list, docs/sim.md; same as --replay-set robot.params.obstacles=FILE\n"
+    "                        'obstacles:' list, docs/sim.md; same as --replay-set robot.params.obstacles=FILE,\n"
+    "                        and the replays use trees/patrol_loop_avoiding.xml (docs/obstacles.md)\n"
+    "  --replay-tree FILE    the measured replay's tree (default trees/patrol_loop.xml, with --obstacles\n"
+    "                        trees/patrol_loop_avoiding.xml); it gets the blackboard entries start, loops\n"
+    "                        and the camera mount camera_height_m, camera_pitch_down_deg, camera_hfov_deg\n"
+    "                        (the replay camera's mount_height_m, mount_pitch_down_deg, hfov_deg)\n"
     "  --port Node.port=v    set a port on every such node of the replay trees (learning loops\n"
     "                        too, not the teach), e.g. --port ReplayFeatureEdge.gain=0.5; how\n"
     "                        `visnav tune` reaches primitive gains (docs/bt.md, port overrides)\n"
@@ -205,7 +211,9 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--obstacles") {  // issue 16: obstacles placed for the replays only
       VISNAV_ASSIGN(std::string v, in.value());
       o.replay_overrides.push_back("robot.params.obstacles=" + v);
+      o.obstacles = true;
     }
+    else if (arg == "--replay-tree") { VISNAV_ASSIGN(o.replay_tree, in.value()); }
     else if (arg == "--port") {
       VISNAV_ASSIGN(std::string v, in.value());
       VISNAV_TRY(bt::parse_port_override(v));
@@ -654,12 +662,25 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   std::vector<cv::Point2d> lap_ends;
   std::string stop_reason;
   {  // --- replay the loop N times
-    auto patrol = session->load_tree(project_file("trees/patrol_loop.xml"), replay_ports);
+    const std::string tree_file = !o.replay_tree.empty() ? o.replay_tree
+                                  : o.obstacles         ? project_file("trees/patrol_loop_avoiding.xml")
+                                                        : project_file("trees/patrol_loop.xml");
+    auto patrol = session->load_tree(tree_file, replay_ports);
     if (!patrol) {
-      r.setup_error = patrol.error().message;
+      r.setup_error = tree_file + ": " + patrol.error().message;
       return done();
     }
-    if (auto st = set_blackboard_values(*patrol, {"start=start", "loops=" + std::to_string(o.loops)}); !st) {
+    // The camera mount for trees that need it (the IPT obstacle nodes): the replay camera's
+    // params, else the sim camera's defaults (visnav_sim/camera.hpp).
+    auto camera_param = [&](const char* key, const char* fallback) {
+      const ConfigNode* v = replay_config->camera.params.find(key);
+      return std::string(v != nullptr && v->is_scalar() ? v->scalar() : fallback);
+    };
+    if (auto st = set_blackboard_values(*patrol, {"start=start", "loops=" + std::to_string(o.loops),
+                                                  "camera_height_m=" + camera_param("mount_height_m", "0.5"),
+                                                  "camera_pitch_down_deg=" + camera_param("mount_pitch_down_deg", "5"),
+                                                  "camera_hfov_deg=" + camera_param("hfov_deg", "60")});
+        !st) {
       r.setup_error = st.error().message;
       return done();
     }

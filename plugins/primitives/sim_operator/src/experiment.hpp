@@ -61,6 +61,11 @@ struct ExperimentOptions {
   std::vector<std::string> teach_overrides;    ///< --teach-set and --teach-appearance
   std::vector<std::string> replay_overrides;   ///< --replay-set and --replay-appearance
   std::vector<std::string> replay_ports;       ///< --port Node.port=value: set in the replay trees (not the teach's)
+  /// --replay-tree FILE: the measured replay's tree instead of trees/patrol_loop.xml (blackboard
+  /// entries start, loops, camera_height_m, camera_pitch_down_deg, camera_hfov_deg); empty = that
+  /// one, or trees/patrol_loop_avoiding.xml when obstacles are placed (--obstacles).
+  std::string replay_tree;
+  bool obstacles = false;  ///< --obstacles given (the avoiding tree by default)
   std::string teach_appearance = "same";
   std::string replay_appearance = "same";
   /// Multi-experience maps (issue 13): patrol loops driven after teaching with learn_experiences

@@ -5,7 +5,9 @@
 //  * replay with avoidance (trees/replay_route_avoiding.xml): a 12 m feature edge taught on a
 //    clear gravel path, replayed with a van parked on it (seed 002's field report): the replay
 //    detours around the van, resumes the edge at the along-track distance reached, and succeeds;
-//    replayed with a person crossing in front (an obstacle file placed per run): it waits.
+//    replayed with a person crossing in front (an obstacle file placed per run): it waits;
+//  * the same tree on a path-following edge (ReplayPathAvoiding around FollowPathEdge): a crate
+//    on a taught gravel path is passed and the path follower takes the edge over again.
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -20,6 +22,9 @@
 
 namespace {
 
+// config/sim_obstacles.yaml's camera mount, the blackboard entries the avoiding trees read.
+constexpr const char* kMount = "--bb camera_height_m=0.43 --bb camera_pitch_down_deg=9 --bb camera_hfov_deg=65.5";
+
 struct CliRun {
   int status = -1;
   std::string output;
@@ -28,7 +33,7 @@ struct CliRun {
 CliRun run_cli(const std::string& args, const std::string& tree = "avoid_obstacles.xml") {
   const std::string cmd = std::string(VISNAV_TEST_CLI) + " run --plugin-path " + VISNAV_TEST_PLUGIN_DIR + " --config " +
                           VISNAV_TEST_SOURCE_DIR + "/config/sim_obstacles.yaml --tree " + VISNAV_TEST_SOURCE_DIR +
-                          "/trees/" + tree + " " + args + " 2>&1";
+                          "/trees/" + tree + " " + args + " " + kMount + " 2>&1";
   CliRun r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (pipe == nullptr) return r;
@@ -101,6 +106,39 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
   EXPECT_NE(crossing.output.find("a moving obstacle in the corridor"), std::string::npos) << crossing.output;
   EXPECT_NE(crossing.output.find("the corridor is clear after"), std::string::npos) << crossing.output;
   EXPECT_EQ(crossing.output.find(": detour"), std::string::npos) << crossing.output;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
+  const auto dir = std::filesystem::temp_directory_path() / ("visnav_ipt_path_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string clear = clear_path();
+  write(dir / "clear.yaml", clear);
+  write(dir / "route.yaml", "route:\n  name: line\n  start: [0, 0, 0]\n  waypoints:\n    - {at: [0, 0], kind: path}\n"
+                            "    - {at: [16, 0]}\n");
+  const std::string map = (dir / "map").string();
+  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + map +
+                                   " --create --bb route_file=" + (dir / "route.yaml").string() +
+                                   " --bb force_kind= --bb close_loop=false",
+                               "teach_hybrid_route.xml");
+  ASSERT_EQ(teach.status, 0) << teach.output;
+  ASSERT_NE(teach.output.find("taught path_following edge"), std::string::npos) << teach.output;
+  write(dir / "crate.yaml", clear + "  obstacles:\n    - {name: crate, kind: box, at: [5, 0.3], size_m: [0.8, 0.8], "
+                                    "height_m: 0.8, texture: brick}\n");
+  const CliRun replay = run_cli("--set robot.params.world=" + (dir / "crate.yaml").string() + " --map " + map +
+                                    " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8",
+                                "replay_route_avoiding.xml");
+  EXPECT_EQ(replay.status, 0) << replay.output;
+  EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: obstacle ahead at"), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
+  // The detour ends before the edge's end: the path follower drives the rest (edge distance < 16 m).
+  const auto at = replay.output.find("detour done: the edge resumes at ");
+  ASSERT_NE(at, std::string::npos) << replay.output;
+  const double resumed_m = std::stod(replay.output.substr(at + std::string("detour done: the edge resumes at ").size()));
+  EXPECT_GT(resumed_m, 6.0);
+  EXPECT_LT(resumed_m, 15.0);
   std::filesystem::remove_all(dir);
 }
 

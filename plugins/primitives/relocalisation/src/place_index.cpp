@@ -34,52 +34,6 @@ bool describable_kind(std::string_view kind) {
 
 bool indexable_kind(std::string_view kind) { return describable_kind(kind) || kind == kPathKind; }
 
-cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8) {
-  cv::Mat f, mean, sq, mean_sq;
-  thumbnail_u8.convertTo(f, CV_32F);
-  cv::blur(f, mean, cv::Size(5, 5), cv::Point(-1, -1), cv::BORDER_REFLECT);
-  cv::blur(f.mul(f), mean_sq, cv::Size(5, 5), cv::Point(-1, -1), cv::BORDER_REFLECT);
-  cv::Mat var = mean_sq - mean.mul(mean);
-  cv::max(var, 0.0, var);
-  cv::Mat sd;
-  cv::sqrt(var, sd);
-  cv::Mat out = (f - mean) / (sd + 2.0f);
-  return out;
-}
-
-double thumbnail_ncc(const cv::Mat& live, const cv::Mat& reference, int shift_px) {
-  const int w = live.cols;
-  const int h = live.rows;
-  const int overlap = w - std::abs(shift_px);
-  if (2 * overlap < w || reference.size() != live.size()) return -1.0;
-  // live column x + shift_px shows what reference column x showed.
-  const int ref0 = shift_px >= 0 ? 0 : -shift_px;
-  const int live0 = shift_px >= 0 ? shift_px : 0;
-  double sa = 0.0, sb = 0.0, saa = 0.0, sbb = 0.0, sab = 0.0;
-  for (int y = 0; y < h; ++y) {
-    const float* a = live.ptr<float>(y) + live0;
-    const float* b = reference.ptr<float>(y) + ref0;
-    float ra = 0.f, rb = 0.f, raa = 0.f, rbb = 0.f, rab = 0.f;
-    for (int x = 0; x < overlap; ++x) {
-      ra += a[x];
-      rb += b[x];
-      raa += a[x] * a[x];
-      rbb += b[x] * b[x];
-      rab += a[x] * b[x];
-    }
-    sa += ra;
-    sb += rb;
-    saa += raa;
-    sbb += rbb;
-    sab += rab;
-  }
-  const double n = static_cast<double>(overlap) * h;
-  const double va = saa - sa * sa / n;
-  const double vb = sbb - sb * sb / n;
-  if (va <= 1e-9 || vb <= 1e-9) return -1.0;
-  return (sab - sa * sb / n) / std::sqrt(va * vb);
-}
-
 const ParamSchema<PlaceIndexParams>& PlaceIndexParams::schema() {
   using P = PlaceIndexParams;
   static const auto s =

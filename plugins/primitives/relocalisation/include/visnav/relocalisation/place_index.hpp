@@ -44,6 +44,7 @@
 #include "visnav/devices.hpp"
 #include "visnav/map.hpp"
 #include "visnav/params.hpp"
+#include "visnav/path_payload.hpp"
 #include "visnav/result.hpp"
 
 namespace visnav::reloc {
@@ -62,19 +63,15 @@ inline constexpr const char* kPathKind = "path_following";
 /// True for the kinds whose places carry binary descriptors (BoW code + histogram verification).
 [[nodiscard]] bool describable_kind(std::string_view kind);
 
-/// A thumbnail normalised for comparison (CV_32FC1): each pixel minus the mean of its 5 x 5
-/// neighbourhood, divided by that neighbourhood's standard deviation (+2 grey levels), the
-/// local contrast normalisation of SeqSLAM, so a darker or brighter view of the same place compares alike.
-[[nodiscard]] cv::Mat normalise_thumbnail(const cv::Mat& thumbnail_u8);
+/// Thumbnails are normalised and compared as the path replay's along-track estimate does (the
+/// SDK's visnav/path_payload.hpp): local contrast normalisation as in SeqSLAM, so a darker or
+/// brighter view of the same place compares alike, and zero-mean NCC over a column shift.
+using path_payload::normalise_thumbnail;
+using path_payload::thumbnail_ncc;
 
 /// The coarse thumbnail of the two-pass search: `thumbnail_u8` at half its width and height
 /// (area average), then normalise_thumbnail.
 [[nodiscard]] cv::Mat coarse_thumbnail(const cv::Mat& thumbnail_u8);
-
-/// Zero-mean normalised cross-correlation of two normalised thumbnails of one size, `live`
-/// shifted right by `shift_px` columns against `reference` (compared over the overlap; at least
-/// half the width must overlap, else -1).
-[[nodiscard]] double thumbnail_ncc(const cv::Mat& live, const cv::Mat& reference, int shift_px);
 
 /// One thumbnail hit: the best shift of a thumbnail place.
 struct ThumbnailHit {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -144,10 +145,11 @@ class FeatureTeacher final : public EdgeTeacher {
 SegmentReplayParams tuned_segment_replay() {
   SegmentReplayParams p;
   p.gain_radps_per_px = 0.01;  // tuned in the simulator (the core's 0.003 is seed 000's)
-  // Along-track correction off (seed 000's odometric edge end): on the campus experiment it made
-  // the hybrid result worse, alone and as the fixes of FollowRoute's odometry scale estimate
-  // (docs/feature_replay.md, "Along-track correction"). A tree may switch it on with along_gain.
+  // Per-frame along-track tracking off: on the campus experiment it made the hybrid result worse
+  // (docs/feature_replay.md, "Along-track correction"). The end-window correction is on: its
+  // estimates agreed with the ground truth within 0.08 m where its gates let them through.
   p.along_gain = 0.0;
+  p.along_end_window_m = 1.0;
   return p;
 }
 
@@ -185,7 +187,10 @@ struct FeatureReplayParams {
                       {"distance_margin_m", "distance_margin_m"},
                       {"along_gain", "along_gain"},
                       {"max_along_step_m", "max_along_step_m"},
-                      {"max_along_correction_m", "max_along_correction_m"}})
+                      {"max_along_correction_m", "max_along_correction_m"},
+                      {"along_end_window_m", "along_end_window_m"},
+                      {"along_min_frames", "along_min_frames"},
+                      {"along_max_sd_m", "along_max_sd_m"}})
             .include(&P::localmaps, LocalMapReplayParams::schema(),
                      {{"gain_radps_per_px", "correction_gain_radps_per_px"},
                       {"max_correction_radps", "max_correction_radps"},
@@ -280,6 +285,8 @@ class FeatureReplayer final : public EdgeReplayer {
     const int count = static_cast<int>(experience_numbers_.size());
     selector_ = ExperienceSelector(count, params_.experience_recheck_below);
     segment_out_.assign(segments_.size(), SegmentReplayOutput{});
+    along_notes_.clear();
+    along_reported_ = false;
     localmap_out_.assign(localmaps_.size(), LocalMapReplayOutput{});
     if (count > 1)
       logger_->info(who_, "edge " + edge_id_ + ": " + std::to_string(count) + " appearance experiences");
@@ -360,6 +367,7 @@ class FeatureReplayer final : public EdgeReplayer {
       out.saturated = state == ReplayState::steering &&
                       std::abs(out.command.angular_radps) >= params_.segment.max_angular_radps - 1e-9;
       out.informative = r.expected_landmarks >= params_.min_expected_features;
+      note_along(r, segments_[static_cast<std::size_t>(k)].map().length_m);
     } else {
       const int k = selector_.select([&](int i) {
         LocalMapReplayOutput& r = localmap_out_[static_cast<std::size_t>(i)];
@@ -472,6 +480,32 @@ class FeatureReplayer final : public EdgeReplayer {
   }
 
  private:
+  /// Instrumentation of the along-track estimate (docs/navigation.md, "Along-track estimate vs
+  /// truth"): the frames' estimates facing the view are summarised at the edge's end in a debug
+  /// line, to be compared with the experiment's edges.csv (the truth the replay cannot see).
+  void note_along(const SegmentReplayOutput& r, double length_m) {
+    if (std::isfinite(r.along_error_m) && std::abs(r.estimate.offset_px) <= params_.segment.along_max_offset_px)
+      along_notes_.push_back({r.distance_m - r.along_correction_m, r.along_error_m});
+    if (!r.finished || along_reported_) return;
+    along_reported_ = true;
+    double sum_all = 0.0, sum_end = 0.0, sq_end = 0.0;
+    int n_end = 0;
+    for (const auto& [d, e] : along_notes_) {
+      sum_all += e;
+      if (d < length_m - 1.0) continue;
+      sum_end += e;
+      sq_end += e * e;
+      ++n_end;
+    }
+    const double mean_end = n_end > 0 ? sum_end / n_end : std::numeric_limits<double>::quiet_NaN();
+    const double sd_end = n_end > 1 ? std::sqrt(std::max(0.0, sq_end / n_end - mean_end * mean_end)) : 0.0;
+    logger_->log(LogLevel::debug, who_, "edge " + edge_id_ + ": along-track estimate, last 1 m: mean " + format_double(mean_end) +
+                            " sd " + format_double(sd_end) + " m (" + std::to_string(n_end) + " frames); whole edge: mean " +
+                            format_double(along_notes_.empty() ? 0.0 : sum_all / static_cast<double>(along_notes_.size())) +
+                            " m (" + std::to_string(along_notes_.size()) + " frames); correction " +
+                            format_double(segments_.front().along_correction_m()) + " m");
+  }
+
   /// Local maps learned keep as many features as the taught ones hold at most (bounded size).
   [[nodiscard]] int max_local_map_features() const {
     std::size_t most = 0;
@@ -501,6 +535,8 @@ class FeatureReplayer final : public EdgeReplayer {
   std::optional<LocalMapTeacher> localmap_teacher_;
   int learned_frames_ = 0;
   ReplayState last_state_ = ReplayState::steering;
+  std::vector<std::pair<double, double>> along_notes_;  // (odometric distance on the edge, estimate) facing the view
+  bool along_reported_ = false;
   StartViewSearch search_;
   NavOverlay overlay_;
   std::vector<cv::Point2f> matched_px_, reference_px_;

@@ -76,7 +76,18 @@ const ParamSchema<SegmentReplayParams>& SegmentReplayParams::schema() {
           .field("min_along_slope_px_per_m", &SegmentReplayParams::min_along_slope_px_per_m,
                  "along-track correction: the matches' slope spread (root of the summed squared centred slopes) "
                  "below this gives no estimate, px/m")
-          .range(0.0, 1e6);
+          .range(0.0, 1e6)
+          .field("along_end_window_m", &SegmentReplayParams::along_end_window_m,
+                 "along-track correction, end window (used instead of along_gain when > 0): only the estimates of "
+                 "the segment's last this many metres count; their mean is the correction once they pass the count "
+                 "and spread gates, m (0 = off)")
+          .range(0.0, 100.0)
+          .field("along_min_frames", &SegmentReplayParams::along_min_frames,
+                 "along-track correction, end window: fewer estimates give no correction")
+          .range(1, 100000)
+          .field("along_max_sd_m", &SegmentReplayParams::along_max_sd_m,
+                 "along-track correction, end window: estimates with a larger standard deviation give no correction, m")
+          .range(0.0, 100.0);
   return s;
 }
 
@@ -445,8 +456,20 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
   out.along_error_m = estimate_along_m();
   // Only a robot that faces the taught view updates it: a heading error moves landmarks at the
   // image borders more than those near the centre, which a one-sided scene reads as distance.
-  if (params_.along_gain > 0.0 && std::isfinite(out.along_error_m) &&
-      std::abs(est->offset_px) <= params_.along_max_offset_px) {
+  const bool facing = std::isfinite(out.along_error_m) && std::abs(est->offset_px) <= params_.along_max_offset_px;
+  if (params_.along_end_window_m > 0.0) {
+    // Only near the end, and only an estimate several frames agree on: a wrong correction is
+    // worse than none (the per-frame tracking failed at the campus SW junction that way).
+    if (facing && d >= map_->length_m - params_.along_end_window_m) {
+      ++window_n_;
+      window_sum_m_ += out.along_error_m;
+      window_sum_sq_m2_ += out.along_error_m * out.along_error_m;
+      const double mean = window_sum_m_ / window_n_;
+      const double var = std::max(0.0, window_sum_sq_m2_ / window_n_ - mean * mean);
+      if (window_n_ >= params_.along_min_frames && std::sqrt(var) <= params_.along_max_sd_m)
+        correction_m_ = std::clamp(mean, -params_.max_along_correction_m, params_.max_along_correction_m);
+    }
+  } else if (params_.along_gain > 0.0 && facing) {
     const double step = std::clamp(params_.along_gain * (out.along_error_m - correction_m_), -params_.max_along_step_m,
                                    params_.max_along_step_m);
     correction_m_ = std::clamp(correction_m_ + step, -params_.max_along_correction_m, params_.max_along_correction_m);

@@ -217,10 +217,11 @@ bt::PortsList FollowRoute::provided_ports() {
                                                 "which child node replays which edge kind (kind=NodeID;...)"),
       bt::input_port<bool>("turn_at_nodes", "true", "turn to the next edge's azimuth at each node (in place, or an arc with min_turning_radius_m > 0)"),
       bt::input_port<std::vector<std::string>>(
-          "heading_holding_kinds", "feature_segment;feature_localmaps",
-          "edge kinds whose primitive ends on the taught heading (turns are measured from the heading at "
-          "the edge's end); after other kinds (path following rounds corners) the turn is measured from the "
-          "heading at the edge's start"),
+          "heading_holding_kinds", "feature_segment;feature_localmaps;path_following",
+          "edge kinds whose primitive ends on the taught heading (the turn to the next edge is measured from "
+          "the heading at the edge's end); after other kinds the turn is measured from the heading at the "
+          "edge's start, which carries both runs' odometric heading drift over the whole edge "
+          "(docs/navigation.md, \"The turn after a path edge\")"),
       bt::input_port<bool>("carry_overshoot", "true",
                            "start each edge as far along as the robot already is: the distance it travelled past "
                            "the previous edge's end node (last-frame overshoot plus stopping distance) minus the gap "

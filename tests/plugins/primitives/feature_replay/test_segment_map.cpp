@@ -231,6 +231,68 @@ TEST(SegmentReplayer, AlongTrackCorrectionEndsTheSegmentWhereItWasTaught) {
   EXPECT_NEAR(end_of_segment_m(1.0, 0.1), kLength, 0.1);
 }
 
+namespace {
+struct WindowRun {
+  double end_m = 0.0;                 ///< where along the segment the robot really ended
+  double first_correction_at_m = -1;  ///< odometric distance of the first non-zero correction (-1: none)
+  double correction_m = 0.0;
+};
+// The end-window correction in closed loop, horizontal axis only (as ReplayFeatureEdge runs it),
+// with odometry that reads `scale` odometric metres per metre driven.
+WindowRun end_window_run(double scale, double window_m, int min_frames = 8, double max_sd_m = 0.08) {
+  fr::SegmentReplayParams p;
+  p.along_end_window_m = window_m;
+  p.along_min_frames = min_frames;
+  p.along_max_sd_m = max_sd_m;
+  fr::SegmentReplayer rep(taught().map, p);
+  std::mt19937 rng(13);
+  Pose2D pose{0.0, 0.0, 0.0};
+  double odo = 0.0;
+  rep.begin(odo);
+  WindowRun run;
+  for (int steps = 0; steps < 2000; ++steps) {
+    const auto out = rep.step(odo, taught().scene.observe(pose, rng), 640.0);
+    if (out.along_correction_m != 0.0 && run.first_correction_at_m < 0.0) run.first_correction_at_m = odo;
+    if (out.finished) break;
+    fr_test::integrate(pose, out.command, 0.1);
+    odo += out.command.linear_mps * 0.1 * scale;
+  }
+  run.end_m = pose.x_m;
+  run.correction_m = rep.along_correction_m();
+  return run;
+}
+}  // namespace
+
+TEST(SegmentReplayer, EndWindowCorrectionEndsTheSegmentWhereItWasTaught) {
+  // A 4 % scale mismatch between teach and replay (the experiment's per-run draws differ by
+  // 4.2 % sd): odometry alone ends 0.38 m short / 0.42 m long on the 10 m segment.
+  const WindowRun short_odo = end_window_run(1.04, 1.0), long_odo = end_window_run(0.96, 1.0);
+  std::cout << "[ style A ] end window 1 m, odometry scale 1.04 / 0.96 (ends at " << kLength / 1.04 << " / "
+            << kLength / 0.96 << " m on odometry): " << short_odo.end_m << " / " << long_odo.end_m
+            << " m (taught " << kLength << " m)\n";
+  EXPECT_NEAR(short_odo.end_m, kLength, 0.1);
+  EXPECT_NEAR(long_odo.end_m, kLength, 0.1);
+  // Only the last metre's estimates count: nothing is corrected before it.
+  EXPECT_GE(short_odo.first_correction_at_m, kLength - 1.0);
+  EXPECT_GE(long_odo.first_correction_at_m, kLength - 1.0);
+  // A correct odometer stays correct.
+  EXPECT_NEAR(end_window_run(1.0, 1.0).end_m, kLength, 0.05);
+  // The clamp holds (default 0.5 m): odometry 25 % over-reading leaves the robot 2 m behind its counter.
+  const WindowRun clamped = end_window_run(1.25, 1.0);
+  EXPECT_NEAR(clamped.correction_m, -0.5, 1e-9);
+}
+
+TEST(SegmentReplayer, EndWindowCorrectionIsSilentWithoutAgreeingEstimates) {
+  // Too few frames in the window (the count gate), or a spread gate no real estimate passes:
+  // no correction, the segment ends on odometry as seed 000's does.
+  const WindowRun few = end_window_run(1.04, 1.0, 1000);
+  EXPECT_EQ(few.correction_m, 0.0);
+  EXPECT_NEAR(few.end_m, kLength / 1.04, 0.05);
+  const WindowRun spread = end_window_run(1.04, 1.0, 8, 1e-6);
+  EXPECT_EQ(spread.correction_m, 0.0);
+  EXPECT_NEAR(spread.end_m, kLength / 1.04, 0.05);
+}
+
 TEST(SegmentReplayer, BadInputsGiveZeroCorrection) {
   fr::SegmentReplayer rep(taught().map);
   rep.begin(100.0);  // odometry does not start at zero

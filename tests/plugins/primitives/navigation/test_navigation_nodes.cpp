@@ -313,6 +313,30 @@ TEST_F(NavigationNodes, FollowRouteRunsEdgesInOrderAndTurnsRelativelyAtNodes) {
   EXPECT_EQ(*tree.blackboard().get<std::string>("previous_edge"), bc);
 }
 
+TEST_F(NavigationNodes, FollowRouteTurnsAfterAPathEdgeFromItsTaughtEndHeading) {
+  // The teach odometry drifted 0.3 rad over a straight path edge (azimuth 0, end heading 0.3) and
+  // the next edge continues straight on (azimuth 0.3 in that odometry): no turn at B. Measuring the
+  // turn from the path edge's start heading (the old rule for path edges) turned the robot 0.3 rad
+  // off the route there (issue 12, campus e14 -> e15).
+  auto a = node("A"), b = node("B"), c = node("C");
+  edge(a, b, 2.0, 0.0, 0.3, "path_following");
+  edge(b, c, 1.0, 0.3, 0.3);
+  const char* kinds = R"(primitives="feature_segment=TestReplayEdge;path_following=TestReplayEdge")";
+  auto tree = load(std::string(R"(<Sequence><PlanRoute start="A" goal="C"/><FollowRoute turn_tolerance_rad="0.01" )") +
+                   kinds + "><TestReplayEdge/></FollowRoute></Sequence>");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.heading_at_edge_start.size(), 2u);
+  EXPECT_NEAR(rec_.heading_at_edge_start[1] - rec_.heading_at_edge_start[0], 0.0, 0.02);
+  // A tree that takes path edges out of heading_holding_kinds gets the start-heading rule back.
+  rec_ = Recorder{};
+  auto old_rule = load(std::string(R"(<Sequence><PlanRoute start="A" goal="C"/><FollowRoute turn_tolerance_rad="0.01" )") +
+                       "heading_holding_kinds=\"feature_segment\" " + kinds +
+                       "><TestReplayEdge/></FollowRoute></Sequence>");
+  EXPECT_EQ(run(old_rule), NodeStatus::success);
+  ASSERT_EQ(rec_.heading_at_edge_start.size(), 2u);
+  EXPECT_NEAR(rec_.heading_at_edge_start[1] - rec_.heading_at_edge_start[0], 0.3, 0.02);
+}
+
 // Issue 17: a damaged payload further along the route fails the mission before the robot moves.
 std::string g_damaged_edge;
 Status refuse_damaged(std::span<const std::uint8_t>, const EdgeRecord& e) noexcept {

@@ -35,6 +35,11 @@
 // seen instead of where odometry says. The steering and the fit keep using the odometric distance
 // (Algorithm 2 unchanged); distance_m in the output is the corrected one. Landmarks far
 // away (s near 0) carry no along-track information and do not take part.
+// End-window variant (along_end_window_m > 0, used instead of along_gain): the estimate is
+// accurate where the robot has driven straight at the segment's last views for a while and poor
+// right after a corner (heading and lateral error still large), so only the frames of the last
+// along_end_window_m metres (facing the view) count; their mean becomes the correction once enough
+// of them agree (count and spread gates), and nothing is corrected otherwise.
 //
 // Distances: the replayer is given odometric distance (Odometry::distance_m) and subtracts the
 // value given to begin(); the teacher is given distance from the segment start (>= 0,
@@ -135,6 +140,13 @@ struct SegmentReplayParams {
   double along_max_offset_px = 20.0;   ///< the correction is updated only while |offset_px| <= this, px
   int min_along_matches = 12;          ///< fewer such matches: no along-track estimate this frame
   double min_along_slope_px_per_m = 100.0;  ///< sqrt(sum of squared slopes) below this: uninformative
+  /// End-window correction (replaces the per-frame tracking when > 0): only estimates made while
+  /// the odometric distance is within this of the segment's end are used; the correction is their
+  /// mean once there are at least along_min_frames of them with sd <= along_max_sd_m (else it
+  /// keeps its last accepted value, 0 at first), clamped to max_along_correction_m. m; 0 = off.
+  double along_end_window_m = 0.0;
+  int along_min_frames = 8;            ///< end window: fewer estimates give no correction
+  double along_max_sd_m = 0.08;        ///< end window: estimates spread more than this give no correction, m
 
   /// The schema's ranges (declared once there).
   [[nodiscard]] Status validate() const { return schema().check(*this); }
@@ -166,6 +178,8 @@ class SegmentReplayer {
   void begin(double odometry_distance_m) {
     origin_m_ = odometry_distance_m;
     correction_m_ = 0.0;
+    window_n_ = 0;
+    window_sum_m_ = window_sum_sq_m2_ = 0.0;
   }
   /// One frame: `odometry_distance_m` is the current Odometry::distance_m; `image_width_px` the
   /// width of the image the features come from (for the heading in the estimate); the principal
@@ -211,6 +225,8 @@ class SegmentReplayer {
 
   double origin_m_ = 0.0;
   double correction_m_ = 0.0;
+  int window_n_ = 0;                    // end window: estimates so far, their sum and sum of squares
+  double window_sum_m_ = 0.0, window_sum_sq_m2_ = 0.0;
   double max_span_m_ = 0.0;
   bool map_valid_ = true;
   cv::Mat ref_desc_;                   // capacity buffer

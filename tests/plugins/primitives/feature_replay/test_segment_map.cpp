@@ -277,8 +277,11 @@ TEST(SegmentReplayer, EndWindowCorrectionEndsTheSegmentWhereItWasTaught) {
   EXPECT_GE(long_odo.first_correction_at_m, kLength - 1.0);
   // A correct odometer stays correct.
   EXPECT_NEAR(end_window_run(1.0, 1.0).end_m, kLength, 0.05);
-  // The clamp holds (default 0.5 m): odometry 25 % over-reading leaves the robot 2 m behind its counter.
-  const WindowRun clamped = end_window_run(1.25, 1.0);
+  // The clamp holds (default 0.5 m): odometry 25 % over-reading leaves the robot 2 m behind its
+  // counter. The spread gate is opened here (10 m): 2 m off, the estimates scatter around the
+  // 0.08 m gate (they passed it in the release build and not under ASan/UBSan), and what is tested
+  // is the clamp, not the gate (the next test covers the gates).
+  const WindowRun clamped = end_window_run(1.25, 1.0, 8, 10.0);
   EXPECT_NEAR(clamped.correction_m, -0.5, 1e-9);
 }
 

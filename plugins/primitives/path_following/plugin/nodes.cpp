@@ -31,8 +31,7 @@ std::vector<path_payload::ColourModelData> to_data(const std::vector<ColourModel
   return out;
 }
 
-Result<std::vector<ColourModel>> decode_models(std::span<const std::uint8_t> bytes) {
-  VISNAV_ASSIGN(path_payload::PathPayload p, path_payload::PathPayload::decode(bytes));
+std::vector<ColourModel> from_data(const path_payload::PathPayload& p) {
   std::vector<ColourModel> models(p.models.size());
   for (std::size_t k = 0; k < models.size(); ++k) {
     for (int i = 0; i < 3; ++i) models[k].mean[i] = p.models[k].mean[static_cast<std::size_t>(i)];
@@ -40,6 +39,11 @@ Result<std::vector<ColourModel>> decode_models(std::span<const std::uint8_t> byt
       for (int c = 0; c < 3; ++c) models[k].cov(r, c) = p.models[k].cov[static_cast<std::size_t>(r * 3 + c)];
   }
   return models;
+}
+
+Result<std::vector<ColourModel>> decode_models(std::span<const std::uint8_t> bytes) {
+  VISNAV_ASSIGN(path_payload::PathPayload p, path_payload::PathPayload::decode(bytes));
+  return from_data(p);
 }
 
 /// The follower's params as both nodes expose them (names predate the core's; declared once in
@@ -97,8 +101,9 @@ class PathReplayer final : public EdgeReplayer {
   explicit PathReplayer(const Params& params) : params_(params), monitor_(params.follower.grace_s) {}
 
   Status begin(const ReplayStart& start) override {
+    // Decoded once: the colour models for the follower, the thumbnails for the along-track estimate.
     VISNAV_ASSIGN(path_payload::PathPayload payload, path_payload::PathPayload::decode(start.payload));
-    VISNAV_ASSIGN(std::vector<ColourModel> models, decode_models(start.payload));
+    const std::vector<ColourModel> models = from_data(payload);
     along_.emplace(params_.along, payload.thumbnails);
     logger_ = &start.logger;
     node_path_ = std::string(start.node_path);

@@ -124,6 +124,10 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
                  "thumbnail places kept by the half-resolution first pass for the full-resolution comparison "
                  "(0 = compare every place at full resolution)")
           .range(0, 100000)
+          .field("thumbnail_index_candidates", &P::thumbnail_index_candidates,
+                 "thumbnail places the inverted file of thumbnail signatures hands to the two passes (0 = every "
+                 "place; a map with no more places than this searches every place)")
+          .range(0, 1000000)
           .field("min_cell_agreement", &P::min_cell_agreement,
                  "places with known gaps (visual_memory references): fraction of the answer's frames whose "
                  "nearest-place cells must overlap where it is, else ambiguous")

@@ -18,11 +18,16 @@
 // measures it on 1 km and 10 km maps. A similarity-search library (faiss IndexBinaryFlat) does the
 // same scan; HNSW would be sub-linear but its graph must be rebuilt or stored, and the scan is a
 // small part of a query (the histogram verification of the candidates dominates).
+// Thumbnail places (path_following edges, compared by shifted NCC) are searched in three stages:
+// a sub-linear first stage (shift-tolerant window vectors in a k-means inverted file of
+// ~sqrt(vectors) cells, thumbnail_first_stage), then a half-resolution and a full-resolution NCC
+// pass on the few hundred places it returns (query_thumbnails).
 //
 // The index lives in the map folder as `place_index.bin`: magic "VNAVPIDX", format version,
 // body length and CRC-32 of the body (map_format::crc32), then the body: parameters, the list of
 // indexed edges with their payload sizes (a map changed since the index was built is detected as
-// stale), the vocabulary, the places and their codes. Written crash-safely like the map's own
+// stale), the vocabulary, the places and their codes, the thumbnail places (version 2) and the
+// first stage's cells (version 3; a version-2 file's cells are trained at load). Written crash-safely like the map's own
 // files (temporary file, fsync, rename, folder fsync). Only binary (CV_8U) descriptors can be
 // indexed; a map of float descriptors is refused with a clear error.
 //

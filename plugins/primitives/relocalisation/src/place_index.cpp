@@ -14,6 +14,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <random>
 
@@ -181,7 +182,7 @@ void thumbnail_signatures(const cv::Mat& thumbnail_u8, bool stored, std::vector<
   std::vector<float> sin_t(cos_t.size());
   for (int k = 0; k < kSignatureFrequencies; ++k)
     for (int x = 0; x < ww; ++x) {
-      const double a = 2.0 * 3.14159265358979323846 * (k + 1) * x / ww;
+      const double a = 2.0 * std::numbers::pi * (k + 1) * x / ww;
       cos_t[static_cast<std::size_t>(k * ww + x)] = static_cast<float>(std::cos(a));
       sin_t[static_cast<std::size_t>(k * ww + x)] = static_cast<float>(std::sin(a));
     }
@@ -332,7 +333,7 @@ void PlaceIndex::thumbnail_first_stage(const cv::Mat& live_u8, int count, std::v
                                        double probe) const {
   out.clear();
   const std::size_t n = thumbnails.size();
-  if (count <= 0 || n == 0) return;
+  if (count <= 0 || n == 0 || live_u8.cols != thumbnail_width_px || live_u8.rows != thumbnail_height_px) return;
   if (static_cast<std::size_t>(count) >= n || cell_members.empty()) {
     for (std::size_t p = 0; p < n; ++p) out.push_back(static_cast<std::uint32_t>(p));
     return;

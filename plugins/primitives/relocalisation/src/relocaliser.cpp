@@ -255,9 +255,13 @@ RelocAnswer Relocaliser::decide() const {
   for (const Moved& v : votes) {
     Hypothesis* into = nullptr;
     double into_delta = 0.0;
+    // A place with known gaps (a visual_memory reference) is one of a row of places as far apart
+    // as the gaps: its votes join a place within the larger gap (adjacent references are one
+    // stretch, placed by the cells below), other votes within place_tolerance_m.
+    const double tolerance_m = std::max(params_.place_tolerance_m, std::max(v.gap_before_m, v.gap_after_m));
     for (auto& h : hyps) {
       auto d = route_distance_m(h.edge, h.centre_m, v.edge, v.distance_m);
-      if (d && std::abs(*d) <= params_.place_tolerance_m && (into == nullptr || std::abs(*d) < std::abs(into_delta))) {
+      if (d && std::abs(*d) <= tolerance_m && (into == nullptr || std::abs(*d) < std::abs(into_delta))) {
         into = &h;
         into_delta = *d;
       }

@@ -179,7 +179,8 @@ class PlaceIndex {
   /// window, the cells are ranked by their centroid's distance and visited in that order until
   /// they hold at least `probe` x count vectors (or all are visited); a place's distance is the
   /// smallest over the pairs visited. Cost ~ kLiveWindows x (cells + probe x count) distances
-  /// (cells ~ sqrt(vectors): sub-linear). Every place when count >= the places. `out` is reused.
+  /// (cells ~ sqrt(vectors): sub-linear). Every place when count >= the places; none when
+  /// `live_u8` is not of the index's thumbnail size. `out` is reused.
   void thumbnail_first_stage(const cv::Mat& live_u8, int count, std::vector<std::uint32_t>& out,
                              double probe = kFirstStageProbe) const;
   static constexpr double kFirstStageProbe = 8.0;

@@ -59,7 +59,7 @@ const char* const kUsage =
     "  --reloc P=V      another Relocalise port, e.g. --reloc min_answer_confidence=0.3 (repeatable)\n"
     "  --kind K         edge kind of every taught leg: feature_segment (default, trees/teach_hybrid_route.xml)\n"
     "                   or visual_memory (trees/teach_hybrid_visual_memory.xml; the index describes the\n"
-    "                   reference images with the config's detector; replays need --replays 0), or hybrid\n"
+    "                   reference images with the config's detector), or hybrid\n"
     "                   (the route's own kinds: feature_segment and path_following legs, the path edges\n"
     "                   indexed by their thumbnails)\n"
     "  --seed S         random seed of the start poses and error models (default 1)\n"
@@ -190,9 +190,6 @@ Result<Options> parse(int argc, char** argv) {
       return fail(ErrorCode::unknown_key, "unknown argument '" + a + "'");
     }
   }
-  if (o.kind == "visual_memory" && o.replays > 0)
-    return fail(ErrorCode::invalid_value, "--kind visual_memory: replays are not supported (trees/replay_from_here.xml "
-                                          "has no visual-memory replayer); give --replays 0");
   return o;
 }
 

@@ -69,6 +69,7 @@ struct RelocaliseNodeParams {
                       {"thumbnail_vote_weight", "thumbnail_vote_weight"},
                       {"thumbnail_max_shift_deg", "thumbnail_max_shift_deg"},
                       {"thumbnail_coarse_candidates", "thumbnail_coarse_candidates"},
+                      {"thumbnail_index_candidates", "thumbnail_index_candidates"},
                       {"min_cell_agreement", "min_cell_agreement"},
                       {"max_cell_uncertainty_m", "max_cell_uncertainty_m"},
                       {"max_along_uncertainty_m", "max_along_uncertainty_m"}})

@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <numbers>
 #include <optional>
 #include <random>
 
@@ -160,6 +162,141 @@ cv::Mat coarse_thumbnail(const cv::Mat& thumbnail_u8) {
   return normalise_thumbnail(half);
 }
 
+int signature_dims(int height_px) {
+  return kSignatureBands * (kSignatureFrequencies + kSignatureColumns) + std::max(0, height_px);
+}
+
+void thumbnail_signatures(const cv::Mat& thumbnail_u8, bool stored, std::vector<float>& out) {
+  const int w = thumbnail_u8.cols;
+  const int h = thumbnail_u8.rows;
+  const auto dims = static_cast<std::size_t>(signature_dims(h));
+  const int windows = stored ? kStoredWindows : kLiveWindows;
+  const std::size_t first = out.size();
+  out.resize(first + static_cast<std::size_t>(windows) * dims, 0.0f);
+  if (w < 8 || h < 4) return;
+  const int ww = w / 2;  // window width
+  const cv::Mat n = normalise_thumbnail(thumbnail_u8);
+  cv::Mat raw;
+  thumbnail_u8.convertTo(raw, CV_32F);
+  std::vector<float> cos_t(static_cast<std::size_t>(kSignatureFrequencies * ww));
+  std::vector<float> sin_t(cos_t.size());
+  for (int k = 0; k < kSignatureFrequencies; ++k)
+    for (int x = 0; x < ww; ++x) {
+      const double a = 2.0 * std::numbers::pi * (k + 1) * x / ww;
+      cos_t[static_cast<std::size_t>(k * ww + x)] = static_cast<float>(std::cos(a));
+      sin_t[static_cast<std::size_t>(k * ww + x)] = static_cast<float>(std::sin(a));
+    }
+  const std::size_t spectrum = static_cast<std::size_t>(kSignatureBands * kSignatureFrequencies);
+  const std::size_t blocks = static_cast<std::size_t>(kSignatureBands * kSignatureColumns);
+  auto unit = [](float* v, std::size_t len, float scale, bool centre) {
+    if (centre) {
+      double m = 0.0;
+      for (std::size_t i = 0; i < len; ++i) m += v[i];
+      m /= static_cast<double>(len);
+      for (std::size_t i = 0; i < len; ++i) v[i] -= static_cast<float>(m);
+    }
+    double sq = 0.0;
+    for (std::size_t i = 0; i < len; ++i) sq += static_cast<double>(v[i]) * v[i];
+    const float f = sq > 1e-12 ? static_cast<float>(scale / std::sqrt(sq)) : 0.0f;
+    for (std::size_t i = 0; i < len; ++i) v[i] *= f;
+  };
+  for (int win = 0; win < windows; ++win) {
+    // Stored windows 1/8 of the width apart, live ones 1/4 (both from the left edge to the right).
+    const int x0 = (w - ww) * win / (windows - 1);
+    float* v = out.data() + first + static_cast<std::size_t>(win) * dims;
+    for (int y = 0; y < h; ++y) {
+      const int band = std::min(kSignatureBands - 1, y * kSignatureBands / h);
+      const float* nrow = n.ptr<float>(y) + x0;
+      const float* rrow = raw.ptr<float>(y) + x0;
+      for (int k = 0; k < kSignatureFrequencies; ++k) {
+        float re = 0.0f, im = 0.0f;
+        const float* c = cos_t.data() + static_cast<std::size_t>(k * ww);
+        const float* sn = sin_t.data() + static_cast<std::size_t>(k * ww);
+        for (int x = 0; x < ww; ++x) {
+          re += nrow[x] * c[x];
+          im += nrow[x] * sn[x];
+        }
+        v[band * kSignatureFrequencies + k] += std::sqrt(std::sqrt(re * re + im * im));
+      }
+      float row_sum = 0.0f;
+      for (int x = 0; x < ww; ++x) {
+        row_sum += rrow[x];
+        v[spectrum + static_cast<std::size_t>(band * kSignatureColumns + x * kSignatureColumns / ww)] += rrow[x];
+      }
+      v[spectrum + blocks + static_cast<std::size_t>(y)] = row_sum / static_cast<float>(ww);
+    }
+    unit(v, spectrum, 1.0f, false);
+    unit(v + spectrum, blocks, kSignatureBlockWeight, true);
+    unit(v + spectrum + blocks, static_cast<std::size_t>(h), kSignatureProfileWeight, true);
+  }
+}
+
+namespace {
+
+float squared_distance(const float* a, const float* b, std::size_t n) {
+  float d = 0.0f;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float t = a[i] - b[i];
+    d += t * t;
+  }
+  return d;
+}
+
+/// Index of the centroid nearest to `x`.
+std::uint32_t nearest_cell(const float* x, const std::vector<float>& centroids, std::size_t dims) {
+  std::uint32_t best = 0;
+  float best_d = std::numeric_limits<float>::max();
+  for (std::size_t c = 0; c * dims < centroids.size(); ++c) {
+    const float d = squared_distance(x, centroids.data() + c * dims, dims);
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<std::uint32_t>(c);
+    }
+  }
+  return best;
+}
+
+/// k-means (Lloyd) of `n` vectors of `dims` floats into `cells` centroids, deterministic: trained
+/// on at most kCellTrainingVectors evenly spaced vectors, the initial centroids evenly spaced
+/// among them; an empty cell keeps its centroid. Returns the centroids; `assignment` receives
+/// every vector's nearest cell.
+constexpr std::size_t kCellTrainingVectors = 16384;
+std::vector<float> train_cells(const std::vector<float>& all, std::size_t total, std::size_t dims, std::size_t cells,
+                               int iterations, std::vector<std::uint32_t>& final_assignment) {
+  const std::size_t n = std::min(total, kCellTrainingVectors);
+  std::vector<float> vectors(n * dims);
+  for (std::size_t i = 0; i < n; ++i) std::copy_n(all.data() + (i * total / n) * dims, dims, vectors.data() + i * dims);
+  std::vector<float> centroids(cells * dims);
+  for (std::size_t c = 0; c < cells; ++c) {
+    const std::size_t v = c * n / cells;
+    std::copy_n(vectors.data() + v * dims, dims, centroids.data() + c * dims);
+  }
+  std::vector<std::uint32_t> assignment(n, 0);
+  std::vector<double> sums(cells * dims);
+  std::vector<std::size_t> counts(cells);
+  for (int it = 0; it < iterations; ++it) {
+    for (std::size_t v = 0; v < n; ++v) assignment[v] = nearest_cell(vectors.data() + v * dims, centroids, dims);
+    std::fill(sums.begin(), sums.end(), 0.0);
+    std::fill(counts.begin(), counts.end(), 0);
+    for (std::size_t v = 0; v < n; ++v) {
+      const std::size_t c = assignment[v];
+      ++counts[c];
+      for (std::size_t i = 0; i < dims; ++i) sums[c * dims + i] += vectors[v * dims + i];
+    }
+    for (std::size_t c = 0; c < cells; ++c)
+      if (counts[c] > 0)
+        for (std::size_t i = 0; i < dims; ++i)
+          centroids[c * dims + i] = static_cast<float>(sums[c * dims + i] / static_cast<double>(counts[c]));
+  }
+  final_assignment.resize(total);
+  for (std::size_t v = 0; v < total; ++v) final_assignment[v] = nearest_cell(all.data() + v * dims, centroids, dims);
+  return centroids;
+}
+
+constexpr int kCellIterations = 8;
+
+}  // namespace
+
 void PlaceIndex::prepare_thumbnails() {
   normalised.clear();
   coarse.clear();
@@ -169,12 +306,79 @@ void PlaceIndex::prepare_thumbnails() {
     normalised.push_back(normalise_thumbnail(t));
     coarse.push_back(coarse_thumbnail(t));
   }
+  const std::size_t n = thumbnails.size();
+  const std::size_t vectors = n * kStoredWindows;
+  const auto dims = static_cast<std::size_t>(signature_dims(thumbnail_height_px));
+  signatures.clear();
+  signatures.reserve(vectors * dims);
+  for (std::size_t p = 0; p < n; ++p) thumbnail_signatures(thumbnails[p], true, signatures);
+  if (n == 0) {
+    thumbnail_centroids.clear();
+    thumbnail_cell.clear();
+    cell_members.clear();
+    return;
+  }
+  if (thumbnail_cell.size() != vectors || thumbnail_centroids.empty() || thumbnail_centroids.size() % dims != 0) {
+    const auto cells =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(std::sqrt(static_cast<double>(vectors)))));
+    thumbnail_centroids = train_cells(signatures, vectors, dims, cells, kCellIterations, thumbnail_cell);
+  }
+  cell_members.assign(thumbnail_centroids.size() / dims, {});
+  for (std::size_t v = 0; v < vectors; ++v) cell_members[thumbnail_cell[v]].push_back(static_cast<std::uint32_t>(v));
+}
+
+std::size_t PlaceIndex::thumbnail_cells() const { return cell_members.size(); }
+
+void PlaceIndex::thumbnail_first_stage(const cv::Mat& live_u8, int count, std::vector<std::uint32_t>& out,
+                                       double probe) const {
+  out.clear();
+  const std::size_t n = thumbnails.size();
+  if (count <= 0 || n == 0 || live_u8.cols != thumbnail_width_px || live_u8.rows != thumbnail_height_px) return;
+  if (static_cast<std::size_t>(count) >= n || cell_members.empty()) {
+    for (std::size_t p = 0; p < n; ++p) out.push_back(static_cast<std::uint32_t>(p));
+    return;
+  }
+  const auto dims = static_cast<std::size_t>(signature_dims(thumbnail_height_px));
+  std::vector<float> live;
+  thumbnail_signatures(live_u8, false, live);
+  std::vector<std::pair<float, std::uint32_t>> cells(cell_members.size());
+  std::vector<std::pair<float, std::uint32_t>> near;  // (distance, place)
+  const auto wanted = static_cast<std::size_t>(std::max(1.0, probe * count));
+  for (int win = 0; win < kLiveWindows; ++win) {
+    const float* q = live.data() + static_cast<std::size_t>(win) * dims;
+    for (std::size_t c = 0; c < cells.size(); ++c)
+      cells[c] = {squared_distance(q, thumbnail_centroids.data() + c * dims, dims), static_cast<std::uint32_t>(c)};
+    std::sort(cells.begin(), cells.end());
+    std::size_t visited = 0;
+    for (const auto& [d, c] : cells) {
+      for (std::uint32_t v : cell_members[c])
+        near.emplace_back(squared_distance(q, signatures.data() + static_cast<std::size_t>(v) * dims, dims),
+                          v / kStoredWindows);
+      visited += cell_members[c].size();
+      if (visited >= wanted) break;
+    }
+  }
+  // Each place at its nearest pair, then the count nearest places.
+  std::sort(near.begin(), near.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second < b.second : a.first < b.first;
+  });
+  near.erase(std::unique(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.second == b.second; }),
+             near.end());
+  const auto keep = std::min(near.size(), static_cast<std::size_t>(count));
+  std::partial_sort(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(keep), near.end());
+  for (std::size_t i = 0; i < keep; ++i) out.push_back(near[i].second);
 }
 
 void PlaceIndex::query_thumbnails(const cv::Mat& live_u8, int max_shift_px, int k, double min_ncc,
-                                  std::vector<ThumbnailHit>& out, int coarse_candidates) const {
+                                  std::vector<ThumbnailHit>& out, int coarse_candidates, int index_candidates) const {
   out.clear();
   if (k <= 0 || live_u8.empty() || live_u8.cols != thumbnail_width_px || live_u8.rows != thumbnail_height_px) return;
+  // The places searched: all, or the first stage's (inverted file over the signatures).
+  std::vector<std::uint32_t> searched;
+  if (index_candidates > 0 && static_cast<std::size_t>(index_candidates) < normalised.size())
+    thumbnail_first_stage(live_u8, index_candidates, searched);
+  else
+    for (std::size_t p = 0; p < normalised.size(); ++p) searched.push_back(static_cast<std::uint32_t>(p));
   const cv::Mat live = normalise_thumbnail(live_u8);
   auto best_shift = [](const cv::Mat& a, const cv::Mat& b, int from, int to, std::uint32_t p) {
     ThumbnailHit best{p, -1.0, 0};
@@ -184,11 +388,11 @@ void PlaceIndex::query_thumbnails(const cv::Mat& live_u8, int max_shift_px, int 
     }
     return best;
   };
-  const bool two_pass = coarse_candidates > 0 && normalised.size() > static_cast<std::size_t>(coarse_candidates) &&
+  const bool two_pass = coarse_candidates > 0 && searched.size() > static_cast<std::size_t>(coarse_candidates) &&
                         coarse.size() == normalised.size();
   if (!two_pass) {
-    for (std::size_t p = 0; p < normalised.size(); ++p) {
-      ThumbnailHit best = best_shift(live, normalised[p], -max_shift_px, max_shift_px, static_cast<std::uint32_t>(p));
+    for (std::uint32_t p : searched) {
+      ThumbnailHit best = best_shift(live, normalised[p], -max_shift_px, max_shift_px, p);
       if (best.ncc >= min_ncc) out.push_back(best);
     }
   } else {
@@ -197,9 +401,9 @@ void PlaceIndex::query_thumbnails(const cv::Mat& live_u8, int max_shift_px, int 
     // within +-2 px of twice their coarse shift (the coarse peak is 2 px wide at full scale).
     const cv::Mat live_coarse = coarse_thumbnail(live_u8);
     const int coarse_shift = (max_shift_px + 1) / 2;
-    std::vector<ThumbnailHit> rough(normalised.size());
-    for (std::size_t p = 0; p < coarse.size(); ++p)
-      rough[p] = best_shift(live_coarse, coarse[p], -coarse_shift, coarse_shift, static_cast<std::uint32_t>(p));
+    std::vector<ThumbnailHit> rough(searched.size());
+    for (std::size_t i = 0; i < searched.size(); ++i)
+      rough[i] = best_shift(live_coarse, coarse[searched[i]], -coarse_shift, coarse_shift, searched[i]);
     const auto keep = static_cast<std::ptrdiff_t>(coarse_candidates);
     std::partial_sort(rough.begin(), rough.begin() + keep, rough.end(),
                       [](const ThumbnailHit& a, const ThumbnailHit& b) { return a.ncc > b.ncc; });
@@ -270,6 +474,14 @@ std::vector<std::uint8_t> PlaceIndex::serialize() const {
     const cv::Mat t = thumbnails[i].isContinuous() ? thumbnails[i] : thumbnails[i].clone();
     body.put_bytes({t.data, t.total()});
   }
+  // Version 3: the first stage's inverted file (cells of the thumbnail signatures).
+  const auto dims = static_cast<std::uint32_t>(signature_dims(thumbnail_height_px));
+  const auto cells = static_cast<std::uint32_t>(thumbnail_places.empty() ? 0 : thumbnail_centroids.size() / dims);
+  body.put<std::uint32_t>(dims);
+  body.put<std::uint32_t>(cells);
+  for (std::size_t i = 0; i < static_cast<std::size_t>(cells) * dims; ++i) body.put<float>(thumbnail_centroids[i]);
+  if (cells > 0)
+    for (std::uint32_t c : thumbnail_cell) body.put<std::uint32_t>(c);  // kStoredWindows per place
   const std::vector<std::uint8_t>& b = body.bytes();
   PayloadWriter file;
   for (char ch : kIndexMagic) file.put<std::uint8_t>(static_cast<std::uint8_t>(ch));
@@ -291,8 +503,8 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
   const auto crc = head.get<std::uint32_t>();
   const auto length = head.get<std::uint64_t>();
   if (!version || !crc || !length) return index_error(name, "truncated header");
-  if (*version != kIndexVersion && *version != 1)
-    return index_error(name, "format version " + std::to_string(*version) + ", this build reads 1 and " +
+  if (*version < 1 || *version > kIndexVersion)
+    return index_error(name, "format version " + std::to_string(*version) + ", this build reads 1 to " +
                                  std::to_string(kIndexVersion));
   if (*length != file.size() - kHeader)
     return index_error(name, "body length " + std::to_string(*length) + " bytes, file holds " +
@@ -372,6 +584,34 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
     cv::Mat t(*th, *tw, CV_8UC1);
     std::memcpy(t.data, px->data(), px->size());
     index.thumbnails.push_back(std::move(t));
+  }
+  if (*version >= 3) {
+    // The inverted file; a version-2 index has none: prepare_thumbnails trains it at load.
+    auto dims = r.get<std::uint32_t>();
+    auto cells = r.get<std::uint32_t>();
+    if (!dims || !cells) return bad("thumbnail cells header");
+    const bool none = *thumb_count == 0;
+    const std::size_t vectors = static_cast<std::size_t>(*thumb_count) * kStoredWindows;
+    if (none ? *cells != 0
+             : (*dims != static_cast<std::uint32_t>(signature_dims(*th)) || *cells == 0 || *cells > vectors))
+      return bad("thumbnail cells: " + std::to_string(*cells) + " cells of " + std::to_string(*dims) +
+                 " dimensions for " + std::to_string(*thumb_count) + " thumbnail places");
+    const std::size_t floats = static_cast<std::size_t>(*cells) * *dims;
+    if (floats * 4 + vectors * 4 != r.remaining()) return bad("thumbnail cells size");
+    index.thumbnail_centroids.resize(floats);
+    for (float& f : index.thumbnail_centroids) {
+      auto v = r.get<float>();
+      if (!v || !std::isfinite(*v)) return bad("thumbnail cell centroid");
+      f = *v;
+    }
+    if (!none) {
+      index.thumbnail_cell.resize(vectors);
+      for (std::uint32_t& c : index.thumbnail_cell) {
+        auto v = r.get<std::uint32_t>();
+        if (!v || *v >= *cells) return bad("thumbnail cell of a place");
+        c = *v;
+      }
+    }
   }
   if (!r.at_end()) return bad("trailing bytes");
   index.prepare_thumbnails();

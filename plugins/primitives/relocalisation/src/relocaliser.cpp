@@ -124,6 +124,10 @@ const ParamSchema<RelocaliseParams>& RelocaliseParams::schema() {
                  "thumbnail places kept by the half-resolution first pass for the full-resolution comparison "
                  "(0 = compare every place at full resolution)")
           .range(0, 100000)
+          .field("thumbnail_index_candidates", &P::thumbnail_index_candidates,
+                 "thumbnail places the inverted file of thumbnail signatures hands to the two passes (0 = every "
+                 "place; a map with no more places than this searches every place)")
+          .range(0, 1000000)
           .field("min_cell_agreement", &P::min_cell_agreement,
                  "places with known gaps (visual_memory references): fraction of the answer's frames whose "
                  "nearest-place cells must overlap where it is, else ambiguous")
@@ -251,9 +255,13 @@ RelocAnswer Relocaliser::decide() const {
   for (const Moved& v : votes) {
     Hypothesis* into = nullptr;
     double into_delta = 0.0;
+    // A place with known gaps (a visual_memory reference) is one of a row of places as far apart
+    // as the gaps: its votes join a place within the larger gap (adjacent references are one
+    // stretch, placed by the cells below), other votes within place_tolerance_m.
+    const double tolerance_m = std::max(params_.place_tolerance_m, std::max(v.gap_before_m, v.gap_after_m));
     for (auto& h : hyps) {
       auto d = route_distance_m(h.edge, h.centre_m, v.edge, v.distance_m);
-      if (d && std::abs(*d) <= params_.place_tolerance_m && (into == nullptr || std::abs(*d) < std::abs(into_delta))) {
+      if (d && std::abs(*d) <= tolerance_m && (into == nullptr || std::abs(*d) < std::abs(into_delta))) {
         into = &h;
         into_delta = *d;
       }

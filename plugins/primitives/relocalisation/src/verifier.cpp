@@ -71,7 +71,7 @@ Result<std::vector<PlaceVote>> PlaceVerifier::thumbnail_votes(const cv::Mat& ima
   const double px_per_deg = index_.thumbnail_width_px / horizontal_fov_deg_;
   const int max_shift = static_cast<int>(std::lround(params.thumbnail_max_shift_deg * px_per_deg));
   index_.query_thumbnails(thumb, max_shift, params.thumbnail_candidates, params.min_thumbnail_ncc, thumbnail_hits_,
-                          params.thumbnail_coarse_candidates);
+                          params.thumbnail_coarse_candidates, params.thumbnail_index_candidates);
   for (const ThumbnailHit& h : thumbnail_hits_) {
     const PlaceRef& ref = index_.thumbnail_places[h.place];
     // Live shifted right: the robot is turned left of the taught heading (CCW positive).

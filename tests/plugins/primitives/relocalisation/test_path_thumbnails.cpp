@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -165,6 +167,71 @@ TEST(Thumbnail, TwoPassSearchFindsWhatTheExhaustiveOneFinds) {
   index.query_thumbnails(thumb, 32, 3, 0.4, two_pass, kPlaces);
   ASSERT_EQ(two_pass.size(), exhaustive.size());
   for (std::size_t i = 0; i < exhaustive.size(); ++i) EXPECT_EQ(two_pass[i].place, exhaustive[i].place);
+}
+
+TEST(Thumbnail, FirstStageHandsTheViewedPlaceToTheTwoPassesAndItsCellsSurviveTheFile) {
+  PlaceIndex index;
+  index.edges.push_back({"p0", kPathKind, 300.0, 0});
+  index.vocabulary = cv::Mat::zeros(index.params.vocabulary_words, 32, CV_8UC1);
+  index.thumbnail_width_px = path_payload::kThumbnailWidthPx;
+  index.thumbnail_height_px = path_payload::kThumbnailHeightPx;
+  constexpr int kPlaces = 600;
+  for (int k = 0; k < kPlaces; ++k) {
+    index.thumbnail_places.push_back({0, 0.5f * static_cast<float>(k)});
+    index.thumbnails.push_back(*path_payload::make_thumbnail(view(1000 + k)));
+  }
+  index.prepare_thumbnails();
+  EXPECT_EQ(index.thumbnail_cells(), 55u) << "~sqrt(window vectors) cells";
+  ASSERT_EQ(index.thumbnail_cell.size(), static_cast<std::size_t>(kPlaces * kStoredWindows));
+  // Views of a place turned by up to 12 px of 64 (11 deg), darker: the first stage's 32 of 600
+  // places hold it, and the search through the first stage answers what the exhaustive one does.
+  std::vector<ThumbnailHit> exhaustive, staged;
+  std::vector<std::uint32_t> first;
+  const std::vector<std::pair<int, double>> cases = {{3, 20.0},   {77, -60.0}, {150, 0.0},  {231, 45.0},
+                                                     {388, -30.0}, {452, 60.0}, {599, -10.0}};
+  for (const auto& [place, dx_px] : cases) {
+    cv::Mat live;
+    shifted(view(1000 + place), dx_px).convertTo(live, -1, 0.7, 12.0);
+    const cv::Mat thumb = *path_payload::make_thumbnail(live);
+    index.thumbnail_first_stage(thumb, 32, first);
+    ASSERT_EQ(first.size(), 32u);
+    EXPECT_NE(std::find(first.begin(), first.end(), static_cast<std::uint32_t>(place)), first.end()) << place;
+    index.query_thumbnails(thumb, 32, 3, 0.4, exhaustive, 0, 0);
+    index.query_thumbnails(thumb, 32, 3, 0.4, staged, 16, 32);
+    ASSERT_FALSE(exhaustive.empty()) << place;
+    ASSERT_FALSE(staged.empty()) << place;
+    EXPECT_EQ(exhaustive[0].place, static_cast<std::uint32_t>(place));
+    EXPECT_EQ(staged[0].place, exhaustive[0].place);
+    EXPECT_EQ(staged[0].shift_px, exhaustive[0].shift_px);
+  }
+  // The cells are stored (version 3) and read back as built.
+  const std::vector<std::uint8_t> file = index.serialize();
+  auto back = PlaceIndex::deserialize(file, "idx");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->thumbnail_cell, index.thumbnail_cell);
+  EXPECT_EQ(back->thumbnail_centroids, index.thumbnail_centroids);
+  // A version-2 file (no cells): still read, its cells trained at load (the same, deterministic).
+  const std::size_t dims = static_cast<std::size_t>(signature_dims(index.thumbnail_height_px));
+  const std::size_t cells_bytes =
+      8 + 4 * (index.thumbnail_centroids.size() + static_cast<std::size_t>(kPlaces * kStoredWindows));
+  EXPECT_EQ(index.thumbnail_centroids.size(), 55 * dims);
+  std::vector<std::uint8_t> v2(file.begin(), file.end() - static_cast<std::ptrdiff_t>(cells_bytes));
+  const std::span<const std::uint8_t> body(v2.data() + 24, v2.size() - 24);
+  const std::uint32_t version = 2, crc = map_format::crc32(body);
+  const std::uint64_t length = body.size();
+  std::memcpy(v2.data() + 8, &version, 4);
+  std::memcpy(v2.data() + 12, &crc, 4);
+  std::memcpy(v2.data() + 16, &length, 8);
+  auto old = PlaceIndex::deserialize(v2, "idx");
+  ASSERT_TRUE(old.ok()) << old.error().message;
+  EXPECT_EQ(old->thumbnail_cell, index.thumbnail_cell);
+  // A cell id past the cells (a broken writer: the checksum matches) is a parse error.
+  PlaceIndex broken = index;
+  broken.thumbnail_cell[5] = 1000;
+  auto bad = PlaceIndex::deserialize(broken.serialize(), "idx");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().code, ErrorCode::parse_error);
+  EXPECT_NE(bad.error().message.find("thumbnail cell"), std::string::npos) << bad.error().message;
 }
 
 class HybridMap : public ::testing::Test {

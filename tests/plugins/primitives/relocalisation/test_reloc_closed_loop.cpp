@@ -14,8 +14,9 @@
 //    which builds the place index at its end.
 //  * visual_memory: the same rectangle taught as four visual_memory edges
 //    (trees/teach_hybrid_visual_memory.xml, whose BuildPlaceIndex describes the reference images
-//    with the config's detector); 1.5 m into the second leg, off it and turned, Relocalise (creeping
-//    1 m, the shipped trees' settings) answers the second leg within 1 m; a prior on a
+//    with the config's detector); 1.5 m into the second leg, off it and turned,
+//    trees/replay_from_here.xml (creeping 1 m) answers the second leg within 1 m and replays the
+//    rest of it with ReplayVisualMemoryEdge to its end node; a prior on a
 //    path_following edge is answered not_indexed without moving.
 //  * BuildPlaceIndex as the teach trees use it (required="false") on a path-only map and on a
 //    map of float descriptors: the teach never fails for want of an index.
@@ -358,10 +359,12 @@ TEST(RelocClosedLoopSim, RelocalisesOnAVisualMemoryEdgeAndRefusesAPriorOnAnUnind
   teach(map_dir, "curve20m", "curve20m_polygon", "teach_hybrid_visual_memory.xml", "visual_memory");
   if (HasFatalFailure()) return;
   std::string second_edge;
+  std::string second_to;
   {
     auto map = MapStore::open(map_dir);
     ASSERT_TRUE(map.ok());
     second_edge = map->edges()[1].id;
+    second_to = map->edges()[1].to;
     EXPECT_EQ(map->edges()[1].kind, "visual_memory");
     auto index = reloc::load_place_index(map_dir);
     ASSERT_TRUE(index.ok()) << "the teach tree indexes the reference images: " << index.error().message;
@@ -370,24 +373,34 @@ TEST(RelocClosedLoopSim, RelocalisesOnAVisualMemoryEdgeAndRefusesAPriorOnAnUnind
     EXPECT_GE(index->places.size(), 8u) << "a place per reference image";
   }
   {
-    // 1.5 m into the second leg ((3, -2) -> (3, 2)), 0.15 m to its right, turned 15 deg left.
+    // 1.5 m into the second leg ((3, -2) -> (3, 2)), 0.15 m to its right, turned 15 deg left:
+    // replay_from_here.xml relocalises (creeping 1 m) and replays the rest of the leg to its end
+    // node with ReplayVisualMemoryEdge (FollowRoute fails on a visual_memory edge without it).
     auto session = make_session(map_dir, {"robot.params.start_pose=3.15;-0.5;105"});
     ASSERT_NE(session, nullptr);
     SimulationControl* sim = session->robot().simulation();
-    std::optional<bt::Tree> holder;
-    bt::Tree* tree = nullptr;
-    const RunReport report = relocalise_only(
-        *session, tmp, R"(creep_m="1" creep_unrecognised="1" min_answer_confidence="0.35" min_agreement="0.85")", &tree,
-        holder);
-    const Pose2D at = sim->ground_truth_pose();
+    auto tree = session->load_tree(kSource + "/trees/replay_from_here.xml");
+    ASSERT_TRUE(tree.ok()) << tree.error().message;
+    tree->blackboard().set("goal", second_to);
+    Pose2D at{};
+    tree->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+      if (node.registration_id() == "Relocalise" && to == bt::NodeStatus::success) at = sim->ground_truth_pose();
+    });
+    RunOptions run;
+    run.after_tick = [](const TickInfo& t) { return t.t_s < 120.0; };
+    const RunReport report = run_tree(*session, *tree, run);
     const double truth_m = (at.y_m + 2.0) * 1.03;  // odometric metres along the leg
-    std::printf("visual memory: %s: %s (truth ~%.2f m)\n", bb_string(*tree, "reloc_status").c_str(),
-                bb_string(*tree, "reloc_reason").c_str(), truth_m);
-    EXPECT_EQ(report.outcome, RunOutcome::success) << bb_string(*tree, "reloc_reason");
+    const Pose2D end = sim->ground_truth_pose();
+    const double error_m = std::hypot(end.x_m - 3.0, end.y_m - 2.0);
+    std::printf("visual memory: %s: %s (truth ~%.2f m); replay ended at (%.2f, %.2f), %.2f m from the leg's end\n",
+                bb_string(*tree, "reloc_status").c_str(), bb_string(*tree, "reloc_reason").c_str(), truth_m, end.x_m,
+                end.y_m, error_m);
+    EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason << " / " << bb_string(*tree, "reloc_reason");
     EXPECT_EQ(bb_string(*tree, "reloc_edge"), second_edge) << bb_string(*tree, "reloc_reason");
     auto d = tree->blackboard().get<double>("reloc_distance_m");
     ASSERT_TRUE(d.ok());
     EXPECT_NEAR(*d, truth_m, 1.0);
+    EXPECT_LT(error_m, 0.8) << "the rest of the visual_memory leg is replayed to its end node";
   }
   {
     // A path_following edge taught before thumbnails (VPF1: colour models only) added to the map:

@@ -276,6 +276,35 @@ TEST(Relocaliser, PlacesWithKnownGapsAreAnsweredWhereTheFramesCellsOverlap) {
   EXPECT_NEAR(median.distance_m, 3.0, 0.05);
 }
 
+TEST(Relocaliser, AdjacentReferencesMoreThanThePlaceToleranceApartAreOneStretch) {
+  // The scenario above with the default place_tolerance_m (1 m): the frames' best votes, 2.5-3.0 m
+  // and 4.0-4.4 m moved, are two places by the tolerance, neither supported by 85 % of the
+  // frames. Votes with known gaps (visual_memory references, 2 m apart here) join a place within
+  // their gap: one stretch, placed by the cells where the robot is.
+  RelocaliseParams p;
+  p.min_agreement = 0.85;
+  Relocaliser r(p, loop());
+  for (int i = 0; i <= 10; ++i) {
+    const double odom_m = 0.1 * i;
+    PlaceVote v{1, 2.6 + odom_m < 3.15 ? 2.0 : 4.0, 0.8, 0.0};
+    v.gap_before_m = 2.0;
+    v.gap_after_m = 2.0;
+    r.add(frame({v}, odom_m));
+  }
+  const RelocAnswer a = r.decide();
+  ASSERT_EQ(a.status, RelocStatus::localised) << a.reason;
+  EXPECT_EQ(a.edge, 1u);
+  EXPECT_NEAR(a.distance_m, 3.7, 0.05);  // the truth is 3.6 m
+  EXPECT_EQ(a.support, 11);
+  // Without gaps (feature places) the same votes stay two places 1.5 m apart: not one answer.
+  Relocaliser f(p, loop());
+  for (int i = 0; i <= 10; ++i) {
+    const double odom_m = 0.1 * i;
+    f.add(frame({PlaceVote{1, 2.6 + odom_m < 3.15 ? 2.0 : 4.0, 0.8, 0.0}}, odom_m));
+  }
+  EXPECT_NE(f.decide().status, RelocStatus::localised);
+}
+
 TEST(Relocaliser, PlacesFarApartAreAmbiguousWhenTheFramesCannotSayWhereBetweenThem) {
   // References 3 m apart (2.0, 5.0); the robot creeps 1 m and sees 2.0 best all the way: it was
   // always within 2.0's cell [0.5, 4.25], so now anywhere on 1.5-4.25 m (+-1.4 m): refused.

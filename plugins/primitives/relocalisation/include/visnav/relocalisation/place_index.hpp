@@ -18,11 +18,16 @@
 // measures it on 1 km and 10 km maps. A similarity-search library (faiss IndexBinaryFlat) does the
 // same scan; HNSW would be sub-linear but its graph must be rebuilt or stored, and the scan is a
 // small part of a query (the histogram verification of the candidates dominates).
+// Thumbnail places (path_following edges, compared by shifted NCC) are searched in three stages:
+// a sub-linear first stage (shift-tolerant window vectors in a k-means inverted file of
+// ~sqrt(vectors) cells, thumbnail_first_stage), then a half-resolution and a full-resolution NCC
+// pass on the few hundred places it returns (query_thumbnails).
 //
 // The index lives in the map folder as `place_index.bin`: magic "VNAVPIDX", format version,
 // body length and CRC-32 of the body (map_format::crc32), then the body: parameters, the list of
 // indexed edges with their payload sizes (a map changed since the index was built is detected as
-// stale), the vocabulary, the places and their codes. Written crash-safely like the map's own
+// stale), the vocabulary, the places and their codes, the thumbnail places (version 2) and the
+// first stage's cells (version 3; a version-2 file's cells are trained at load). Written crash-safely like the map's own
 // files (temporary file, fsync, rename, folder fsync). Only binary (CV_8U) descriptors can be
 // indexed; a map of float descriptors is refused with a clear error.
 //
@@ -51,7 +56,8 @@ namespace visnav::reloc {
 
 inline constexpr const char* kIndexFile = "place_index.bin";
 inline constexpr char kIndexMagic[8] = {'V', 'N', 'A', 'V', 'P', 'I', 'D', 'X'};
-inline constexpr std::uint32_t kIndexVersion = 2;  ///< 2: + detector, thumbnail places (1 is still read)
+/// 2: + detector, thumbnail places; 3: + the thumbnail places' cells (1 and 2 are still read).
+inline constexpr std::uint32_t kIndexVersion = 3;
 inline constexpr const char* kSegmentKind = "feature_segment";
 inline constexpr const char* kLocalMapsKind = "feature_localmaps";
 inline constexpr const char* kMemoryKind = "visual_memory";
@@ -72,6 +78,29 @@ using path_payload::thumbnail_ncc;
 /// The coarse thumbnail of the two-pass search: `thumbnail_u8` at half its width and height
 /// (area average), then normalise_thumbnail.
 [[nodiscard]] cv::Mat coarse_thumbnail(const cv::Mat& thumbnail_u8);
+
+/// The shift-tolerant global vectors of a thumbnail (the first stage of the thumbnail search).
+/// A window half the thumbnail's width is described by: per band of kSignatureBands rows of the
+/// normalised thumbnail (normalise_thumbnail), the square-rooted magnitudes of the horizontal DFT
+/// at 1..kSignatureFrequencies cycles per window, averaged over the band's rows (a sideways shift
+/// changes the phases, not the magnitudes); the raw grey means of kSignatureBands x
+/// kSignatureColumns blocks, z-scored (the coarse layout); the raw row means, z-scored (the
+/// skyline's height). Each part is scaled to unit length and weighted (1, kSignatureBlockWeight,
+/// kSignatureProfileWeight). A stored thumbnail gives kStoredWindows windows, 1/8 of the width
+/// apart (left edge to right edge); a live one kLiveWindows, 1/4 apart: for any shift within
+/// +-half the width, one live window lies within 1/16 of the width of one stored window.
+inline constexpr int kSignatureBands = 6;
+inline constexpr int kSignatureFrequencies = 6;
+inline constexpr int kSignatureColumns = 4;
+inline constexpr float kSignatureBlockWeight = 1.0f;
+inline constexpr float kSignatureProfileWeight = 0.7f;
+inline constexpr int kStoredWindows = 5;
+inline constexpr int kLiveWindows = 3;
+/// Floats per window vector for a thumbnail of `height_px` rows.
+[[nodiscard]] int signature_dims(int height_px);
+/// The window vectors of `thumbnail_u8` (at least 8 x 4 px): kStoredWindows (`stored`) or
+/// kLiveWindows of signature_dims(rows) floats each, appended to `out` window after window.
+void thumbnail_signatures(const cv::Mat& thumbnail_u8, bool stored, std::vector<float>& out);
 
 /// One thumbnail hit: the best shift of a thumbnail place.
 struct ThumbnailHit {
@@ -129,9 +158,32 @@ class PlaceIndex {
   std::vector<cv::Mat> thumbnails;    ///< per thumbnail place, CV_8UC1 as stored
   std::vector<cv::Mat> normalised;    ///< per thumbnail place, normalise_thumbnail (not stored)
   std::vector<cv::Mat> coarse;        ///< per thumbnail place, coarse_thumbnail (not stored)
+  /// The first stage's inverted file (version 3): the stored window vectors of every thumbnail
+  /// place (thumbnail_signatures, kStoredWindows per place) clustered by k-means into
+  /// ~sqrt(vectors) cells; `thumbnail_centroids` cells x signature_dims floats, `thumbnail_cell`
+  /// the cell of each vector (place p's windows are vectors kStoredWindows p ...; both stored;
+  /// trained at load for a version-2 file). Empty when the index has no thumbnail place.
+  std::vector<float> thumbnail_centroids;
+  std::vector<std::uint32_t> thumbnail_cell;
+  std::vector<float> signatures;                  ///< the window vectors, place after place (not stored)
+  std::vector<std::vector<std::uint32_t>> cell_members;  ///< per cell, its vectors (not stored)
 
-  /// Fills `normalised` and `coarse` from `thumbnails` (deserialize and build_place_index do).
+  /// Fills `normalised`, `coarse` and `signatures` from `thumbnails` and the cells' member lists;
+  /// trains the cells first when `thumbnail_cell` does not cover every thumbnail place
+  /// (deserialize and build_place_index call it).
   void prepare_thumbnails();
+  /// Number of inverted-file cells.
+  [[nodiscard]] std::size_t thumbnail_cells() const;
+  /// The first stage: the `count` thumbnail places whose window vectors are nearest to one of
+  /// `live_u8`'s live windows, nearest first, looked up in the inverted file: for each live
+  /// window, the cells are ranked by their centroid's distance and visited in that order until
+  /// they hold at least `probe` x count vectors (or all are visited); a place's distance is the
+  /// smallest over the pairs visited. Cost ~ kLiveWindows x (cells + probe x count) distances
+  /// (cells ~ sqrt(vectors): sub-linear). Every place when count >= the places; none when
+  /// `live_u8` is not of the index's thumbnail size. `out` is reused.
+  void thumbnail_first_stage(const cv::Mat& live_u8, int count, std::vector<std::uint32_t>& out,
+                             double probe = kFirstStageProbe) const;
+  static constexpr double kFirstStageProbe = 8.0;
 
   /// True when `edge` (index into edges) has at least one place of either kind.
   [[nodiscard]] bool covers(std::uint32_t edge) const;
@@ -141,9 +193,11 @@ class PlaceIndex {
   /// pass over every place and shift. > 0 (and fewer than the places): two passes — every place
   /// compared at half resolution (coarse_thumbnail, shifts within +-max_shift_px / 2), then only
   /// the coarse_candidates best compared at full resolution within +-2 px of their coarse shift
-  /// (about a sixth of the exhaustive cost plus the refinement). Needs prepare_thumbnails().
+  /// (about a sixth of the exhaustive cost plus the refinement). `index_candidates` > 0 (and
+  /// fewer than the places): only the places thumbnail_first_stage returns are searched (the
+  /// two passes then run on them). Needs prepare_thumbnails().
   void query_thumbnails(const cv::Mat& live_u8, int max_shift_px, int k, double min_ncc,
-                        std::vector<ThumbnailHit>& out, int coarse_candidates = 0) const;
+                        std::vector<ThumbnailHit>& out, int coarse_candidates = 0, int index_candidates = 0) const;
 
   /// 64-bit words per code.
   [[nodiscard]] int code_words() const { return params.vocabulary_words / 64; }

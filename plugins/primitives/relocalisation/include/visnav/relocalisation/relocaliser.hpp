@@ -82,6 +82,10 @@ struct RelocaliseParams {
   /// Two-pass thumbnail search: the places kept by the half-resolution pass for the full one
   /// (PlaceIndex::query_thumbnails; 0 = one exhaustive pass).
   int thumbnail_coarse_candidates = 32;
+  /// Sub-linear first stage: only the thumbnail places PlaceIndex::thumbnail_first_stage returns
+  /// (signature nearest neighbours from the inverted file) are searched by the two passes
+  /// (0 = search every place; a map with no more places than this searches every place).
+  int thumbnail_index_candidates = 256;
   /// Places with known gaps (PlaceVote::gap_before_m / gap_after_m): the fraction of the answer's
   /// frames whose cells must cover the answer, else it is ambiguous (the frames disagree where).
   double min_cell_agreement = 0.8;

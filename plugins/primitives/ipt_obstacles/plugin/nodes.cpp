@@ -114,34 +114,72 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
 ObstacleAhead::ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host)
     : bt::ConditionNode(name, config), host_(host) {}
 
-bt::PortsList corridor_ports(const char* lookahead_default_m) {
+bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confirm_baseline_default_m) {
   return {bt::input_port<double>("lookahead_m", lookahead_default_m, "contact points up to this far ahead count"),
           bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"),
-          bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel")};
+          bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"),
+          bt::input_port<double>("confirm_baseline_m", confirm_baseline_default_m,
+                                 "a contact counts only when seen again at the same ground point (within half the "
+                                 "travel, at most confirm_radius_m) from a robot position this far away: rejects "
+                                 "contacts that move with the robot (sliding tracks on paver joints); 0 = every contact"),
+          bt::input_port<double>("confirm_radius_m", "0.3", "largest distance between two sightings of one contact"),
+          bt::input_port<int>("confirm_views", "3",
+                              "... and a contact must have been found at that ground point by this many pairs "
+                              "(distinct robot positions; rejects occasional mis-tracks in periodic textures)")};
 }
 
-void CorridorMemory::add(const std::vector<cv::Point2d>& points, double odom_distance_m) {
-  for (const auto& p : points) points_.emplace_back(p, odom_distance_m);
+void CorridorMemory::add(const std::vector<cv::Point2d>& points, const Odometry& odom) {
+  sightings_.add(points, {odom.pose.x_m, odom.pose.y_m}, odom.distance_m);
+}
+
+std::vector<cv::Point2d> CorridorMemory::add_and_confirm(const std::vector<cv::Point2d>& points, const Odometry& odom) {
+  if (!filter_on_) return points;
+  sightings_.forget(odom.distance_m, memory_m_);
+  const std::size_t first = sightings_.size();
+  add(points, odom);
+  return sightings_.confirmed_since(first);
 }
 
 Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& odom) {
   VISNAV_ASSIGN(const double lookahead, node.get_input<double>("lookahead_m"));
   VISNAV_ASSIGN(const double half_width, node.get_input<double>("corridor_half_width_m"));
   VISNAV_ASSIGN(const double memory, node.get_input<double>("memory_m"));
-  std::erase_if(points_, [&](const auto& e) { return std::fabs(odom.distance_m - e.second) > memory; });
+  memory_m_ = memory;
+  if (!configured_) {
+    VISNAV_ASSIGN(const double baseline, node.get_input<double>("confirm_baseline_m"));
+    VISNAV_ASSIGN(const double radius, node.get_input<double>("confirm_radius_m"));
+    VISNAV_ASSIGN(const int views, node.get_input<int>("confirm_views"));
+    filter_on_ = baseline > 0.0;
+    if (filter_on_) {
+      ContactPersistenceParams params;
+      params.min_baseline_m = baseline;
+      params.max_radius_m = radius;
+      params.min_views = views;
+      if (auto st = params.validate(); !st)
+        return st.error().with_context("ports 'confirm_baseline_m'/'confirm_radius_m'/'confirm_views'");
+      sightings_.set_params(params);  // the sightings added before the first test stay
+    } else if (baseline < 0.0) {
+      return Error{"port 'confirm_baseline_m': must be >= 0 (got " + std::to_string(baseline) + ")", ErrorCode::out_of_range};
+    }
+    configured_ = true;
+  }
+  sightings_.forget(odom.distance_m, memory);
   const Pose2D& r = odom.pose;
   const double c = std::cos(r.heading_rad), s = std::sin(r.heading_rad);
-  for (const auto& [p, seen] : points_) {
+  auto in_corridor = [&](const cv::Point2d& p) {
     const double dx = p.x - r.x_m, dy = p.y - r.y_m;
     const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
-    if (fwd > 0.0 && fwd <= lookahead && std::fabs(lat) <= half_width) return true;
-  }
+    return fwd > 0.0 && fwd <= lookahead && std::fabs(lat) <= half_width;
+  };
+  if (filter_on_) return !sightings_.confirmed(in_corridor).empty();
+  for (const auto& p : sightings_.all())
+    if (in_corridor(p)) return true;
   return false;
 }
 
 bt::PortsList ObstacleAhead::provided_ports() {
   bt::PortsList ports = camera_ports("0");
-  for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
+  for (auto& p : corridor_ports("1.5", "0")) ports.push_back(std::move(p));
   return ports;
 }
 
@@ -154,7 +192,7 @@ NodeStatus ObstacleAhead::tick() {
   FrameBus* bus = host_.frame_bus();
   auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
   if (!odom) return NodeStatus::failure;
-  if (*fresh) corridor_.add(**fresh, odom->distance_m);
+  if (*fresh) corridor_.add(**fresh, *odom);
   auto blocked = corridor_.blocked(*this, *odom);
   if (!blocked) {
     host_.logger().warn(path(), blocked.error().message);
@@ -300,7 +338,7 @@ ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& co
 bt::PortsList ReplayAvoiding::provided_ports() {
   bt::PortsList ports = camera_ports("10");
   for (auto& p : avoid_ports()) ports.push_back(std::move(p));
-  for (auto& p : corridor_ports("1.5")) ports.push_back(std::move(p));
+  for (auto& p : corridor_ports("1.5", "0")) ports.push_back(std::move(p));
   ports.push_back(bt::input_port<std::string>("detour", "lane",
                                               "lane: a free lateral offset from the taught line, back onto it past the "
                                               "obstacle (measured: docs/obstacles.md); thesis: the Ch. 6 strategy to a "
@@ -383,7 +421,7 @@ NodeStatus ReplayAvoiding::tick() {
   }
   if (*fresh) {
     log_points(host_, *this, odom->pose, **fresh);
-    corridor_.add(**fresh, odom->distance_m);
+    corridor_.add(**fresh, *odom);
   }
   auto blocked = corridor_.blocked(*this, *odom);
   if (!blocked) {
@@ -643,7 +681,8 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
   }
   if (*fresh) {
     log_points(host_, *this, odom.pose, **fresh);
-    lane_->add_points(**fresh);
+    // With the filter on, only confirmed contacts steer the detour too.
+    lane_->add_points(corridor_.add_and_confirm(**fresh, odom));
   }
   const LaneDecision d = lane_->decide(odom.pose);
   (void)set_output("situation", std::string(d.kind == LaneDecision::Kind::blocked ? "blocked"

@@ -24,6 +24,7 @@
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
+#include "visnav/ipt_obstacles/contact_persistence.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav/ipt_obstacles/pipeline.hpp"
@@ -53,27 +54,34 @@ class PipelineRunner {
 bt::PortsList camera_ports(const char* foot_radius_default_px);
 
 /// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
-/// ObstacleAhead and ReplayAvoiding (ports corridor_ports()).
+/// ObstacleAhead and ReplayAvoiding (ports corridor_ports()). With confirm_baseline_m > 0 only
+/// persistent points count (ContactPersistence: seen again at the same ground point from robot
+/// positions at least that far apart, by confirm_views pairs); 0 = every point (the thesis and
+/// the default: measured, the confirmation delay lets a parked van come too close for the lane
+/// detour, test ReplayAvoiding.TaughtOnAClearPathReplayedPastAParkedVan).
 class CorridorMemory {
  public:
-  void add(const std::vector<cv::Point2d>& points, double odom_distance_m);
-  /// True when a kept point lies 0 < forward ≤ lookahead_m, |lateral| ≤ corridor_half_width_m.
-  /// Error: a port value is missing or bad.
+  /// Points of one pair, seen with the robot at `odom`.
+  void add(const std::vector<cv::Point2d>& points, const Odometry& odom);
+  /// The same during a detour: returns those of the new points that count (the confirmed ones
+  /// when the filter is on, else all). Forgets by the memory_m read by the last blocked().
+  std::vector<cv::Point2d> add_and_confirm(const std::vector<cv::Point2d>& points, const Odometry& odom);
+  /// True when a kept (confirmed) point lies 0 < forward ≤ lookahead_m, |lateral| ≤
+  /// corridor_half_width_m. Error: a port value is missing or bad.
   Result<bool> blocked(const bt::TreeNode& node, const Odometry& odom);
-  void clear() { points_.clear(); }
-  /// The kept points (odom frame).
+  void clear() { sightings_.clear(); }
+  /// The kept points (odom frame): the confirmed ones when the filter is on.
   [[nodiscard]] std::vector<cv::Point2d> points() const {
-    std::vector<cv::Point2d> out;
-    out.reserve(points_.size());
-    for (const auto& e : points_) out.push_back(e.first);
-    return out;
+    return filter_on_ ? sightings_.confirmed() : sightings_.all();
   }
 
  private:
-  std::vector<std::pair<cv::Point2d, double>> points_;  // odom point, odometry distance when seen
+  ContactPersistence sightings_{ContactPersistenceParams{}};
+  bool configured_ = false, filter_on_ = false;
+  double memory_m_ = 1.0;
 };
 
-bt::PortsList corridor_ports(const char* lookahead_default_m);
+bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confirm_baseline_default_m);
 
 class ObstacleAhead : public bt::ConditionNode {
  public:

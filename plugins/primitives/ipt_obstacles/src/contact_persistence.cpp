@@ -42,7 +42,8 @@ void ContactPersistence::forget(double odom_distance_m, double memory_m) {
 bool ContactPersistence::is_confirmed(std::size_t i) const {
   const Sighting& a = sightings_[i];
   bool far_match = false;
-  std::vector<cv::Point2d> views{a.robot_m};
+  std::vector<cv::Point2d>& views = views_scratch_;  // reused: this runs for every sighting every frame
+  views.assign(1, a.robot_m);
   for (std::size_t j = 0; j < sightings_.size(); ++j) {
     if (j == i) continue;
     const Sighting& b = sightings_[j];

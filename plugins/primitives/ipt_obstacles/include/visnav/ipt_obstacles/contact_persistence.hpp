@@ -72,6 +72,7 @@ class ContactPersistence {
 
   ContactPersistenceParams params_;
   std::vector<Sighting> sightings_;
+  mutable std::vector<cv::Point2d> views_scratch_;  ///< is_confirmed's robot positions, kept to avoid reallocating
 };
 
 }  // namespace visnav::ipt

@@ -323,6 +323,8 @@ TEST(TaughtOffsetProfile, WindowedMeanGainAndNoTargetWithoutSamples) {
   }
   samples.push_back({9.0, 0.4, 0.3});  // a gap from 5 to 9 m
   pf::TaughtOffsetParams params;
+  EXPECT_EQ(params.gain, 0.0);  // off by default (trees/subtrees/traverse_route.xml turns it on)
+  params.gain = 1.0;
   ASSERT_TRUE(params.validate().ok());
   const pf::TaughtOffsetProfile profile(params, samples);
   EXPECT_TRUE(profile.active());

@@ -32,7 +32,7 @@
 namespace visnav::path_following {
 
 struct TaughtOffsetParams {
-  double gain = 1.0;      ///< share of the taught offset steered to; 0 = off (centre on the path)
+  double gain = 0.0;      ///< share of the taught offset steered to; 0 = off (centre on the path)
   double window_m = 0.5;  ///< samples within this of the queried distance are averaged, m
   double max_sd = 0.03;   ///< no target where the window's samples spread more than this (normalised offset)
 

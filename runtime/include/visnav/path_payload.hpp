@@ -3,7 +3,7 @@
 // including a plugin's headers (the place index of relocalisation indexes the thumbnails, issue
 // 21). Header-only (like byte_io.hpp): the runtime itself never reads these payloads.
 //
-// Two versions, both read:
+// Three versions, all read:
 //   VPF1 (magic 0x56504631 "1FPV" little endian): the path's appearance summary only, count n,
 //        n x (mean: 3 doubles, covariance: 9 doubles, row-major) in the HSV-cone feature space of
 //        the path follower (path_follower.hpp). No thumbnail: such an edge cannot be recognised.
@@ -12,6 +12,14 @@
 //        upper kThumbnailRowsShare of the teach frame, grey, area-downsampled to width x height
 //        (make_thumbnail), taken every ~0.5 m of odometric edge distance; it is stored as is (not
 //        normalised: the reader normalises it for its own comparison).
+//   VPF3 (magic 0x56504633, since session 12): VPF2, then the taught path offset profile: count k,
+//        k x (distance_m, offset, junction_offset: double each), by non-decreasing distance. The
+//        offsets are the path follower's mean normalised offsets of control law (1)
+//        (path_follower.hpp: the path's middle relative to the image centre, in [-1, 1], + = right;
+//        offset with every path row, junction_offset with the junction-mode rows) of a teach frame
+//        in which the path was seen, at that odometric edge distance: where the path lay in the
+//        view where the teacher drove, which the replay repeats (docs/path_following.md, "Taught
+//        lateral position").
 // decode() checks every count, every number's finiteness, the thumbnail size and order; a body
 // that does not decode is an error (parse_error), never a crash.
 // Ownership: value types; thumbnails are cv::Mat (CV_8UC1, owned, never written after decode).
@@ -36,6 +44,7 @@ namespace visnav::path_payload {
 
 inline constexpr std::uint32_t kMagicV1 = 0x56504631;
 inline constexpr std::uint32_t kMagicV2 = 0x56504632;
+inline constexpr std::uint32_t kMagicV3 = 0x56504633;
 inline constexpr int kThumbnailWidthPx = 64;
 inline constexpr int kThumbnailHeightPx = 24;
 /// The thumbnail covers the rows above this share of the image height (the far scenery; the
@@ -54,12 +63,20 @@ struct Thumbnail {
   cv::Mat image;            ///< CV_8UC1, width_px x height_px
 };
 
+/// One teach frame's path offset (VPF3).
+struct OffsetSample {
+  double distance_m = 0.0;  ///< odometric distance along the edge
+  double offset = 0.0;      ///< mean normalised offset of control law (1), [-1, 1], + = path right
+  double junction_offset = 0.0;  ///< the same with the junction-mode rows (path_follower.hpp)
+};
+
 struct PathPayload {
   std::vector<ColourModelData> models;
   int thumbnail_width_px = kThumbnailWidthPx;
   int thumbnail_height_px = kThumbnailHeightPx;
   std::vector<Thumbnail> thumbnails;  ///< by increasing distance; empty for a VPF1 payload
-  std::uint32_t version = 2;          ///< 1 or 2 as decoded; encode() always writes VPF2
+  std::vector<OffsetSample> offsets;  ///< by non-decreasing distance; empty for VPF1 / VPF2
+  std::uint32_t version = 3;          ///< 1, 2 or 3 as decoded; encode() always writes VPF3
 
   [[nodiscard]] std::vector<std::uint8_t> encode() const;
   static Result<PathPayload> decode(std::span<const std::uint8_t> body);
@@ -85,7 +102,7 @@ inline Error bad(const std::string& what) { return fail(ErrorCode::parse_error, 
 
 inline std::vector<std::uint8_t> PathPayload::encode() const {
   PayloadWriter w;
-  w.put<std::uint32_t>(kMagicV2);
+  w.put<std::uint32_t>(kMagicV3);
   w.put<std::uint32_t>(static_cast<std::uint32_t>(models.size()));
   for (const auto& m : models) {
     for (double v : m.mean) w.put<double>(v);
@@ -103,6 +120,12 @@ inline std::vector<std::uint8_t> PathPayload::encode() const {
     std::memcpy(row.data(), c.data, std::min(bytes, c.total() * c.elemSize()));
     for (std::uint8_t b : row) w.put<std::uint8_t>(b);
   }
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(offsets.size()));
+  for (const auto& o : offsets) {
+    w.put<double>(o.distance_m);
+    w.put<double>(o.offset);
+    w.put<double>(o.junction_offset);
+  }
   return w.take();
 }
 
@@ -111,8 +134,9 @@ inline Result<PathPayload> PathPayload::decode(std::span<const std::uint8_t> bod
   PathPayload p;
   auto magic = r.get<std::uint32_t>();
   if (!magic) return detail::bad("truncated header");
-  if (*magic != kMagicV1 && *magic != kMagicV2) return detail::bad("not a path-following payload (bad magic)");
-  p.version = *magic == kMagicV1 ? 1 : 2;
+  if (*magic != kMagicV1 && *magic != kMagicV2 && *magic != kMagicV3)
+    return detail::bad("not a path-following payload (bad magic)");
+  p.version = *magic == kMagicV1 ? 1 : *magic == kMagicV2 ? 2 : 3;
   auto count = r.get<std::uint32_t>();
   if (!count) return detail::bad("truncated colour model count");
   if (*count > detail::kMaxModels) return detail::bad("implausible number of colour models: " + std::to_string(*count));
@@ -145,7 +169,9 @@ inline Result<PathPayload> PathPayload::decode(std::span<const std::uint8_t> bod
   if (*w < 8 || *h < 4 || *w > detail::kMaxThumbnailSide || *h > detail::kMaxThumbnailSide)
     return detail::bad("thumbnail size " + std::to_string(*w) + "x" + std::to_string(*h) + " out of range");
   const std::size_t bytes = static_cast<std::size_t>(*w) * static_cast<std::size_t>(*h);
-  if (*n > detail::kMaxThumbnails || static_cast<std::size_t>(*n) * (8 + bytes) != r.remaining())
+  const std::size_t thumbnail_bytes = static_cast<std::size_t>(*n) * (8 + bytes);
+  if (*n > detail::kMaxThumbnails ||
+      (p.version == 2 ? thumbnail_bytes != r.remaining() : thumbnail_bytes + 4 > r.remaining()))
     return detail::bad(std::to_string(*n) + " thumbnails of " + std::to_string(bytes) + " bytes do not fill the " +
                std::to_string(r.remaining()) + " bytes left");
   p.thumbnail_width_px = *w;
@@ -165,6 +191,26 @@ inline Result<PathPayload> PathPayload::decode(std::span<const std::uint8_t> bod
       if (!v) return detail::bad("truncated thumbnail " + std::to_string(i));
       t.image.data[b] = *v;
     }
+  }
+  if (p.version == 2) return p;
+  auto k = r.get<std::uint32_t>();
+  if (!k) return detail::bad("truncated offset profile count");
+  if (static_cast<std::size_t>(*k) * 24 != r.remaining())
+    return detail::bad(std::to_string(*k) + " offset samples do not fill the " + std::to_string(r.remaining()) +
+                       " bytes left");
+  p.offsets.resize(*k);
+  last = -1e300;
+  for (std::size_t i = 0; i < p.offsets.size(); ++i) {
+    auto d = r.get<double>();
+    auto o = r.get<double>();
+    auto j = r.get<double>();
+    if (!d || !o || !j) return detail::bad("truncated offset sample " + std::to_string(i));
+    if (!std::isfinite(*d) || *d < last)
+      return detail::bad("offset sample " + std::to_string(i) + ": distance not finite or decreasing");
+    if (!std::isfinite(*o) || std::abs(*o) > 1.0 || !std::isfinite(*j) || std::abs(*j) > 1.0)
+      return detail::bad("offset sample " + std::to_string(i) + ": offset not finite or outside [-1, 1]");
+    last = *d;
+    p.offsets[i] = {*d, *o, *j};
   }
   return p;
 }

@@ -249,6 +249,10 @@ bt::PortsList FollowRoute::provided_ports() {
                            "estimate this replay's odometric distance scale against the teach run's from the "
                            "edges whose primitive fixed its end visually (end_shift_m != 0) and hand it to the "
                            "children (distance_scale); without such edges it stays 1"),
+      bt::input_port<std::string>(
+          "scale_fix_kinds", "",
+          "scale_distance: only the ends of edges of these kinds (comma-separated, e.g. path_following) are "
+          "fixes of the scale; empty = every kind whose primitive moved its end"),
       bt::input_port<double>("scale_min_baseline_m", "20",
                              "taught distance the visual fixes must span before the scale is used, m (> 0)"),
       bt::input_port<double>("scale_max_deviation", "0.1", "clamp of |distance_scale - 1|, (0, 0.5]"),
@@ -295,6 +299,20 @@ Status FollowRoute::start() {
     return fail("port 'first_edge_turn': '" + first_turn + "' is not one of: none, absolute");
   first_turn_absolute_ = first_turn == "absolute";
   VISNAV_ASSIGN(scale_distance_, get_input<bool>("scale_distance"));
+  {
+    VISNAV_ASSIGN(const std::string kinds, get_input<std::string>("scale_fix_kinds"));
+    scale_fix_kinds_.clear();
+    std::size_t begin = 0;
+    while (begin <= kinds.size()) {
+      std::size_t end = kinds.find(',', begin);
+      if (end == std::string::npos) end = kinds.size();
+      std::string kind = kinds.substr(begin, end - begin);
+      kind.erase(0, kind.find_first_not_of(" \t"));
+      kind.erase(kind.find_last_not_of(" \t") + 1);
+      if (!kind.empty()) scale_fix_kinds_.push_back(kind);
+      begin = end + 1;
+    }
+  }
   DistanceScaleParams scale_params;
   VISNAV_ASSIGN(scale_params.min_baseline_m, get_input<double>("scale_min_baseline_m"));
   VISNAV_ASSIGN(scale_params.max_deviation, get_input<double>("scale_max_deviation"));
@@ -424,7 +442,9 @@ NodeStatus FollowRoute::tick() {
     const double shift_m = shift && std::isfinite(*shift) ? *shift : 0.0;
     ended_at_m_ = *edge_origin_m_ + edge_scale_ * (edge.length_m - shift_m);
     // A primitive that moved its end saw where the end node is: a fix of the distance scale.
-    if (scale_distance_ && shift_m != 0.0) scale_estimator_.add_fix(taught_total_m_ + edge.length_m, *ended_at_m_);
+    const bool fix_kind = scale_fix_kinds_.empty() || std::find(scale_fix_kinds_.begin(), scale_fix_kinds_.end(),
+                                                                 edge.kind) != scale_fix_kinds_.end();
+    if (scale_distance_ && fix_kind && shift_m != 0.0) scale_estimator_.add_fix(taught_total_m_ + edge.length_m, *ended_at_m_);
   }
   taught_total_m_ += edge.length_m;
   ended_edge_ = edge.id;

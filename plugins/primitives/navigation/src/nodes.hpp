@@ -104,6 +104,7 @@ class FollowRoute final : public bt::ControlNode {
   bool turning_ = true;
   std::optional<double> turn_target_;
   bool scale_distance_ = false;
+  std::vector<std::string> scale_fix_kinds_;  ///< kinds whose edge ends are scale fixes; empty = all
   DistanceScaleParams scale_params_;
   DistanceScaleEstimator scale_estimator_;  ///< kept across laps (the node persists in a patrol)
   double taught_total_m_ = 0.0;  ///< taught length of the edges driven since the estimator's reset

@@ -13,6 +13,7 @@
 #include "visnav/path_following/along_track.hpp"
 #include "visnav/path_following/path_follower.hpp"
 #include "visnav/path_following/path_loss_monitor.hpp"
+#include "visnav/path_following/taught_offset.hpp"
 
 namespace visnav::path_following {
 namespace {
@@ -62,12 +63,14 @@ PathFollowerParams tuned_follower() {
 struct FollowPathParams {
   PathFollowerParams follower = tuned_follower();
   AlongTrackParams along;  ///< the edge's end from its taught thumbnails (along_track.hpp)
+  TaughtOffsetParams lateral;  ///< the taught lateral position (taught_offset.hpp)
   double junction_clear_m = 2.0;     ///< junction mode for this long after the start node
   double junction_approach_m = 0.0;  ///< and this long before the end node; 0 = off
 
   [[nodiscard]] Status validate() const {
     VISNAV_TRY(schema().check(*this));
     VISNAV_TRY(along.validate());
+    VISNAV_TRY(lateral.validate());
     return follower.validate();
   }
   static const ParamSchema<FollowPathParams>& schema() {
@@ -81,6 +84,10 @@ struct FollowPathParams {
                                         {"along_min_contrast", "along_min_contrast"},
                                         {"along_gate_m", "along_gate_m"},
                                         {"along_max_shift_m", "along_max_shift_m"}})
+                              .include(&FollowPathParams::lateral, TaughtOffsetParams::schema(),
+                                       {{"taught_offset_gain", "taught_offset_gain"},
+                                        {"taught_offset_window_m", "taught_offset_window_m"},
+                                        {"taught_offset_max_sd", "taught_offset_max_sd"}})
                               .field("junction_clear_m", &FollowPathParams::junction_clear_m,
                                      "junction mode for this long after the start node (see path_follower.hpp), m")
                               .range(0.0, 1000.0)
@@ -105,6 +112,7 @@ class PathReplayer final : public EdgeReplayer {
     VISNAV_ASSIGN(path_payload::PathPayload payload, path_payload::PathPayload::decode(start.payload));
     const std::vector<ColourModel> models = from_data(payload);
     along_.emplace(params_.along, payload.thumbnails);
+    lateral_.emplace(params_.lateral, std::move(payload.offsets));
     logger_ = &start.logger;
     node_path_ = std::string(start.node_path);
     VISNAV_ASSIGN(PathFollower made, PathFollower::create(params_.follower));
@@ -134,8 +142,11 @@ class PathReplayer final : public EdgeReplayer {
                                       " of " + std::to_string(along_->accepted() + along_->rejected()) + " frames)");
       return out;
     }
-    follower_->set_junction_mode(in.edge_distance_m < params_.junction_clear_m ||
-                                 length_m_ - in.edge_distance_m < params_.junction_approach_m);
+    const bool junction = in.edge_distance_m < params_.junction_clear_m ||
+                          length_m_ - in.edge_distance_m < params_.junction_approach_m;
+    follower_->set_junction_mode(junction);
+    // Steer to where the path lay in the teacher's view here (held where the profile has no sample).
+    if (const auto target = lateral_->target(taught_m, junction)) follower_->set_target_offset(*target);
     Status processed = in.frame_problem != nullptr ? Status(fail(in.frame_problem))
                                                    : follower_->process(in.frame.image, estimate_);
     if (!processed) {
@@ -178,6 +189,7 @@ class PathReplayer final : public EdgeReplayer {
   NavOverlay overlay_;
   Params params_;
   std::optional<AlongTrackEstimator> along_;
+  std::optional<TaughtOffsetProfile> lateral_;
   Logger* logger_ = nullptr;
   std::string node_path_;
   std::optional<PathFollower> follower_;
@@ -223,6 +235,7 @@ class PathTeacher final : public EdgeTeacher {
     VISNAV_ASSIGN(PathFollower made, PathFollower::create(params_.follower));
     follower_.emplace(std::move(made));
     thumbnails_.clear();
+    offsets_.clear();
     return ok();
   }
 
@@ -238,6 +251,9 @@ class PathTeacher final : public EdgeTeacher {
     if (follower_->process(in.frame->image, estimate_).ok() && estimate_.status == PathStatus::ok) {
       summary_.add_frame(follower_->reference_models());
       ++seen_ok_;
+      // Where the path lay in the view where the teacher drove (the replay repeats it).
+      if (offsets_.empty() || in.edge_distance_m >= offsets_.back().distance_m)
+        offsets_.push_back({in.edge_distance_m, estimate_.plain_offset, estimate_.junction_offset});
     }
     return ok();
   }
@@ -250,6 +266,8 @@ class PathTeacher final : public EdgeTeacher {
     payload.models = to_data(models);
     payload.thumbnails = std::move(thumbnails_);
     thumbnails_.clear();
+    payload.offsets = std::move(offsets_);
+    offsets_.clear();
     edge.payload = payload.encode();
     edge.statistics["thumbnails"] = static_cast<double>(payload.thumbnails.size());
     edge.statistics["colour_models"] = static_cast<double>(models.size());
@@ -265,6 +283,7 @@ class PathTeacher final : public EdgeTeacher {
   int frames_ = 0;
   int seen_ok_ = 0;
   std::vector<path_payload::Thumbnail> thumbnails_;  ///< by increasing edge distance
+  std::vector<path_payload::OffsetSample> offsets_;  ///< per learn frame with the path seen
 };
 
 }  // namespace

@@ -192,7 +192,7 @@ HorizonEstimate detect_horizon(const cv::Mat& bgr, const PathFollowerParams& par
 }
 
 Twist steering_command(std::span<const cv::Point2f> middle_points, int image_width_px, int ground_rows,
-                       const PathFollowerParams& params, double& offset, int path_rows) {
+                       const PathFollowerParams& params, double& offset, int path_rows, double target_offset) {
   offset = 0.0;
   Twist cmd;
   if (middle_points.empty() || image_width_px <= 0 || ground_rows <= 0) return cmd;
@@ -201,7 +201,7 @@ Twist steering_command(std::span<const cv::Point2f> middle_points, int image_wid
   for (const auto& p : middle_points) sum += (p.x - half_w) / half_w;
   offset = sum / static_cast<double>(middle_points.size());
   const double n = path_rows >= 0 ? static_cast<double>(path_rows) : static_cast<double>(middle_points.size());
-  cmd.angular_radps = std::clamp(-params.alpha_radps * offset, -params.max_angular_radps, params.max_angular_radps);
+  cmd.angular_radps = std::clamp(-params.alpha_radps * (offset - target_offset), -params.max_angular_radps, params.max_angular_radps);
   const double v = params.beta_mps * std::min(1.0, n / ground_rows) -
                    params.turn_slowdown_mps_per_radps * std::abs(cmd.angular_radps);
   cmd.linear_mps = std::clamp(v, 0.0, params.max_linear_mps);
@@ -235,6 +235,7 @@ void PathFollower::reset() {
   stages_.reference_models.clear();
   taught_models_.clear();
   taught_inverse_.clear();
+  target_offset_ = 0.0;
 }
 
 void PathFollower::set_taught_models(std::vector<ColourModel> models) {
@@ -503,7 +504,8 @@ int PathFollower::extract_region(int segments, int used_models, const cv::Mat& l
   return cv::countNonZero(region);
 }
 
-int PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const {
+int PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out,
+                                        bool junction) const {
   // Junction mode (see the header): rows whose path run reaches an image border are left out of
   // the steering as long as enough rows lie inside the image.
   out.clear();
@@ -511,7 +513,7 @@ int PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, s
   std::size_t inside = 0;
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
-      if (!junction_mode_) return path_rows;
+      if (!junction) return path_rows;
       const std::size_t min_inside = std::max<std::size_t>(5, static_cast<std::size_t>(path_rows) / 5);
       if (inside < min_inside) return path_rows;  // too few: keep every row (the original law)
       out.clear();
@@ -525,7 +527,7 @@ int PathFollower::extract_middle_points(const cv::Mat& region, int row_offset, s
     int right = left;
     for (int x = region.cols - 1; x > left; --x)
       if (p[x] != 0) { right = x; break; }
-    const bool touches_border = junction_mode_ && (left == 0 || right == region.cols - 1);
+    const bool touches_border = junction && (left == 0 || right == region.cols - 1);
     if (pass == 0) {
       ++path_rows;
       if (!touches_border) ++inside;
@@ -573,6 +575,8 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   out.middle_points.clear();
   out.area_share = 0.0;
   out.mean_offset = 0.0;
+  out.plain_offset = 0.0;
+  out.junction_offset = 0.0;
   out.segments = 0;
   out.reference_models = 0;
   out.gated_models = 0;
@@ -678,11 +682,18 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
     }
   }
   if (!contours_.empty()) out.contour.assign(contours_[largest].begin(), contours_[largest].end());
-  const int path_rows = extract_middle_points(region, top, out.middle_points);
+  const int path_rows = extract_middle_points(region, top, out.middle_points, junction_mode_);
 
   double offset = 0.0;
-  const Twist command = steering_command(out.middle_points, width, ground_rows, params_, offset, path_rows);
+  const Twist command = steering_command(out.middle_points, width, ground_rows, params_, offset, path_rows, target_offset_);
   out.mean_offset = offset;
+  // The other mode's offset (the teacher records both; see PathEstimate).
+  extract_middle_points(region, top, other_points_, !junction_mode_);
+  double other = 0.0;
+  for (const auto& q : other_points_) other += (q.x - 0.5 * width) / (0.5 * width);
+  if (!other_points_.empty()) other /= static_cast<double>(other_points_.size());
+  out.plain_offset = junction_mode_ ? other : offset;
+  out.junction_offset = junction_mode_ ? offset : other;
   if (out.area_share < params_.min_area_share) out.status = PathStatus::path_lost;
   else if (out.area_share > params_.fill_area_share) out.status = PathStatus::path_fills_image;
   if (out.status == PathStatus::ok) out.command = command;

@@ -418,14 +418,15 @@ TEST_F(NavigationNodes, FollowRouteLearnsTheOdometryScaleFromVisualFixes) {
   edge(b, c, 10.0, 0.0, 0.0);
   edge(c, d, 10.0, 0.0, 0.0);
   edge(d, e, 10.0, 0.0, 0.0);
-  auto run_with = [&](const std::string& on) {
+  auto run_with = [&](const std::string& on, const std::string& fix_kinds = "") {
     rec_ = Recorder{};
     robot_.odom_ = Odometry{};
     robot_.command_ = Twist{};
     robot_.publish();
     auto tree = load(R"(<Sequence><PlanRoute start="A" goal="E"/>
         <FollowRoute turn_tolerance_rad="0.01" carry_overshoot="false" scale_min_baseline_m="15" scale_distance=")" +
-                     on + R"(" primitives="feature_segment=TestReplayEdge"><TestReplayEdge truth_scale="1.05"/></FollowRoute>
+                     on + R"(" scale_fix_kinds=")" + fix_kinds +
+                     R"(" primitives="feature_segment=TestReplayEdge"><TestReplayEdge truth_scale="1.05"/></FollowRoute>
         </Sequence>)");
     EXPECT_EQ(run(tree), NodeStatus::success);
     EXPECT_NEAR(robot_.odom_.distance_m, 42.0, 0.11);  // the child ends every edge where it really ends
@@ -442,6 +443,14 @@ TEST_F(NavigationNodes, FollowRouteLearnsTheOdometryScaleFromVisualFixes) {
   last = run_with("false");
   ASSERT_EQ(rec_.distance_scale.size(), 4u);
   EXPECT_DOUBLE_EQ(rec_.distance_scale[3], 1.0);
+  // scale_fix_kinds: the ends of feature edges are no fixes when only path edges' count (the
+  // campus tree's setting), and fixes again when the list names their kind.
+  (void)run_with("true", "path_following");
+  ASSERT_EQ(rec_.distance_scale.size(), 4u);
+  EXPECT_DOUBLE_EQ(rec_.distance_scale[3], 1.0);
+  (void)run_with("true", "path_following, feature_segment");
+  ASSERT_EQ(rec_.distance_scale.size(), 4u);
+  EXPECT_NEAR(rec_.distance_scale[3], 1.05, 0.006);
 }
 
 TEST_F(NavigationNodes, FollowRouteSubtractsTheGapTaughtBetweenEdges) {

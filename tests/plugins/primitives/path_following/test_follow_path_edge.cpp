@@ -53,13 +53,17 @@ TEST(FollowPathEdge, TeachesThenFollowsThePathBackToItsCentreFromHalfAMetreOff) 
   EXPECT_EQ(edge.kind, "path_following");
   EXPECT_NEAR(edge.length_m, 5.0, 0.1);
   EXPECT_GE(edge.statistics.at("colour_models"), 1.0);
-  // The edge stores almost nothing for following (seed 000 Sec. 2, 4.): the colour models, plus a
-  // 64x24 grey thumbnail every 0.5 m for relocalisation's place index (VPF2, visnav/path_payload.hpp).
+  // The edge stores almost nothing for following (seed 000 Sec. 2, 4.): the colour models, a 64x24
+  // grey thumbnail every 0.5 m for relocalisation's place index and the along-track estimate, and
+  // the path's offset in the learn frames (VPF3, visnav/path_payload.hpp): the teacher drove the
+  // centre line, so the taught offsets are near 0.
   auto body = map.read_payload(edge.id);
   ASSERT_TRUE(body.ok()) << body.error().message;
   auto payload = path_payload::PathPayload::decode(*body);
   ASSERT_TRUE(payload.ok()) << payload.error().message;
-  EXPECT_EQ(payload->version, 2u);
+  EXPECT_EQ(payload->version, 3u);
+  ASSERT_GE(payload->offsets.size(), 15u);  // 5 m at 0.4 m/s and 10 Hz, every 5th frame: ~25
+  for (const auto& o : payload->offsets) EXPECT_LT(std::abs(o.offset), 0.1) << o.distance_m;
   ASSERT_GE(payload->thumbnails.size(), 10u);
   ASSERT_LE(payload->thumbnails.size(), 11u);
   EXPECT_EQ(edge.statistics.at("thumbnails"), static_cast<double>(payload->thumbnails.size()));
@@ -156,6 +160,7 @@ TEST(FollowPathEdge, RejectsAnEdgeOfAnotherKindOrACorruptPayloadWithoutMoving) {
 // mode the follower sees the east arm in the far rows and drifts right towards it in the last
 // metres (about 0.2 m: cutting the corner, which the turn at the next node turns into
 // along-track error); in junction mode for the last 2 m it ends markedly closer to the centre.
+// Steering to the taught offsets (taught_offset_gain 1) it ends on the taught centre line.
 TEST(FollowPathEdge, JunctionApproachReducesTheDriftTowardsAnLCornerAhead) {
   const fs::path dir = temp_dir("approach");
   auto session = visnav::test::make_path_session(dir, "world: campus, start_pose: \"-2;-20;90\"");
@@ -182,22 +187,29 @@ TEST(FollowPathEdge, JunctionApproachReducesTheDriftTowardsAnLCornerAhead) {
     ASSERT_EQ(run_tree(*session, *teach, ro).outcome, RunOutcome::success);
   }
   const std::string edge = session->map()->edges().at(0).id;
-  auto replay_end_offset = [&](const std::string& approach) {
+  auto replay_end_offset = [&](const std::string& approach, const std::string& taught_offset_gain) {
     EXPECT_TRUE(sim->set_ground_truth_pose(start).ok());
     // along_gain 0: both replays end at the same odometric distance, so only the junction mode
     // differs (the along-track estimate moves the end by a few cm, and the drift grows there).
     auto replay = tree_from(*session, dir,
-                            "<FollowPathEdge edge=\"" + edge + "\" along_gain=\"0\" junction_approach_m=\"" + approach + "\"/>");
+                            "<FollowPathEdge edge=\"" + edge + "\" along_gain=\"0\" junction_approach_m=\"" + approach +
+                                "\" taught_offset_gain=\"" + taught_offset_gain + "\"/>");
     EXPECT_TRUE(replay.ok()) << replay.error().message;
     if (!replay.ok()) return 1e9;
     const RunReport report = run_tree(*session, *replay);
     EXPECT_EQ(report.outcome, RunOutcome::success) << report.reason;
     return sim->ground_truth_pose().x_m + 2.0;  // right of the centre line (east) positive
   };
-  const double plain = replay_end_offset("0");
-  const double approach = replay_end_offset("2");  // as trees/subtrees/traverse_route.xml
-  std::printf("end offset right of the centre line: junction_approach_m=0 %.3f m, =2 %.3f m\n", plain, approach);
+  const double plain = replay_end_offset("0", "0");
+  const double approach = replay_end_offset("2", "0");
+  // The taught lateral position (the teacher's view had the path's middle where it lay on the
+  // centre line, also with the east arm in view): the robot keeps the taught line without the
+  // approach mode.
+  const double taught = replay_end_offset("0", "1");
+  std::printf("end offset right of the centre line: junction_approach_m=0 %.3f m, =2 %.3f m; taught offsets, "
+              "junction_approach_m=0 %.3f m\n", plain, approach, taught);
   EXPECT_GT(plain, 0.12) << "the follower no longer cuts towards the corner: the test lost its point";
   EXPECT_LT(std::abs(approach), 0.75 * plain);
+  EXPECT_LT(std::abs(taught), 0.05);
   fs::remove_all(dir);
 }

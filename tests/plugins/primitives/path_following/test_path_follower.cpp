@@ -9,6 +9,7 @@
 #include "synthetic.hpp"
 #include "visnav/path_following/path_follower.hpp"
 #include "visnav/path_following/stages.hpp"
+#include "visnav/path_following/taught_offset.hpp"
 #include "error_expect.hpp"
 
 namespace pf = visnav::path_following;
@@ -293,6 +294,83 @@ TEST(ControlLaw, SignNormalisationAndClamps) {
   cmd = pf::steering_command({}, 320, 200, p, offset);
   EXPECT_EQ(cmd.linear_mps, 0.0);
   EXPECT_EQ(cmd.angular_radps, 0.0);
+}
+
+TEST(ControlLaw, SteersToTheTargetOffsetNotToTheCentre) {
+  pf::PathFollowerParams p;
+  p.alpha_radps = 0.8;
+  double offset = 0.0;
+  std::vector<cv::Point2f> right(200, cv::Point2f(240.0f, 0.0f));  // offset +0.5
+  // The taught view had the path's middle there: no turn.
+  auto cmd = pf::steering_command(right, 320, 200, p, offset, -1, 0.5);
+  EXPECT_DOUBLE_EQ(offset, 0.5);
+  EXPECT_DOUBLE_EQ(cmd.angular_radps, 0.0);
+  // Taught at +0.25: the path lies further right than taught, turn right (negative) by 0.8 * 0.25.
+  cmd = pf::steering_command(right, 320, 200, p, offset, -1, 0.25);
+  EXPECT_DOUBLE_EQ(cmd.angular_radps, -0.2);
+  // Centred path, taught 0.25 right: turn left, away from the middle.
+  std::vector<cv::Point2f> centred(100, cv::Point2f(160.0f, 0.0f));
+  cmd = pf::steering_command(centred, 320, 200, p, offset, -1, 0.25);
+  EXPECT_DOUBLE_EQ(cmd.angular_radps, 0.2);
+}
+
+TEST(TaughtOffsetProfile, WindowedMeanGainAndNoTargetWithoutSamples) {
+  std::vector<visnav::path_payload::OffsetSample> samples;
+  for (int i = 0; i <= 20; ++i) {
+    const double d = 0.25 * i;                            // 0 .. 5 m
+    const double wobble = (i % 2 == 0) ? 0.02 : -0.02;   // the teacher's heading wobble
+    samples.push_back({d, 0.1 + wobble, -0.05});
+  }
+  samples.push_back({9.0, 0.4, 0.3});  // a gap from 5 to 9 m
+  pf::TaughtOffsetParams params;
+  EXPECT_EQ(params.gain, 0.0);  // off by default (trees/subtrees/traverse_route.xml turns it on)
+  params.gain = 1.0;
+  ASSERT_TRUE(params.validate().ok());
+  const pf::TaughtOffsetProfile profile(params, samples);
+  EXPECT_TRUE(profile.active());
+  auto t = profile.target(2.5, false);  // 2.0 .. 3.0: 5 samples, 3 at +0.12, 2 at +0.08
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(*t, 0.104, 1e-9);
+  t = profile.target(2.5, true);  // the junction-mode offsets
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(*t, -0.05, 1e-9);
+  EXPECT_FALSE(profile.target(7.0, false).has_value());  // nothing taught within 0.5 m
+  t = profile.target(9.3, false);
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(*t, 0.4, 1e-12);
+
+  params.gain = 0.5;
+  const pf::TaughtOffsetProfile half(params, samples);
+  t = half.target(9.0, false);
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(*t, 0.2, 1e-12);
+  params.gain = 0.0;  // off: today's centring
+  const pf::TaughtOffsetProfile off(params, samples);
+  EXPECT_FALSE(off.active());
+  EXPECT_FALSE(off.target(2.5, false).has_value());
+  params.gain = 1.0;
+  EXPECT_FALSE(pf::TaughtOffsetProfile(params, {}).target(1.0, false).has_value());  // VPF1 / VPF2 edge
+
+  // Where the taught view changes quickly (a road coming into view: the offset ramps by 0.3 over
+  // 1 m), there is no target; the flat stretch before it still has one.
+  std::vector<visnav::path_payload::OffsetSample> ramp;
+  for (int i = 0; i <= 20; ++i) ramp.push_back({0.1 * i, i <= 10 ? 0.02 : 0.02 + 0.03 * (i - 10), 0.0});
+  const pf::TaughtOffsetProfile ramped(params, ramp);
+  EXPECT_FALSE(ramped.target(1.55, false).has_value());
+  t = ramped.target(0.4, false);
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(*t, 0.02, 1e-12);
+  params.max_sd = 2.0;  // gate off
+  t = pf::TaughtOffsetProfile(params, ramp).target(1.55, false);
+  ASSERT_TRUE(t.has_value());
+  EXPECT_NEAR(*t, 0.02 + 0.03 * 5.5, 1e-9);  // the samples at 1.1 .. 2.0 m: ramp steps 1 .. 10
+  params.max_sd = 0.03;
+
+  params.gain = 1.5;
+  EXPECT_FALSE(params.validate().ok());
+  params.gain = 1.0;
+  params.window_m = 0.0;
+  EXPECT_FALSE(params.validate().ok());
 }
 
 TEST(ColourModel, HueWrapAroundIsContinuous) {

@@ -4,6 +4,9 @@
 //    line: the robot reaches the end without leaving the path and ends ≤ 0.2 m from the centre.
 //  * straight6m from ±0.5 m lateral offset: the offset decays; an exponential y = a·e^(−k·x) is
 //    fitted with fit_exponential_decay and k printed (seed 000 Fig. 3).
+//  * straight6m, taught 0.2 m left of the centre line (the offsets the teacher's frames show,
+//    TaughtOffsetProfile): from the centre line the robot moves to the taught line and keeps it;
+//    without the profile it keeps the middle.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +17,7 @@
 
 #include "visnav/path_following/exp_fit.hpp"
 #include "visnav/path_following/path_follower.hpp"
+#include "visnav/path_following/taught_offset.hpp"
 #include "visnav_sim/render.hpp"
 #include "visnav_sim/world.hpp"
 
@@ -166,6 +170,53 @@ TEST(SimClosedLoop, CrossesTheAsphaltServiceRoadOnTheGravelPathWithTheTaughtAppe
       EXPECT_LE(robot.pose.y_m, -23.0) << "crossed the junction";
       EXPECT_LT(max_dx, 1.1) << "stayed on the 2.2 m gravel path";
       EXPECT_GT(gated_frames, 0);
+    }
+  }
+}
+
+TEST(SimClosedLoop, RepeatsTheTaughtLateralPositionInsteadOfThePathsMiddle) {
+  auto world = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/straight6m.yaml");
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  sim::Renderer renderer(*world, sim::CameraModel{});
+  constexpr double kTaughtY = 0.2;  // m, left of the centre line (the path's middle 0.2 m right of the teacher)
+  // Teach: the frames along the taught line, as TeachPathEdge records them.
+  std::vector<visnav::path_payload::OffsetSample> taught;
+  {
+    auto teacher = make_follower();
+    cv::Mat bgr;
+    pf::PathEstimate est;
+    for (double x = 0.0; x <= 6.0; x += 0.2) {
+      renderer.render(visnav::Pose2D{x, kTaughtY, 0.0}, bgr);
+      ASSERT_TRUE(teacher.process(bgr, est).ok());
+      ASSERT_EQ(est.status, pf::PathStatus::ok) << x;
+      taught.push_back({x, est.plain_offset, est.junction_offset});
+    }
+  }
+  EXPECT_GT(taught[5].offset, 0.02);  // the path's middle is right of the taught view's centre
+  for (bool repeat : {true, false}) {
+    pf::TaughtOffsetParams params;
+    params.gain = repeat ? 1.0 : 0.0;
+    const pf::TaughtOffsetProfile profile(params, taught);
+    auto follower = make_follower();
+    Unicycle robot{visnav::Pose2D{0.0, 0.0, 0.0}};
+    cv::Mat bgr;
+    pf::PathEstimate est;
+    double max_y = 0.0;
+    while (robot.pose.x_m < 5.6) {
+      if (const auto target = profile.target(robot.pose.x_m, false)) follower.set_target_offset(*target);
+      renderer.render(robot.pose, bgr);
+      ASSERT_TRUE(follower.process(bgr, est).ok());
+      ASSERT_EQ(est.status, pf::PathStatus::ok);
+      robot.step(est.command);
+      max_y = std::max(max_y, robot.pose.y_m);
+    }
+    std::printf("straight6m, taught %.2f m left, %s: final lateral %+.3f m (max %+.3f m) after %.2f m\n", kTaughtY,
+                repeat ? "taught offsets" : "centring", robot.pose.y_m, max_y, robot.pose.x_m);
+    if (repeat) {
+      EXPECT_NEAR(robot.pose.y_m, kTaughtY, 0.06);
+      EXPECT_LT(max_y, kTaughtY + 0.1);  // no overshoot past the taught line
+    } else {
+      EXPECT_LT(std::abs(robot.pose.y_m), 0.06);
     }
   }
 }

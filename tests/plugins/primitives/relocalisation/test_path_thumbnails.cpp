@@ -72,10 +72,15 @@ std::vector<std::uint8_t> vpf1_body() {
 }  // namespace
 
 TEST(PathPayload, RoundTripsThumbnailsAndStillReadsVersion1) {
-  const PathPayload p = payload_of(1, 4);
+  PathPayload p = payload_of(1, 4);
+  p.offsets = {{0.0, 0.25, 0.2}, {0.4, -0.125, -0.1}, {0.4, 0.5, 0.45}};
   auto back = PathPayload::decode(p.encode());
   ASSERT_TRUE(back.ok()) << back.error().message;
-  EXPECT_EQ(back->version, 2u);
+  EXPECT_EQ(back->version, 3u);
+  ASSERT_EQ(back->offsets.size(), 3u);
+  EXPECT_DOUBLE_EQ(back->offsets[1].distance_m, 0.4);
+  EXPECT_DOUBLE_EQ(back->offsets[1].offset, -0.125);
+  EXPECT_DOUBLE_EQ(back->offsets[2].junction_offset, 0.45);
   ASSERT_EQ(back->models.size(), 1u);
   EXPECT_DOUBLE_EQ(back->models[0].mean[2], 120.0);
   EXPECT_DOUBLE_EQ(back->models[0].cov[8], 9.0);
@@ -83,6 +88,17 @@ TEST(PathPayload, RoundTripsThumbnailsAndStillReadsVersion1) {
   EXPECT_DOUBLE_EQ(back->thumbnails[3].distance_m, 1.5);
   EXPECT_EQ(back->thumbnails[2].image.size(), cv::Size(path_payload::kThumbnailWidthPx, path_payload::kThumbnailHeightPx));
   EXPECT_EQ(cv::norm(back->thumbnails[2].image, p.thumbnails[2].image, cv::NORM_INF), 0.0);
+
+  // A VPF2 body (as taught before session 12): the VPF3 one without the offset profile.
+  std::vector<std::uint8_t> v2 = payload_of(1, 4).encode();
+  v2.resize(v2.size() - 4);  // the empty profile's count
+  const std::uint32_t magic2 = path_payload::kMagicV2;
+  std::memcpy(v2.data(), &magic2, 4);
+  auto two = PathPayload::decode(v2);
+  ASSERT_TRUE(two.ok()) << two.error().message;
+  EXPECT_EQ(two->version, 2u);
+  EXPECT_EQ(two->thumbnails.size(), 4u);
+  EXPECT_TRUE(two->offsets.empty());
 
   auto old = PathPayload::decode(vpf1_body());
   ASSERT_TRUE(old.ok()) << old.error().message;
@@ -101,6 +117,13 @@ TEST(PathPayload, DamagedBodiesAreParseErrorsNotCrashes) {
   std::vector<std::uint8_t> bad_magic = good;
   bad_magic[0] ^= 0xff;
   EXPECT_EQ(PathPayload::decode(bad_magic).error().code, ErrorCode::parse_error);
+  // Offset samples out of order or out of [-1, 1].
+  PathPayload unordered = payload_of(1, 3);
+  unordered.offsets = {{1.0, 0.1, 0.1}, {0.5, 0.1, 0.1}};
+  EXPECT_EQ(PathPayload::decode(unordered.encode()).error().code, ErrorCode::parse_error);
+  PathPayload too_far = payload_of(1, 3);
+  too_far.offsets = {{1.0, 1.5, 0.1}};
+  EXPECT_EQ(PathPayload::decode(too_far.encode()).error().code, ErrorCode::parse_error);
   std::vector<std::uint8_t> trailing = vpf1_body();
   trailing.push_back(0);
   EXPECT_EQ(PathPayload::decode(trailing).error().code, ErrorCode::parse_error);

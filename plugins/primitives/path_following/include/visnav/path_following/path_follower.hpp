@@ -35,7 +35,10 @@
 // Control law (1), normalised. x_i are the n middle points' columns, w the image width, H_g
 // the number of ground rows (below the horizon):
 //   offset = (1/n) Σ (x_i − w/2) / (w/2)          ∈ [−1, 1], positive = path right of centre
-//   ω = −alpha_radps · offset                     (clamped to ±max_angular_radps)
+//   ω = −alpha_radps · (offset − target)          (clamped to ±max_angular_radps)
+// target (set_target_offset, default 0) is the offset the follower steers to: 0 centres the
+//   path's middle in the image; the replay of a taught edge sets where the middle lay in the
+//   teacher's view (the taught lateral position), so the robot repeats the teacher's line.
 //   v = beta_mps · n / H_g − turn_slowdown_mps_per_radps · |ω|   (clamped to [0, max_linear_mps])
 // Sign: image x grows to the right; a path right of the image centre requires a right turn,
 // which is a NEGATIVE ω in the SDK's counter-clockwise-positive convention (types.hpp).
@@ -45,6 +48,7 @@
 // thread. Free functions are pure and thread-safe.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -164,10 +168,11 @@ struct HorizonEstimate {
 
 /// Control law (1) as documented above. `middle_points` in image pixels; `ground_rows` = H_g;
 /// `path_rows` = n, the rows that contain path (default: one per middle point). Returns the
-/// command and writes the mean normalised offset to `offset` (0 when no points).
+/// command and writes the mean normalised offset to `offset` (0 when no points). `target_offset`
+/// is the offset steered to (normalised, [-1, 1]; 0 = the path's middle in the image centre).
 [[nodiscard]] Twist steering_command(std::span<const cv::Point2f> middle_points, int image_width_px,
                                      int ground_rows, const PathFollowerParams& params, double& offset,
-                                     int path_rows = -1);
+                                     int path_rows = -1, double target_offset = 0.0);
 
 /// Result of one frame. Geometry is in input-image pixels (origin top-left, u right, v down).
 struct PathEstimate {
@@ -179,6 +184,11 @@ struct PathEstimate {
   std::vector<cv::Point2f> middle_points; ///< one per region row: ((left + right) / 2, row)
   double area_share = 0.0;                ///< region pixels / ground-image pixels
   double mean_offset = 0.0;               ///< normalised offset of control law (1), + = right
+  /// The offset with every path row (junction mode off) and with the junction-mode rows, whichever
+  /// mode steered (one of them equals mean_offset): what the teacher records, so that the replay
+  /// compares like with like in either mode (set_target_offset). 0 unless a region was found.
+  double plain_offset = 0.0;
+  double junction_offset = 0.0;
   double mean_intensity = 0.0;            ///< mean grey level of the ground image
   int segments = 0;                       ///< number of superpixels
   int reference_models = 0;               ///< reference models used for classification
@@ -220,8 +230,8 @@ class PathFollower {
   /// Convenience form returning a fresh estimate (allocates).
   Result<PathEstimate> process(const cv::Mat& bgr);
 
-  /// Forgets the reference models carried to the next frame for blending and the taught models
-  /// of the gate (call at the start of a new edge, then set_taught_models / set_prior_models).
+  /// Forgets the reference models carried to the next frame for blending, the taught models
+  /// of the gate and the target offset (call at the start of a new edge, then set_taught_models / set_prior_models).
   /// Frames without reference models (dark, no reference) keep the previous ones.
   void reset();
 
@@ -242,6 +252,12 @@ class PathFollower {
   /// rows remain). Off by default: on bends those near rows are the ones that keep the robot
   /// from cutting the curve. Speed still counts every path row.
   void set_junction_mode(bool on) { junction_mode_ = on; }
+
+  /// The normalised offset control law (1) steers to (clamped to [-1, 1]; 0 after create and
+  /// reset(): the path's middle in the image centre). PathEstimate::mean_offset stays the
+  /// measured offset. The path replay sets the taught offset at its edge distance each frame.
+  void set_target_offset(double target) { target_offset_ = std::clamp(target, -1.0, 1.0); }
+  [[nodiscard]] double target_offset() const { return target_offset_; }
   [[nodiscard]] bool junction_mode() const { return junction_mode_; }
 
   [[nodiscard]] const PathFollowerParams& params() const { return params_; }
@@ -267,7 +283,8 @@ class PathFollower {
                      bool all_large_components);
   /// Row-wise middle points of the region (junction mode: see set_junction_mode); returns the
   /// number of rows containing path.
-  int extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out) const;
+  int extract_middle_points(const cv::Mat& region, int row_offset, std::vector<cv::Point2f>& out,
+                            bool junction) const;
 
   struct SegmentStats {
     ColourMoments moments;      // all pixels of the segment
@@ -297,6 +314,7 @@ class PathFollower {
   std::vector<ColourModel> taught_models_;
   std::vector<Eigen::Matrix3d> taught_inverse_;  // (Σt + λI)⁻¹ per taught model
   int gated_models_ = 0;
+  double target_offset_ = 0.0;
   ReferenceSource reference_source_ = ReferenceSource::learned;
   bool junction_mode_ = false;
   std::vector<Eigen::Matrix3d> reference_inverse_;
@@ -304,6 +322,7 @@ class PathFollower {
   std::vector<double> component_overlap_;
   std::vector<double> component_pixels_;
   std::vector<std::vector<cv::Point>> contours_;
+  std::vector<cv::Point2f> other_points_;  // middle points of the mode not steered on
   std::vector<cv::Vec4i> hierarchy_;
   PathStages stages_;
 };

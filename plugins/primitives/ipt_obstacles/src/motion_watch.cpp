@@ -89,9 +89,9 @@ int MotionWatch::count_changed(const cv::Mat& previous, const cv::Mat& valid) {
   blurred_.convertTo(diff_, CV_16S, gain);
   previous.convertTo(prev16_, CV_16S);
   cv::absdiff(diff_, prev16_, diff_);
-  cv::Mat changed = diff_ > params_.diff_threshold;
-  changed &= valid;
-  return cv::countNonZero(changed);
+  changed_ = diff_ > params_.diff_threshold;
+  changed_ &= valid;
+  return cv::countNonZero(changed_);
 }
 
 Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2D& motion) {

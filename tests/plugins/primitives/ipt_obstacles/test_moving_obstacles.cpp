@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "error_expect.hpp"
+#include "visnav/ipt_obstacles/crossing_policy.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav_sim/camera.hpp"
 #include "visnav_sim/movers.hpp"
@@ -344,6 +345,67 @@ TEST(MotionWatch, SeesAPersonCrossingTheCorridorAndNothingElse) {
   ipt::MotionWatchParams bad;
   bad.far_m = 0.2;
   EXPECT_TRUE(fails_with(ipt::MotionWatch::create(camera, bad), ErrorCode::inconsistent, At{{}, 0, "far_m"}));
+}
+
+// The crossing policy on rendered frames of a standing camera (the thesis rig's mount at
+// 320x240): the frame difference over a band wider than the corridor (±4 m) locates the walker
+// (kWorld: at x = 3 m, walking y = 4 -> -4 at 1 m/s from t = 2 s); while it approaches the
+// robot's line the policy waits, once it has crossed and walks away it goes.
+TEST(CrossingPolicy, TracksARenderedPersonWaitsWhileItApproachesGoesWhenItWalksAway) {
+  auto world = world_or_die(kWorld);
+  ASSERT_NE(world, nullptr);
+  CameraModel model;
+  model.hfov_deg = 65.5;
+  model.height_m = 0.43;
+  model.pitch_down_deg = 9.0;
+  Renderer renderer(world, model);
+  ipt::IptCamera camera;
+  camera.fx_px = camera.fy_px = model.fx();
+  camera.height_m = 0.43;
+  camera.pitch_rad = -9.0 * CV_PI / 180.0;
+  ipt::MotionWatchParams band;
+  band.far_m = 8.0;
+  band.half_width_m = 4.0;
+  auto watch = ipt::MotionWatch::create(camera, band);
+  ASSERT_TRUE(watch.ok()) << watch.error().message;
+  cv::RNG rng(5);
+  cv::Mat bgr, grey, noisy(240, 320, CV_16S), n(240, 320, CV_16S);
+  ipt::CrossingPolicy policy(ipt::CrossingParams{});
+  int located = 0;
+  auto feed = [&](double t) {
+    renderer.render({0, 0, 0}, bgr, nullptr, nullptr, t);
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    grey.convertTo(noisy, CV_16S);
+    rng.fill(n, cv::RNG::NORMAL, 0.0, 3.0);
+    noisy += n;
+    noisy.convertTo(grey, CV_8U);
+    auto changed = watch->observe(grey);
+    ASSERT_TRUE(changed.ok());
+    if (!changed->has_value() || !watch->moving()) return;
+    auto p = ipt::locate_moving(watch->last_changed(), camera, 80);
+    ASSERT_TRUE(p.ok());
+    if (!p->has_value()) return;
+    ++located;
+    const double truth_y = 4.0 - (t - 2.0) - 0.05;  // between this frame's and the last one's position
+    EXPECT_NEAR((*p)->ground_m.y, truth_y, 0.35) << "t = " << t;
+    EXPECT_NEAR((*p)->ground_m.x, 3.0, 0.6) << "t = " << t;
+    policy.observe(t, **p);
+  };
+  // Approaching from the left: y = 1.8 .. 1.2 (1.8 m in view at 3 m with the 65.5 deg lens).
+  for (double t = 4.1; t <= 4.85; t += 0.1) feed(t);
+  EXPECT_GE(located, 5);
+  const auto approaching = policy.decide(4.8);
+  EXPECT_EQ(approaching.kind, ipt::CrossingDecision::Kind::wait) << approaching.reason;
+  EXPECT_LT(approaching.lateral_speed_mps, -0.6);
+  // It has crossed and walks away to the right: y = -0.5 .. -1.2.
+  watch->reset();
+  policy.reset();
+  located = 0;
+  for (double t = 6.4; t <= 7.25; t += 0.1) feed(t);
+  EXPECT_GE(located, 5);
+  const auto away = policy.decide(7.2);
+  EXPECT_EQ(away.kind, ipt::CrossingDecision::Kind::go) << away.reason;
+  EXPECT_LT(away.lateral_m, -0.9);
 }
 
 }  // namespace

@@ -102,11 +102,22 @@ const ParamSchema<CrossingParams>& CrossingParams::schema() {
 }
 
 void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
+  const double y = point.ground_m.y;
+  if (last_seen_s_ >= 0.0 && time_s - last_seen_s_ <= params_.window_s && ((last_y_ < 0.0) != (y < 0.0))) {
+    const int dir = y > last_y_ ? 1 : -1;  // a pass: it walked across the robot's line
+    if (last_pass_dir_ == -dir) return_after_s_[last_pass_dir_ > 0 ? 0 : 1] = time_s - last_pass_s_;
+    if (last_pass_dir_ != dir || time_s - last_pass_s_ > params_.window_s) {
+      last_pass_dir_ = dir;
+      last_pass_s_ = time_s;
+    }
+  }
+  last_seen_s_ = time_s;
+  last_y_ = y;
   track_.push_back({time_s, point.ground_m});
   while (!track_.empty() && track_.front().time_s < time_s - params_.window_s) track_.pop_front();
 }
 
-CrossingDecision CrossingPolicy::decide(double time_s) const {
+CrossingDecision CrossingPolicy::decide(double time_s, bool cautious) const {
   CrossingDecision d;
   if (track_.empty() || time_s - track_.back().time_s > params_.forget_s) {
     d.reason = track_.empty() ? "nothing tracked" : "the track is " + fmt(time_s - track_.back().time_s, 1) + " s old";
@@ -162,7 +173,37 @@ CrossingDecision CrossingPolicy::decide(double time_s) const {
   d.kind = beyond_m >= params_.away_clear_m ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
   d.reason = std::string(d.kind == CrossingDecision::Kind::go ? "clear of the lane by " : "only ") + fmt(beyond_m) +
              " m beyond the lane's edge (" + where + ")";
+  if (d.kind == CrossingDecision::Kind::go && d.lateral_speed_mps > params_.min_speed_mps) {
+    // Walking away: does it come back soon? (a person pacing across the way)
+    const int dir = d.lateral_m > 0.0 ? 1 : -1;
+    const double back_s = return_after_s(dir);
+    if (back_s >= 0.0 && back_s < params_.crossing_s) {
+      d.kind = CrossingDecision::Kind::wait;
+      d.reason = "walking away, but it came back " + fmt(back_s, 1) + " s after such a pass (within the crossing time " +
+                 fmt(params_.crossing_s, 1) + " s; " + where + ")";
+    } else if (back_s < 0.0 && cautious) {
+      d.kind = CrossingDecision::Kind::wait;
+      d.reason = "walking away; waiting to see whether it comes back (" + where + ")";
+    } else if (back_s >= 0.0) {
+      d.reason += "; it came back " + fmt(back_s, 1) + " s after such a pass last time";
+    }
+  }
   return d;
+}
+
+void CrossingLanes::add(const Pose2D& robot, const cv::Point2d& ground_m, double time_s) {
+  const double c = std::cos(robot.heading_rad), s = std::sin(robot.heading_rad);
+  lanes_.push_back({{robot.x_m + c * ground_m.x - s * ground_m.y, robot.y_m + s * ground_m.x + c * ground_m.y}, time_s});
+}
+
+std::optional<double> CrossingLanes::ahead_m(const Pose2D& robot, double time_s, double forget_s) {
+  const double c = std::cos(robot.heading_rad), s = std::sin(robot.heading_rad);
+  auto along = [&](const Lane& l) { return (l.at_m.x - robot.x_m) * c + (l.at_m.y - robot.y_m) * s; };
+  std::erase_if(lanes_, [&](const Lane& l) { return along(l) <= 0.0 || time_s - l.time_s > forget_s; });
+  std::optional<double> nearest;
+  for (const auto& l : lanes_)
+    if (!nearest || along(l) < *nearest) nearest = along(l);
+  return nearest;
 }
 
 }  // namespace visnav::ipt

@@ -1,5 +1,6 @@
 // When a stopped robot may cross a walking person's way (crossing_policy.hpp): synthetic tracks
 // of a person's ground point (robot frame, x ahead, y left) and synthetic frame-difference masks.
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -88,6 +89,68 @@ TEST(CrossingPolicy, WalkingAwayGoesApproachingWithinTheCrossingTimeWaits) {
     EXPECT_EQ(policy.decide(0.0).kind, Kind::no_track);
     EXPECT_EQ(walk(policy, 1.5, 2.0, 1.0, 0.0, 0.1).kind, Kind::wait);
   }
+}
+
+TEST(CrossingPolicy, RemembersWhereAPersonCrossedAheadUntilTheRobotPassesIt) {
+  CrossingLanes lanes;
+  const double h = 0.5;  // the robot drives along heading 0.5 rad in the odometry frame
+  auto at = [&](double s) { return Pose2D{1.0 + s * std::cos(h), 2.0 + s * std::sin(h), h}; };
+  EXPECT_FALSE(lanes.ahead_m(at(0.0), 0.0, 30.0).has_value());
+  // Seen 3.1 m ahead, 1.2 m to the right, walking across.
+  lanes.add(at(0.0), {3.1, -1.2}, 0.0);
+  auto ahead = lanes.ahead_m(at(0.0), 0.1, 30.0);
+  ASSERT_TRUE(ahead.has_value());
+  EXPECT_NEAR(*ahead, 3.1, 1e-9);
+  ahead = lanes.ahead_m(at(2.4), 8.0, 30.0);  // 2.4 m further on: 0.7 m to go
+  ASSERT_TRUE(ahead.has_value());
+  EXPECT_NEAR(*ahead, 0.7, 1e-9);
+  EXPECT_FALSE(lanes.ahead_m(at(3.2), 11.0, 30.0).has_value());  // passed: dropped
+  EXPECT_EQ(lanes.size(), 0u);
+  lanes.add(at(0.0), {3.1, 0.0}, 0.0);
+  EXPECT_FALSE(lanes.ahead_m(at(1.0), 31.0, 30.0).has_value());  // too old: dropped
+}
+
+// A person pacing across the way 0.7 m ahead of a robot stopped at its edge, seen only while
+// within ±0.4 m of the robot's line (the camera's view there): it walks 2.35 m past the line to
+// the right and 3.65 m to the left before it turns (returns after 4.7 s and 7.3 s).
+TEST(CrossingPolicy, LearnsWhenAPacingPersonComesBackAndGoesOnlyAfterTheLongReturn) {
+  CrossingParams params;
+  params.crossing_s = 5.5;
+  CrossingPolicy policy(params);
+  auto pass = [&](double t0, double dir) {  // one pass in view, 0.1 s apart
+    CrossingDecision d;
+    for (double y = -0.4 * dir; y * dir <= 0.4 + 1e-9; y += 0.1 * dir, t0 += 0.1) {
+      MovingPoint p;
+      p.ground_m = {0.95, y};
+      policy.observe(t0, p);
+    }
+    return policy.decide(t0 + 0.6, true);  // 0.6 s later, out of view, extrapolated
+  };
+  // First pass to the right: its return is not known: a cautious robot waits.
+  auto d = pass(0.0, -1.0);
+  EXPECT_EQ(d.kind, CrossingDecision::Kind::wait) << d.reason;
+  EXPECT_LT(policy.return_after_s(-1), 0.0);
+  // It comes back 4.7 s later walking left: the return after a pass to the right is 4.7 s; the
+  // one after a pass to the left is not known yet.
+  d = pass(4.7, 1.0);
+  EXPECT_NEAR(policy.return_after_s(-1), 4.7, 0.11);
+  EXPECT_EQ(d.kind, CrossingDecision::Kind::wait) << d.reason;
+  // Back again 7.3 s later walking right: that return (4.7 s) is within the crossing time: wait.
+  d = pass(12.0, -1.0);
+  EXPECT_NEAR(policy.return_after_s(1), 7.3, 0.11);
+  EXPECT_EQ(d.kind, CrossingDecision::Kind::wait) << d.reason;
+  // The next pass to the left is followed by a 7.3 s return: go.
+  d = pass(16.7, 1.0);
+  EXPECT_EQ(d.kind, CrossingDecision::Kind::go) << d.reason;
+  // Not cautious (a stop away from the way): an unknown return does not hold it.
+  CrossingPolicy plain(params);
+  for (double t = 0.0, y = -0.4; y >= -1.2; y -= 0.1, t += 0.1) {
+    MovingPoint p;
+    p.ground_m = {1.5, y};
+    plain.observe(t, p);
+  }
+  EXPECT_EQ(plain.decide(0.8, false).kind, CrossingDecision::Kind::go);
+  EXPECT_EQ(plain.decide(0.8, true).kind, CrossingDecision::Kind::wait);
 }
 
 TEST(CrossingPolicy, BadParamsNameTheKey) {

@@ -24,6 +24,16 @@
 //      - no point for forget_s seconds: the track is dropped; `no_track` (the caller keeps its
 //        own rule, e.g. the corridor still for N frames).
 //    Between points the fitted line is extrapolated (a person leaving the view keeps walking).
+//    Passes: a point on the other side of the robot's line (y changed sign) than the one before
+//    is a pass in the direction it walks; the time from a pass in one direction to the next pass
+//    (back, the other way) is remembered for that direction: a person pacing across the way
+//    comes back after it. Walking away after a pass in a direction whose remembered return came
+//    within crossing_s -> wait for the next one. With `cautious` (a robot stopped at the edge of
+//    the way, CrossingLanes) a direction whose return is not known yet -> wait as well (bounded
+//    by the caller).
+//  * CrossingLanes: where a person was seen crossing ahead while the robot drove, so that it
+//    stops at the edge of that way and watches (the camera sees a person pacing across the path
+//    only while it is in front of the robot).
 //
 // Not thread-safe.
 #pragma once
@@ -31,6 +41,7 @@
 #include <deque>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core/mat.hpp>
 #include <opencv2/core/types.hpp>
@@ -83,9 +94,19 @@ class CrossingPolicy {
   explicit CrossingPolicy(CrossingParams params) : params_(params) {}
   /// A point seen at `time_s` (seconds, increasing).
   void observe(double time_s, const MovingPoint& point);
-  /// The decision at `time_s` (>= the last observation).
-  [[nodiscard]] CrossingDecision decide(double time_s) const;
-  void reset() { track_.clear(); }
+  /// The decision at `time_s` (>= the last observation); `cautious`: see the file comment.
+  [[nodiscard]] CrossingDecision decide(double time_s, bool cautious = false) const;
+  /// Forgets the track and the passes.
+  void reset() {
+    track_.clear();
+    last_pass_dir_ = 0;
+    return_after_s_[0] = return_after_s_[1] = -1.0;
+  }
+  /// Time of the last point, or -1 when none was seen since reset().
+  [[nodiscard]] double last_seen_s() const { return last_seen_s_; }
+  /// Remembered time from a pass walking to the robot's left (dir +1) or right (-1) to the
+  /// person's next pass back; -1 when not seen yet.
+  [[nodiscard]] double return_after_s(int dir) const { return return_after_s_[dir > 0 ? 0 : 1]; }
   [[nodiscard]] std::size_t points() const { return track_.size(); }
   [[nodiscard]] const CrossingParams& params() const { return params_; }
 
@@ -96,6 +117,34 @@ class CrossingPolicy {
   };
   CrossingParams params_;
   std::deque<Sample> track_;
+  double last_seen_s_ = -1.0;
+  double last_y_ = 0.0;
+  int last_pass_dir_ = 0;          // +1 walking left, -1 right, 0 none
+  double last_pass_s_ = 0.0;
+  double return_after_s_[2] = {-1.0, -1.0};  // [0]: after a pass to the left, [1]: to the right
+};
+
+/// Where a person was seen crossing ahead of a driving robot, remembered in the odometry frame
+/// so that the robot stops at the edge of that person's way (the kerb) instead of driving into
+/// it when the person comes back out of the camera's view. [ours] The person's way is taken
+/// across the robot's path: a sighting at ground point P (robot frame) marks a crossing at the
+/// along-track distance of P.
+class CrossingLanes {
+ public:
+  /// A sighting at `ground_m` (robot frame) with the robot at `robot` (odometry frame) at `time_s`.
+  void add(const Pose2D& robot, const cv::Point2d& ground_m, double time_s);
+  /// Along-track distance from the robot to the nearest remembered crossing ahead of it (> 0),
+  /// nullopt when none. Crossings behind the robot (passed) or older than `forget_s` are dropped.
+  [[nodiscard]] std::optional<double> ahead_m(const Pose2D& robot, double time_s, double forget_s);
+  void clear() { lanes_.clear(); }
+  [[nodiscard]] std::size_t size() const { return lanes_.size(); }
+
+ private:
+  struct Lane {
+    cv::Point2d at_m;  // odometry frame
+    double time_s;
+  };
+  std::vector<Lane> lanes_;
 };
 
 [[nodiscard]] const char* to_string(CrossingDecision::Kind kind);

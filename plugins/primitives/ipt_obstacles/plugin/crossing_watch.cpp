@@ -62,6 +62,7 @@ Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNod
   made.camera_ = camera;
   made.kerb_m_ = kerb_m;
   made.kerb_wait_s_ = wait_s;
+  made.drive_near_m_ = driving.near_m;
   return std::optional<CrossingWatch>{std::move(made)};
 }
 
@@ -95,7 +96,9 @@ Result<bool> CrossingWatch::drive(const cv::Mat& grey, const Pose2D& motion, con
     drive_hits_ = hit ? drive_hits_ + 1 : 0;
     if (drive_hits_ >= 2) {
       VISNAV_ASSIGN(const auto point, locate_moving(drive_watch_.last_changed(), camera_, min_px_));
-      if (point) lanes_.add(robot, point->ground_m, time_s);
+      // Only feet in view, beyond the band's near rows (where the odometry's error changes most
+      // pixels): a person's way seen ahead, not the robot's own parallax.
+      if (point && point->contact_visible && point->ground_m.x >= drive_near_m_ + 0.3) lanes_.add(robot, point->ground_m, time_s);
     }
   }
   const auto ahead = lanes_.ahead_m(robot, time_s, 30.0);

@@ -34,6 +34,12 @@ class CrossingWatch {
   /// robot stops before it (a stop too far from the way to cross in time).
   void remember_way(const Pose2D& robot, double ahead_m, double time_s) { lanes_.add(robot, {ahead_m, 0.0}, time_s); }
   [[nodiscard]] double kerb_m() const { return kerb_m_; }
+  /// True when a person's way is remembered within `within_m` ahead: an IPT contact there is
+  /// likely that person (the robot waits at the way instead of detouring into it).
+  [[nodiscard]] bool way_ahead(const Pose2D& robot, double time_s, double within_m) {
+    const auto ahead = lanes_.ahead_m(robot, time_s, 30.0);
+    return ahead && *ahead <= within_m;
+  }
   /// The camera moved: the next frame starts a new difference (the track is kept).
   void restart_difference() { watch_.reset(); }
   /// Forgets the track too (a new stop); the remembered crossings are kept.
@@ -64,6 +70,7 @@ class CrossingWatch {
   IptCamera camera_;
   double kerb_m_ = 0.7;
   double kerb_wait_s_ = 15.0;
+  double drive_near_m_ = 0.8;
   std::vector<int> drive_counts_;
   int drive_hits_ = 0;
 };

@@ -186,7 +186,7 @@ bt::PortsList ObstacleAhead::provided_ports() {
 NodeStatus ObstacleAhead::tick() {
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
-    host_.logger().warn(path(), fresh.error().message);
+    host_.logger().info(path(), fresh.error().message);
     return NodeStatus::failure;
   }
   FrameBus* bus = host_.frame_bus();
@@ -195,7 +195,7 @@ NodeStatus ObstacleAhead::tick() {
   if (*fresh) corridor_.add(**fresh, *odom);
   auto blocked = corridor_.blocked(*this, *odom);
   if (!blocked) {
-    host_.logger().warn(path(), blocked.error().message);
+    host_.logger().info(path(), blocked.error().message);
     return NodeStatus::failure;
   }
   return *blocked ? NodeStatus::success : NodeStatus::failure;
@@ -672,6 +672,15 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
       looking_ = false;
       auto blocked = corridor_.blocked(*this, odom);
       if (!blocked) return fail_with(blocked.error().message);
+      // A contact where a person was seen crossing: likely that person, out of view now; wait
+      // at its way (crossing policy) rather than detour into it.
+      if (*blocked && crossing_ && !at_kerb_ && crossing_->way_ahead(odom.pose, frame->timestamp_s, 2.5)) {
+        looking_ = true;
+        at_kerb_ = true;
+        kerb_since_s_ = frame->timestamp_s;
+        host_.logger().info(path(), "the contact ahead lies on a person's way seen crossing: wait there for it to pass");
+        return NodeStatus::running;
+      }
       if (*blocked) return begin_detour(odom);  // it stands: drive around it
       // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
       // parallax of something standing near (or a false alarm); go on, and let the IPT judge.
@@ -686,12 +695,14 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   still_frames_ = moving ? 0 : still_frames_ + 1;
   if (crossing && crossing->kind == CrossingDecision::Kind::go) {
     looking_ = false;
-    if (at_kerb_ || crossing->range_m <= crossing_->kerb_m() + 0.3) {
-      crossing_->clear_lanes();  // it walked away: cross now
+    if (crossing->range_m <= crossing_->kerb_m() + 0.3) {
+      crossing_->clear_lanes();  // it walked away just ahead: cross now
     } else {
       // Too far from its way to cross before it could be back: drive up to the edge of the way
-      // and watch it pass there.
+      // (as now seen) and watch it pass there.
+      crossing_->clear_lanes();
       crossing_->remember_way(odom.pose, crossing->range_m, frame->timestamp_s);
+      at_kerb_ = false;  // resume_child() keeps the way
     }
     // The person it saw walks away beside the lane: no stop for it until past its line.
     drive_quiet_until_m_ = odom.distance_m + std::clamp(crossing->range_m + 0.5, 0.3, 3.0);

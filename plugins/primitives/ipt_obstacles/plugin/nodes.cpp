@@ -186,7 +186,7 @@ bt::PortsList ObstacleAhead::provided_ports() {
 NodeStatus ObstacleAhead::tick() {
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
-    host_.logger().info(path(), fresh.error().message);
+    host_.logger().warn(path(), fresh.error().message);
     return NodeStatus::failure;
   }
   FrameBus* bus = host_.frame_bus();
@@ -195,7 +195,7 @@ NodeStatus ObstacleAhead::tick() {
   if (*fresh) corridor_.add(**fresh, *odom);
   auto blocked = corridor_.blocked(*this, *odom);
   if (!blocked) {
-    host_.logger().info(path(), blocked.error().message);
+    host_.logger().warn(path(), blocked.error().message);
     return NodeStatus::failure;
   }
   return *blocked ? NodeStatus::success : NodeStatus::failure;

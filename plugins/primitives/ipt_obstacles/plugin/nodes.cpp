@@ -371,6 +371,7 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   ports.push_back(bt::input_port<double>("motion_threshold", "18",
                                          "moving obstacles: grey-level change of a pixel that counts (frame difference)"));
   ports.push_back(bt::input_port<int>("motion_min_px", "80", "moving obstacles: changed corridor pixels that count as motion"));
+  for (auto& p : crossing_ports()) ports.push_back(std::move(p));
   ports.push_back(bt::input_port<double>("moving_stop_m", "2.0",
                                          "moving obstacles: while replaying, what moves (or stands) in the corridor this "
                                          "close (ground-compensated frame difference, ±1.2 m wide) stops the robot to "
@@ -458,6 +459,23 @@ NodeStatus ReplayAvoiding::tick() {
     begin_look(*odom, "something moves close ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
     return NodeStatus::running;
   }
+  auto kerb = kerb_near(*odom);
+  if (!kerb) {
+    host_.logger().error(path(), kerb.error().message);
+    halt_child();
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*kerb) {
+    halt_child();
+    replay_done_m_ = odom->distance_m - replay_origin_m_;
+    detour_start_ = odom->pose;
+    begin_look(*odom, "a person was seen crossing ahead: stop before its way at " + std::to_string(replay_done_m_) +
+                          " m of the edge and watch it pass");
+    at_kerb_ = true;
+    kerb_since_s_ = odom->timestamp_s;
+    return NodeStatus::running;
+  }
   const NodeStatus st = child()->execute_tick();
   if (st != NodeStatus::running) {
     child_started_ = false;
@@ -478,9 +496,40 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
   host_.logger().info(path(), why + ": the edge resumes at " + std::to_string(carried) + " m");
   if (drive_watch_) drive_watch_->reset();
   drive_hits_ = 0;
+  if (crossing_ && at_kerb_) crossing_->clear_lanes();  // crossing now (or given up waiting)
+  at_kerb_ = false;
   corridor_.clear();
   runner_.restart();
   child_started_ = false;
+}
+
+Status ReplayAvoiding::read_crossing(const cv::Mat& grey) {
+  if (crossing_read_) return ok();
+  VISNAV_ASSIGN(IptCamera camera, read_camera(*this, grey));
+  VISNAV_ASSIGN(crossing_, CrossingWatch::from_ports(*this, camera));
+  crossing_read_ = true;
+  return ok();
+}
+
+Result<bool> ReplayAvoiding::kerb_near(const Odometry& odom) {
+  if (crossing_read_ && !crossing_) return false;
+  FrameBus* bus = host_.frame_bus();
+  auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
+  if (!frame || frame->image.empty() || (have_kerb_sequence_ && frame->sequence == kerb_sequence_)) return false;
+  const bool first = !have_kerb_sequence_;
+  have_kerb_sequence_ = true;
+  kerb_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, watch_grey_, cv::COLOR_BGR2GRAY);
+  else watch_grey_ = frame->image;
+  VISNAV_TRY(read_crossing(watch_grey_));
+  if (!crossing_) return false;
+  const Pose2D& a = kerb_pose_;
+  const double c = std::cos(a.heading_rad), s = std::sin(a.heading_rad);
+  const double dx = odom.pose.x_m - a.x_m, dy = odom.pose.y_m - a.y_m;
+  const Pose2D motion{c * dx + s * dy, -s * dx + c * dy, std::remainder(odom.pose.heading_rad - a.heading_rad, 2.0 * CV_PI)};
+  kerb_pose_ = odom.pose;
+  if (first) crossing_->reset();
+  return crossing_->drive(watch_grey_, motion, odom.pose, frame->timestamp_s);
 }
 
 void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
@@ -494,6 +543,10 @@ void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
   drive_hits_ = 0;
   if (watch_) watch_->reset();
   if (drive_watch_) drive_watch_->reset();
+  if (crossing_) crossing_->reset();
+  crossing_kind_ = CrossingDecision::Kind::no_track;
+  at_kerb_ = false;
+  have_kerb_sequence_ = false;
   host_.logger().info(path(), why);
 }
 
@@ -583,15 +636,26 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
     if (!made) return fail_with("port 'motion_threshold'/'motion_min_px': " + made.error().message);
     watch_.emplace(std::move(*made));
   }
+  if (auto st = read_crossing(watch_grey_); !st) return fail_with(st.error().message);
   // Compare only frames of a standing camera: wait until the odometry says stopped.
   if (std::abs(odom.twist.linear_mps) > 0.01 || std::abs(odom.twist.angular_radps) > 0.01 || settle_frames_++ < 2) {
     watch_->reset();
+    if (crossing_) crossing_->restart_difference();
     return NodeStatus::running;
+  }
+  // The crossing policy (crossing_s > 0): where the person is and goes, over a wide band.
+  std::optional<CrossingDecision> crossing;
+  if (crossing_) {
+    auto d = crossing_->observe(watch_grey_, frame->timestamp_s, at_kerb_);
+    if (!d) return fail_with(d.error().message);
+    crossing = *d;
+    if (d->kind != crossing_kind_) host_.logger().info(path(), std::string("crossing policy: ") + to_string(d->kind) + ", " + d->reason);
+    crossing_kind_ = d->kind;
   }
   auto changed = watch_->observe(watch_grey_);
   if (!changed) return fail_with(changed.error().message);
   if (!*changed) return NodeStatus::running;
-  const bool moving = watch_->moving();
+  const bool moving = watch_->moving() || (crossing && crossing->kind == CrossingDecision::Kind::wait);
   auto look = get_input<int>("look_frames");
   auto clear = get_input<int>("clear_frames");
   auto max_wait = get_input<int>("max_wait_frames");
@@ -602,9 +666,21 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
       host_.logger().info(path(), "a moving obstacle in the corridor (" + std::to_string(**changed) +
                                       " changed pixels): wait until it is clear");
     } else if (++look_frames_ >= *look) {
+      // Before a person's way: watch for it to pass (crossing_wait_s) before going on.
+      if (at_kerb_ && crossing_ && frame->timestamp_s - kerb_since_s_ < crossing_->kerb_wait_s()) return NodeStatus::running;
+      if (at_kerb_ && crossing_) crossing_->clear_lanes();
       looking_ = false;
       auto blocked = corridor_.blocked(*this, odom);
       if (!blocked) return fail_with(blocked.error().message);
+      // A contact where a person was seen crossing: likely that person, out of view now; wait
+      // at its way (crossing policy) rather than detour into it.
+      if (*blocked && crossing_ && !at_kerb_ && crossing_->way_ahead(odom.pose, frame->timestamp_s, 2.5)) {
+        looking_ = true;
+        at_kerb_ = true;
+        kerb_since_s_ = frame->timestamp_s;
+        host_.logger().info(path(), "the contact ahead lies on a person's way seen crossing: wait there for it to pass");
+        return NodeStatus::running;
+      }
       if (*blocked) return begin_detour(odom);  // it stands: drive around it
       // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
       // parallax of something standing near (or a false alarm); go on, and let the IPT judge.
@@ -617,7 +693,26 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   if (++wait_frames_ > *max_wait)
     return fail_with("stopped: a moving obstacle stayed in the corridor ahead for " + std::to_string(wait_frames_) + " frames");
   still_frames_ = moving ? 0 : still_frames_ + 1;
+  if (crossing && crossing->kind == CrossingDecision::Kind::go) {
+    looking_ = false;
+    if (crossing->range_m <= crossing_->kerb_m() + 0.3) {
+      crossing_->clear_lanes();  // it walked away just ahead: cross now
+    } else {
+      // Too far from its way to cross before it could be back: drive up to the edge of the way
+      // (as now seen) and watch it pass there.
+      crossing_->clear_lanes();
+      crossing_->remember_way(odom.pose, crossing->range_m, frame->timestamp_s);
+      at_kerb_ = false;  // resume_child() keeps the way
+    }
+    // The person it saw walks away beside the lane: no stop for it until past its line.
+    drive_quiet_until_m_ = odom.distance_m + std::clamp(crossing->range_m + 0.5, 0.3, 3.0);
+    resume_child(odom, "the crossing policy lets the robot go after " + std::to_string(wait_frames_) + " frames (" +
+                           crossing->reason + ")");
+    return NodeStatus::running;
+  }
   if (still_frames_ < *clear) return NodeStatus::running;
+  // At the edge of a person's way: only the policy, or crossing_wait_s without seeing it, ends the wait.
+  if (at_kerb_ && crossing_ && crossing_->unseen_s(frame->timestamp_s) < crossing_->kerb_wait_s()) return NodeStatus::running;
   looking_ = false;
   drive_quiet_until_m_ = odom.distance_m + 0.3;  // let the IPT look again before the frame difference
   resume_child(odom, "the corridor is clear after " + std::to_string(wait_frames_) + " frames of waiting");

@@ -24,6 +24,7 @@
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
+#include "crossing_watch.hpp"
 #include "visnav/ipt_obstacles/contact_persistence.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
@@ -201,6 +202,18 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bool have_watch_sequence_ = false;
   std::optional<MotionWatch> watch_;
   std::optional<MotionWatch> drive_watch_;  // the near corridor while driving (moving_stop_m)
+  std::optional<CrossingWatch> crossing_;    // the crossing policy (crossing_s > 0; crossing_watch.hpp)
+  bool crossing_read_ = false;
+  CrossingDecision::Kind crossing_kind_ = CrossingDecision::Kind::no_track;
+  bool at_kerb_ = false;          // stopped before a person's way seen while driving
+  double kerb_since_s_ = 0.0;
+  Pose2D kerb_pose_;              // odometry pose of the previous driving frame (crossing watch)
+  std::uint64_t kerb_sequence_ = 0;
+  bool have_kerb_sequence_ = false;
+  /// Creates crossing_ from the ports on the first frame (crossing_s > 0). Error: bad ports.
+  Status read_crossing(const cv::Mat& grey);
+  /// The crossing watch while driving: true when the robot is to stop before a person's way.
+  Result<bool> kerb_near(const Odometry& odom);
   Pose2D drive_watch_pose_;
   std::uint64_t drive_sequence_ = 0;
   bool have_drive_sequence_ = false;

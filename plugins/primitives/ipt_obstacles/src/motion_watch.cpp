@@ -89,9 +89,9 @@ int MotionWatch::count_changed(const cv::Mat& previous, const cv::Mat& valid) {
   blurred_.convertTo(diff_, CV_16S, gain);
   previous.convertTo(prev16_, CV_16S);
   cv::absdiff(diff_, prev16_, diff_);
-  cv::Mat changed = diff_ > params_.diff_threshold;
-  changed &= valid;
-  return cv::countNonZero(changed);
+  changed_ = diff_ > params_.diff_threshold;
+  changed_ &= valid;
+  return cv::countNonZero(changed_);
 }
 
 Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2D& motion) {
@@ -127,7 +127,10 @@ Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2
       cv::erode(valid_, valid_, cv::Mat(), cv::Point(-1, -1), 3);
       cv::bitwise_and(valid_, mask_, valid_);
       const int n = count_changed(warped_, valid_);
-      if (best < 0 || n < best) best = n;
+      if (best < 0 || n < best) {
+        best = n;
+        changed_.copyTo(best_changed_);
+      }
       if (best < params_.min_changed_px) break;
     }
     if (best < 0) {  // the motion was too large to line the frames up: start again from this one
@@ -136,6 +139,7 @@ Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2
       return std::optional<int>{};
     }
     last_changed_px_ = best;
+    cv::swap(changed_, best_changed_);  // last_changed(): the changed pixels of the best scale
   }
   blurred_.copyTo(previous_);
   return std::optional<int>{last_changed_px_};

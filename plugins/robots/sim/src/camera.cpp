@@ -83,6 +83,13 @@ CameraCore::CameraCore(CameraParams params, std::shared_ptr<RobotCore> robot, st
       rng_(static_cast<std::uint64_t>(params_.seed) * 0x9E3779B97F4A7C15ULL + 1) {
   const bool tone = params_.gain != 1.0 || params_.offset != 0.0 || params_.color_gain_bgr[0] != 1.0 ||
                     params_.color_gain_bgr[1] != 1.0 || params_.color_gain_bgr[2] != 1.0;
+  // Moving obstacles where the robot's collision check has them (yielding walkers, movers.hpp).
+  if (robot_) {
+    const World* shown = &renderer_.world();
+    renderer_.set_mover_offsets([robot = robot_.get(), shown](int mover, double time_s) {
+      return robot->mover_offset(shown, mover, time_s);
+    });
+  }
   if (tone) {
     tone_lut_.create(1, 256, CV_8UC3);
     for (int i = 0; i < 256; ++i)

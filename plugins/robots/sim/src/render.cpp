@@ -246,7 +246,8 @@ void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* label
 
   for (size_t wi = 0; wi < w.walls.size(); ++wi) {
     const Wall& wall = w.walls[wi];
-    const cv::Point2d shift = w.wall_offset(wall, time_s);  // moving obstacles
+    const cv::Point2d shift = wall.mover >= 0 && mover_offsets_ ? mover_offsets_(wall.mover, time_s)
+                                                                 : w.wall_offset(wall, time_s);  // moving obstacles
     const cv::Point2d from = wall.from + shift, to = wall.to + shift;
     const cv::Vec3d p0(from.x, from.y, 0.0);
     const cv::Vec3d along(to.x - from.x, to.y - from.y, 0.0);

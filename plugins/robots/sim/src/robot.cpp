@@ -138,6 +138,7 @@ RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<con
     : params_(std::move(params)), world_(std::move(world)), pose_(start_world), rng_(static_cast<std::uint64_t>(params_.seed)),
       freeze_rng_(freeze_seed(params_.seed)) {
   run_errors_ = draw_run_errors(params_);
+  movers_.reset(world_.get(), 0.0);
   if (world_ && params_.body_radius_m > 0.0) {
     shapes_ = collision_shapes(*world_, params_.body_height_m, params_.trunk_radius_m);
     in_contact_.assign(shapes_.size(), 0);
@@ -153,6 +154,7 @@ RobotCore::RobotCore(RobotParams params, Pose2D start_world, std::shared_ptr<con
 void RobotCore::set_world(std::shared_ptr<const World> world) {
   std::lock_guard lock(mutex_);
   world_ = std::move(world);
+  movers_.reset(world_.get(), time_s_);
   shapes_.clear();
   in_contact_.clear();
   if (world_ && params_.body_radius_m > 0.0) {
@@ -288,6 +290,7 @@ void RobotCore::substep_locked(double dt) {
   double ds = v * dt;
   double ds_wheels = v_wheels * dt;
   bool blocked = false;
+  movers_.advance(time_s_, dt, {before.x_m, before.y_m}, params_.body_radius_m, params_.pose_history_s);
   if (!shapes_.empty()) {
     const cv::Point2d p0(before.x_m, before.y_m), p1(pose_.x_m, pose_.y_m);
     for (std::size_t i = 0; i < shapes_.size(); ++i) {
@@ -385,6 +388,12 @@ Pose2D RobotCore::pose_at(double t) const {
   p.y_m = a.second.y_m + k * (b.second.y_m - a.second.y_m);
   p.heading_rad = wrap_angle(a.second.heading_rad + k * wrap_angle(b.second.heading_rad - a.second.heading_rad));
   return p;
+}
+
+cv::Point2d RobotCore::mover_offset(const World* world, int mover, double time_s) const {
+  std::lock_guard lock(mutex_);
+  if (world != movers_.world()) return world->movers[static_cast<std::size_t>(mover)].offset_at(time_s);
+  return movers_.offset_at(mover, time_s);
 }
 
 void RobotCore::teleport(const Pose2D& pose_world) {

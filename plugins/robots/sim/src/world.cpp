@@ -177,7 +177,7 @@ Status parse_trees(World& world, const ConfigNode& list) {
 Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& name, const cv::Point2d& at) {
   const ConfigNode* path = o.find("path");
   if (path == nullptr) {
-    for (const char* key : {"speed_mps", "start_s", "motion"})
+    for (const char* key : {"speed_mps", "start_s", "motion", "yield_m"})
       if (const ConfigNode* n = o.find(key))
         return node_error(*n, name + ": key '" + key + "' needs 'path' (the waypoints the obstacle moves through)",
                           ErrorCode::missing, "path");
@@ -196,6 +196,7 @@ Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& n
   if (o.find("speed_mps") == nullptr) return node_error(o, name + ": a moving obstacle needs 'speed_mps'", ErrorCode::missing, "speed_mps");
   VISNAV_ASSIGN(m.speed_mps, get_double(o, "speed_mps", 1.0, 0.01, 20.0));
   VISNAV_ASSIGN(m.start_s, get_double(o, "start_s", 0.0, 0.0, 1e6));
+  VISNAV_ASSIGN(m.yield_m, get_double(o, "yield_m", 0.0, 0.0, 5.0));
   VISNAV_ASSIGN(const std::string motion, get_string(o, "motion", "once"));
   if (motion == "once") m.motion = MovingObstacle::Motion::once;
   else if (motion == "loop") m.motion = MovingObstacle::Motion::loop;
@@ -220,7 +221,7 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
   for (const auto& o : list.items()) {
     const std::string what = "obstacle " + std::to_string(index++);
     VISNAV_TRY(check_keys(o, {"name", "kind", "at", "yaw_deg", "size_m", "radius_m", "sides", "height_m", "texture", "path",
-                              "speed_mps", "start_s", "motion"},
+                              "speed_mps", "start_s", "motion", "yield_m"},
                           what));
     VISNAV_ASSIGN(const std::string name, get_string(o, "name", what));
     VISNAV_ASSIGN(const std::string kind, get_string(o, "kind", "box"));
@@ -263,6 +264,11 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
                         ErrorCode::out_of_range, "kind");
     }
     VISNAV_ASSIGN(const int mover, parse_motion(world, o, name, c));
+    if (mover >= 0) {
+      double r = 0.0;
+      for (const auto& q : ring) r = std::max(r, cv::norm(q - c));
+      world.movers[static_cast<std::size_t>(mover)].radius_m = r;
+    }
     for (std::size_t i = 0; i < ring.size(); ++i) {
       VISNAV_TRY(add_wall(world, ring[i], ring[(i + 1) % ring.size()], 0.0, height_m, texture, LabelClass::obstacle,
                           name, o));
@@ -433,25 +439,43 @@ cv::Vec3b label_color(LabelClass label) {
 
 cv::Point2d MovingObstacle::position_at(double time_s) const {
   if (path.size() < 2 || time_s <= start_s) return path.empty() ? cv::Point2d(0, 0) : path.front();
+  return position_walked(walked_at(time_s));
+}
+
+cv::Point2d MovingObstacle::position_walked(double walked_m, cv::Point2d* direction) const {
+  if (direction != nullptr) *direction = cv::Point2d(0, 0);
+  if (path.size() < 2 || walked_m <= 0.0) {
+    if (direction != nullptr && path.size() >= 2) *direction = (path[1] - path[0]) / cv::norm(path[1] - path[0]);
+    return path.empty() ? cv::Point2d(0, 0) : path.front();
+  }
   // The polyline walked: closed for `loop` (back to the start along the closing segment).
   const bool closed = motion == Motion::loop;
   const std::size_t segments = closed ? path.size() : path.size() - 1;
   double length_m = 0.0;
   for (std::size_t i = 0; i < segments; ++i) length_m += cv::norm(path[(i + 1) % path.size()] - path[i]);
-  double s = speed_mps * (time_s - start_s);
+  double s = walked_m;
+  bool backwards = false;
   switch (motion) {
-    case Motion::once: s = std::min(s, length_m); break;
+    case Motion::once:
+      if (s >= length_m) return path.back();  // stands at the end: no direction
+      break;
     case Motion::loop: s = std::fmod(s, length_m); break;
     case Motion::back_and_forth: {
       s = std::fmod(s, 2.0 * length_m);
-      if (s > length_m) s = 2.0 * length_m - s;
+      if (s > length_m) {
+        s = 2.0 * length_m - s;
+        backwards = true;
+      }
       break;
     }
   }
   for (std::size_t i = 0; i < segments; ++i) {
     const cv::Point2d a = path[i], b = path[(i + 1) % path.size()];
     const double seg = cv::norm(b - a);
-    if (s <= seg || i + 1 == segments) return a + (b - a) * (std::min(s, seg) / seg);
+    if (s <= seg || i + 1 == segments) {
+      if (direction != nullptr) *direction = (backwards ? a - b : b - a) / seg;
+      return a + (b - a) * (std::min(s, seg) / seg);
+    }
     s -= seg;
   }
   return path.back();

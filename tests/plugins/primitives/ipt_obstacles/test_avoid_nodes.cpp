@@ -5,7 +5,8 @@
 //  * replay with avoidance (trees/replay_route_avoiding.xml): a 12 m feature edge taught on a
 //    clear gravel path, replayed with a van parked on it (seed 002's field report): the replay
 //    detours around the van, resumes the edge at the along-track distance reached, and succeeds;
-//    replayed with a person crossing in front (an obstacle file placed per run): it waits;
+//    replayed with a person crossing in front (an obstacle file placed per run): it waits; with a
+//    person pacing across it, the plain wait collides and the crossing policy does not;
 //  * the same tree on a path-following edge (ReplayPathAvoiding around FollowPathEdge): a crate
 //    on a taught gravel path is passed and the path follower takes the edge over again.
 #include <array>
@@ -31,9 +32,11 @@ struct CliRun {
 };
 
 CliRun run_cli(const std::string& args, const std::string& tree = "avoid_obstacles.xml") {
+  // `tree`: a file of trees/, or an absolute path (a tree written by the test).
+  const std::string tree_path = tree.starts_with('/') ? tree : std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/" + tree;
   const std::string cmd = std::string(VISNAV_TEST_CLI) + " run --plugin-path " + VISNAV_TEST_PLUGIN_DIR + " --config " +
-                          VISNAV_TEST_SOURCE_DIR + "/config/sim_obstacles.yaml --tree " + VISNAV_TEST_SOURCE_DIR +
-                          "/trees/" + tree + " " + args + " " + kMount + " 2>&1";
+                          VISNAV_TEST_SOURCE_DIR + "/config/sim_obstacles.yaml --tree " + tree_path + " " + args + " " +
+                          kMount + " 2>&1";
   CliRun r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (pipe == nullptr) return r;
@@ -106,6 +109,30 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
   EXPECT_NE(crossing.output.find("a moving obstacle in the corridor"), std::string::npos) << crossing.output;
   EXPECT_NE(crossing.output.find("the corridor is clear after"), std::string::npos) << crossing.output;
   EXPECT_EQ(crossing.output.find(": detour"), std::string::npos) << crossing.output;
+  // A person pacing across the path at x = 6 m (y = 3.6 .. -2.4, 1 m/s, back and forth, as on the
+  // campus square): waiting until the corridor is still, the robot resumes and the person comes
+  // back into it; with the crossing policy (crossing_s 5.5, the tree written here) it stops at
+  // the edge of the person's way, learns the two returns, and crosses after the long one
+  // (docs/obstacles.md, "Crossing policy").
+  write(dir / "pacing.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 3.6], path: [[6, -2.4]], speed_mps: 1.0, "
+                             "motion: back_and_forth, texture: van}\n");
+  std::ifstream plain_tree(std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/replay_route_avoiding.xml");
+  std::string policy_tree{std::istreambuf_iterator<char>(plain_tree), std::istreambuf_iterator<char>()};
+  const std::string mount_attr = "camera_pitch_down_deg=\"{camera_pitch_down_deg}\">";
+  for (std::size_t at = policy_tree.find(mount_attr); at != std::string::npos; at = policy_tree.find(mount_attr, at + 1))
+    policy_tree.replace(at, mount_attr.size(), "camera_pitch_down_deg=\"{camera_pitch_down_deg}\" crossing_s=\"5.5\">");
+  ASSERT_NE(policy_tree.find("crossing_s"), std::string::npos);
+  write(dir / "crossing.xml", policy_tree);
+  const std::string pacing_args = "--set robot.params.world=" + (dir / "clear.yaml").string() + " --set robot.params.obstacles=" +
+                                  (dir / "pacing.yaml").string() + " --map " + map +
+                                  " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
+  const CliRun blind_wait = run_cli(pacing_args, "replay_route_avoiding.xml");
+  EXPECT_NE(blind_wait.output.find("collision with 'person'"), std::string::npos) << blind_wait.output;
+  const CliRun policy = run_cli(pacing_args, (dir / "crossing.xml").string());
+  EXPECT_EQ(policy.status, 0) << policy.output;
+  EXPECT_EQ(policy.output.find("collision with"), std::string::npos) << policy.output;
+  EXPECT_NE(policy.output.find("a person was seen crossing ahead: stop before its way"), std::string::npos) << policy.output;
+  EXPECT_NE(policy.output.find("the crossing policy lets the robot go"), std::string::npos) << policy.output;
   std::filesystem::remove_all(dir);
 }
 

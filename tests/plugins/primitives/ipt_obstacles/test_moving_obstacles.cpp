@@ -13,7 +13,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "error_expect.hpp"
+#include "visnav/ipt_obstacles/crossing_policy.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
+#include "visnav_sim/camera.hpp"
+#include "visnav_sim/movers.hpp"
 #include "visnav_sim/render.hpp"
 #include "visnav_sim/robot.hpp"
 #include "visnav_sim/world.hpp"
@@ -123,6 +126,67 @@ TEST(MovingObstacles, CollisionWithAStandingRobotIsRecorded) {
   EXPECT_LT(driving.ground_truth().y_m, 4.0 - 0.5 + 1e-6);
 }
 
+// A yielding walker (yield_m) stands while the robot's body is on its way within that gap, and
+// the sim camera draws it where the collision check has it.
+TEST(MovingObstacles, YieldingWalkerStopsBeforeAStandingRobotAndTheCameraShowsIt) {
+  std::string yielding_text = kWorld;
+  const std::string from = "start_s: 2, texture: cloth}";
+  yielding_text.replace(yielding_text.find(from), from.size(), "start_s: 2, yield_m: 0.6, texture: cloth}");
+  auto yielding = world_or_die(yielding_text);
+  auto blind = world_or_die(kWorld);
+  ASSERT_NE(yielding, nullptr);
+  ASSERT_NE(blind, nullptr);
+  ASSERT_EQ(yielding->movers.size(), 1u);
+  EXPECT_DOUBLE_EQ(yielding->movers[0].yield_m, 0.6);
+  EXPECT_NEAR(yielding->movers[0].radius_m, 0.25, 1e-9);
+  RobotParams p;
+  p.body_radius_m = 0.25;
+  // The robot stands on the walker's line 1 m south of the middle, facing north (towards it).
+  const Pose2D on_its_way{3.0, -1.0, CV_PI / 2};
+  auto run = [&](const std::shared_ptr<const World>& world, std::vector<double>* walker_y) {
+    auto robot = std::make_shared<RobotCore>(p, on_its_way, world);
+    CameraParams cp;
+    CameraCore camera(cp, robot, world);
+    int centre_px = 0;
+    for (int i = 0; i < 100; ++i) {  // 10 s
+      EXPECT_TRUE(robot->step(0.1).ok());
+      if (walker_y != nullptr) walker_y->push_back(robot->mover_offset(world.get(), 0, robot->time_s()).y + 4.0);
+    }
+    if (camera.grab()) {
+      cv::Mat labels, mask;
+      camera.last_labels(labels);
+      label_mask(labels, LabelClass::obstacle, mask);
+      centre_px = cv::countNonZero(mask(cv::Rect(mask.cols / 2 - 40, 0, 80, mask.rows)));
+    }
+    return std::pair{robot->collisions().size(), centre_px};
+  };
+  std::vector<double> first, second;
+  const auto [yield_hits, yield_px] = run(yielding, &first);
+  const auto [blind_hits, blind_px] = run(blind, nullptr);
+  EXPECT_EQ(yield_hits, 0u);
+  EXPECT_EQ(blind_hits, 1u);  // the blind walker walks into it
+  // It stopped with its body 0.6 m before the robot's: centre y = -1 + 0.25 + 0.25 + 0.6 = 0.1.
+  ASSERT_FALSE(first.empty());
+  EXPECT_NEAR(first.back(), 0.1, 0.12);
+  EXPECT_GT(yield_px, 1500);  // drawn standing 1.1 m ahead of the camera
+  EXPECT_EQ(blind_px, 0);     // the blind one has walked on past the robot (behind the camera)
+  // Deterministic: the same run again gives the same walker positions.
+  run(yielding, &second);
+  EXPECT_EQ(first, second);
+  // The robot leaves its way: the walker walks on.
+  auto robot = std::make_shared<RobotCore>(p, on_its_way, yielding);
+  for (int i = 0; i < 80; ++i) ASSERT_TRUE(robot->step(0.1).ok());
+  robot->teleport(Pose2D{5.0, -1.0, CV_PI / 2});  // 2 m to the side
+  for (int i = 0; i < 40; ++i) ASSERT_TRUE(robot->step(0.1).ok());
+  EXPECT_LT(robot->mover_offset(yielding.get(), 0, robot->time_s()).y + 4.0, -2.5);
+  // Pure test: a robot beside the way (lateral 0.7 m > 0.25 + 0.25 + 0.1) or behind does not stop it.
+  const MovingObstacle& m = yielding->movers[0];
+  EXPECT_TRUE(MoverStates::yields(m, {0, 0}, {0, -1}, {0.0, -1.0}, 0.25));
+  EXPECT_FALSE(MoverStates::yields(m, {0, 0}, {0, -1}, {0.7, -1.0}, 0.25));
+  EXPECT_FALSE(MoverStates::yields(m, {0, 0}, {0, -1}, {0.0, 1.0}, 0.25));
+  EXPECT_FALSE(MoverStates::yields(m, {0, 0}, {0, -1}, {0.0, -1.2}, 0.25));  // gap 0.7 > 0.6
+}
+
 TEST(MovingObstacles, BadMotionSpecsNameTheKeyAndLine) {
   const std::string head = R"(world:
   textures:
@@ -143,6 +207,12 @@ TEST(MovingObstacles, BadMotionSpecsNameTheKeyAndLine) {
                          ErrorCode::invalid_value, At{"inline.yaml", 6, "path"}));
   EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], size_m: [1, 1], texture: cloth}\n"),
                          ErrorCode::invalid_value, At{"inline.yaml", 6, "size_m"}));
+  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, yield_m: -0.5, texture: cloth}\n"),
+                         ErrorCode::out_of_range, At{"inline.yaml", 6, "yield_m"}));
+  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, yield_m: 9, texture: cloth}\n"),
+                         ErrorCode::out_of_range, At{"inline.yaml", 6, "yield_m"}));
+  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], yield_m: 0.6, texture: cloth}\n"),
+                         ErrorCode::missing, At{"inline.yaml", 6, "path"}));
 }
 
 TEST(MovingObstacles, ObstacleFileAddsToTheWorldPerRun) {
@@ -275,6 +345,67 @@ TEST(MotionWatch, SeesAPersonCrossingTheCorridorAndNothingElse) {
   ipt::MotionWatchParams bad;
   bad.far_m = 0.2;
   EXPECT_TRUE(fails_with(ipt::MotionWatch::create(camera, bad), ErrorCode::inconsistent, At{{}, 0, "far_m"}));
+}
+
+// The crossing policy on rendered frames of a standing camera (the thesis rig's mount at
+// 320x240): the frame difference over a band wider than the corridor (±4 m) locates the walker
+// (kWorld: at x = 3 m, walking y = 4 -> -4 at 1 m/s from t = 2 s); while it approaches the
+// robot's line the policy waits, once it has crossed and walks away it goes.
+TEST(CrossingPolicy, TracksARenderedPersonWaitsWhileItApproachesGoesWhenItWalksAway) {
+  auto world = world_or_die(kWorld);
+  ASSERT_NE(world, nullptr);
+  CameraModel model;
+  model.hfov_deg = 65.5;
+  model.height_m = 0.43;
+  model.pitch_down_deg = 9.0;
+  Renderer renderer(world, model);
+  ipt::IptCamera camera;
+  camera.fx_px = camera.fy_px = model.fx();
+  camera.height_m = 0.43;
+  camera.pitch_rad = -9.0 * CV_PI / 180.0;
+  ipt::MotionWatchParams band;
+  band.far_m = 8.0;
+  band.half_width_m = 4.0;
+  auto watch = ipt::MotionWatch::create(camera, band);
+  ASSERT_TRUE(watch.ok()) << watch.error().message;
+  cv::RNG rng(5);
+  cv::Mat bgr, grey, noisy(240, 320, CV_16S), n(240, 320, CV_16S);
+  ipt::CrossingPolicy policy(ipt::CrossingParams{});
+  int located = 0;
+  auto feed = [&](double t) {
+    renderer.render({0, 0, 0}, bgr, nullptr, nullptr, t);
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    grey.convertTo(noisy, CV_16S);
+    rng.fill(n, cv::RNG::NORMAL, 0.0, 3.0);
+    noisy += n;
+    noisy.convertTo(grey, CV_8U);
+    auto changed = watch->observe(grey);
+    ASSERT_TRUE(changed.ok());
+    if (!changed->has_value() || !watch->moving()) return;
+    auto p = ipt::locate_moving(watch->last_changed(), camera, 80);
+    ASSERT_TRUE(p.ok());
+    if (!p->has_value()) return;
+    ++located;
+    const double truth_y = 4.0 - (t - 2.0) - 0.05;  // between this frame's and the last one's position
+    EXPECT_NEAR((*p)->ground_m.y, truth_y, 0.35) << "t = " << t;
+    EXPECT_NEAR((*p)->ground_m.x, 3.0, 0.6) << "t = " << t;
+    policy.observe(t, **p);
+  };
+  // Approaching from the left: y = 1.8 .. 1.2 (1.8 m in view at 3 m with the 65.5 deg lens).
+  for (double t = 4.1; t <= 4.85; t += 0.1) feed(t);
+  EXPECT_GE(located, 5);
+  const auto approaching = policy.decide(4.8);
+  EXPECT_EQ(approaching.kind, ipt::CrossingDecision::Kind::wait) << approaching.reason;
+  EXPECT_LT(approaching.lateral_speed_mps, -0.6);
+  // It has crossed and walks away to the right: y = -0.5 .. -1.2.
+  watch->reset();
+  policy.reset();
+  located = 0;
+  for (double t = 6.4; t <= 7.25; t += 0.1) feed(t);
+  EXPECT_GE(located, 5);
+  const auto away = policy.decide(7.2);
+  EXPECT_EQ(away.kind, ipt::CrossingDecision::Kind::go) << away.reason;
+  EXPECT_LT(away.lateral_m, -0.9);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 // One Renderer must not be used from two threads at once; separate Renderers may share a World.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -94,6 +95,11 @@ class Renderer {
   [[nodiscard]] const World& world() const { return *world_; }
   [[nodiscard]] const std::shared_ptr<const World>& world_ptr() const { return world_; }
   [[nodiscard]] const RenderOptions& options() const { return options_; }
+  /// Where the moving obstacles are: by default their blind motion (MovingObstacle::offset_at);
+  /// the sim camera of a run passes its robot's RobotCore::mover_offset so that yielding
+  /// walkers are drawn where the robot's collision check has them. Empty = the default.
+  using MoverOffsets = std::function<cv::Point2d(int mover, double time_s)>;
+  void set_mover_offsets(MoverOffsets offsets) { mover_offsets_ = std::move(offsets); }
 
  private:
   template <bool kLabels, bool kShadows>
@@ -102,6 +108,7 @@ class Renderer {
   void render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids, double time_s);
 
   std::shared_ptr<const World> world_;
+  MoverOffsets mover_offsets_;
   CameraModel model_;
   RenderOptions options_;
   std::vector<const Texture*> texture_for_id_;  // after the seasonal swap

@@ -70,6 +70,7 @@
 #include "visnav/host.hpp"
 #include "visnav/params.hpp"
 #include "visnav/types.hpp"
+#include "visnav_sim/movers.hpp"
 #include "visnav_sim/world.hpp"
 
 namespace visnav::sim {
@@ -179,13 +180,18 @@ class RobotCore {
   /// Replaces the world (a replay with obstacles placed per run: the same world plus an obstacle
   /// file); the collision shapes are rebuilt, contacts restarted at the current pose.
   void set_world(std::shared_ptr<const World> world);
+  /// Displacement of moving obstacle `mover` of `world` at simulated time `time_s`, as the
+  /// collision check places it (yielding walkers: MoverStates, movers.hpp). The renderer of the
+  /// run's sim camera asks here so that renders and collisions agree; a `world` other than the
+  /// robot's gets its blind motion.
+  [[nodiscard]] cv::Point2d mover_offset(const World* world, int mover, double time_s) const;
 
  private:
   void substep_locked(double dt_s);
   /// Displacement of collision shape i at simulated time t (moving obstacles; else zero).
   [[nodiscard]] cv::Point2d shape_offset(std::size_t i, double time_s) const {
     const int m = shapes_[i].mover;
-    return m < 0 ? cv::Point2d(0, 0) : world_->movers[static_cast<std::size_t>(m)].offset_at(time_s);
+    return m < 0 ? cv::Point2d(0, 0) : movers_.offset_at(m, time_s);
   }
   void publish_locked();
 
@@ -216,6 +222,7 @@ class RobotCore {
   std::vector<CollisionShape> shapes_;
   std::vector<char> in_contact_;  // per shape: body currently touching it
   std::vector<SimCollision> collisions_;
+  MoverStates movers_;  // where the moving obstacles are (yielding walkers depend on the robot)
 };
 
 /// Start pose of a robot: params.start_pose (or the world's start, or the origin) with the

@@ -101,9 +101,22 @@ struct MovingObstacle {
   double start_s = 0.0;           ///< stands at path[0] until then
   Motion motion = Motion::once;   ///< once: stops at the last point; loop: back to path[0] along
                                   ///< the closing segment and again; back_and_forth: reverses at the ends
+  /// Yielding walker (`yield_m`, docs/sim.md): > 0 = it stands while the robot's body is within
+  /// this gap ahead of it on its way (MoverStates, robot.hpp); 0 = blind (a pure function of time).
+  double yield_m = 0.0;
+  double radius_m = 0.25;  ///< farthest point of its ring from `at` (the yield test's body size)
 
-  /// Position of the obstacle's reference point (path[0] at rest) at simulated time `time_s`.
+  /// Position of the obstacle's reference point (path[0] at rest) at simulated time `time_s`
+  /// (a blind walker: walked_at(time_s) metres along its motion).
   [[nodiscard]] cv::Point2d position_at(double time_s) const;
+  /// Metres walked along the motion by time `time_s` without stopping.
+  [[nodiscard]] double walked_at(double time_s) const {
+    return time_s <= start_s ? 0.0 : speed_mps * (time_s - start_s);
+  }
+  /// Position after walking `walked_m` metres along the motion (the motion mode applied), and
+  /// the unit walking direction there when `direction` is non-null ((0, 0) when it stands at
+  /// the end of a `once` path).
+  [[nodiscard]] cv::Point2d position_walked(double walked_m, cv::Point2d* direction = nullptr) const;
   /// position_at(time_s) - path[0]: what is added to the obstacle's walls.
   [[nodiscard]] cv::Point2d offset_at(double time_s) const { return position_at(time_s) - path.front(); }
 };

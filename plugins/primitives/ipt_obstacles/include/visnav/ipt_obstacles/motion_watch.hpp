@@ -59,6 +59,11 @@ class MotionWatch {
   /// True when the last observe() counted at least min_changed_px.
   [[nodiscard]] bool moving() const { return last_changed_px_ >= params_.min_changed_px; }
   void reset() { have_previous_ = false; last_changed_px_ = 0; }
+  /// The changed pixels of the last comparison (CV_8UC1, 255 = changed, inside the mask; for a
+  /// standing camera those of the last observe(), for a moving one those of the best scale;
+  /// empty before the first comparison): where the
+  /// moving thing is (crossing_policy.hpp, locate_moving()).
+  [[nodiscard]] const cv::Mat& last_changed() const { return changed_; }
   /// The corridor mask (CV_8UC1, 255 inside).
   [[nodiscard]] const cv::Mat& mask() const { return mask_; }
 
@@ -70,7 +75,7 @@ class MotionWatch {
   /// Pixels of the mask `valid` whose blurred grey level differs from `previous` by more than
   /// the threshold, after scaling to the same mean brightness.
   int count_changed(const cv::Mat& previous, const cv::Mat& valid);
-  cv::Mat previous_, blurred_, diff_, warped_, valid_, prev16_;
+  cv::Mat previous_, blurred_, diff_, warped_, valid_, prev16_, changed_, best_changed_;
   bool have_previous_ = false;
   int last_changed_px_ = 0;
 };

@@ -1,0 +1,108 @@
+// The crossing policy's adapter for ReplayAvoiding (see the header).
+#include "crossing_watch.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace visnav::ipt {
+
+bt::PortsList crossing_ports() {
+  return {bt::input_port<double>("crossing_s", "0",
+                                 "moving obstacles: time the stopped robot needs to clear a person's lane, s; > 0 turns "
+                                 "the crossing policy on (wait while a tracked person will be in the robot's lane within "
+                                 "it, go when it walks away); 0 = off (resume after clear_frames still frames)"),
+          bt::input_port<double>("crossing_lane_m", "0.6",
+                                 "crossing policy: half width of the robot's lane (body + a person + margin), m"),
+          bt::input_port<double>("crossing_clear_m", "0.3",
+                                 "crossing policy: a person walking away (or standing) this far beyond the lane's edge "
+                                 "lets the robot go, m"),
+          bt::input_port<double>("crossing_band_m", "4",
+                                 "crossing policy: half width of the band watched for the person (frame difference "
+                                 "0.3-8 m ahead), m"),
+          bt::input_port<double>("crossing_kerb_m", "0.7",
+                                 "crossing policy: a person seen crossing ahead while driving stops the robot when its "
+                                 "way is this far ahead of the robot centre, to watch it pass, m"),
+          bt::input_port<double>("crossing_wait_s", "15",
+                                 "crossing policy: at such a stop, seconds of waiting for the person to pass before the "
+                                 "robot goes on")};
+}
+
+Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNode& node, const IptCamera& camera) {
+  VISNAV_ASSIGN(const double crossing_s, node.get_input<double>("crossing_s"));
+  if (crossing_s == 0.0) return std::optional<CrossingWatch>{};
+  CrossingParams params;
+  params.crossing_s = crossing_s;
+  VISNAV_ASSIGN(params.lane_half_width_m, node.get_input<double>("crossing_lane_m"));
+  VISNAV_ASSIGN(params.away_clear_m, node.get_input<double>("crossing_clear_m"));
+  if (auto st = params.validate(); !st)
+    return Error{"ports 'crossing_s', 'crossing_lane_m', 'crossing_clear_m': " + st.error().message, ErrorCode::out_of_range};
+  MotionWatchParams band;
+  VISNAV_ASSIGN(band.half_width_m, node.get_input<double>("crossing_band_m"));
+  VISNAV_ASSIGN(band.diff_threshold, node.get_input<double>("motion_threshold"));
+  VISNAV_ASSIGN(band.min_changed_px, node.get_input<int>("motion_min_px"));
+  band.near_m = 0.3;
+  band.far_m = 8.0;
+  auto watch = MotionWatch::create(camera, band);
+  if (!watch) return Error{"port 'crossing_band_m': " + watch.error().message, ErrorCode::out_of_range};
+  // While driving: the ground-compensated difference 0.8-5 m ahead (nearer, a millimetre of
+  // odometry is a pixel), as wide as the band up to 2.5 m.
+  MotionWatchParams driving = band;
+  driving.near_m = 0.8;
+  driving.far_m = 5.0;
+  driving.half_width_m = std::min(band.half_width_m, 2.5);
+  driving.min_changed_px = 4 * band.min_changed_px;
+  auto drive_watch = MotionWatch::create(camera, driving);
+  if (!drive_watch) return Error{"port 'crossing_band_m': " + drive_watch.error().message, ErrorCode::out_of_range};
+  VISNAV_ASSIGN(const double kerb_m, node.get_input<double>("crossing_kerb_m"));
+  VISNAV_ASSIGN(const double wait_s, node.get_input<double>("crossing_wait_s"));
+  if (!(kerb_m >= 0.0 && kerb_m <= 5.0)) return Error{"port 'crossing_kerb_m': must lie in [0, 5] m", ErrorCode::out_of_range};
+  if (!(wait_s >= 0.0 && wait_s <= 600.0)) return Error{"port 'crossing_wait_s': must lie in [0, 600] s", ErrorCode::out_of_range};
+  CrossingWatch made(std::move(*watch), std::move(*drive_watch), CrossingPolicy(params), band.min_changed_px);
+  made.camera_ = camera;
+  made.kerb_m_ = kerb_m;
+  made.kerb_wait_s_ = wait_s;
+  made.drive_near_m_ = driving.near_m;
+  return std::optional<CrossingWatch>{std::move(made)};
+}
+
+Result<CrossingDecision> CrossingWatch::observe(const cv::Mat& grey, double time_s, bool cautious) {
+  VISNAV_ASSIGN(const auto changed, watch_.observe(grey));
+  if (changed && watch_.moving()) {
+    VISNAV_ASSIGN(const auto point, locate_moving(watch_.last_changed(), camera_, min_px_));
+    if (point) policy_.observe(time_s, *point);
+  }
+  return policy_.decide(time_s, cautious);
+}
+
+Result<bool> CrossingWatch::drive(const cv::Mat& grey, const Pose2D& motion, const Pose2D& robot, double time_s) {
+  VISNAV_ASSIGN(const auto changed, drive_watch_.observe(grey, motion));
+  if (changed) {
+    // As ReplayAvoiding's near-corridor trigger: fine ground texture shimmers as the camera
+    // moves; what counts is a count well above the recent level (median of the last ten
+    // frames at cruising speed) on two frames in a row.
+    int level = 0;
+    if (!drive_counts_.empty()) {
+      std::vector<int> sorted = drive_counts_;
+      std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+      level = sorted[sorted.size() / 2];
+    }
+    const bool cruising = std::abs(motion.x_m) >= 0.02;
+    const bool hit = cruising && drive_counts_.size() >= 5 && drive_watch_.moving() && *changed > 3 * level;
+    if (cruising && !hit) {
+      drive_counts_.push_back(*changed);
+      if (drive_counts_.size() > 10) drive_counts_.erase(drive_counts_.begin());
+    }
+    drive_hits_ = hit ? drive_hits_ + 1 : 0;
+    if (drive_hits_ >= 2) {
+      VISNAV_ASSIGN(const auto point, locate_moving(drive_watch_.last_changed(), camera_, min_px_));
+      // Only feet in view, beyond the band's near rows (where the odometry's error changes most
+      // pixels): a person's way seen ahead, not the robot's own parallax.
+      if (point && point->contact_visible && point->ground_m.x >= drive_near_m_ + 0.3) lanes_.add(robot, point->ground_m, time_s);
+    }
+  }
+  const auto ahead = lanes_.ahead_m(robot, time_s, 30.0);
+  return ahead && *ahead <= kerb_m_;
+}
+
+}  // namespace visnav::ipt

@@ -249,6 +249,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                                "scale against the teach run's): the primitive sees the edge's distance divided by it, "
                                "so the edge ends where it ended when taught; unset counts as 1, else in [0.5, 2]"),
         bt::output_port<int>("lap", "{lap}", "0-based lap being driven (closed paths driven several times)"),
+        bt::output_port<std::string>("failure", "{edge_failure}",
+                                     "the reason of the node's last FAILURE (empty while it runs or after a success): "
+                                     "a decorator around it can tell why it gave up (ReplayPathAvoiding's probe_on)"),
         bt::output_port<double>("end_shift_m", "{edge_end_shift_m}",
                                 "when the edge ends: how much earlier (positive) or later in odometric distance than "
                                 "its taught length the primitive ended it (a visual along-track correction; 0 for "
@@ -267,6 +270,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
   NodeStatus on_start() override {
     replayer_.reset();
     (void)set_output("end_shift_m", 0.0);  // never a previous edge's
+    (void)set_output("failure", std::string());
     if (auto st = start(); !st) return failed(st.error().message);
     return on_running();
   }
@@ -432,6 +436,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
 
   NodeStatus failed(const std::string& message) {
     host_.logger().error(path(), message);
+    (void)set_output("failure", message);
     if (Robot* robot = host_.robot()) (void)robot->stop();
     replayer_.reset();
     return NodeStatus::failure;

@@ -376,6 +376,19 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                          "moving obstacles: while replaying, what moves (or stands) in the corridor this "
                                          "close (ground-compensated frame difference, ±1.2 m wide) stops the robot to "
                                          "look; 0 = off"));
+  ports.push_back(bt::input_port<std::string>(
+      "probe_on", "",
+      "when the child fails with a reason containing this text (e.g. 'path lost on edge', FollowPathEdge's path "
+      "hidden), drive on slowly on the heading for at most probe_m while the IPT and the frame difference look; "
+      "something found: stop, look and detour as usual; nothing: fail with the child's reason; empty = off"));
+  ports.push_back(bt::input_port<std::string>("failure", "{edge_failure}",
+                                              "the child's reason of failure (the replay nodes' output 'failure')"));
+  ports.push_back(bt::input_port<double>("probe_m", "1.5", "probe: odometry budget per place, m"));
+  ports.push_back(bt::input_port<double>("probe_speed_mps", "0.15", "probe: forward speed"));
+  ports.push_back(bt::input_port<int>(
+      "probe_min_points", "4",
+      "probe: corners triangulated 0.15-2.5 m above the ground within lookahead_m + 1 m ahead in the corridor over a "
+      "0.3 m baseline that stop the probe and start the detour (near_triangulation.hpp)"));
   return ports;
 }
 
@@ -399,11 +412,12 @@ NodeStatus ReplayAvoiding::tick() {
     lane_.reset();
     detouring_ = false;
     if (st == NodeStatus::failure) return NodeStatus::failure;
+    if (probe_) probe_->reset();  // past the obstacle: a later hidden path gets a new budget
     resume_child(*odom, "detour done");
     return NodeStatus::running;
   }
   if (looking_) return look_step(*odom);
-  if (!child_started_) {
+  if (!child_started_ && !probing_) {
     auto carried = get_input<double>("carried_m");
     // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
     auto scale = get_input<double>("distance_scale");
@@ -433,6 +447,7 @@ NodeStatus ReplayAvoiding::tick() {
   }
   if (*blocked) {
     halt_child();
+    probing_ = false;
     replay_done_m_ = odom->distance_m - replay_origin_m_;
     detour_start_ = odom->pose;
     auto look = get_input<int>("look_frames");
@@ -454,6 +469,7 @@ NodeStatus ReplayAvoiding::tick() {
   }
   if (*near) {
     halt_child();
+    probing_ = false;
     replay_done_m_ = odom->distance_m - replay_origin_m_;
     detour_start_ = odom->pose;
     begin_look(*odom, "something moves close ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
@@ -468,6 +484,7 @@ NodeStatus ReplayAvoiding::tick() {
   }
   if (*kerb) {
     halt_child();
+    probing_ = false;
     replay_done_m_ = odom->distance_m - replay_origin_m_;
     detour_start_ = odom->pose;
     begin_look(*odom, "a person was seen crossing ahead: stop before its way at " + std::to_string(replay_done_m_) +
@@ -476,12 +493,118 @@ NodeStatus ReplayAvoiding::tick() {
     kerb_since_s_ = odom->timestamp_s;
     return NodeStatus::running;
   }
-  const NodeStatus st = child()->execute_tick();
-  if (st != NodeStatus::running) {
-    child_started_ = false;
-    corridor_.clear();
+  if (probing_) {
+    auto near_points = triangulate_near(*odom);
+    if (!near_points) {
+      host_.logger().error(path(), near_points.error().message);
+      probing_ = false;
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    auto min_points = get_input<int>("probe_min_points");
+    auto lookahead = get_input<double>("lookahead_m");
+    auto half_width = get_input<double>("corridor_half_width_m");
+    if (!min_points || !lookahead || !half_width) {
+      host_.logger().error(path(), "ports 'probe_min_points', 'lookahead_m', 'corridor_half_width_m' must be numbers");
+      probing_ = false;
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    const Pose2D& r = odom->pose;
+    const double c = std::cos(r.heading_rad), sn = std::sin(r.heading_rad);
+    int ahead = 0;
+    for (const auto& p : *near_points) {
+      const double fwd = c * (p.x - r.x_m) + sn * (p.y - r.y_m), lat = -sn * (p.x - r.x_m) + c * (p.y - r.y_m);
+      if (fwd > 0.0 && fwd <= *lookahead + 1.0 && std::fabs(lat) <= *half_width) ++ahead;
+    }
+    if (!near_points->empty()) {
+      log_points(host_, *this, r, *near_points);
+      near_points_.insert(near_points_.end(), near_points->begin(), near_points->end());
+    }
+    if (ahead >= *min_points) {
+      probing_ = false;
+      stop(host_);
+      replay_done_m_ = odom->distance_m - replay_origin_m_;
+      detour_start_ = odom->pose;
+      host_.logger().info(path(), "probe: " + std::to_string(ahead) + " corners triangulated above the ground in the corridor ahead at " +
+                                      std::to_string(replay_done_m_) + " m of the edge");
+      const NodeStatus st = begin_detour(*odom);
+      if (lane_) lane_->add_points(near_points_);
+      return st;
+    }
+    const HiddenPathProbe::Step s = probe_->step(odom->pose, odom->distance_m);
+    if (s.exhausted) {
+      probing_ = false;
+      corridor_.clear();
+      stop(host_);
+      host_.logger().error(path(), "stopped: " + probe_reason_ + "; nothing found ahead while probing on");
+      return NodeStatus::failure;
+    }
+    send(host_, s.command.linear_mps, s.command.angular_radps);
+    return NodeStatus::running;
   }
+  const NodeStatus st = child()->execute_tick();
+  if (st == NodeStatus::running) return st;
+  child_started_ = false;
+  if (st == NodeStatus::failure) return child_failed(*odom);
+  if (probe_) probe_->reset();
+  corridor_.clear();
   return st;
+}
+
+NodeStatus ReplayAvoiding::child_failed(const Odometry& odom) {
+  auto trigger = get_input<std::string>("probe_on");
+  auto failure = get_input<std::string>("failure");
+  if (!trigger || !failure || !probe_triggered(*failure, *trigger)) {
+    corridor_.clear();
+    return NodeStatus::failure;
+  }
+  if (!probe_) {
+    HiddenPathProbeParams params;
+    auto distance = get_input<double>("probe_m");
+    auto speed = get_input<double>("probe_speed_mps");
+    Status st = !distance ? Status(distance.error()) : !speed ? Status(speed.error()) : ok();
+    if (st) {
+      params.distance_m = *distance;
+      params.speed_mps = *speed;
+      st = params.validate();
+    }
+    if (!st) {
+      host_.logger().error(path(), "ports 'probe_m'/'probe_speed_mps': " + st.error().message);
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    probe_.emplace(params);
+  }
+  probe_->begin(odom.pose, odom.distance_m);
+  probing_ = true;
+  near_points_.clear();
+  if (near_) near_->reset();
+  probe_reason_ = *failure;
+  host_.logger().info(path(), "the child gave up (" + *failure + "): probing on for " +
+                                  std::to_string(probe_->left_m(odom.distance_m)) +
+                                  " m while the IPT and the frame difference look");
+  return NodeStatus::running;
+}
+
+Result<std::vector<cv::Point2d>> ReplayAvoiding::triangulate_near(const Odometry& odom) {
+  std::vector<cv::Point2d> out;
+  FrameBus* bus = host_.frame_bus();
+  auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
+  if (!frame || frame->image.empty() || (have_near_sequence_ && frame->sequence == near_sequence_)) return out;
+  have_near_sequence_ = true;
+  near_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, near_grey_, cv::COLOR_BGR2GRAY);
+  else near_grey_ = frame->image;
+  if (!near_) {
+    VISNAV_ASSIGN(IptCamera camera, read_camera(*this, near_grey_));
+    VISNAV_ASSIGN(auto made, NearTriangulation::create(camera, NearTriangulationParams{}));
+    near_.emplace(std::move(made));
+  }
+  VISNAV_ASSIGN(const auto points, near_->observe(near_grey_, odom.pose));
+  out.reserve(points.size());
+  for (const auto& p : points) out.push_back(p.ground_m);
+  return out;
 }
 
 void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) {
@@ -501,6 +624,7 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
   corridor_.clear();
   runner_.restart();
   child_started_ = false;
+  near_points_.clear();
 }
 
 Status ReplayAvoiding::read_crossing(const cv::Mat& grey) {
@@ -779,6 +903,7 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
     // With the filter on, only confirmed contacts steer the detour too.
     lane_->add_points(corridor_.add_and_confirm(**fresh, odom));
   }
+
   const LaneDecision d = lane_->decide(odom.pose);
   (void)set_output("situation", std::string(d.kind == LaneDecision::Kind::blocked ? "blocked"
                                             : d.kind == LaneDecision::Kind::done  ? "done"
@@ -820,8 +945,9 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
 }
 
 void ReplayAvoiding::halt() {
-  if (detouring_ || looking_) stop(host_);
+  if (detouring_ || looking_ || probing_) stop(host_);
   looking_ = false;
+  probing_ = false;
   detour_.end();
   lane_.reset();
   detouring_ = false;

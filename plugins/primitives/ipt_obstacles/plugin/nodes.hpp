@@ -26,8 +26,10 @@
 #include "visnav/host.hpp"
 #include "crossing_watch.hpp"
 #include "visnav/ipt_obstacles/contact_persistence.hpp"
+#include "visnav/ipt_obstacles/hidden_path_probe.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
+#include "visnav/ipt_obstacles/near_triangulation.hpp"
 #include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav/ipt_obstacles/polar_map.hpp"
 
@@ -184,6 +186,12 @@ class ReplayAvoiding : public bt::DecoratorNode {
   Result<bool> moving_near(const Odometry& odom);
   /// Stops the robot and starts the stop-and-look phase.
   void begin_look(const Odometry& odom, const std::string& why);
+  /// The child failed: with probe_on matching its reason, start (or continue) the probe ahead
+  /// (hidden_path_probe.hpp) and return RUNNING; otherwise FAILURE.
+  bt::NodeStatus child_failed(const Odometry& odom);
+  /// While probing: feeds the new frame to the longer-baseline
+  /// triangulation (near_triangulation.hpp); returns the obstacle points it found (odom frame).
+  Result<std::vector<cv::Point2d>> triangulate_near(const Odometry& odom);
 
   HostServices& host_;
   PipelineRunner runner_;
@@ -225,6 +233,14 @@ class ReplayAvoiding : public bt::DecoratorNode {
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
   double scale_ = 1.0;             // odometric metres per taught metre (distance_scale port)
   double replay_done_m_ = 0.0;     // edge distance covered when the detour began
+  std::optional<HiddenPathProbe> probe_;  // made at the first probe (probe_* ports)
+  bool probing_ = false;           // the child gave up on a hidden path: creeping on, looking
+  std::string probe_reason_;       // the child's failure that started the probe
+  std::optional<NearTriangulation> near_;   // made at the first probe
+  std::vector<cv::Point2d> near_points_;    // the probe's triangulated points, for the lane detour
+  std::uint64_t near_sequence_ = 0;
+  bool have_near_sequence_ = false;
+  cv::Mat near_grey_;
   Pose2D detour_start_;
 };
 

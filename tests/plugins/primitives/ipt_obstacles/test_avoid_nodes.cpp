@@ -8,7 +8,9 @@
 //    replayed with a person crossing in front (an obstacle file placed per run): it waits; with a
 //    person pacing across it, the plain wait collides and the crossing policy does not;
 //  * the same tree on a path-following edge (ReplayPathAvoiding around FollowPathEdge): a crate
-//    on a taught gravel path is passed and the path follower takes the edge over again.
+//    on a taught gravel path is passed and the path follower takes the edge over again; a
+//    concrete van that hides the path from the follower is found by the probe and passed, and a
+//    path lost with nothing ahead still stops the robot.
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -166,6 +168,65 @@ TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
   const double resumed_m = std::stod(replay.output.substr(at + std::string("detour done: the edge resumes at ").size()));
   EXPECT_GT(resumed_m, 6.0);
   EXPECT_LT(resumed_m, 15.0);
+  std::filesystem::remove_all(dir);
+}
+
+// A concrete-grey van on the gravel path (the campus's van, docs/obstacles.md "A van hiding the
+// path"): its colour is the path's, so FollowPathEdge gives up "path lost (path fills image)"
+// 2-3 m before it, where the IPT sees nothing of its plain rear. ReplayPathAvoiding probes on
+// (probe_on), the longer-baseline triangulation finds the van's face, the lane detour passes it
+// and the path follower finishes the edge. The same path replayed with the gravel gone (the
+// follower loses the path, nothing stands ahead) still stops, with the follower's reason.
+TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
+  const auto dir = std::filesystem::temp_directory_path() / ("visnav_ipt_hidden_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::string clear = clear_path();
+  const std::string textures = "  textures:\n";
+  ASSERT_NE(clear.find(textures), std::string::npos);
+  // config/worlds/campus.yaml's concrete.
+  clear.insert(clear.find(textures) + textures.size(),
+               "    concrete: {procedural: noise, color: [172, 170, 164], color2: [132, 130, 126], size_m: 2.0, "
+               "feature_m: 0.1, detail: 0.25}\n");
+  write(dir / "clear.yaml", clear);
+  write(dir / "route.yaml", "route:\n  name: line\n  start: [0, 0, 0]\n  waypoints:\n    - {at: [0, 0], kind: path}\n"
+                            "    - {at: [21, 0]}\n");
+  const std::string map = (dir / "map").string();
+  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + map +
+                                   " --create --bb route_file=" + (dir / "route.yaml").string() +
+                                   " --bb force_kind= --bb close_loop=false",
+                               "teach_hybrid_route.xml");
+  ASSERT_EQ(teach.status, 0) << teach.output;
+  ASSERT_NE(teach.output.find("taught path_following edge"), std::string::npos) << teach.output;
+  // As on the campus: 0.4 m off the path's centre, to the robot's right; its rear at 7.1 m.
+  write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
+  const std::string replay_args = " --map " + map + " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
+  const CliRun replay = run_cli("--set robot.params.world=" + (dir / "van.yaml").string() + replay_args,
+                                "replay_route_avoiding.xml");
+  EXPECT_EQ(replay.status, 0) << replay.output;
+  EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("path fills image"), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: probe: "), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
+  // The detour ends past the van's front (11.9 m) and before the edge's end: the follower finishes it.
+  const std::string resumed = "detour done: the edge resumes at ";
+  const auto at = replay.output.find(resumed);
+  ASSERT_NE(at, std::string::npos) << replay.output;
+  const double resumed_m = std::stod(replay.output.substr(at + resumed.size()));
+  EXPECT_GT(resumed_m, 12.0);
+  EXPECT_LT(resumed_m, 20.5);
+  // No gravel: the path is lost with nothing ahead; the probe finds nothing and the robot stops.
+  std::string no_path = clear;
+  const std::string gravel = "{name: path, texture: gravel, class: path";
+  ASSERT_NE(no_path.find(gravel), std::string::npos);
+  no_path.replace(no_path.find(gravel), gravel.size(), "{name: path, texture: grass, class: grass");
+  write(dir / "no_path.yaml", no_path);
+  const CliRun lost = run_cli("--set robot.params.world=" + (dir / "no_path.yaml").string() + replay_args,
+                              "replay_route_avoiding.xml");
+  EXPECT_EQ(lost.status, 1) << lost.output;
+  EXPECT_EQ(lost.output.find("collision with"), std::string::npos) << lost.output;
+  EXPECT_NE(lost.output.find("stopped: path lost on edge e0"), std::string::npos) << lost.output;
+  EXPECT_NE(lost.output.find("nothing found ahead while probing on"), std::string::npos) << lost.output;
   std::filesystem::remove_all(dir);
 }
 

@@ -1,0 +1,124 @@
+// Longer-baseline triangulation of tracked corners (near_triangulation.hpp): the viewing ray of a
+// pixel goes through the point projected there; two rays meet at the point; on frames ray-cast
+// from a textured ground with a textured wall standing on it 3 m ahead, a robot driving 0.3 m
+// towards it finds obstacle points on the wall and none on the bare ground.
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "error_expect.hpp"
+#include "visnav/ipt_obstacles/near_triangulation.hpp"
+
+namespace visnav::ipt {
+namespace {
+
+using visnav::test::fails_with;
+using visnav::test::key_only;
+
+/// Smooth value noise in [0, 255] on a 2-D coordinate (cell `cell_m`), deterministic.
+double texture(double a, double b, double cell_m) {
+  auto hash = [](long i, long j) {
+    std::uint64_t h = static_cast<std::uint64_t>(i) * 73856093ULL ^ static_cast<std::uint64_t>(j) * 19349663ULL;
+    h ^= h >> 13;
+    h *= 0x5bd1e995ULL;
+    h ^= h >> 15;
+    return static_cast<double>(h % 256);
+  };
+  const double u = a / cell_m, v = b / cell_m;
+  const long i = static_cast<long>(std::floor(u)), j = static_cast<long>(std::floor(v));
+  const double fu = u - static_cast<double>(i), fv = v - static_cast<double>(j);
+  const double top = hash(i, j) * (1 - fu) + hash(i + 1, j) * fu;
+  const double bottom = hash(i, j + 1) * (1 - fu) + hash(i + 1, j + 1) * fu;
+  return top * (1 - fv) + bottom * fv;
+}
+
+/// Ray-cast frame: textured ground (z = 0), and with `wall` a textured wall x = 3 m, |y| <= 0.6,
+/// 0 <= z <= 1.5 (facing -x), for the robot at x_m on the x axis heading +x.
+cv::Mat render(const IptCamera& camera, double x_m, bool wall) {
+  cv::Mat img(camera.height_px, camera.width_px, CV_8UC1, cv::Scalar(128));
+  const LensPose lens = lens_pose(camera, Pose2D{x_m, 0.0, 0.0});
+  for (int v = 0; v < camera.height_px; ++v) {
+    for (int u = 0; u < camera.width_px; ++u) {
+      const cv::Vec3d d = NearTriangulation::ray(camera, lens, {static_cast<double>(u), static_cast<double>(v)});
+      const cv::Vec3d o(lens.x_m, lens.y_m, camera.height_m);
+      double best = 1e9, value = 200.0;  // sky
+      if (d[2] < -1e-9) {
+        const double t = -o[2] / d[2];
+        const cv::Vec3d p = o + t * d;
+        best = t;
+        value = texture(p[0], p[1], 0.04);
+      }
+      if (wall && d[0] > 1e-9) {
+        const double t = (3.0 - o[0]) / d[0];
+        const cv::Vec3d p = o + t * d;
+        if (t < best && std::abs(p[1]) <= 0.6 && p[2] >= 0.0 && p[2] <= 1.5) value = texture(p[1], p[2], 0.05);
+      }
+      img.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(value);
+    }
+  }
+  return img;
+}
+
+TEST(NearTriangulation, TheRayOfAPixelPassesThroughThePointProjectedThere) {
+  IptCamera camera;
+  const LensPose lens = lens_pose(camera, Pose2D{1.0, 2.0, 0.7});
+  for (const cv::Vec3d& p : {cv::Vec3d(3.0, 3.5, 0.0), cv::Vec3d(2.5, 2.2, 1.2), cv::Vec3d(4.0, 4.5, 0.4)}) {
+    const auto px = project_point(camera, lens, p);
+    ASSERT_TRUE(px.has_value());
+    const cv::Vec3d d = NearTriangulation::ray(camera, lens, *px);
+    const cv::Vec3d to = p - cv::Vec3d(lens.x_m, lens.y_m, camera.height_m);
+    EXPECT_NEAR(cv::norm(d.cross(to / cv::norm(to))), 0.0, 1e-9);
+    EXPECT_GT(d.dot(to), 0.0);
+  }
+}
+
+TEST(NearTriangulation, TwoRaysMeetAtThePoint) {
+  const cv::Vec3d p(3.0, 0.4, 1.1), a(0.0, 0.0, 0.5), b(0.3, 0.0, 0.5);
+  double gap = 1.0;
+  const auto hit = NearTriangulation::intersect(a, (p - a) / cv::norm(p - a), b, (p - b) / cv::norm(p - b), gap);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_NEAR(cv::norm(*hit - p), 0.0, 1e-9);
+  EXPECT_NEAR(gap, 0.0, 1e-9);
+  // Parallel rays do not meet.
+  EXPECT_FALSE(NearTriangulation::intersect(a, {1, 0, 0}, b + cv::Vec3d(0, 1, 0), {1, 0, 0}, gap).has_value());
+}
+
+std::vector<NearPoint> drive(bool wall) {
+  IptCamera camera;
+  auto made = NearTriangulation::create(camera, NearTriangulationParams{});
+  EXPECT_TRUE(made.ok());
+  std::vector<NearPoint> all;
+  for (int k = 0; k <= 16; ++k) {  // 2 cm per frame, 0.32 m in all: one baseline
+    const double x = 0.02 * k;
+    auto points = made->observe(render(camera, x, wall), Pose2D{x, 0.0, 0.0});
+    EXPECT_TRUE(points.ok());
+    if (points) all.insert(all.end(), points->begin(), points->end());
+  }
+  return all;
+}
+
+TEST(NearTriangulation, FindsAWallAheadAndNothingOnBareGround) {
+  const auto on_ground = drive(false);
+  EXPECT_LE(on_ground.size(), 1U);
+  const auto on_wall = drive(true);
+  ASSERT_GE(on_wall.size(), 10U);
+  int on_face = 0;
+  for (const auto& p : on_wall)
+    if (std::abs(p.ground_m.x - 3.0) < 0.25 && std::abs(p.ground_m.y) < 0.7) ++on_face;
+  EXPECT_GE(on_face, static_cast<int>(0.9 * static_cast<double>(on_wall.size())));
+}
+
+TEST(NearTriangulation, BadInputIsRejected) {
+  NearTriangulationParams p;
+  p.baseline_m = 0.0;
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::out_of_range, key_only("baseline_m")));
+  auto made = NearTriangulation::create(IptCamera{}, NearTriangulationParams{});
+  ASSERT_TRUE(made.ok());
+  EXPECT_FALSE(made->observe(cv::Mat(10, 10, CV_8UC1, cv::Scalar(0)), Pose2D{}).ok());
+}
+
+}  // namespace
+}  // namespace visnav::ipt

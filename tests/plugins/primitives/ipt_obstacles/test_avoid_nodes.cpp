@@ -69,8 +69,10 @@ std::string clear_path() {
 
 void write(const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; }
 
-TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
-  const auto dir = std::filesystem::temp_directory_path() / ("visnav_ipt_replay_" + std::to_string(::getpid()));
+// Teaches the 12 m feature edge of the replays below on the clear path into a new folder `dir`
+// (removed first) with the world written as dir/clear.yaml and the map as dir/map. Each test
+// teaches its own (the tests are separate processes under ctest; a teach is a few seconds).
+void teach_clear_path(const std::filesystem::path& dir) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string clear = clear_path();
@@ -78,12 +80,22 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
   write(dir / "clear.yaml", clear);
   write(dir / "route.yaml", "route:\n  name: line\n  start: [0, 0, 0]\n  waypoints:\n    - {at: [0, 0], kind: feature}\n"
                             "    - {at: [12, 0]}\n");
-  const std::string map = (dir / "map").string();
-  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + map +
+  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + (dir / "map").string() +
                                    " --create --bb route_file=" + (dir / "route.yaml").string() +
                                    " --bb style=segment --bb force_kind=feature_segment --bb close_loop=false",
                                "teach_feature_edge.xml");
   ASSERT_EQ(teach.status, 0) << teach.output;
+}
+
+std::filesystem::path replay_dir(const std::string& tag) {
+  return std::filesystem::temp_directory_path() / ("visnav_ipt_replay_" + tag + "_" + std::to_string(::getpid()));
+}
+
+TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
+  const auto dir = replay_dir("van");
+  ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
+  const std::string clear = clear_path();
+  const std::string map = (dir / "map").string();
   // Right of the path's centre the van leaves the narrower side free; with a short unseen
   // length (behind_m 0.8) the robot turned back into its side there (docs/obstacles.md).
   for (const char* at : {"6.5, 0.3", "6.5, -0.3"}) {
@@ -97,6 +109,13 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
     EXPECT_NE(replay.output.find("obstacle ahead at"), std::string::npos) << replay.output;
     EXPECT_NE(replay.output.find("detour done: the edge resumes at"), std::string::npos) << replay.output;
   }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonCrosses) {
+  const auto dir = replay_dir("person");
+  ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
+  const std::string map = (dir / "map").string();
   // A person crossing the path at x = 6 m (1 m/s, from 14 s: the robot is 2-3 m before it) placed
   // per run: the robot sees it move, stops, waits until the corridor is still and completes the
   // edge without touching it (docs/obstacles.md, "Moving obstacles").
@@ -111,6 +130,13 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
   EXPECT_NE(crossing.output.find("a moving obstacle in the corridor"), std::string::npos) << crossing.output;
   EXPECT_NE(crossing.output.find("the corridor is clear after"), std::string::npos) << crossing.output;
   EXPECT_EQ(crossing.output.find(": detour"), std::string::npos) << crossing.output;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
+  const auto dir = replay_dir("pacing");
+  ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
+  const std::string map = (dir / "map").string();
   // A person pacing across the path at x = 6 m (y = 3.6 .. -2.4, 1 m/s, back and forth, as on the
   // campus square): waiting until the corridor is still, the robot resumes and the person comes
   // back into it; with the crossing policy (crossing_s 5.5, the tree written here) it stops at

@@ -91,19 +91,26 @@ std::filesystem::path replay_dir(const std::string& tag) {
   return std::filesystem::temp_directory_path() / ("visnav_ipt_replay_" + tag + "_" + std::to_string(::getpid()));
 }
 
+// `visnav run` arguments replaying the taught edge of `dir` from start to n1 in `world` (a world
+// file), with `obstacles` (an obstacle file) placed for the run unless empty; sensor noise 2.
+std::string replay_args(const std::filesystem::path& dir, const std::filesystem::path& world,
+                        const std::filesystem::path& obstacles = {}) {
+  std::string args = "--set robot.params.world=" + world.string();
+  if (!obstacles.empty()) args += " --set robot.params.obstacles=" + obstacles.string();
+  return args + " --map " + (dir / "map").string() +
+         " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
+}
+
 TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
   const auto dir = replay_dir("van");
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
   const std::string clear = clear_path();
-  const std::string map = (dir / "map").string();
   // Right of the path's centre the van leaves the narrower side free; with a short unseen
   // length (behind_m 0.8) the robot turned back into its side there (docs/obstacles.md).
   for (const char* at : {"6.5, 0.3", "6.5, -0.3"}) {
     SCOPED_TRACE(at);
     write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [" + at + "], texture: van}\n");
-    const CliRun replay = run_cli("--set robot.params.world=" + (dir / "van.yaml").string() + " --map " + map +
-                                      " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8",
-                                  "replay_route_avoiding.xml");
+    const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
     EXPECT_EQ(replay.status, 0) << replay.output;
     EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
     EXPECT_NE(replay.output.find("obstacle ahead at"), std::string::npos) << replay.output;
@@ -115,16 +122,12 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
 TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonCrosses) {
   const auto dir = replay_dir("person");
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
-  const std::string map = (dir / "map").string();
   // A person crossing the path at x = 6 m (1 m/s, from 14 s: the robot is 2-3 m before it) placed
   // per run: the robot sees it move, stops, waits until the corridor is still and completes the
   // edge without touching it (docs/obstacles.md, "Moving obstacles").
   write(dir / "person.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 4], path: [[6, -4]], speed_mps: 1.0, "
                              "start_s: 14, texture: van}\n");
-  const CliRun crossing = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --set robot.params.obstacles=" +
-                                      (dir / "person.yaml").string() + " --map " + map +
-                                      " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8",
-                                  "replay_route_avoiding.xml");
+  const CliRun crossing = run_cli(replay_args(dir, dir / "clear.yaml", dir / "person.yaml"), "replay_route_avoiding.xml");
   EXPECT_EQ(crossing.status, 0) << crossing.output;
   EXPECT_EQ(crossing.output.find("collision with"), std::string::npos) << crossing.output;
   EXPECT_NE(crossing.output.find("a moving obstacle in the corridor"), std::string::npos) << crossing.output;
@@ -136,7 +139,6 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonCrosses) {
 TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
   const auto dir = replay_dir("pacing");
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
-  const std::string map = (dir / "map").string();
   // A person pacing across the path at x = 6 m (y = 3.6 .. -2.4, 1 m/s, back and forth, as on the
   // campus square): waiting until the corridor is still, the robot resumes and the person comes
   // back into it; with the crossing policy (crossing_s 5.5, the tree written here) it stops at
@@ -151,9 +153,7 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
     policy_tree.replace(at, mount_attr.size(), "camera_pitch_down_deg=\"{camera_pitch_down_deg}\" crossing_s=\"5.5\">");
   ASSERT_NE(policy_tree.find("crossing_s"), std::string::npos);
   write(dir / "crossing.xml", policy_tree);
-  const std::string pacing_args = "--set robot.params.world=" + (dir / "clear.yaml").string() + " --set robot.params.obstacles=" +
-                                  (dir / "pacing.yaml").string() + " --map " + map +
-                                  " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
+  const std::string pacing_args = replay_args(dir, dir / "clear.yaml", dir / "pacing.yaml");
   const CliRun blind_wait = run_cli(pacing_args, "replay_route_avoiding.xml");
   EXPECT_NE(blind_wait.output.find("collision with 'person'"), std::string::npos) << blind_wait.output;
   const CliRun policy = run_cli(pacing_args, (dir / "crossing.xml").string());
@@ -226,8 +226,8 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   ASSERT_NE(teach.output.find("taught path_following edge"), std::string::npos) << teach.output;
   // As on the campus: 0.4 m off the path's centre, to the robot's right; its rear at 7.1 m.
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
-  const std::string replay_args = " --map " + map + " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
-  const CliRun replay = run_cli("--set robot.params.world=" + (dir / "van.yaml").string() + replay_args,
+  const std::string edge_args = " --map " + map + " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
+  const CliRun replay = run_cli("--set robot.params.world=" + (dir / "van.yaml").string() + edge_args,
                                 "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
@@ -247,7 +247,7 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   ASSERT_NE(no_path.find(gravel), std::string::npos);
   no_path.replace(no_path.find(gravel), gravel.size(), "{name: path, texture: grass, class: grass");
   write(dir / "no_path.yaml", no_path);
-  const CliRun lost = run_cli("--set robot.params.world=" + (dir / "no_path.yaml").string() + replay_args,
+  const CliRun lost = run_cli("--set robot.params.world=" + (dir / "no_path.yaml").string() + edge_args,
                               "replay_route_avoiding.xml");
   EXPECT_EQ(lost.status, 1) << lost.output;
   EXPECT_EQ(lost.output.find("collision with"), std::string::npos) << lost.output;

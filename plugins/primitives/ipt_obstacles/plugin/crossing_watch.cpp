@@ -78,23 +78,9 @@ Result<CrossingDecision> CrossingWatch::observe(const cv::Mat& grey, double time
 Result<bool> CrossingWatch::drive(const cv::Mat& grey, const Pose2D& motion, const Pose2D& robot, double time_s) {
   VISNAV_ASSIGN(const auto changed, drive_watch_.observe(grey, motion));
   if (changed) {
-    // As ReplayAvoiding's near-corridor trigger: fine ground texture shimmers as the camera
-    // moves; what counts is a count well above the recent level (median of the last ten
-    // frames at cruising speed) on two frames in a row.
-    int level = 0;
-    if (!drive_counts_.empty()) {
-      std::vector<int> sorted = drive_counts_;
-      std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-      level = sorted[sorted.size() / 2];
-    }
+    // As ReplayAvoiding's near-corridor trigger: a count well above the recent shimmer level.
     const bool cruising = std::abs(motion.x_m) >= 0.02;
-    const bool hit = cruising && drive_counts_.size() >= 5 && drive_watch_.moving() && *changed > 3 * level;
-    if (cruising && !hit) {
-      drive_counts_.push_back(*changed);
-      if (drive_counts_.size() > 10) drive_counts_.erase(drive_counts_.begin());
-    }
-    drive_hits_ = hit ? drive_hits_ + 1 : 0;
-    if (drive_hits_ >= 2) {
+    if (drive_shimmer_.update(*changed, cruising, drive_watch_.moving())) {
       VISNAV_ASSIGN(const auto point, locate_moving(drive_watch_.last_changed(), camera_, min_px_));
       // Only feet in view, beyond the band's near rows (where the odometry's error changes most
       // pixels): a person's way seen ahead, not the robot's own parallax.

@@ -48,7 +48,7 @@ class CrossingWatch {
     watch_.reset();
     policy_.reset();
     drive_watch_.reset();
-    drive_hits_ = 0;
+    drive_shimmer_.reset_hits();
   }
   /// One frame while driving: `motion` is the robot's motion since the previous frame (its
   /// frame then), `robot` its odometry pose now. A person crossing ahead (the ground-compensated
@@ -72,8 +72,7 @@ class CrossingWatch {
   double kerb_m_ = 0.7;
   double kerb_wait_s_ = 15.0;
   double drive_near_m_ = 0.8;
-  std::vector<int> drive_counts_;
-  int drive_hits_ = 0;
+  ShimmerTrigger drive_shimmer_;
 };
 
 }  // namespace visnav::ipt

@@ -425,7 +425,7 @@ NodeStatus ReplayAvoiding::tick() {
     replay_origin_m_ = odom->distance_m - scale_ * (carried && std::isfinite(*carried) ? *carried : 0.0);
     child_started_ = true;
     if (drive_watch_) drive_watch_->reset();
-    drive_hits_ = 0;
+    drive_shimmer_.reset_hits();
   }
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {
@@ -618,7 +618,7 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
   (void)set_output("image_changed_at_m", odom.distance_m);
   host_.logger().info(path(), why + ": the edge resumes at " + std::to_string(carried) + " m");
   if (drive_watch_) drive_watch_->reset();
-  drive_hits_ = 0;
+  drive_shimmer_.reset_hits();
   if (crossing_ && at_kerb_) crossing_->clear_lanes();  // crossing now (or given up waiting)
   at_kerb_ = false;
   corridor_.clear();
@@ -664,7 +664,7 @@ void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
   look_frames_ = still_frames_ = wait_frames_ = settle_frames_ = 0;
   have_watch_sequence_ = false;
   have_drive_sequence_ = false;
-  drive_hits_ = 0;
+  drive_shimmer_.reset_hits();
   if (watch_) watch_->reset();
   if (drive_watch_) drive_watch_->reset();
   if (crossing_) crossing_->reset();
@@ -708,25 +708,10 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
   host_.logger().log(LogLevel::debug, path(),
                      "near corridor: " + std::to_string(*changed) + " changed pixels, motion " + std::to_string(motion.x_m) +
                          " m " + std::to_string(motion.heading_rad) + " rad");
-  // Fine ground texture shimmers under the nearest-texel renderer (and a real sensor) as the
-  // robot moves: a few hundred pixels change on gravel with nothing there. What counts is a
-  // count well above the recent level (median of the last 10 frames) on two frames in a row.
-  int level = 0;
-  if (!drive_counts_.empty()) {
-    std::vector<int> sorted = drive_counts_;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-    level = sorted[sorted.size() / 2];
-  }
-  // Only at cruising speed (≥ 2 cm per frame) and with a level known: the shimmer grows with
-  // the speed, so counts while starting or stopping say nothing about it.
+  // Only at cruising speed (>= 2 cm per frame): the shimmer of fine ground texture grows with
+  // the speed, so counts while starting or stopping say nothing about it (ShimmerTrigger).
   const bool cruising = std::abs(motion.x_m) >= 0.02;
-  const bool hit = cruising && drive_counts_.size() >= 5 && drive_watch_->moving() && *changed > 3 * level;
-  if (cruising && !hit) {
-    drive_counts_.push_back(*changed);
-    if (drive_counts_.size() > 10) drive_counts_.erase(drive_counts_.begin());
-  }
-  drive_hits_ = hit ? drive_hits_ + 1 : 0;
-  return drive_hits_ >= 2;
+  return drive_shimmer_.update(*changed, cruising, drive_watch_->moving());
 }
 
 NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {

@@ -225,8 +225,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   Pose2D drive_watch_pose_;
   std::uint64_t drive_sequence_ = 0;
   bool have_drive_sequence_ = false;
-  int drive_hits_ = 0;
-  std::vector<int> drive_counts_;            // recent changed-pixel counts while driving (the texture's level)
+  ShimmerTrigger drive_shimmer_;            // the near corridor's count against the texture's shimmer level
   double drive_quiet_until_m_ = -1e300;     // odometer reading before which moving_near() is not asked
   cv::Mat watch_grey_;
   bool child_started_ = false;

@@ -145,4 +145,22 @@ Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2
   return std::optional<int>{last_changed_px_};
 }
 
+bool ShimmerTrigger::update(int changed_px, bool cruising, bool moving) {
+  int level = 0;
+  if (count_n_ > 0) {
+    std::array<int, kHistory> sorted = counts_;
+    const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(count_n_ / 2);
+    std::nth_element(sorted.begin(), mid, sorted.begin() + static_cast<std::ptrdiff_t>(count_n_));
+    level = *mid;
+  }
+  const bool hit = cruising && count_n_ >= 5 && moving && changed_px > 3 * level;
+  if (cruising && !hit) {
+    counts_[next_] = changed_px;
+    next_ = (next_ + 1) % kHistory;
+    count_n_ = std::min(count_n_ + 1, kHistory);
+  }
+  hits_ = hit ? hits_ + 1 : 0;
+  return hits_ >= 2;
+}
+
 }  // namespace visnav::ipt

@@ -10,6 +10,7 @@
 #include "error_expect.hpp"
 #include "thesis_rig.hpp"
 #include "visnav/ipt_obstacles/crossing_policy.hpp"
+#include "visnav/ipt_obstacles/motion_watch.hpp"
 
 namespace visnav::ipt {
 namespace {
@@ -196,6 +197,35 @@ TEST(CrossingPolicy, LocatesTheFeetOfTheChangedPixels) {
   ASSERT_TRUE(none.ok());
   EXPECT_FALSE(none->has_value());
   EXPECT_TRUE(fails_with(locate_moving(cv::Mat(10, 10, CV_8UC1), camera, 100), ErrorCode::invalid_value));
+}
+
+
+// The driving trigger shared by ReplayAvoiding's near corridor and the crossing watch's band:
+// shimmer at its usual level never fires, a count far above it fires on its second frame in a
+// row, a single spike does not, and counts while not cruising neither fire nor move the level.
+TEST(ShimmerTrigger, FiresOnTwoFramesWellAboveTheRecentLevelOnly) {
+  ShimmerTrigger trigger;
+  // Fewer than 5 levels known: even a large count does not fire.
+  for (int i = 0; i < 4; ++i) EXPECT_FALSE(trigger.update(5000, true, true));
+  ShimmerTrigger t;
+  for (int i = 0; i < 10; ++i) EXPECT_FALSE(t.update(400 + 20 * (i % 5), true, true)) << i;
+  EXPECT_FALSE(t.update(5000, true, true));  // one spike
+  EXPECT_FALSE(t.update(450, true, true));
+  EXPECT_FALSE(t.update(5000, true, true));
+  EXPECT_TRUE(t.update(5000, true, true));   // the second frame in a row
+  EXPECT_TRUE(t.update(6000, true, true));
+  t.reset_hits();
+  EXPECT_FALSE(t.update(5000, true, true));  // a new run of frames starts over
+  // The watch's own verdict must agree.
+  t.reset_hits();
+  EXPECT_FALSE(t.update(5000, true, false));
+  EXPECT_FALSE(t.update(5000, true, false));
+  // Not cruising: no fire, and the large counts do not raise the level.
+  ShimmerTrigger s;
+  for (int i = 0; i < 6; ++i) EXPECT_FALSE(s.update(500, true, true));
+  for (int i = 0; i < 20; ++i) EXPECT_FALSE(s.update(8000, false, true));
+  EXPECT_FALSE(s.update(2000, true, true));
+  EXPECT_TRUE(s.update(2000, true, true));  // still judged against the level of 500
 }
 
 }  // namespace

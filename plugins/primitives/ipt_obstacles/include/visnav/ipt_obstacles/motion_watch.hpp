@@ -20,6 +20,8 @@
 // Not thread-safe (scratch buffers); one per node.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <optional>
 
 #include <opencv2/core/mat.hpp>
@@ -78,6 +80,28 @@ class MotionWatch {
   cv::Mat previous_, blurred_, diff_, warped_, valid_, prev16_, changed_, best_changed_;
   bool have_previous_ = false;
   int last_changed_px_ = 0;
+};
+
+/// Tells a real change from texture shimmer in the ground-compensated difference while driving.
+/// Fine ground texture shimmers as the camera moves (a few hundred pixels change on gravel with
+/// nothing there, more at higher speed), so a frame's changed-pixel count triggers only when it
+/// is above 3 x the median of the last 10 counts taken at cruising speed (>= 5 of them known),
+/// the watch calls it motion, and that holds on 2 frames in a row. Counts while starting or
+/// stopping (not cruising) and the triggering counts themselves do not enter the level.
+/// Fixed storage: no allocation per frame. Not thread-safe.
+class ShimmerTrigger {
+ public:
+  /// One frame: `changed_px` the watch's count, `cruising` the robot moved >= 2 cm since the
+  /// previous frame, `moving` the watch's own verdict. True when the trigger fires.
+  bool update(int changed_px, bool cruising, bool moving);
+  /// Forgets the run of frames in a row (the level is kept).
+  void reset_hits() { hits_ = 0; }
+
+ private:
+  static constexpr std::size_t kHistory = 10;
+  std::array<int, kHistory> counts_{};  // ring buffer of the last cruising counts
+  std::size_t count_n_ = 0, next_ = 0;
+  int hits_ = 0;
 };
 
 }  // namespace visnav::ipt

@@ -101,6 +101,22 @@ std::string replay_args(const std::filesystem::path& dir, const std::filesystem:
          " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
 }
 
+// Teaches a path-following edge of `length_m` from the origin along x on `world` (the text of a
+// world file, written as dir/clear.yaml) into a new folder `dir` (removed first), map dir/map.
+void teach_path_edge(const std::filesystem::path& dir, const std::string& world, int length_m) {
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  write(dir / "clear.yaml", world);
+  write(dir / "route.yaml", "route:\n  name: line\n  start: [0, 0, 0]\n  waypoints:\n    - {at: [0, 0], kind: path}\n"
+                            "    - {at: [" + std::to_string(length_m) + ", 0]}\n");
+  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + (dir / "map").string() +
+                                   " --create --bb route_file=" + (dir / "route.yaml").string() +
+                                   " --bb force_kind= --bb close_loop=false",
+                               "teach_hybrid_route.xml");
+  ASSERT_EQ(teach.status, 0) << teach.output;
+  ASSERT_NE(teach.output.find("taught path_following edge"), std::string::npos) << teach.output;
+}
+
 TEST(ReplayAvoiding, TaughtOnAClearPathReplayedPastAParkedVan) {
   const auto dir = replay_dir("van");
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
@@ -165,25 +181,12 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
 }
 
 TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
-  const auto dir = std::filesystem::temp_directory_path() / ("visnav_ipt_path_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const auto dir = replay_dir("path");
   const std::string clear = clear_path();
-  write(dir / "clear.yaml", clear);
-  write(dir / "route.yaml", "route:\n  name: line\n  start: [0, 0, 0]\n  waypoints:\n    - {at: [0, 0], kind: path}\n"
-                            "    - {at: [16, 0]}\n");
-  const std::string map = (dir / "map").string();
-  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + map +
-                                   " --create --bb route_file=" + (dir / "route.yaml").string() +
-                                   " --bb force_kind= --bb close_loop=false",
-                               "teach_hybrid_route.xml");
-  ASSERT_EQ(teach.status, 0) << teach.output;
-  ASSERT_NE(teach.output.find("taught path_following edge"), std::string::npos) << teach.output;
+  ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 16));
   write(dir / "crate.yaml", clear + "  obstacles:\n    - {name: crate, kind: box, at: [5, 0.3], size_m: [0.8, 0.8], "
                                     "height_m: 0.8, texture: brick}\n");
-  const CliRun replay = run_cli("--set robot.params.world=" + (dir / "crate.yaml").string() + " --map " + map +
-                                    " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8",
-                                "replay_route_avoiding.xml");
+  const CliRun replay = run_cli(replay_args(dir, dir / "crate.yaml"), "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: obstacle ahead at"), std::string::npos) << replay.output;
@@ -204,9 +207,7 @@ TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
 // and the path follower finishes the edge. The same path replayed with the gravel gone (the
 // follower loses the path, nothing stands ahead) still stops, with the follower's reason.
 TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
-  const auto dir = std::filesystem::temp_directory_path() / ("visnav_ipt_hidden_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const auto dir = replay_dir("hidden");
   std::string clear = clear_path();
   const std::string textures = "  textures:\n";
   ASSERT_NE(clear.find(textures), std::string::npos);
@@ -214,21 +215,10 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   clear.insert(clear.find(textures) + textures.size(),
                "    concrete: {procedural: noise, color: [172, 170, 164], color2: [132, 130, 126], size_m: 2.0, "
                "feature_m: 0.1, detail: 0.25}\n");
-  write(dir / "clear.yaml", clear);
-  write(dir / "route.yaml", "route:\n  name: line\n  start: [0, 0, 0]\n  waypoints:\n    - {at: [0, 0], kind: path}\n"
-                            "    - {at: [21, 0]}\n");
-  const std::string map = (dir / "map").string();
-  const CliRun teach = run_cli("--set robot.params.world=" + (dir / "clear.yaml").string() + " --map " + map +
-                                   " --create --bb route_file=" + (dir / "route.yaml").string() +
-                                   " --bb force_kind= --bb close_loop=false",
-                               "teach_hybrid_route.xml");
-  ASSERT_EQ(teach.status, 0) << teach.output;
-  ASSERT_NE(teach.output.find("taught path_following edge"), std::string::npos) << teach.output;
+  ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   // As on the campus: 0.4 m off the path's centre, to the robot's right; its rear at 7.1 m.
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
-  const std::string edge_args = " --map " + map + " --set camera.params.noise_std=2 --bb start=start --bb goal=n1 --bb detour_m=8";
-  const CliRun replay = run_cli("--set robot.params.world=" + (dir / "van.yaml").string() + edge_args,
-                                "replay_route_avoiding.xml");
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("path fills image"), std::string::npos) << replay.output;
@@ -247,8 +237,7 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   ASSERT_NE(no_path.find(gravel), std::string::npos);
   no_path.replace(no_path.find(gravel), gravel.size(), "{name: path, texture: grass, class: grass");
   write(dir / "no_path.yaml", no_path);
-  const CliRun lost = run_cli("--set robot.params.world=" + (dir / "no_path.yaml").string() + edge_args,
-                              "replay_route_avoiding.xml");
+  const CliRun lost = run_cli(replay_args(dir, dir / "no_path.yaml"), "replay_route_avoiding.xml");
   EXPECT_EQ(lost.status, 1) << lost.output;
   EXPECT_EQ(lost.output.find("collision with"), std::string::npos) << lost.output;
   EXPECT_NE(lost.output.find("stopped: path lost on edge e0"), std::string::npos) << lost.output;

@@ -271,20 +271,32 @@ TEST(MovingObstacles, ObstacleFileAddsToTheWorldPerRun) {
   fs::remove_all(dir);
 }
 
+// The thesis rig's mount (0.43 m, 9 deg down, 65.5 deg field of view) for the renderer, and the
+// IPT camera of the same mount.
+CameraModel thesis_rig_model() {
+  CameraModel model;
+  model.hfov_deg = 65.5;
+  model.height_m = 0.43;
+  model.pitch_down_deg = 9.0;
+  return model;
+}
+
+ipt::IptCamera ipt_camera_of(const CameraModel& model) {
+  ipt::IptCamera camera;
+  camera.fx_px = camera.fy_px = model.fx();
+  camera.height_m = model.height_m;
+  camera.pitch_rad = -model.pitch_down_deg * CV_PI / 180.0;
+  return camera;
+}
+
 // MotionWatch on frames of a standing camera (the thesis rig): the person crossing the corridor
 // is motion, sensor noise and an exposure step are not, a person walking beside the corridor is not.
 TEST(MotionWatch, SeesAPersonCrossingTheCorridorAndNothingElse) {
   auto world = world_or_die(kWorld);
   ASSERT_NE(world, nullptr);
-  CameraModel model;
-  model.hfov_deg = 65.5;
-  model.height_m = 0.43;
-  model.pitch_down_deg = 9.0;
+  const CameraModel model = thesis_rig_model();
   Renderer renderer(world, model);
-  ipt::IptCamera camera;
-  camera.fx_px = camera.fy_px = model.fx();
-  camera.height_m = 0.43;
-  camera.pitch_rad = -9.0 * CV_PI / 180.0;
+  const ipt::IptCamera camera = ipt_camera_of(model);
   auto watch = ipt::MotionWatch::create(camera, ipt::MotionWatchParams{});
   ASSERT_TRUE(watch.ok()) << watch.error().message;
   cv::RNG rng(7);
@@ -354,15 +366,9 @@ TEST(MotionWatch, SeesAPersonCrossingTheCorridorAndNothingElse) {
 TEST(CrossingPolicy, TracksARenderedPersonWaitsWhileItApproachesGoesWhenItWalksAway) {
   auto world = world_or_die(kWorld);
   ASSERT_NE(world, nullptr);
-  CameraModel model;
-  model.hfov_deg = 65.5;
-  model.height_m = 0.43;
-  model.pitch_down_deg = 9.0;
+  const CameraModel model = thesis_rig_model();
   Renderer renderer(world, model);
-  ipt::IptCamera camera;
-  camera.fx_px = camera.fy_px = model.fx();
-  camera.height_m = 0.43;
-  camera.pitch_rad = -9.0 * CV_PI / 180.0;
+  const ipt::IptCamera camera = ipt_camera_of(model);
   ipt::MotionWatchParams band;
   band.far_m = 8.0;
   band.half_width_m = 4.0;

@@ -8,10 +8,17 @@
 namespace visnav::ipt {
 
 bt::PortsList crossing_ports() {
-  return {bt::input_port<double>("crossing_s", "0",
-                                 "moving obstacles: time the stopped robot needs to clear a person's lane, s; > 0 turns "
-                                 "the crossing policy on (wait while a tracked person will be in the robot's lane within "
-                                 "it, go when it walks away); 0 = off (resume after clear_frames still frames)"),
+  return {bt::input_port<double>("crossing_speed_mps", "0",
+                                 "moving obstacles: > 0 turns the crossing policy on: the robot crosses a person's way "
+                                 "at this speed, holding its heading, and goes only when the person's arrival in its "
+                                 "lane leaves the time it needs (from the geometry) + crossing_margin_s; 0 = off (or "
+                                 "crossing_s)"),
+          bt::input_port<double>("crossing_margin_s", "1",
+                                 "crossing policy: time the person's arrival must leave beyond the robot's clear time, s"),
+          bt::input_port<double>("crossing_s", "0",
+                                 "deprecated (use crossing_speed_mps): > 0 turns the crossing policy on with this "
+                                 "hand-set time to clear a person's lane, the replay child crossing at its own speed; "
+                                 "0 = off"),
           bt::input_port<double>("crossing_lane_m", "0.6",
                                  "crossing policy: half width of the robot's lane (body + a person + margin), m"),
           bt::input_port<double>("crossing_clear_m", "0.3",
@@ -30,13 +37,22 @@ bt::PortsList crossing_ports() {
 
 Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNode& node, const IptCamera& camera) {
   VISNAV_ASSIGN(const double crossing_s, node.get_input<double>("crossing_s"));
-  if (crossing_s == 0.0) return std::optional<CrossingWatch>{};
+  VISNAV_ASSIGN(const double speed_mps, node.get_input<double>("crossing_speed_mps"));
+  if (crossing_s == 0.0 && speed_mps == 0.0) return std::optional<CrossingWatch>{};
+  if (crossing_s != 0.0 && speed_mps != 0.0)
+    return Error{"ports 'crossing_s' and 'crossing_speed_mps': set one (crossing_s is the deprecated hand-set clear time)",
+                 ErrorCode::inconsistent};
   CrossingParams params;
-  params.crossing_s = crossing_s;
+  if (crossing_s != 0.0) params.crossing_s = crossing_s;
+  params.speed_mps = speed_mps;
+  VISNAV_ASSIGN(params.margin_s, node.get_input<double>("crossing_margin_s"));
+  VISNAV_ASSIGN(params.body_radius_m, node.get_input<double>("body_radius_m"));
   VISNAV_ASSIGN(params.lane_half_width_m, node.get_input<double>("crossing_lane_m"));
   VISNAV_ASSIGN(params.away_clear_m, node.get_input<double>("crossing_clear_m"));
   if (auto st = params.validate(); !st)
-    return Error{"ports 'crossing_s', 'crossing_lane_m', 'crossing_clear_m': " + st.error().message, ErrorCode::out_of_range};
+    return Error{"ports 'crossing_s', 'crossing_speed_mps', 'crossing_margin_s', 'body_radius_m', 'crossing_lane_m', "
+                 "'crossing_clear_m': " + st.error().message,
+                 ErrorCode::out_of_range};
   MotionWatchParams band;
   VISNAV_ASSIGN(band.half_width_m, node.get_input<double>("crossing_band_m"));
   VISNAV_ASSIGN(band.diff_threshold, node.get_input<double>("motion_threshold"));
@@ -66,13 +82,14 @@ Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNod
   return std::optional<CrossingWatch>{std::move(made)};
 }
 
-Result<CrossingDecision> CrossingWatch::observe(const cv::Mat& grey, double time_s, bool cautious) {
+Result<CrossingDecision> CrossingWatch::observe(const cv::Mat& grey, double time_s, bool cautious,
+                                                std::optional<double> way_ahead_m) {
   VISNAV_ASSIGN(const auto changed, watch_.observe(grey));
   if (changed && watch_.moving()) {
     VISNAV_ASSIGN(const auto point, locate_moving(watch_.last_changed(), camera_, min_px_));
     if (point) policy_.observe(time_s, *point);
   }
-  return policy_.decide(time_s, cautious);
+  return policy_.decide(time_s, cautious, way_ahead_m);
 }
 
 Result<bool> CrossingWatch::drive(const cv::Mat& grey, const Pose2D& motion, const Pose2D& robot, double time_s) {

@@ -17,16 +17,30 @@
 
 namespace visnav::ipt {
 
-/// The ports (crossing_s = 0: off).
+/// The ports (crossing_speed_mps = 0 and crossing_s = 0: off).
 [[nodiscard]] bt::PortsList crossing_ports();
 
 class CrossingWatch {
  public:
-  /// nullopt when crossing_s is 0 (off). Error: a bad port value (naming the port).
+  /// nullopt when crossing_speed_mps and crossing_s are 0 (off). Error: a bad port value (naming
+  /// the port), both set (crossing_s is the deprecated hand-set clear time).
   static Result<std::optional<CrossingWatch>> from_ports(const bt::TreeNode& node, const IptCamera& camera);
   /// One frame of the standing camera at `time_s`: the decision after it (`cautious`: stopped
   /// at the edge of a person's way, CrossingPolicy::decide()).
-  Result<CrossingDecision> observe(const cv::Mat& grey, double time_s, bool cautious);
+  /// `way_ahead_m`: the person's way's distance when remembered (way_ahead_m()).
+  Result<CrossingDecision> observe(const cv::Mat& grey, double time_s, bool cautious,
+                                   std::optional<double> way_ahead_m = std::nullopt);
+  /// Distance to the nearest remembered person's way ahead of `robot`, nullopt when none.
+  [[nodiscard]] std::optional<double> way_ahead_m(const Pose2D& robot, double time_s) {
+    return lanes_.ahead_m(robot, time_s, 30.0);
+  }
+  /// The speed the robot crosses a person's way at (crossing_speed_mps); 0: the replay child
+  /// crosses at its own speed (deprecated crossing_s).
+  [[nodiscard]] double crossing_speed_mps() const { return policy_.params().speed_mps; }
+  /// Distance to drive from `way_ahead_m` before the way until the robot's body is past the person's.
+  [[nodiscard]] double clear_distance_m(double way_ahead_m) const {
+    return ipt::clear_distance_m(policy_.params(), way_ahead_m);
+  }
   /// Seconds since the policy last located the person (a large value when never).
   [[nodiscard]] double unseen_s(double time_s) const {
     return policy_.last_seen_s() < 0.0 ? 1e9 : time_s - policy_.last_seen_s();
@@ -43,10 +57,11 @@ class CrossingWatch {
   }
   /// The camera moved: the next frame starts a new difference (the track is kept).
   void restart_difference() { watch_.reset(); }
-  /// Forgets the track too (a new stop); the remembered crossings are kept.
+  /// Forgets the track too (a new stop); the remembered crossings and the person's learnt
+  /// returns are kept (CrossingPolicy::forget_track()).
   void reset() {
     watch_.reset();
-    policy_.reset();
+    policy_.forget_track();
     drive_watch_.reset();
     drive_shimmer_.reset_hits();
   }
@@ -57,6 +72,11 @@ class CrossingWatch {
   Result<bool> drive(const cv::Mat& grey, const Pose2D& motion, const Pose2D& robot, double time_s);
   /// Seconds a robot stopped at a kerb waits for the person to pass (crossing_wait_s).
   [[nodiscard]] double kerb_wait_s() const { return kerb_wait_s_; }
+  /// Forgets the person's learnt returns as well (the edge is done).
+  void forget_person() {
+    reset();
+    policy_.reset();
+  }
   /// Forgets the remembered crossings (the robot crossed, or gave up waiting).
   void clear_lanes() { lanes_.clear(); }
 

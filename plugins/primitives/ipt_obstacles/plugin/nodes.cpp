@@ -343,7 +343,7 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                               "lane: a free lateral offset from the taught line, back onto it past the "
                                               "obstacle (measured: docs/obstacles.md); thesis: the Ch. 6 strategy to a "
                                               "goal goal_ahead_m along the line"));
-  ports.push_back(bt::input_port<double>("body_radius_m", "0.25", "lane detour: robot disc radius"));
+  ports.push_back(bt::input_port<double>("body_radius_m", "0.25", "lane detour and crossing policy: robot disc radius"));
   ports.push_back(bt::input_port<double>("clearance_m", "0.35", "lane detour: free space kept beyond the body"));
   ports.push_back(bt::input_port<double>("max_offset_m", "2.5", "lane detour: widest lane searched on either side"));
   ports.push_back(bt::input_port<std::string>("edge", "{edge}",
@@ -417,6 +417,7 @@ NodeStatus ReplayAvoiding::tick() {
     return NodeStatus::running;
   }
   if (looking_) return look_step(*odom);
+  if (crossing_drive_) return cross_step(*odom);
   if (!child_started_ && !probing_) {
     auto carried = get_input<double>("carried_m");
     // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
@@ -548,6 +549,7 @@ NodeStatus ReplayAvoiding::tick() {
   child_started_ = false;
   if (st == NodeStatus::failure) return child_failed(*odom);
   if (probe_) probe_->reset();
+  if (crossing_) crossing_->forget_person();  // the next edge's person is another
   corridor_.clear();
   return st;
 }
@@ -755,11 +757,21 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   // The crossing policy (crossing_s > 0): where the person is and goes, over a wide band.
   std::optional<CrossingDecision> crossing;
   if (crossing_) {
-    auto d = crossing_->observe(watch_grey_, frame->timestamp_s, at_kerb_);
+    // At a remembered way, its distance gives the clear time (the feet are below the image there).
+    const auto way = at_kerb_ ? crossing_->way_ahead_m(odom.pose, frame->timestamp_s) : std::nullopt;
+    // Cautious (an unknown return holds the robot) at the edge of a person's way, and at any stop
+    // with such a way remembered close ahead (session 12, seed 3: a stop on an IPT contact 0.9 m
+    // before the way crossed on an unknown return and was hit by the person coming back).
+    const bool cautious = at_kerb_ || crossing_->way_ahead(odom.pose, frame->timestamp_s, 2.5);
+    auto d = crossing_->observe(watch_grey_, frame->timestamp_s, cautious, way);
     if (!d) return fail_with(d.error().message);
     crossing = *d;
-    if (d->kind != crossing_kind_) host_.logger().info(path(), std::string("crossing policy: ") + to_string(d->kind) + ", " + d->reason);
+    // Logged when the decision or the kind of its reason changes (the text before the figures).
+    const std::string head = d->reason.substr(0, d->reason.find_first_of("(0123456789"));
+    if (d->kind != crossing_kind_ || head != crossing_head_)
+      host_.logger().info(path(), std::string("crossing policy: ") + to_string(d->kind) + ", " + d->reason);
     crossing_kind_ = d->kind;
+    crossing_head_ = head;
   }
   auto changed = watch_->observe(watch_grey_);
   if (!changed) return fail_with(changed.error().message);
@@ -800,12 +812,18 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
     return NodeStatus::running;
   }
   if (++wait_frames_ > *max_wait)
-    return fail_with("stopped: a moving obstacle stayed in the corridor ahead for " + std::to_string(wait_frames_) + " frames");
+    return fail_with("stopped: a moving obstacle stayed in the corridor ahead for " + std::to_string(wait_frames_) +
+                     " frames" + (crossing ? "; crossing policy: " + crossing->reason : std::string()));
   still_frames_ = moving ? 0 : still_frames_ + 1;
   if (crossing && crossing->kind == CrossingDecision::Kind::go) {
     looking_ = false;
     if (crossing->range_m <= crossing_->kerb_m() + 0.3) {
       crossing_->clear_lanes();  // it walked away just ahead: cross now
+      if (crossing_->crossing_speed_mps() > 0.0) {
+        begin_crossing(odom, crossing->way_ahead_m, "the crossing policy lets the robot go after " +
+                                                        std::to_string(wait_frames_) + " frames (" + crossing->reason + ")");
+        return NodeStatus::running;
+      }
     } else {
       // Too far from its way to cross before it could be back: drive up to the edge of the way
       // (as now seen) and watch it pass there.
@@ -825,6 +843,30 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   looking_ = false;
   drive_quiet_until_m_ = odom.distance_m + 0.3;  // let the IPT look again before the frame difference
   resume_child(odom, "the corridor is clear after " + std::to_string(wait_frames_) + " frames of waiting");
+  return NodeStatus::running;
+}
+
+void ReplayAvoiding::begin_crossing(const Odometry& odom, double way_ahead_m, const std::string& why) {
+  HiddenPathProbeParams params;
+  params.distance_m = crossing_->clear_distance_m(way_ahead_m);
+  params.speed_mps = crossing_->crossing_speed_mps();
+  crossing_drive_.emplace(params);
+  crossing_drive_->begin(odom.pose, odom.distance_m);
+  at_kerb_ = false;
+  host_.logger().info(path(), why + ": crossing the person's way, " + std::to_string(params.distance_m) + " m at " +
+                                  std::to_string(params.speed_mps) + " m/s on the heading");
+}
+
+NodeStatus ReplayAvoiding::cross_step(const Odometry& odom) {
+  const HiddenPathProbe::Step s = crossing_drive_->step(odom.pose, odom.distance_m);
+  if (!s.exhausted) {
+    send(host_, s.command.linear_mps, s.command.angular_radps);
+    return NodeStatus::running;
+  }
+  crossing_drive_.reset();
+  // The person it crossed walks away beside the lane: no stop for it right after.
+  drive_quiet_until_m_ = odom.distance_m + 0.5;
+  resume_child(odom, "across the person's way");  // the along-track count includes the crossing
   return NodeStatus::running;
 }
 
@@ -930,7 +972,8 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
 }
 
 void ReplayAvoiding::halt() {
-  if (detouring_ || looking_ || probing_) stop(host_);
+  if (detouring_ || looking_ || probing_ || crossing_drive_) stop(host_);
+  crossing_drive_.reset();
   looking_ = false;
   probing_ = false;
   detour_.end();

@@ -213,6 +213,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   std::optional<CrossingWatch> crossing_;    // the crossing policy (crossing_s > 0; crossing_watch.hpp)
   bool crossing_read_ = false;
   CrossingDecision::Kind crossing_kind_ = CrossingDecision::Kind::no_track;
+  std::string crossing_head_;     // the last logged decision's reason up to its figures
   bool at_kerb_ = false;          // stopped before a person's way seen while driving
   double kerb_since_s_ = 0.0;
   Pose2D kerb_pose_;              // odometry pose of the previous driving frame (crossing watch)
@@ -222,6 +223,12 @@ class ReplayAvoiding : public bt::DecoratorNode {
   Status read_crossing(const cv::Mat& grey);
   /// The crossing watch while driving: true when the robot is to stop before a person's way.
   Result<bool> kerb_near(const Odometry& odom);
+  /// The policy's go at a person's way `way_ahead_m` ahead with crossing_speed_mps > 0: the node
+  /// drives across itself at that speed holding the heading (HiddenPathProbe as the driver),
+  /// then the child resumes (cross_step()).
+  void begin_crossing(const Odometry& odom, double way_ahead_m, const std::string& why);
+  bt::NodeStatus cross_step(const Odometry& odom);
+  std::optional<HiddenPathProbe> crossing_drive_;  // set while crossing a person's way
   Pose2D drive_watch_pose_;
   std::uint64_t drive_sequence_ = 0;
   bool have_drive_sequence_ = false;

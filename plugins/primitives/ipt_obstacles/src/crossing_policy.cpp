@@ -77,6 +77,11 @@ Status CrossingParams::validate() const {
   if (forget_s < window_s)
     return Error{"forget_s " + fmt(forget_s) + " must be at least window_s " + fmt(window_s), ErrorCode::inconsistent,
                  ErrorLocation({}, 0, "forget_s")};
+  // The lane test assumes a person outside it cannot touch the robot's body.
+  if (speed_mps > 0.0 && lane_half_width_m < body_radius_m + person_radius_m)
+    return Error{"lane_half_width_m " + fmt(lane_half_width_m) + " must be at least body_radius_m + person_radius_m " +
+                     fmt(body_radius_m + person_radius_m),
+                 ErrorCode::inconsistent, ErrorLocation({}, 0, "lane_half_width_m")};
   return ok();
 }
 
@@ -97,8 +102,34 @@ const ParamSchema<CrossingParams>& CrossingParams::schema() {
           .field("forget_s", &P::forget_s, "no point for this long drops the track, s")
           .range(0.1, 60.0)
           .field("min_points", &P::min_points, "points in the window before a decision")
-          .range(2, 1000);
+          .range(2, 1000)
+          .field("speed_mps", &P::speed_mps, "speed the robot crosses at (0: the hand-set crossing_s), m/s")
+          .range(0.0, 2.0)
+          .field("accel_mps2", &P::accel_mps2, "the robot's acceleration from rest, m/s^2")
+          .range(0.05, 10.0)
+          .field("body_radius_m", &P::body_radius_m, "the robot's body radius, m")
+          .range(0.05, 2.0)
+          .field("person_radius_m", &P::person_radius_m, "a person's body radius, m")
+          .range(0.05, 1.0)
+          .field("margin_m", &P::margin_m, "driven beyond the person's far side, m")
+          .range(0.0, 2.0)
+          .field("margin_s", &P::margin_s, "time the arrival must leave beyond the clear time, s")
+          .range(0.0, 30.0)
+          .field("pass_fit_m", &P::pass_fit_m, "a pass's speed is fitted to the points this near the line, m")
+          .range(0.05, 2.0);
   return s;
+}
+
+double clear_distance_m(const CrossingParams& params, double way_ahead_m) {
+  return std::max(0.0, way_ahead_m) + params.person_radius_m + params.body_radius_m + params.margin_m;
+}
+
+double clear_time_s(const CrossingParams& params, double way_ahead_m) {
+  const double d = clear_distance_m(params, way_ahead_m);
+  const double v = params.speed_mps, a = params.accel_mps2;
+  if (v <= 0.0) return params.crossing_s;
+  if (d >= v * v / (2.0 * a)) return d / v + v / (2.0 * a);
+  return std::sqrt(2.0 * d / a);
 }
 
 void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
@@ -109,15 +140,31 @@ void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
     if (last_pass_dir_ != dir || time_s - last_pass_s_ > params_.window_s) {
       last_pass_dir_ = dir;
       last_pass_s_ = time_s;
+      last_pass_speed_mps_ = -1.0;
     }
   }
   last_seen_s_ = time_s;
   last_y_ = y;
   track_.push_back({time_s, point.ground_m});
   while (!track_.empty() && track_.front().time_s < time_s - params_.window_s) track_.pop_front();
+  // The walking speed of the pass: y(t) fitted to the points near the line since shortly before it.
+  if (last_pass_dir_ != 0 && std::abs(y) <= params_.pass_fit_m && time_s - last_pass_s_ <= params_.window_s) {
+    double n = 0, st = 0, stt = 0, sy = 0, sty = 0;
+    for (const auto& s : track_) {
+      if (std::abs(s.ground_m.y) > params_.pass_fit_m || s.time_s < last_pass_s_ - params_.window_s) continue;
+      const double t = s.time_s - last_pass_s_;
+      n += 1.0;
+      st += t;
+      stt += t * t;
+      sy += s.ground_m.y;
+      sty += t * s.ground_m.y;
+    }
+    const double den = n * stt - st * st;
+    if (n >= params_.min_points && den > 1e-9) last_pass_speed_mps_ = last_pass_dir_ * (n * sty - st * sy) / den;
+  }
 }
 
-CrossingDecision CrossingPolicy::decide(double time_s, bool cautious) const {
+CrossingDecision CrossingPolicy::decide(double time_s, bool cautious, std::optional<double> way_ahead_m) const {
   CrossingDecision d;
   if (track_.empty() || time_s - track_.back().time_s > params_.forget_s) {
     d.reason = track_.empty() ? "nothing tracked" : "the track is " + fmt(time_s - track_.back().time_s, 1) + " s old";
@@ -162,22 +209,69 @@ CrossingDecision CrossingPolicy::decide(double time_s, bool cautious) const {
     d.reason = "in the lane (" + where + ")";
     return d;
   }
+  // The time the robot needs to clear the lane (geometry at the crossing speed, or crossing_s).
+  const bool geometric = params_.speed_mps > 0.0;
+  d.way_ahead_m = way_ahead_m ? *way_ahead_m : std::max(0.0, d.range_m);
+  d.required_s = geometric ? clear_time_s(params_, d.way_ahead_m) + params_.margin_s : params_.crossing_s;
+  const std::string needs =
+      geometric ? "the robot needs " + fmt(d.required_s, 1) + " s (" + fmt(clear_distance_m(params_, d.way_ahead_m)) +
+                      " m at " + fmt(params_.speed_mps) + " m/s + " + fmt(params_.margin_s, 1) + " s margin)"
+                : "the crossing time " + fmt(params_.crossing_s, 1) + " s";
   if (d.lateral_speed_mps < -params_.min_speed_mps) {
     d.arrival_s = beyond_m / -d.lateral_speed_mps;
-    d.kind = d.arrival_s < params_.crossing_s ? CrossingDecision::Kind::wait : CrossingDecision::Kind::go;
+    d.kind = d.arrival_s < d.required_s ? CrossingDecision::Kind::wait : CrossingDecision::Kind::go;
     d.reason = "arrives in the lane in " + fmt(d.arrival_s, 1) + " s (" +
-               (d.kind == CrossingDecision::Kind::wait ? "within" : "after") + " the crossing time " +
-               fmt(params_.crossing_s, 1) + " s; " + where + ")";
+               (d.kind == CrossingDecision::Kind::wait ? "within" : "after") + " " + needs + "; " + where + ")";
     return d;
   }
   d.kind = beyond_m >= params_.away_clear_m ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
   d.reason = std::string(d.kind == CrossingDecision::Kind::go ? "clear of the lane by " : "only ") + fmt(beyond_m) +
              " m beyond the lane's edge (" + where + ")";
+  const int dir = d.lateral_m > 0.0 ? 1 : -1;
+  if (geometric && d.lateral_speed_mps > params_.min_speed_mps && last_pass_dir_ == dir &&
+      last_pass_speed_mps_ > params_.min_speed_mps) {
+    // Walking away after a pass it was seen to make: where it is and when it is back in the lane
+    // from the pass (its time and speed); the learnt return brings it back to the line, and it
+    // enters the lane lane_half_width_m before.
+    const double speed = last_pass_speed_mps_;
+    const double since_pass_s = time_s - last_pass_s_;
+    const double beyond_pass_m = speed * since_pass_s - params_.lane_half_width_m;
+    const double back_s = return_after_s(dir);
+    const std::string from_pass = "passed the line " + fmt(since_pass_s, 1) + " s ago at " + fmt(speed) + " m/s";
+    if (beyond_pass_m < params_.away_clear_m) {
+      d.kind = CrossingDecision::Kind::wait;
+      d.reason = "walking away, " + fmt(beyond_pass_m) + " m beyond the lane's edge (" + from_pass + "; " + where + ")";
+    } else if (back_s < 0.0) {
+      d.kind = cautious ? CrossingDecision::Kind::wait : CrossingDecision::Kind::go;
+      d.reason = std::string(cautious ? "walking away; waiting to see whether it comes back (" : "walking away (") +
+                 from_pass + "; " + where + ")";
+    } else {
+      d.arrival_s = back_s - since_pass_s - params_.lane_half_width_m / speed;
+      d.kind = d.arrival_s < d.required_s ? CrossingDecision::Kind::wait : CrossingDecision::Kind::go;
+      d.reason = std::string(d.kind == CrossingDecision::Kind::wait ? "walking away, but it comes back into the lane in "
+                                                                    : "walking away, back in the lane in ") +
+                 fmt(d.arrival_s, 1) + " s (return " + fmt(back_s, 1) + " s after such a pass, " + from_pass + "; " +
+                 needs + "; " + where + ")";
+    }
+    return d;
+  }
   if (d.kind == CrossingDecision::Kind::go && d.lateral_speed_mps > params_.min_speed_mps) {
     // Walking away: does it come back soon? (a person pacing across the way)
-    const int dir = d.lateral_m > 0.0 ? 1 : -1;
     const double back_s = return_after_s(dir);
-    if (back_s >= 0.0 && back_s < params_.crossing_s) {
+    if (back_s >= 0.0 && geometric) {
+      // No pass seen: it passed at least |y| / speed ago; it enters the lane again
+      // lane_half_width_m before it reaches the line, the learnt return after its pass.
+      const double speed = std::max(d.lateral_speed_mps, params_.min_speed_mps);
+      const double since_pass_s = std::abs(d.lateral_m) / speed;
+      d.arrival_s = back_s - since_pass_s - params_.lane_half_width_m / speed;
+      if (d.arrival_s < d.required_s) {
+        d.kind = CrossingDecision::Kind::wait;
+        d.reason = "walking away, but it comes back into the lane in " + fmt(d.arrival_s, 1) + " s (return " +
+                   fmt(back_s, 1) + " s after such a pass; " + needs + "; " + where + ")";
+      } else {
+        d.reason += "; back in the lane in " + fmt(d.arrival_s, 1) + " s (return " + fmt(back_s, 1) + " s), " + needs;
+      }
+    } else if (back_s >= 0.0 && back_s < params_.crossing_s) {
       d.kind = CrossingDecision::Kind::wait;
       d.reason = "walking away, but it came back " + fmt(back_s, 1) + " s after such a pass (within the crossing time " +
                  fmt(params_.crossing_s, 1) + " s; " + where + ")";

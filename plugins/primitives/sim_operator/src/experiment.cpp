@@ -102,7 +102,7 @@ constexpr const char* kUsage =
     "                         [--teach-appearance A] [--replay-appearance A] [--config C] [--out DIR]\n"
     "                         [--set k=v]... [--teach-set k=v]... [--replay-set k=v]... [--port N.p=v]...\n"
     "                         [--learn-loops N] [--experience-teach A] [--obstacles FILE]\n"
-    "                         [--replay-tree FILE]\n"
+    "                         [--replay-tree FILE] [--log-level L]\n"
     "\n"
     "The seed 000 Sec. 6 experiment, repeated over independent random runs. For each map style and\n"
     "each seed: teach the route R (a waypoint script, config/routes/) in the simulated world W with\n"
@@ -151,6 +151,8 @@ constexpr const char* kUsage =
     "                        trees/patrol_loop_avoiding.xml); it gets the blackboard entries start, loops\n"
     "                        and the camera mount camera_height_m, camera_pitch_down_deg, camera_hfov_deg\n"
     "                        (the replay camera's mount_height_m, mount_pitch_down_deg, hfov_deg)\n"
+    "  --log-level L         lowest level written to each run's run.log: debug, info, warn, error\n"
+    "                        (default warn; info shows e.g. the avoiding nodes' decisions)\n"
     "  --port Node.port=v    set a port on every such node of the replay trees (learning loops\n"
     "                        too, not the teach), e.g. --port ReplayFeatureEdge.gain=0.5; how\n"
     "                        `visnav tune` reaches primitive gains (docs/bt.md, port overrides)\n"
@@ -214,6 +216,11 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
       o.obstacles = true;
     }
     else if (arg == "--replay-tree") { VISNAV_ASSIGN(o.replay_tree, in.value()); }
+    else if (arg == "--log-level") {
+      VISNAV_ASSIGN(o.log_level, in.value());
+      if (o.log_level != "debug" && o.log_level != "info" && o.log_level != "warn" && o.log_level != "error")
+        return fail("--log-level: '" + o.log_level + "' is not debug, info, warn or error");
+    }
     else if (arg == "--port") {
       VISNAV_ASSIGN(std::string v, in.value());
       VISNAV_TRY(bt::parse_port_override(v));
@@ -281,14 +288,19 @@ class RunProgress {
   ProgressLine line_{30};
 };
 
-/// The run's log: warnings and errors go to run.log; the first lost/frozen stop is remembered.
+/// The run's log: warnings and errors (or from --log-level up) go to run.log; the first
+/// lost/frozen stop is remembered.
 class RunLogger final : public Logger {
  public:
-  explicit RunLogger(const fs::path& file) : out_(file) {}
+  RunLogger(const fs::path& file, LogLevel min_level) : out_(file), min_level_(min_level) {}
   void log(LogLevel level, std::string_view component, std::string_view message) override {
-    if (level < LogLevel::warn) return;
+    if (level < min_level_) return;
     std::lock_guard lock(mutex_);
-    out_ << (level == LogLevel::error ? "error " : "warn  ") << component << ": " << message << "\n";
+    out_ << (level == LogLevel::error  ? "error "
+             : level == LogLevel::warn ? "warn  "
+             : level == LogLevel::info ? "info  "
+                                       : "debug ")
+         << component << ": " << message << "\n";
     if (level == LogLevel::error && stop_reason_.empty() &&
         (message.find("lost:") != std::string_view::npos || message.find("camera frozen") != std::string_view::npos))
       stop_reason_ = std::string(message);
@@ -305,6 +317,7 @@ class RunLogger final : public Logger {
  private:
   std::mutex mutex_;
   std::ofstream out_;
+  LogLevel min_level_;
   std::string stop_reason_;
 };
 
@@ -396,7 +409,11 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   };
   std::error_code ec;
   fs::create_directories(dir, ec);
-  RunLogger logger(dir / "run.log");
+  const LogLevel min_level = o.log_level == "debug" ? LogLevel::debug
+                             : o.log_level == "info" ? LogLevel::info
+                             : o.log_level == "error" ? LogLevel::error
+                                                      : LogLevel::warn;
+  RunLogger logger(dir / "run.log", min_level);
 
   // Overrides: placement, then the ideal switch, then the user's; per phase the seeds (one draw
   // of every error model per run) and the appearance. Parallel jobs need no robot names: each

@@ -66,6 +66,7 @@ struct ExperimentOptions {
   /// one, or trees/patrol_loop_avoiding.xml when obstacles are placed (--obstacles).
   std::string replay_tree;
   bool obstacles = false;  ///< --obstacles given (the avoiding tree by default)
+  std::string log_level = "warn";  ///< --log-level: lowest level written to each run's run.log
   std::string teach_appearance = "same";
   std::string replay_appearance = "same";
   /// Multi-experience maps (issue 13): patrol loops driven after teaching with learn_experiences

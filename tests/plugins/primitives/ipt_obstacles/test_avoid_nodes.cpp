@@ -180,6 +180,41 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
   std::filesystem::remove_all(dir);
 }
 
+// The campus's blind walker seen from the middle of its walk: the person paces 3 m to either
+// side of the robot's line (y = 3 .. -3 at x = 6 m, 1 m/s), so both returns take 6 s. The
+// deprecated hand-set crossing_s 5.5 lets the robot cross on the 6 s return at the replay's
+// 0.3 m/s, too slowly: the person walks into its side. crossing_speed_mps 0.6 (the subtree's
+// setting) computes the time needed from the geometry and crosses the way itself at that speed:
+// the edge completes without a collision (docs/obstacles.md, "Crossing policy").
+TEST(ReplayAvoiding, APersonPacingSymmetricallyAcrossTheLineIsCrossedAtTheCrossingSpeed) {
+  const auto dir = replay_dir("pacing_mid");
+  ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
+  write(dir / "pacing.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 3], path: [[6, -3]], speed_mps: 1.0, "
+                             "motion: back_and_forth, texture: van}\n");
+  std::ifstream plain_tree(std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/replay_route_avoiding.xml");
+  const std::string plain{std::istreambuf_iterator<char>(plain_tree), std::istreambuf_iterator<char>()};
+  auto with_ports = [&](const std::string& ports) {
+    std::string tree = plain;
+    const std::string mount_attr = "camera_pitch_down_deg=\"{camera_pitch_down_deg}\">";
+    for (std::size_t at = tree.find(mount_attr); at != std::string::npos; at = tree.find(mount_attr, at + 1))
+      tree.replace(at, mount_attr.size(), "camera_pitch_down_deg=\"{camera_pitch_down_deg}\" " + ports + ">");
+    return tree;
+  };
+  write(dir / "hand_set.xml", with_ports("crossing_s=\"5.5\""));
+  write(dir / "geometric.xml", with_ports("crossing_speed_mps=\"0.6\""));
+  const std::string pacing_args = replay_args(dir, dir / "clear.yaml", dir / "pacing.yaml");
+  const CliRun hand_set = run_cli(pacing_args, (dir / "hand_set.xml").string());
+  EXPECT_NE(hand_set.output.find("collision with 'person'"), std::string::npos) << hand_set.output;
+  const CliRun crossing = run_cli(pacing_args, (dir / "geometric.xml").string());
+  EXPECT_EQ(crossing.status, 0) << crossing.output;
+  EXPECT_EQ(crossing.output.find("collision with"), std::string::npos) << crossing.output;
+  EXPECT_NE(crossing.output.find("a person was seen crossing ahead: stop before its way"), std::string::npos)
+      << crossing.output;
+  EXPECT_NE(crossing.output.find("crossing the person's way"), std::string::npos) << crossing.output;
+  EXPECT_NE(crossing.output.find("across the person's way: the edge resumes at"), std::string::npos) << crossing.output;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
   const auto dir = replay_dir("path");
   const std::string clear = clear_path();

@@ -1,7 +1,10 @@
 // When a stopped robot may cross a walking person's way (crossing_policy.hpp): synthetic tracks
 // of a person's ground point (robot frame, x ahead, y left) and synthetic frame-difference masks.
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -152,6 +155,98 @@ TEST(CrossingPolicy, LearnsWhenAPacingPersonComesBackAndGoesOnlyAfterTheLongRetu
   }
   EXPECT_EQ(plain.decide(0.8, false).kind, CrossingDecision::Kind::go);
   EXPECT_EQ(plain.decide(0.8, true).kind, CrossingDecision::Kind::wait);
+}
+
+// The time the robot needs to be past a person's way, from the geometry (crossing_speed_mps).
+TEST(CrossingPolicy, ClearTimeIsTheDistancePastThePersonAtTheCrossingSpeedFromRest) {
+  CrossingParams p;  // body 0.25 m, person 0.25 m, margin 0.1 m, 0.5 m/s^2
+  // 0.7 m to the way's centre + the person's radius + the robot's + the margin.
+  EXPECT_NEAR(clear_distance_m(p, 0.7), 1.3, 1e-9);
+  EXPECT_NEAR(clear_distance_m(p, -0.2), 0.6, 1e-9);  // already on the way: its far side only
+  p.speed_mps = 0.3;  // the replay's speed: 1.3 / 0.3 + 0.3 / (2 * 0.5)
+  EXPECT_NEAR(clear_time_s(p, 0.7), 1.3 / 0.3 + 0.3, 1e-9);
+  p.speed_mps = 0.6;  // twice as fast, but 0.6 s lost accelerating
+  EXPECT_NEAR(clear_time_s(p, 0.7), 1.3 / 0.6 + 0.6, 1e-9);
+  p.speed_mps = 2.0;  // never reaches 2 m/s within 1.3 m: sqrt(2 d / a)
+  EXPECT_NEAR(clear_time_s(p, 0.7), std::sqrt(2.0 * 1.3 / 0.5), 1e-9);
+  p.speed_mps = 0.0;  // deprecated: the hand-set crossing_s
+  p.crossing_s = 5.5;
+  EXPECT_DOUBLE_EQ(clear_time_s(p, 0.7), 5.5);
+  // A lane narrower than the two bodies cannot keep a person outside it off the robot.
+  p.speed_mps = 0.6;
+  p.lane_half_width_m = 0.45;
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::inconsistent, key_only("lane_half_width_m")));
+  p = CrossingParams{};
+  p.speed_mps = 2.5;
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::out_of_range, key_only("speed_mps")));
+}
+
+// The campus's blind walker seen from the middle of its walk: a robot stopped 0.7 m before its
+// way, the person pacing across it and back with 6 s between passes each way (3 m to either side
+// at 1 m/s), seen only within +-0.4 m of the robot's line. At the replay's 0.3 m/s the robot
+// needs 4.6 s + 1 s margin to be past it, and the person is back in its lane 4.4 s after it
+// walks clear: wait on every pass. At 0.6 m/s (2.8 s + 1 s): go after the return is known.
+TEST(CrossingPolicy, APersonPacingWithSixSecondReturnsWaitsAtReplaySpeedAndGoesAtTheCrossingSpeed) {
+  auto pace = [](double speed_mps) {
+    CrossingParams params;
+    params.speed_mps = speed_mps;
+    CrossingPolicy policy(params);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> noise(0.0, 0.03);
+    std::vector<CrossingDecision> after_pass;  // the first go (else the last wait) after each pass
+    double dir = -1.0;                          // the first pass walks to the robot's right
+    for (double pass_s = 1.0; pass_s < 31.0; pass_s += 6.0, dir = -dir) {
+      for (double dt = -0.7; dt <= 0.7 + 1e-9; dt += 0.1) {
+        // In view up to |y| = 0.4 m; the body leaving the view is seen at its edge (the changed
+        // pixels of its part still in view), which slows the fitted track.
+        MovingPoint p;
+        const double ex = noise(rng);
+        const double ey = noise(rng);
+        p.ground_m = {0.95 + ex, std::clamp(dir * dt, -0.4, 0.4) + ey};  // feet below the image: the bottom row
+        policy.observe(pass_s + dt, p);
+      }
+      CrossingDecision d;
+      for (double dt = 0.8; dt <= 1.9 + 1e-9; dt += 0.1) {  // out of view, extrapolated
+        d = policy.decide(pass_s + dt, true, 0.7);         // the remembered way 0.7 m ahead
+        if (d.kind == Kind::go) break;
+      }
+      after_pass.push_back(d);
+    }
+    return std::make_pair(after_pass, policy.return_after_s(1));
+  };
+  const auto [slow, slow_return] = pace(0.3);
+  EXPECT_NEAR(slow_return, 6.0, 0.15);
+  for (const auto& d : slow) EXPECT_EQ(d.kind, Kind::wait) << d.reason;
+  EXPECT_NEAR(slow.back().required_s, 1.3 / 0.3 + 0.3 + 1.0, 0.01);
+  const auto [fast, fast_return] = pace(0.6);
+  EXPECT_NEAR(fast_return, 6.0, 0.15);
+  // Passes 1 and 2: the return after a pass that way is not known yet (cautious): wait.
+  EXPECT_EQ(fast[0].kind, Kind::wait) << fast[0].reason;
+  EXPECT_EQ(fast[1].kind, Kind::wait) << fast[1].reason;
+  for (std::size_t i = 2; i < fast.size(); ++i) {
+    EXPECT_EQ(fast[i].kind, Kind::go) << i << ": " << fast[i].reason;
+    // Back in the lane 6 s after its pass minus the time since the pass (walked clear of the
+    // lane's edge + 0.3 m by then: 0.9-1.0 s at the pass's 1 m/s), minus 0.6 s from the lane's
+    // edge to the line.
+    EXPECT_NEAR(fast[i].arrival_s, 6.0 - 0.95 - 0.6, 0.25) << fast[i].reason;
+    EXPECT_GE(fast[i].arrival_s, fast[i].required_s);
+    EXPECT_NEAR(fast[i].required_s, 1.3 / 0.6 + 0.6 + 1.0, 0.01);
+  }
+  // The deprecated hand-set 5.5 s compared the 6 s return itself: it let the robot go at 0.3 m/s.
+  CrossingParams old;
+  old.crossing_s = 5.5;
+  CrossingPolicy hand_set(old);
+  double dir = -1.0;
+  CrossingDecision d;
+  for (double pass_s = 1.0; pass_s < 14.0; pass_s += 6.0, dir = -dir) {
+    for (double dt = -0.4; dt <= 0.4 + 1e-9; dt += 0.1) {
+      MovingPoint p;
+      p.ground_m = {0.95, dir * dt};
+      hand_set.observe(pass_s + dt, p);
+    }
+    d = hand_set.decide(pass_s + 1.0, true);
+  }
+  EXPECT_EQ(d.kind, Kind::go) << d.reason;
 }
 
 TEST(CrossingPolicy, BadParamsNameTheKey) {

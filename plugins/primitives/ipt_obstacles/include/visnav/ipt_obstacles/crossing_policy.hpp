@@ -17,8 +17,7 @@
 //    decision:
 //      - lateral |y| within lane_half_width_m: in the robot's lane -> wait;
 //      - walking towards the lane faster than min_speed_mps: arrival = (|y| - half width) /
-//        speed; arrival < crossing_s (the time the robot needs to clear the lane) -> wait,
-//        else go;
+//        speed; arrival < the time the robot needs to clear the lane -> wait, else go;
 //      - walking away (or standing) at least away_clear_m beyond the lane's edge -> go; nearer
 //        -> wait;
 //      - no point for forget_s seconds: the track is dropped; `no_track` (the caller keeps its
@@ -27,10 +26,23 @@
 //    Passes: a point on the other side of the robot's line (y changed sign) than the one before
 //    is a pass in the direction it walks; the time from a pass in one direction to the next pass
 //    (back, the other way) is remembered for that direction: a person pacing across the way
-//    comes back after it. Walking away after a pass in a direction whose remembered return came
-//    within crossing_s -> wait for the next one. With `cautious` (a robot stopped at the edge of
+//    comes back after it. Walking away after a pass in a direction whose remembered return leaves
+//    less than the time the robot needs -> wait for the next one. With `cautious` (a robot stopped at the edge of
 //    the way, CrossingLanes) a direction whose return is not known yet -> wait as well (bounded
 //    by the caller).
+//  * The time the robot needs (clear_time_s()): with `speed_mps` > 0, from the geometry: the
+//    robot, standing `way_ahead_m` before the centre of the person's way, drives until its rear
+//    is past the far side of the person's body (way_ahead_m + person_radius_m + body_radius_m +
+//    margin_m) at speed_mps, starting from rest with accel_mps2; the policy goes only when the
+//    person's arrival in the lane leaves that time plus margin_s. For a person walking away
+//    after a pass with a known return: the arrival is return - time since the pass - the lane's
+//    half width / its speed (it enters the lane before it reaches the line). Its speed and
+//    where it is then come from the pass itself (time of the pass, speed fitted to the points
+//    within pass_fit_m of the line): near the robot the person is wider than the view, and
+//    the points of a body leaving the view stay at the image's edge, which slows the fitted
+//    track (0.6 m/s for a 1 m/s walker 0.9 m ahead). speed_mps = 0
+//    (deprecated): the hand-set crossing_s instead, compared with the return itself (the
+//    session-12 policy, kept for trees that set only crossing_s).
 //  * CrossingLanes: where a person was seen crossing ahead while the robot drove, so that it
 //    stops at the edge of that way and watches (the camera sees a person pacing across the path
 //    only while it is in front of the robot).
@@ -73,6 +85,14 @@ struct CrossingParams {
   double window_s = 1.0;           ///< the track's fit window, s
   double forget_s = 2.0;           ///< no point for this long: the track is dropped, s
   int min_points = 3;              ///< points in the window before a decision
+  // The clear time from the geometry (speed_mps > 0; 0: crossing_s, deprecated).
+  double speed_mps = 0.0;          ///< speed the robot crosses at; 0 = use crossing_s, m/s
+  double accel_mps2 = 0.5;         ///< the robot's acceleration from rest, m/s^2
+  double body_radius_m = 0.25;     ///< the robot's disc, m
+  double person_radius_m = 0.25;   ///< the person's body (a disc), m
+  double margin_m = 0.1;           ///< driven beyond the person's far side, m
+  double margin_s = 1.0;           ///< time the person's arrival must leave beyond the clear time, s
+  double pass_fit_m = 0.3;         ///< a pass's walking speed: fitted to the points this near the robot's line, m
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<CrossingParams>& schema();
@@ -84,9 +104,18 @@ struct CrossingDecision {
   double lateral_m = 0.0;            ///< fitted lateral position now (robot frame y)
   double lateral_speed_mps = 0.0;    ///< d|y|/dt: < 0 approaching the lane
   double range_m = 0.0;              ///< fitted x now
-  double arrival_s = -1.0;           ///< time until it enters the lane when approaching, else -1
+  double arrival_s = -1.0;           ///< time until it enters the lane (approaching, or the learnt return), else -1
+  double way_ahead_m = 0.0;          ///< distance to the person's way used for the clear time (speed_mps > 0)
+  double required_s = 0.0;           ///< the clear time (+ margin_s) the arrival was compared with
   std::string reason;
 };
+
+/// Distance the robot drives from `way_ahead_m` before the centre of a person's way until its
+/// rear is past the person's far side: max(0, way_ahead_m) + person_radius_m + body_radius_m + margin_m.
+[[nodiscard]] double clear_distance_m(const CrossingParams& params, double way_ahead_m);
+/// Time to drive clear_distance_m() from rest at params.speed_mps (> 0) with params.accel_mps2:
+/// d / v + v / (2 a) when the speed is reached, sqrt(2 d / a) otherwise. Seconds.
+[[nodiscard]] double clear_time_s(const CrossingParams& params, double way_ahead_m);
 
 class CrossingPolicy {
  public:
@@ -95,13 +124,24 @@ class CrossingPolicy {
   /// A point seen at `time_s` (seconds, increasing).
   void observe(double time_s, const MovingPoint& point);
   /// The decision at `time_s` (>= the last observation); `cautious`: see the file comment.
-  [[nodiscard]] CrossingDecision decide(double time_s, bool cautious = false) const;
+  /// `way_ahead_m`: distance from the robot to the centre of the person's way when known
+  /// otherwise (a remembered way); else the track's fitted range (speed_mps > 0 only).
+  [[nodiscard]] CrossingDecision decide(double time_s, bool cautious = false,
+                                        std::optional<double> way_ahead_m = std::nullopt) const;
   /// Forgets the track and the passes.
   void reset() {
-    track_.clear();
-    last_pass_dir_ = 0;
+    forget_track();
     return_after_s_[0] = return_after_s_[1] = -1.0;
   }
+  /// Forgets the track and the last pass, keeps the learnt returns (a new stop near the same
+  /// person: how long it stays away is a property of its walk, not of the stop).
+  void forget_track() {
+    track_.clear();
+    last_pass_dir_ = 0;
+    last_pass_speed_mps_ = -1.0;
+  }
+  /// Walking speed fitted at the last pass, m/s; -1 when none.
+  [[nodiscard]] double last_pass_speed_mps() const { return last_pass_speed_mps_; }
   /// Time of the last point, or -1 when none was seen since reset().
   [[nodiscard]] double last_seen_s() const { return last_seen_s_; }
   /// Remembered time from a pass walking to the robot's left (dir +1) or right (-1) to the
@@ -121,6 +161,7 @@ class CrossingPolicy {
   double last_y_ = 0.0;
   int last_pass_dir_ = 0;          // +1 walking left, -1 right, 0 none
   double last_pass_s_ = 0.0;
+  double last_pass_speed_mps_ = -1.0;
   double return_after_s_[2] = {-1.0, -1.0};  // [0]: after a pass to the left, [1]: to the right
 };
 

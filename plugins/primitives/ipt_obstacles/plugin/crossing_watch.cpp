@@ -13,7 +13,7 @@ bt::PortsList crossing_ports() {
                                  "at this speed, holding its heading, and goes only when the person's arrival in its "
                                  "lane leaves the time it needs (from the geometry) + crossing_margin_s; 0 = off (or "
                                  "crossing_s)"),
-          bt::input_port<double>("crossing_margin_s", "1",
+          bt::input_port<double>("crossing_margin_s", "0.5",
                                  "crossing policy: time the person's arrival must leave beyond the robot's clear time, s"),
           bt::input_port<double>("crossing_s", "0",
                                  "deprecated (use crossing_speed_mps): > 0 turns the crossing policy on with this "
@@ -42,6 +42,10 @@ Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNod
   if (crossing_s != 0.0 && speed_mps != 0.0)
     return Error{"ports 'crossing_s' and 'crossing_speed_mps': set one (crossing_s is the deprecated hand-set clear time)",
                  ErrorCode::inconsistent};
+  VISNAV_ASSIGN(const double kerb_m, node.get_input<double>("crossing_kerb_m"));
+  VISNAV_ASSIGN(const double wait_s, node.get_input<double>("crossing_wait_s"));
+  if (!(kerb_m >= 0.0 && kerb_m <= 5.0)) return Error{"port 'crossing_kerb_m': must lie in [0, 5] m", ErrorCode::out_of_range};
+  if (!(wait_s >= 0.0 && wait_s <= 600.0)) return Error{"port 'crossing_wait_s': must lie in [0, 600] s", ErrorCode::out_of_range};
   CrossingParams params;
   if (crossing_s != 0.0) params.crossing_s = crossing_s;
   params.speed_mps = speed_mps;
@@ -70,10 +74,9 @@ Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNod
   driving.min_changed_px = 4 * band.min_changed_px;
   auto drive_watch = MotionWatch::create(camera, driving);
   if (!drive_watch) return Error{"port 'crossing_band_m': " + drive_watch.error().message, ErrorCode::out_of_range};
-  VISNAV_ASSIGN(const double kerb_m, node.get_input<double>("crossing_kerb_m"));
-  VISNAV_ASSIGN(const double wait_s, node.get_input<double>("crossing_wait_s"));
-  if (!(kerb_m >= 0.0 && kerb_m <= 5.0)) return Error{"port 'crossing_kerb_m': must lie in [0, 5] m", ErrorCode::out_of_range};
-  if (!(wait_s >= 0.0 && wait_s <= 600.0)) return Error{"port 'crossing_wait_s': must lie in [0, 600] s", ErrorCode::out_of_range};
+  // The node crosses from a go within crossing_kerb_m + 0.3 m of the way; farther, it drives
+  // up to the way's edge first (ReplayAvoiding::look_step).
+  params.approach_m = kerb_m + 0.3;
   CrossingWatch made(std::move(*watch), std::move(*drive_watch), CrossingPolicy(params), band.min_changed_px);
   made.camera_ = camera;
   made.kerb_m_ = kerb_m;

@@ -116,7 +116,9 @@ const ParamSchema<CrossingParams>& CrossingParams::schema() {
           .field("margin_s", &P::margin_s, "time the arrival must leave beyond the clear time, s")
           .range(0.0, 30.0)
           .field("pass_fit_m", &P::pass_fit_m, "a pass's speed is fitted to the points this near the line, m")
-          .range(0.05, 2.0);
+          .range(0.05, 2.0)
+          .field("approach_m", &P::approach_m, "a way farther ahead is approached to its edge first, m")
+          .range(0.0, 10.0);
   return s;
 }
 
@@ -211,7 +213,7 @@ CrossingDecision CrossingPolicy::decide(double time_s, bool cautious, std::optio
   }
   // The time the robot needs to clear the lane (geometry at the crossing speed, or crossing_s).
   const bool geometric = params_.speed_mps > 0.0;
-  d.way_ahead_m = way_ahead_m ? *way_ahead_m : std::max(0.0, d.range_m);
+  d.way_ahead_m = way_ahead_m ? *way_ahead_m : std::clamp(d.range_m, 0.0, params_.approach_m);
   d.required_s = geometric ? clear_time_s(params_, d.way_ahead_m) + params_.margin_s : params_.crossing_s;
   const std::string needs =
       geometric ? "the robot needs " + fmt(d.required_s, 1) + " s (" + fmt(clear_distance_m(params_, d.way_ahead_m)) +

@@ -184,8 +184,8 @@ TEST(CrossingPolicy, ClearTimeIsTheDistancePastThePersonAtTheCrossingSpeedFromRe
 // The campus's blind walker seen from the middle of its walk: a robot stopped 0.7 m before its
 // way, the person pacing across it and back with 6 s between passes each way (3 m to either side
 // at 1 m/s), seen only within +-0.4 m of the robot's line. At the replay's 0.3 m/s the robot
-// needs 4.6 s + 1 s margin to be past it, and the person is back in its lane 4.4 s after it
-// walks clear: wait on every pass. At 0.6 m/s (2.8 s + 1 s): go after the return is known.
+// needs 4.6 s + 0.5 s margin to be past it, and the person is back in its lane 4.4 s after it
+// walks clear: wait on every pass. At 0.6 m/s (2.8 s + 0.5 s): go after the return is known.
 TEST(CrossingPolicy, APersonPacingWithSixSecondReturnsWaitsAtReplaySpeedAndGoesAtTheCrossingSpeed) {
   auto pace = [](double speed_mps) {
     CrossingParams params;
@@ -217,7 +217,7 @@ TEST(CrossingPolicy, APersonPacingWithSixSecondReturnsWaitsAtReplaySpeedAndGoesA
   const auto [slow, slow_return] = pace(0.3);
   EXPECT_NEAR(slow_return, 6.0, 0.15);
   for (const auto& d : slow) EXPECT_EQ(d.kind, Kind::wait) << d.reason;
-  EXPECT_NEAR(slow.back().required_s, 1.3 / 0.3 + 0.3 + 1.0, 0.01);
+  EXPECT_NEAR(slow.back().required_s, 1.3 / 0.3 + 0.3 + 0.5, 0.01);
   const auto [fast, fast_return] = pace(0.6);
   EXPECT_NEAR(fast_return, 6.0, 0.15);
   // Passes 1 and 2: the return after a pass that way is not known yet (cautious): wait.
@@ -230,7 +230,7 @@ TEST(CrossingPolicy, APersonPacingWithSixSecondReturnsWaitsAtReplaySpeedAndGoesA
     // edge to the line.
     EXPECT_NEAR(fast[i].arrival_s, 6.0 - 0.95 - 0.6, 0.25) << fast[i].reason;
     EXPECT_GE(fast[i].arrival_s, fast[i].required_s);
-    EXPECT_NEAR(fast[i].required_s, 1.3 / 0.6 + 0.6 + 1.0, 0.01);
+    EXPECT_NEAR(fast[i].required_s, 1.3 / 0.6 + 0.6 + 0.5, 0.01);
   }
   // The deprecated hand-set 5.5 s compared the 6 s return itself: it let the robot go at 0.3 m/s.
   CrossingParams old;

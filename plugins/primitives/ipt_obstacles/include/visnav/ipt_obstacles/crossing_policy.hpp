@@ -91,8 +91,9 @@ struct CrossingParams {
   double body_radius_m = 0.25;     ///< the robot's disc, m
   double person_radius_m = 0.25;   ///< the person's body (a disc), m
   double margin_m = 0.1;           ///< driven beyond the person's far side, m
-  double margin_s = 1.0;           ///< time the person's arrival must leave beyond the clear time, s
+  double margin_s = 0.5;           ///< time the person's arrival must leave beyond the clear time, s
   double pass_fit_m = 0.3;         ///< a pass's walking speed: fitted to the points this near the robot's line, m
+  double approach_m = 1.0;         ///< a way farther ahead is first approached to its edge (the clear time counts from here), m
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<CrossingParams>& schema();
@@ -125,7 +126,8 @@ class CrossingPolicy {
   void observe(double time_s, const MovingPoint& point);
   /// The decision at `time_s` (>= the last observation); `cautious`: see the file comment.
   /// `way_ahead_m`: distance from the robot to the centre of the person's way when known
-  /// otherwise (a remembered way); else the track's fitted range (speed_mps > 0 only).
+  /// otherwise (a remembered way); else the track's fitted range, at most approach_m (a go
+  /// farther away drives the robot to the way's edge, where it decides again; speed_mps > 0 only).
   [[nodiscard]] CrossingDecision decide(double time_s, bool cautious = false,
                                         std::optional<double> way_ahead_m = std::nullopt) const;
   /// Forgets the track and the passes.

@@ -85,14 +85,13 @@ Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNod
   return std::optional<CrossingWatch>{std::move(made)};
 }
 
-Result<CrossingDecision> CrossingWatch::observe(const cv::Mat& grey, double time_s, bool cautious,
-                                                std::optional<double> way_ahead_m) {
+Result<CrossingDecision> CrossingWatch::observe(const cv::Mat& grey, double time_s, bool cautious) {
   VISNAV_ASSIGN(const auto changed, watch_.observe(grey));
   if (changed && watch_.moving()) {
     VISNAV_ASSIGN(const auto point, locate_moving(watch_.last_changed(), camera_, min_px_));
     if (point) policy_.observe(time_s, *point);
   }
-  return policy_.decide(time_s, cautious, way_ahead_m);
+  return policy_.decide(time_s, cautious);
 }
 
 Result<bool> CrossingWatch::drive(const cv::Mat& grey, const Pose2D& motion, const Pose2D& robot, double time_s) {

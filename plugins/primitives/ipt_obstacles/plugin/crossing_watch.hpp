@@ -27,13 +27,7 @@ class CrossingWatch {
   static Result<std::optional<CrossingWatch>> from_ports(const bt::TreeNode& node, const IptCamera& camera);
   /// One frame of the standing camera at `time_s`: the decision after it (`cautious`: stopped
   /// at the edge of a person's way, CrossingPolicy::decide()).
-  /// `way_ahead_m`: the person's way's distance when remembered (way_ahead_m()).
-  Result<CrossingDecision> observe(const cv::Mat& grey, double time_s, bool cautious,
-                                   std::optional<double> way_ahead_m = std::nullopt);
-  /// Distance to the nearest remembered person's way ahead of `robot`, nullopt when none.
-  [[nodiscard]] std::optional<double> way_ahead_m(const Pose2D& robot, double time_s) {
-    return lanes_.ahead_m(robot, time_s, 30.0);
-  }
+  Result<CrossingDecision> observe(const cv::Mat& grey, double time_s, bool cautious);
   /// The speed the robot crosses a person's way at (crossing_speed_mps); 0: the replay child
   /// crosses at its own speed (deprecated crossing_s).
   [[nodiscard]] double crossing_speed_mps() const { return policy_.params().speed_mps; }

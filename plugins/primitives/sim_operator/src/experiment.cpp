@@ -166,7 +166,7 @@ constexpr const char* kUsage =
     "and per run DIR/<style>/seed<S>/: trajectories.png, trajectory.csv (ground truth and odometry\n"
     "of every tick), loops.csv (end position, error, along-/cross-track parts, completed, failure),\n"
     "edges.csv (each replayed edge's end against where it ended when taught), run.log (warnings\n"
-    "and errors of the run), map/.\n"
+    "and errors of the run, or from --log-level up), map/.\n"
     "\n"
     "Exit status: 0 every loop of every run completed, 1 some loop failed or a run could not be\n"
     "set up, 2 usage error.\n";

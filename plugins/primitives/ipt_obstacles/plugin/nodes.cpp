@@ -961,7 +961,10 @@ void ReplayAvoiding::halt() {
 
 Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
   VISNAV_ASSIGN(const double distance, get_input<double>("backoff_m"));
-  if (distance <= 0.0) return false;
+  // Not at an edge's first metre (the frame difference fires after the turn at a node), and once
+  // per place: after a fruitless back-off, none until 2 backoff_m past where it stopped (a
+  // shimmering floor stops the robot every 0.6 m; measured on the campus, e12 and e14).
+  if (distance <= 0.0 || replay_done_m_ < 1.0 || odom.distance_m < backoff_again_at_m_) return false;
   BackOffLookParams params;
   params.distance_m = distance;
   VISNAV_ASSIGN(params.speed_mps, get_input<double>("backoff_speed_mps"));
@@ -996,6 +999,7 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
   backing_ = false;
   const BackOffVerdict v = backoff_->verdict(odom.pose);
   if (!v.found) {
+    backoff_again_at_m_ = odom.distance_m + 3.0 * backoff_->params().distance_m;  // 2 backoff_m past the stop
     resume_child(odom, "backed off: " + std::to_string(v.in_corridor) + " corners in the corridor ahead, nothing stands there");
     return NodeStatus::running;
   }

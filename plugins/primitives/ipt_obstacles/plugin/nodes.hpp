@@ -201,6 +201,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus backoff_step(const Odometry& odom);
   std::optional<BackOffLook> backoff_;
   bool backing_ = false;
+  double backoff_again_at_m_ = -1e300;  // odometer reading before which no back-off starts
 
   HostServices& host_;
   PipelineRunner runner_;

@@ -71,6 +71,7 @@ class BackOffLook {
   /// The points relative to `pose`'s position and the held heading.
   [[nodiscard]] BackOffVerdict verdict(const Pose2D& pose) const;
   [[nodiscard]] const std::vector<cv::Point2d>& points() const { return points_; }
+  [[nodiscard]] const BackOffLookParams& params() const { return params_; }
 
  private:
   BackOffLookParams params_;

@@ -389,6 +389,15 @@ bt::PortsList ReplayAvoiding::provided_ports() {
       "probe_min_points", "4",
       "probe: corners triangulated 0.15-2.5 m above the ground within lookahead_m + 1 m ahead in the corridor over a "
       "0.3 m baseline that stop the probe and start the detour (near_triangulation.hpp)"));
+  ports.push_back(bt::input_port<double>(
+      "backoff_m", "0",
+      "a stop-and-look that sees nothing move and no contact: reverse this far on the heading while the "
+      "longer-baseline triangulation looks; probe_min_points corners in the corridor ahead: lane detour with all of "
+      "them (the face's full width), else resume (back_off_look.hpp); 0 = off (resume at once)"));
+  ports.push_back(bt::input_port<double>("backoff_speed_mps", "0.15", "back-off: reverse speed"));
+  ports.push_back(bt::input_port<double>("commit_m", "2.0",
+                                         "lane detour: the chosen side is kept within this of an obstacle point (its "
+                                         "closing blocks the detour instead of a swing across the obstacle); 0 = off"));
   return ports;
 }
 
@@ -418,6 +427,7 @@ NodeStatus ReplayAvoiding::tick() {
   }
   if (looking_) return look_step(*odom);
   if (crossing_drive_) return cross_step(*odom);
+  if (backing_) return backoff_step(*odom);
   if (!child_started_ && !probing_) {
     auto carried = get_input<double>("carried_m");
     // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
@@ -805,8 +815,14 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
       }
       if (*blocked) return begin_detour(odom);  // it stands: drive around it
       // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
-      // parallax of something standing near (or a false alarm); go on, and let the IPT judge.
+      // parallax of something standing near (or a false alarm); back off and look (backoff_m),
+      // or go on and let the IPT judge.
       drive_quiet_until_m_ = odom.distance_m + 0.5;
+      if (!at_kerb_) {
+        auto backing = begin_backoff(odom);
+        if (!backing) return fail_with(backing.error().message);
+        if (*backing) return NodeStatus::running;
+      }
       resume_child(odom, "nothing moves ahead");
       return NodeStatus::running;
     }
@@ -894,6 +910,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       if (body) params.body_radius_m = *body;
       if (clearance) params.clearance_m = *clearance;
       if (widest) params.max_offset_m = *widest;
+      if (auto commit = get_input<double>("commit_m")) params.commit_m = *commit;
       Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
       if (st) st = detour_.begin(*this, odom.pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
       if (!st) {
@@ -973,9 +990,10 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
 }
 
 void ReplayAvoiding::halt() {
-  if (detouring_ || looking_ || probing_ || crossing_drive_) stop(host_);
+  if (detouring_ || looking_ || probing_ || crossing_drive_ || backing_) stop(host_);
   crossing_drive_.reset();
   looking_ = false;
+  backing_ = false;
   probing_ = false;
   detour_.end();
   lane_.reset();
@@ -983,6 +1001,63 @@ void ReplayAvoiding::halt() {
   child_started_ = false;
   corridor_.clear();
   halt_child();
+}
+
+Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
+  VISNAV_ASSIGN(const double distance, get_input<double>("backoff_m"));
+  // Not at an edge's first metre (the frame difference fires after the turn at a node), and once
+  // per place: after a fruitless back-off, none until 2 backoff_m past where it stopped (a
+  // shimmering floor stops the robot every 0.6 m; measured on the campus, e12 and e14).
+  if (distance <= 0.0 || replay_done_m_ < 1.0 || odom.distance_m < backoff_again_at_m_) return false;
+  BackOffLookParams params;
+  params.distance_m = distance;
+  VISNAV_ASSIGN(params.speed_mps, get_input<double>("backoff_speed_mps"));
+  VISNAV_ASSIGN(params.min_points, get_input<int>("probe_min_points"));
+  VISNAV_ASSIGN(params.corridor_half_width_m, get_input<double>("corridor_half_width_m"));
+  if (auto st = params.validate(); !st) return st.error().with_context("ports 'backoff_m'/'backoff_speed_mps'");
+  backoff_.emplace(params);
+  backoff_->begin(odom.pose, odom.distance_m);
+  if (near_) near_->reset();
+  backing_ = true;
+  host_.logger().info(path(), "nothing moves ahead and no contact: backing off " + std::to_string(distance) +
+                                  " m while triangulating what stands ahead");
+  return true;
+}
+
+NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
+  auto points = triangulate_near(odom);
+  if (!points) {
+    host_.logger().error(path(), points.error().message);
+    backing_ = false;
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  backoff_->add_points(*points);
+  if (!points->empty()) log_points(host_, *this, odom.pose, *points);
+  const BackOffLook::Step s = backoff_->step(odom.pose, odom.distance_m);
+  if (!s.done) {
+    send(host_, s.command.linear_mps, s.command.angular_radps);
+    return NodeStatus::running;
+  }
+  stop(host_);
+  backing_ = false;
+  const BackOffVerdict v = backoff_->verdict(odom.pose);
+  if (!v.found) {
+    backoff_again_at_m_ = odom.distance_m + 3.0 * backoff_->params().distance_m;  // 2 backoff_m past the stop
+    resume_child(odom, "backed off: " + std::to_string(v.in_corridor) + " corners in the corridor ahead, nothing stands there");
+    return NodeStatus::running;
+  }
+  // The detour's line starts here: the edge distance reached is the stop's minus the way back.
+  const double back_m = (odom.pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
+                        (odom.pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
+  replay_done_m_ += back_m;
+  detour_start_ = odom.pose;
+  host_.logger().info(path(), "backed off: " + std::to_string(v.in_corridor) + " corners in the corridor, " +
+                                  std::to_string(v.range_m) + " m ahead, points from " + std::to_string(v.right_m) +
+                                  " to " + std::to_string(v.left_m) + " m left of the heading: detour");
+  const NodeStatus st = begin_detour(odom);
+  if (lane_) lane_->add_points(backoff_->points());
+  return st;
 }
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {

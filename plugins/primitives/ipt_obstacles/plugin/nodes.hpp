@@ -25,6 +25,7 @@
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
 #include "crossing_watch.hpp"
+#include "visnav/ipt_obstacles/back_off_look.hpp"
 #include "visnav/ipt_obstacles/contact_persistence.hpp"
 #include "visnav/ipt_obstacles/hidden_path_probe.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
@@ -192,6 +193,15 @@ class ReplayAvoiding : public bt::DecoratorNode {
   /// While probing: feeds the new frame to the longer-baseline
   /// triangulation (near_triangulation.hpp); returns the obstacle points it found (odom frame).
   Result<std::vector<cv::Point2d>> triangulate_near(const Odometry& odom);
+  /// After a look that saw nothing move and no contact: starts backing off (backoff_m > 0;
+  /// back_off_look.hpp) and returns true, or false when it is off. Error: bad ports.
+  Result<bool> begin_backoff(const Odometry& odom);
+  /// One cycle of backing off: reverse and triangulate; at the end detour (something stands
+  /// ahead) or resume the child.
+  bt::NodeStatus backoff_step(const Odometry& odom);
+  std::optional<BackOffLook> backoff_;
+  bool backing_ = false;
+  double backoff_again_at_m_ = -1e300;  // odometer reading before which no back-off starts
 
   HostServices& host_;
   PipelineRunner runner_;

@@ -34,6 +34,8 @@ const ParamSchema<LaneDetourParams>& LaneDetourParams::schema() {
                             .field("done_heading_rad", &P::done_heading_rad, "and within this heading of the line")
                             .range(0.01, 3.2)
                             .field("min_progress_m", &P::min_progress_m, "along-line travel before the detour ends")
+                            .range(0.0, 50.0)
+                            .field("commit_m", &P::commit_m, "the chosen side is kept within this of an obstacle point")
                             .range(0.0, 50.0);
   return s;
 }
@@ -57,6 +59,16 @@ bool LaneDetour::lane_free(double lane_m, double s_robot_m) const {
       return false;
   }
   return true;
+}
+
+bool LaneDetour::near_obstacle(double s_robot_m) const {
+  if (params_.commit_m <= 0.0) return false;
+  for (const auto& p : points_) {
+    const double behind =
+        std::max(params_.min_behind_m, std::min(params_.behind_m, params_.end_s_m - params_.return_m - p.x));
+    if (p.x >= s_robot_m - behind && p.x <= s_robot_m + params_.commit_m) return true;
+  }
+  return false;
 }
 
 LaneDecision LaneDetour::decide(const Pose2D& robot) {
@@ -83,6 +95,14 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
       return std::nullopt;
     };
     std::optional<double> left = search(1), right = search(-1);
+    if (side_ != 0 && !(side_ > 0 ? left : right) && near_obstacle(r.x)) {
+      d.kind = LaneDecision::Kind::blocked;
+      d.reason = std::string("the ") + (side_ > 0 ? "left" : "right") + " side closes within " +
+                 std::to_string(params_.max_offset_m) + " m of the line, " + std::to_string(params_.commit_m) +
+                 " m or less before the obstacle: not crossing to the other side in front of it (" +
+                 std::to_string(points_.size()) + " obstacle points)";
+      return d;
+    }
     if (side_ > 0 && left) lane = left;
     else if (side_ < 0 && right) lane = right;
     else if (left && right) lane = std::fabs(*left) <= std::fabs(*right) ? left : right;

@@ -10,7 +10,8 @@
 //  * the same tree on a path-following edge (ReplayPathAvoiding around FollowPathEdge): a crate
 //    on a taught gravel path is passed and the path follower takes the edge over again; a
 //    concrete van that hides the path from the follower is found by the probe and passed, and a
-//    path lost with nothing ahead still stops the robot.
+//    path lost with nothing ahead still stops the robot; with the van 0.4 m left the lane detour
+//    keeps its side when it closes before the van and stops with the reason (commit_m).
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -277,6 +278,28 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   EXPECT_EQ(lost.output.find("collision with"), std::string::npos) << lost.output;
   EXPECT_NE(lost.output.find("stopped: path lost on edge e0"), std::string::npos) << lost.output;
   EXPECT_NE(lost.output.find("nothing found ahead while probing on"), std::string::npos) << lost.output;
+  std::filesystem::remove_all(dir);
+}
+
+// The van hiding the path 0.4 m left of the path's centre (docs/obstacles.md "A van hiding the
+// path", limit): the probe's points send the lane detour left, then the IPT closes the left up to
+// max_offset_m 1.3 m before the van. Before commit_m the detour swung across to the right there
+// and hit the van's rear corner; now it keeps its side and stops with the reason.
+TEST(ReplayAvoiding, TheLaneDetourKeepsItsSideBeforeAVanAndStopsWithTheReason) {
+  const auto dir = replay_dir("commit");
+  std::string clear = clear_path();
+  const std::string textures = "  textures:\n";
+  ASSERT_NE(clear.find(textures), std::string::npos);
+  clear.insert(clear.find(textures) + textures.size(),
+               "    concrete: {procedural: noise, color: [172, 170, 164], color2: [132, 130, 126], size_m: 2.0, "
+               "feature_m: 0.1, detail: 0.25}\n");
+  ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
+  write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, 0.4], texture: concrete}\n");
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
+  EXPECT_EQ(replay.status, 1) << replay.output;
+  EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: probe: "), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("stopped: the left side closes"), std::string::npos) << replay.output;
   std::filesystem::remove_all(dir);
 }
 

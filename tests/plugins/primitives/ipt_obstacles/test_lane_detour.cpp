@@ -102,6 +102,47 @@ TEST(LaneDetour, NoFreeLaneIsBlockedWithAReason) {
   EXPECT_NE(d.reason.find("no free lane"), std::string::npos);
 }
 
+// The van_path case (docs/obstacles.md "A van hiding the path", van 0.4 m left): the first
+// points leave the left side nearer, the detour turns left; then points close the left up to
+// max_offset_m. Close to the obstacle the detour keeps its side and is blocked with the reason
+// (commit_m); without it, it swings across the obstacle's face to the right.
+LaneDecision after_left_closes(double commit_m) {
+  LaneDetourParams p;
+  p.commit_m = commit_m;
+  LaneDetour detour(p, Pose2D{});
+  std::vector<cv::Point2d> first;
+  for (double y = -0.55; y <= 0.2 + 1e-9; y += 0.15) first.emplace_back(2.0, y);
+  detour.add_points(first);
+  const LaneDecision start = detour.decide(Pose2D{});
+  EXPECT_EQ(start.kind, LaneDecision::Kind::drive);
+  EXPECT_GT(start.lane_m, 0.0);  // left chosen
+  std::vector<cv::Point2d> left;
+  for (double y = 0.2; y <= 3.0; y += 0.15) left.emplace_back(2.3, y);
+  detour.add_points(left);
+  return detour.decide(Pose2D{0.6, 0.3, 0.4});
+}
+
+TEST(LaneDetour, KeepsItsSideCloseToTheObstacleAndIsBlockedWithTheReason) {
+  const LaneDecision kept = after_left_closes(LaneDetourParams{}.commit_m);
+  EXPECT_EQ(kept.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(kept.reason.find("the left side closes"), std::string::npos) << kept.reason;
+  const LaneDecision swung = after_left_closes(0.0);
+  EXPECT_EQ(swung.kind, LaneDecision::Kind::drive);
+  EXPECT_LT(swung.lane_m, 0.0);  // across to the right, 1.7 m before the points
+  // Far from the obstacle (farther than commit_m before it: 2.5 m) the other side is still taken.
+  LaneDetourParams p;
+  LaneDetour far(p, Pose2D{});
+  std::vector<cv::Point2d> face;
+  for (double y = -0.55; y <= 0.2 + 1e-9; y += 0.15) face.emplace_back(6.0, y);
+  far.add_points(face);
+  ASSERT_GT(far.decide(Pose2D{3.5, 0.0, 0.0}).lane_m, 0.0);
+  std::vector<cv::Point2d> wall;
+  for (double y = 0.2; y <= 3.0; y += 0.15) wall.emplace_back(6.3, y);
+  far.add_points(wall);
+  EXPECT_EQ(far.decide(Pose2D{3.5, 0.0, 0.0}).kind, LaneDecision::Kind::drive);
+  EXPECT_LT(far.decide(Pose2D{3.5, 0.0, 0.0}).lane_m, 0.0);
+}
+
 TEST(LaneDetour, BadParamsAreOutOfRange) {
   LaneDetourParams p;
   p.clearance_m = -0.1;

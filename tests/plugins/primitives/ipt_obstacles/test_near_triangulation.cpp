@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "error_expect.hpp"
+#include "visnav/ipt_obstacles/back_off_look.hpp"
 #include "visnav/ipt_obstacles/near_triangulation.hpp"
 
 namespace visnav::ipt {
@@ -35,9 +36,14 @@ double texture(double a, double b, double cell_m) {
   return top * (1 - fv) + bottom * fv;
 }
 
-/// Ray-cast frame: textured ground (z = 0), and with `wall` a textured wall x = 3 m, |y| <= 0.6,
-/// 0 <= z <= 1.5 (facing -x), for the robot at x_m on the x axis heading +x.
-cv::Mat render(const IptCamera& camera, double x_m, bool wall) {
+/// A textured wall x = x_m, y_right_m <= y <= y_left_m, 0 <= z <= 1.5 (facing -x).
+struct Wall {
+  double x_m = 3.0, y_right_m = -0.6, y_left_m = 0.6;
+};
+
+/// Ray-cast frame: textured ground (z = 0), and with `wall` a textured wall (default: x = 3 m,
+/// |y| <= 0.6), for the robot at x_m on the x axis heading +x.
+cv::Mat render(const IptCamera& camera, double x_m, bool wall, const Wall& w = Wall{}) {
   cv::Mat img(camera.height_px, camera.width_px, CV_8UC1, cv::Scalar(128));
   const LensPose lens = lens_pose(camera, Pose2D{x_m, 0.0, 0.0});
   for (int v = 0; v < camera.height_px; ++v) {
@@ -52,9 +58,10 @@ cv::Mat render(const IptCamera& camera, double x_m, bool wall) {
         value = texture(p[0], p[1], 0.04);
       }
       if (wall && d[0] > 1e-9) {
-        const double t = (3.0 - o[0]) / d[0];
+        const double t = (w.x_m - o[0]) / d[0];
         const cv::Vec3d p = o + t * d;
-        if (t < best && std::abs(p[1]) <= 0.6 && p[2] >= 0.0 && p[2] <= 1.5) value = texture(p[1], p[2], 0.05);
+        if (t < best && p[1] >= w.y_right_m && p[1] <= w.y_left_m && p[2] >= 0.0 && p[2] <= 1.5)
+          value = texture(p[1], p[2], 0.05);
       }
       img.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(value);
     }
@@ -109,6 +116,88 @@ TEST(NearTriangulation, FindsAWallAheadAndNothingOnBareGround) {
   for (const auto& p : on_wall)
     if (std::abs(p.ground_m.x - 3.0) < 0.25 && std::abs(p.ground_m.y) < 0.7) ++on_face;
   EXPECT_GE(on_face, static_cast<int>(0.9 * static_cast<double>(on_wall.size())));
+}
+
+// Back off and look (back_off_look.hpp): the robot stopped 0.6 m before a face 1.9 m wide that
+// stands 0.4 m right of its heading (the campus van's rear; at 0.6 m the camera sees 0.7 m of it).
+// Reversing 2 m with the triangulation fed to BackOffLook finds the face in the corridor at its
+// distance and with its full lateral extent; on bare ground it finds nothing.
+BackOffVerdict back_off(bool wall, BackOffLook& look, Pose2D& end) {
+  IptCamera camera;
+  auto made = NearTriangulation::create(camera, NearTriangulationParams{});
+  EXPECT_TRUE(made.ok());
+  const Wall van{0.6, -0.4 - 0.95, -0.4 + 0.95};
+  Pose2D pose{};
+  double odometer = 10.0;
+  look.begin(pose, odometer);
+  for (int k = 0; k < 200; ++k) {
+    const BackOffLook::Step s = look.step(pose, odometer);
+    if (s.done) break;
+    EXPECT_LT(s.command.linear_mps, 0.0);
+    auto points = made->observe(render(camera, pose.x_m, wall, van), pose);
+    EXPECT_TRUE(points.ok());
+    if (points) {
+      std::vector<cv::Point2d> ground;
+      for (const auto& p : *points) ground.push_back(p.ground_m);
+      look.add_points(ground);
+    }
+    pose.x_m += s.command.linear_mps * 0.1;  // 10 Hz
+    odometer += s.command.linear_mps * 0.1;
+  }
+  end = pose;
+  return look.verdict(pose);
+}
+
+TEST(BackOffLook, FindsAFacesDistanceAndFullWidthAndNothingOnBareGround) {
+  const BackOffLookParams params;
+  ASSERT_TRUE(params.validate());
+  BackOffLook look(params);
+  Pose2D end;
+  const BackOffVerdict v = back_off(true, look, end);
+  EXPECT_NEAR(end.x_m, -2.0, 0.02);  // reversed its distance_m
+  ASSERT_TRUE(v.found) << v.in_corridor << " in the corridor";
+  EXPECT_NEAR(v.range_m, 0.6 - end.x_m, 0.2);
+  // The face spans −1.35..0.55 m: the points reach both of its edges.
+  EXPECT_NEAR(v.right_m, -1.35, 0.25);
+  EXPECT_NEAR(v.left_m, 0.55, 0.25);
+  BackOffLook bare(params);
+  const BackOffVerdict none = back_off(false, bare, end);
+  EXPECT_FALSE(none.found);
+  EXPECT_LE(none.in_corridor, 1);
+}
+
+TEST(BackOffLook, ReversesHoldingTheHeadingAndStopsAfterItsDistance) {
+  BackOffLookParams params;
+  params.distance_m = 1.0;
+  BackOffLook look(params);
+  look.begin(Pose2D{0.0, 0.0, 3.0}, 5.0);
+  const auto s = look.step(Pose2D{-0.1, 0.0, 3.1}, 4.9);  // 0.1 rad left of the held heading
+  EXPECT_FALSE(s.done);
+  EXPECT_DOUBLE_EQ(s.command.linear_mps, -params.speed_mps);
+  EXPECT_NEAR(s.command.angular_radps, -0.1 * params.heading_gain_per_s, 1e-9);
+  const auto seam = look.step(Pose2D{-0.2, 0.0, -3.1}, 4.8);  // across +-pi: a small right turn
+  EXPECT_LT(seam.command.angular_radps, 0.0);
+  EXPECT_GE(seam.command.angular_radps, -params.max_angular_radps);
+  EXPECT_FALSE(look.step(Pose2D{}, 4.01).done);
+  EXPECT_TRUE(look.step(Pose2D{}, 4.0).done);
+  // Points behind the robot or beside the corridor do not make an obstacle; four in it do.
+  BackOffLook along_x(BackOffLookParams{});
+  along_x.begin(Pose2D{}, 0.0);
+  const std::vector<cv::Point2d> beside{{1.0, 1.0}, {1.2, -1.1}, {-0.5, 0.0}, {2.0, 0.9}, {5.0, 0.0}};
+  along_x.add_points(beside);
+  EXPECT_FALSE(along_x.verdict(Pose2D{}).found);
+  EXPECT_EQ(along_x.verdict(Pose2D{}).ahead, 3);
+  const std::vector<cv::Point2d> in_corridor{{2.0, 0.3}, {2.1, 0.0}, {2.0, -0.4}, {2.2, 0.1}};
+  along_x.add_points(in_corridor);
+  const BackOffVerdict v = along_x.verdict(Pose2D{});
+  EXPECT_TRUE(v.found);
+  EXPECT_EQ(v.in_corridor, 4);
+  EXPECT_DOUBLE_EQ(v.range_m, 2.1);
+  EXPECT_DOUBLE_EQ(v.left_m, 1.0);
+  EXPECT_DOUBLE_EQ(v.right_m, -1.1);
+  BackOffLookParams bad;
+  bad.distance_m = 0.0;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("distance_m")));
 }
 
 TEST(NearTriangulation, BadInputIsRejected) {

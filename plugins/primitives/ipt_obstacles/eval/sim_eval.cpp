@@ -1,11 +1,14 @@
 #include "visnav/ipt_obstacles/sim_eval.hpp"
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <random>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
@@ -127,11 +130,97 @@ void draw_classification(cv::Mat& bgr, const std::vector<ClassifiedFeature>& fea
   for (const auto& c : contacts) cv::drawMarker(bgr, c.pixel, cv::Scalar(255, 0, 255), cv::MARKER_CROSS, 7, 1);
 }
 
+namespace {
+
+// FAST corners described by the 16 pixels of their radius-3 Bresenham circle (the thesis's
+// FAST + 16-pixel SSD tracker, spec §11 item 26).
+constexpr std::array<std::array<int, 2>, 16> kCircle{{{0, -3}, {1, -3}, {2, -2}, {3, -1}, {3, 0}, {3, 1}, {2, 2}, {1, 3},
+                                                      {0, 3}, {-1, 3}, {-2, 2}, {-3, 1}, {-3, 0}, {-3, -1}, {-2, -2}, {-1, -3}}};
+
+void fast_circles(const cv::Mat& grey, int max_features, std::vector<cv::KeyPoint>& keypoints,
+                  std::vector<std::array<float, 16>>& circles) {
+  cv::FAST(grey, keypoints, 20, true);
+  cv::KeyPointsFilter::runByImageBorder(keypoints, grey.size(), 4);
+  cv::KeyPointsFilter::retainBest(keypoints, max_features);
+  circles.resize(keypoints.size());
+  for (std::size_t i = 0; i < keypoints.size(); ++i) {
+    const cv::Point c(cvRound(keypoints[i].pt.x), cvRound(keypoints[i].pt.y));
+    for (std::size_t k = 0; k < kCircle.size(); ++k) circles[i][k] = grey.at<std::uint8_t>(c + cv::Point(kCircle[k][0], kCircle[k][1]));
+  }
+}
+
+float ssd(const std::array<float, 16>& a, const std::array<float, 16>& b) {
+  float sum = 0.0f;
+  for (std::size_t k = 0; k < a.size(); ++k) sum += (a[k] - b[k]) * (a[k] - b[k]);
+  return sum;
+}
+
+// Matches of the pair by a detector/descriptor tracker (not "klt"): a → b before RANSAC.
+// Returns the number of features detected in the first frame.
+long descriptor_matches(const cv::Mat& grey0, const cv::Mat& grey1, const RocOptions& options,
+                        std::vector<cv::Point2f>& a, std::vector<cv::Point2f>& b) {
+  a.clear();
+  b.clear();
+  std::vector<cv::KeyPoint> k0, k1;
+  if (options.tracker == "fast") {
+    std::vector<std::array<float, 16>> c0, c1;
+    fast_circles(grey0, options.max_features, k0, c0);
+    fast_circles(grey1, options.max_features, k1, c1);
+    constexpr float kSearchPx = 30.0f;
+    auto best = [&](const std::vector<cv::KeyPoint>& from, const std::vector<std::array<float, 16>>& cf, std::size_t i,
+                    const std::vector<cv::KeyPoint>& to, const std::vector<std::array<float, 16>>& ct) {
+      int found = -1;
+      float best_ssd = std::numeric_limits<float>::max();
+      for (std::size_t j = 0; j < to.size(); ++j) {
+        if (std::abs(to[j].pt.x - from[i].pt.x) > kSearchPx || std::abs(to[j].pt.y - from[i].pt.y) > kSearchPx) continue;
+        const float d = ssd(cf[i], ct[j]);
+        if (d < best_ssd) {
+          best_ssd = d;
+          found = static_cast<int>(j);
+        }
+      }
+      return found;
+    };
+    for (std::size_t i = 0; i < k0.size(); ++i) {
+      const int j = best(k0, c0, i, k1, c1);
+      if (j < 0 || best(k1, c1, static_cast<std::size_t>(j), k0, c0) != static_cast<int>(i)) continue;
+      a.push_back(k0[i].pt);
+      b.push_back(k1[static_cast<std::size_t>(j)].pt);
+    }
+    return static_cast<long>(k0.size());
+  }
+  cv::Ptr<cv::Feature2D> detector;
+  int norm = cv::NORM_L2;
+  if (options.tracker == "sift") {
+    detector = cv::SIFT::create(options.max_features);
+  } else {
+    detector = cv::ORB::create(options.max_features);
+    norm = cv::NORM_HAMMING;
+  }
+  cv::Mat d0, d1;
+  detector->detectAndCompute(grey0, cv::noArray(), k0, d0);
+  detector->detectAndCompute(grey1, cv::noArray(), k1, d1);
+  if (d0.empty() || d1.rows < 2) return static_cast<long>(k0.size());
+  cv::BFMatcher matcher(norm);
+  std::vector<std::vector<cv::DMatch>> knn;
+  matcher.knnMatch(d0, d1, knn, 2);
+  for (const auto& m : knn) {
+    if (m.size() < 2 || m[0].distance > 0.8f * m[1].distance) continue;
+    a.push_back(k0[static_cast<std::size_t>(m[0].queryIdx)].pt);
+    b.push_back(k1[static_cast<std::size_t>(m[0].trainIdx)].pt);
+  }
+  return static_cast<long>(k0.size());
+}
+
+}  // namespace
+
 Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* picture) {
   VISNAV_TRY(options.classifier.validate());
   VISNAV_TRY(options.profiles.validate());
   if (!(options.step_m > 0.0) || !(options.pair_every_m > 0.0) || options.max_features < 8)
     return Error{"ipt-roc: step_m and pair_every_m must be > 0 and max_features >= 8", ErrorCode::out_of_range};
+  if (options.tracker != "klt" && options.tracker != "sift" && options.tracker != "orb" && options.tracker != "fast")
+    return Error{"ipt-roc: unknown tracker '" + options.tracker + "' (known: klt, sift, orb, fast)", ErrorCode::out_of_range};
   VISNAV_ASSIGN(const RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
                                                          options.hfov_deg, options.mount_height_m, options.pitch_down_deg));
   const auto& world = scene.world;
@@ -172,7 +261,19 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
       std::vector<cv::Point2f> ia, ib;
       PipelineParams tracking = options.tracking;
       tracking.max_features = options.max_features;
-      report.at_operating_point.ransac_outliers += track_pair(grey0, grey1, tracking, ia, ib, tracks);
+      const auto started = std::chrono::steady_clock::now();
+      int outliers = 0;
+      if (options.tracker == "klt") {
+        outliers = track_pair(grey0, grey1, tracking, ia, ib, tracks);
+        report.detected += static_cast<long>(tracks.corners.size());
+      } else {
+        report.detected += descriptor_matches(grey0, grey1, options, ia, ib);
+        outliers = reject_epipolar_outliers(ia, ib, tracking, tracks.inliers);
+      }
+      report.tracking_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+      report.matched += static_cast<long>(ia.size()) + outliers;
+      report.inliers += static_cast<long>(ia.size());
+      report.at_operating_point.ransac_outliers += outliers;
       if (ia.size() < 8) continue;
       // odometry: the true relative motion plus noise
       Pose2D p1_odo = p1;

@@ -14,13 +14,17 @@ const char* const kIptRocUsage =
     "usage: visnav ipt-roc [--world NAME] [--seed N] [--noise-std GREY] [--odom-sd-m M] [--odom-sd-deg DEG]\n"
     "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
     "                      [--vertical-run-px N] [--support N] [--support-radius-px P]\n"
-    "                      [--forward-backward-px P]\n"
+    "                      [--forward-backward-px P] [--tracker klt|sift|orb|fast]\n"
     "                      [--picture FILE.png] [--picture-run K]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
     "pyramidal Lucas-Kanade, rejects outliers with RANSAC on F and classifies the inliers with the\n"
     "IPT (beta 21 mm, band 21-50 mm). Truth from the renderer's labels. Prints the counts, precision,\n"
-    "recall, fall-out, ROC AUC with and without the D band, and the beta minimising FP + 0.5 FN.\n";
+    "recall, fall-out, ROC AUC with and without the D band, and the beta minimising FP + 0.5 FN.\n"
+    "--tracker compares the thesis's trackers on the same pairs (spec 11.26): klt (default, the\n"
+    "pipeline's), sift, orb (in place of SURF, not in Debian's OpenCV) or fast (FAST corners matched\n"
+    "by the SSD of their 16-pixel circle); it prints features per frame, matches per pair, the\n"
+    "share RANSAC keeps, the share misclassified and the tracking time per pair.\n";
 
 namespace {
 
@@ -84,6 +88,8 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       if (!value(options.profiles.ground_reach_px)) return 2;
     } else if (arg == "--forward-backward-px") {
       if (!value(options.tracking.forward_backward_px)) return 2;
+    } else if (arg == "--tracker" && i + 1 < argc) {
+      options.tracker = argv[++i];
     } else if (arg == "--no-band") {
       options.classifier.unclassified_bands_m.clear();
     } else {
@@ -113,6 +119,14 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
               report->auc_without_band, report->auc_with_band, report->best_beta_m);
   std::printf("contact points %ld, %ld within 3 px of an obstacle pixel\n", report->contact_points,
               report->contact_points_on_obstacle_base);
+  const long classified = c.tp + c.fp + c.tn + c.fn;
+  std::printf("tracker %s: %.1f features per frame, %.1f matches per pair, inliers %.1f %%, misclassified %.1f %% "
+              "(FP + FN of the classified), %.2f ms per pair\n",
+              options.tracker.c_str(), report->pairs > 0 ? static_cast<double>(report->detected) / report->pairs : 0.0,
+              report->pairs > 0 ? static_cast<double>(report->matched) / report->pairs : 0.0,
+              report->matched > 0 ? 100.0 * static_cast<double>(report->inliers) / static_cast<double>(report->matched) : 0.0,
+              classified > 0 ? 100.0 * static_cast<double>(c.fp + c.fn) / static_cast<double>(classified) : 0.0,
+              report->pairs > 0 ? report->tracking_ms / report->pairs : 0.0);
   if (!picture_path.empty()) {
     if (picture.empty() || !cv::imwrite(picture_path, picture)) {
       std::fprintf(stderr, "visnav ipt-roc: cannot write %s\n", picture_path.c_str());

@@ -54,13 +54,18 @@ int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams
     a.push_back(t.corners[i]);
     b.push_back(t.tracked[i]);
   }
-  if (a.size() < 8) return 0;
-  cv::findFundamentalMat(a, b, cv::FM_RANSAC, params.ransac_threshold_px, 0.99, params.ransac_iterations, t.inliers);
-  if (t.inliers.empty()) return 0;
+  return reject_epipolar_outliers(a, b, params, t.inliers);
+}
+
+int reject_epipolar_outliers(std::vector<cv::Point2f>& a, std::vector<cv::Point2f>& b, const PipelineParams& params,
+                             std::vector<std::uint8_t>& inliers) {
+  if (a.size() < 8 || a.size() != b.size()) return 0;
+  cv::findFundamentalMat(a, b, cv::FM_RANSAC, params.ransac_threshold_px, 0.99, params.ransac_iterations, inliers);
+  if (inliers.empty()) return 0;
   std::size_t kept = 0;
   int outliers = 0;
   for (std::size_t i = 0; i < a.size(); ++i) {
-    if (t.inliers[i] == 0) {
+    if (inliers[i] == 0) {
       ++outliers;
       continue;
     }

@@ -244,10 +244,14 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
   auto gap_candidate = [&](const Polar& r, const Polar& l, int side) -> std::optional<Candidate> {
     const bool rf = in_front(r.bearing_rad), lf = in_front(l.bearing_rad);
     if (!rf && !lf) return std::nullopt;
-    if (cv::norm(l.p - r.p) <= params_.gap_width_m) return std::nullopt;
     double arc = l.bearing_rad - r.bearing_rad;
     if (arc <= 0) arc += 2 * kPi;
     const bool through_back = r.bearing_rad + arc > kPi;
+    // Both ends ahead and the free arc between them passing behind the robot: the ends are the
+    // two sides of one obstacle with nothing else stored (a lone box), and the gap is everything
+    // behind the robot, not the chord between them (session 13, spec §11 item 19 (b)).
+    const bool lone_obstacle = rf && lf && through_back;
+    if (!lone_obstacle && cv::norm(l.p - r.p) <= params_.gap_width_m) return std::nullopt;
     if (rf != lf || through_back) {
       const Polar& x = rf != lf ? (rf ? r : l) : (side > 0 ? r : l);
       const bool x_is_right = &x == &r;

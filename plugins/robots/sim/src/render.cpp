@@ -117,10 +117,12 @@ void Renderer::render(const Pose2D& robot_pose_world, cv::Mat& bgr, cv::Mat* lab
     if (shadows) render_ground<true, true>(pose, bgr, labels, object_ids);
     else render_ground<true, false>(pose, bgr, labels, object_ids);
     render_walls<true>(pose, bgr, labels, object_ids, time_s);
+    render_caps<true>(pose, bgr, labels, object_ids, time_s);
   } else {
     if (shadows) render_ground<false, true>(pose, bgr, labels, object_ids);
     else render_ground<false, false>(pose, bgr, labels, object_ids);
     render_walls<false>(pose, bgr, labels, object_ids, time_s);
+    render_caps<false>(pose, bgr, labels, object_ids, time_s);
   }
 }
 
@@ -355,6 +357,138 @@ void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* label
         int b = static_cast<int>(texel & 0xFF), g = static_cast<int>((texel >> 8) & 0xFF), r = static_cast<int>((texel >> 16) & 0xFF);
         if (fog_on) {
           const int fog = fog_lut_[std::min<size_t>(fog_lut_.size() - 1, static_cast<size_t>(z * 4.0))];
+          b = (b * (256 - fog) + hz[0] * fog) >> 8;
+          g = (g * (256 - fog) + hz[1] * fog) >> 8;
+          r = (r * (256 - fog) + hz[2] * fog) >> 8;
+        }
+        out[u] = cv::Vec3b(static_cast<unsigned char>(b), static_cast<unsigned char>(g), static_cast<unsigned char>(r));
+        if constexpr (kLabels) {
+          if (lab != nullptr) lab[u] = label;
+          if (oid != nullptr) oid[u] = oid_value;
+        }
+      }
+    }
+  }
+}
+
+// Obstacle tops: horizontal convex polygons, drawn after the walls into the same inverse-depth
+// buffer (render_walls clears it). Seen only from above: a top at or above the camera faces away.
+template <bool kLabels>
+void Renderer::render_caps(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids, double time_s) {
+  const World& w = *world_;
+  if (w.caps.empty()) return;
+  const int W = model_.width_px, H = model_.height_px;
+  const double f = model_.fx(), cx = model_.cx(), cy = model_.cy();
+  const cv::Matx33d Rt = pose.R_world_cam.t();
+  const cv::Vec3d C = pose.position_world;
+  const cv::Vec3d xw = col(pose.R_world_cam, 0), yw = col(pose.R_world_cam, 1), zw = col(pose.R_world_cam, 2);
+  const cv::Vec3d nc = Rt * cv::Vec3d(0, 0, 1);  // the tops' normal in camera coordinates
+  const cv::Vec3b hz = w.sky_horizon_bgr;
+  const bool fog_on = w.fog_distance_m > 0;
+  constexpr int kMaxVertices = 72;  // 64 sides (the schema's limit) + near-plane clipping
+
+  for (const Cap& cap : w.caps) {
+    const double dist = cap.top_m - C[2];  // signed distance of the top's plane along world up
+    if (dist > -1e-6) continue;             // at or above the camera: its underside faces the camera
+    const std::size_t nv = cap.ring.size();
+    if (nv < 3 || nv + 8 > static_cast<std::size_t>(kMaxVertices)) continue;
+    const cv::Point2d shift = cap.mover >= 0 && mover_offsets_ ? mover_offsets_(cap.mover, time_s)
+                                                                : (cap.mover >= 0 ? w.movers[static_cast<std::size_t>(cap.mover)].offset_at(time_s)
+                                                                                  : cv::Point2d(0, 0));
+    cv::Vec3d cam[kMaxVertices];
+    bool any_front = false;
+    double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
+    for (std::size_t k = 0; k < nv; ++k) {
+      const cv::Point2d q = cap.ring[k] + shift;
+      min_x = std::min(min_x, q.x); max_x = std::max(max_x, q.x);
+      min_y = std::min(min_y, q.y); max_y = std::max(max_y, q.y);
+      cam[k] = Rt * (cv::Vec3d(q.x, q.y, cap.top_m) - C);
+      any_front = any_front || cam[k][2] > kNearM;
+    }
+    if (!any_front) continue;
+    cv::Vec3d clipped[kMaxVertices];
+    int n = 0;
+    for (std::size_t k = 0; k < nv; ++k) {
+      const cv::Vec3d& a = cam[k];
+      const cv::Vec3d& b = cam[(k + 1) % nv];
+      const bool ain = a[2] > kNearM, bin = b[2] > kNearM;
+      if (ain) clipped[n++] = a;
+      if (ain != bin) clipped[n++] = a + (b - a) * ((kNearM - a[2]) / (b[2] - a[2]));
+    }
+    if (n < 3) continue;
+    cv::Point2d img[kMaxVertices];
+    double vmin = 1e300, vmax = -1e300, umin = 1e300, umax = -1e300;
+    for (int k = 0; k < n; ++k) {
+      img[k] = cv::Point2d(f * clipped[k][0] / clipped[k][2] + cx, f * clipped[k][1] / clipped[k][2] + cy);
+      vmin = std::min(vmin, img[k].y); vmax = std::max(vmax, img[k].y);
+      umin = std::min(umin, img[k].x); umax = std::max(umax, img[k].x);
+    }
+    if (vmax < 0 || vmin > H - 1 || umax < 0 || umin > W - 1) continue;
+    const Texture& tex = *texture_for_id_[static_cast<size_t>(cap.texture)];
+    const int side = 1 << tex.size_log2;
+    const double tile_scale = 1.0 / tex.texel_m;
+    // A stretched (untiled) texture covers the top's bounding box once.
+    const double stretch_x = side / std::max(max_x - min_x, 1e-6), stretch_y = side / std::max(max_y - min_y, 1e-6);
+    const double texel_m = tex.tiled ? tex.texel_m : std::sqrt((max_x - min_x) * (max_y - min_y)) / side;
+    const std::uint8_t label = static_cast<std::uint8_t>(cap.label);
+    const std::uint16_t oid_value = static_cast<std::uint16_t>(0x8000 + cap.first_wall);
+    const int max_level = static_cast<int>(tex.levels.size()) - 1;
+    const double height_above_m = -dist;
+
+    const int v0 = std::max(0, static_cast<int>(std::ceil(vmin))), v1 = std::min(H - 1, static_cast<int>(std::floor(vmax)));
+    for (int v = v0; v <= v1; ++v) {
+      double xl = 1e300, xr = -1e300;
+      for (int k = 0; k < n; ++k) {
+        const cv::Point2d& a = img[k];
+        const cv::Point2d& b = img[(k + 1) % n];
+        if ((a.y <= v && b.y > v) || (b.y <= v && a.y > v)) {
+          const double x = a.x + (v - a.y) * (b.x - a.x) / (b.y - a.y);
+          xl = std::min(xl, x); xr = std::max(xr, x);
+        } else if (a.y == v && b.y == v) {
+          xl = std::min({xl, a.x, b.x}); xr = std::max({xr, a.x, b.x});
+        }
+      }
+      if (xl > xr) continue;
+      const int u0 = std::max(0, static_cast<int>(std::ceil(xl))), u1 = std::min(W - 1, static_cast<int>(std::ceil(xr)) - 1);
+      if (u0 > u1) continue;
+      const double yv = (v - cy) / f;
+      // inverse depth and the world ray are affine in u along a row
+      const double iz0 = (nc[1] * yv + nc[2] - nc[0] * cx / f) / dist, iz1 = nc[0] / f / dist;
+      const cv::Vec3d ray0 = yw * yv + zw - xw * (cx / f), ray1 = xw * (1.0 / f);
+      auto* out = bgr.ptr<cv::Vec3b>(v);
+      float* zb = inv_depth_.data() + static_cast<size_t>(v) * W;
+      std::uint8_t* lab = kLabels && labels != nullptr ? labels->ptr<std::uint8_t>(v) : nullptr;
+      std::uint16_t* oid = kLabels && ids != nullptr ? ids->ptr<std::uint16_t>(v) : nullptr;
+      for (int u = u0; u <= u1; ++u) {
+        const double iz = iz0 + iz1 * u;
+        if (iz <= 0.0 || static_cast<float>(iz) <= zb[u]) continue;
+        const double z = 1.0 / iz;
+        const cv::Vec3d ray = ray0 + ray1 * u;
+        const double X = C[0] + z * ray[0], Y = C[1] + z * ray[1];
+        // footprint as on the ground: across z/f, along stretched by the grazing angle (capped)
+        const double range = z * cv::norm(ray);
+        const double across = z / f;
+        const double along = std::min(across * range / height_above_m, across * 16.0);
+        const double foot = std::sqrt(across * along) / texel_m;
+        const int level = foot < 1.0 ? 0 : std::min(max_level, floor_log2(static_cast<float>(foot)));
+        const int lside_log2 = tex.size_log2 - level;
+        const int lmask = (1 << lside_log2) - 1;
+        const auto* data = reinterpret_cast<const std::uint32_t*>(tex.levels[static_cast<size_t>(level)].data);
+        int tx, ty;
+        if (tex.tiled) {
+          const double sc = tile_scale / static_cast<double>(1 << level);
+          tx = static_cast<int>((X - shift.x) * sc + kTexOffset) & lmask;
+          ty = static_cast<int>(kTexOffset - (Y - shift.y) * sc) & lmask;
+        } else {
+          tx = std::clamp(static_cast<int>((X - min_x) * stretch_x) >> level, 0, lmask);
+          ty = std::clamp(static_cast<int>((max_y - Y) * stretch_y) >> level, 0, lmask);
+        }
+        const std::uint32_t texel = data[(ty << lside_log2) | tx];
+        if (tex.has_alpha && (texel >> 24) < 128) continue;
+        zb[u] = static_cast<float>(iz);
+        int b = static_cast<int>(texel & 0xFF), g = static_cast<int>((texel >> 8) & 0xFF), r = static_cast<int>((texel >> 16) & 0xFF);
+        if (fog_on) {
+          const int fog = fog_lut_[std::min<size_t>(fog_lut_.size() - 1, static_cast<size_t>(range * 4.0))];
           b = (b * (256 - fog) + hz[0] * fog) >> 8;
           g = (g * (256 - fog) + hz[1] * fog) >> 8;
           r = (r * (256 - fog) + hz[2] * fog) >> 8;

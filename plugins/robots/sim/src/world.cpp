@@ -213,8 +213,8 @@ Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& n
 // along yaw, width]), `van` (a box with a parked van's default size 4.8 x 1.9 x 1.9 m), `post`
 // (a regular polygon of `sides` faces inscribed in radius_m) and `person` (a post of a walking
 // adult's size: 0.25 m radius, 1.75 m tall, 8 sides). Any kind moves when it has a `path`.
-// Tops are not drawn: an obstacle lower than the camera shows the inside of its far faces from
-// above.
+// Each also gets its top (World::caps), so an obstacle lower than the camera shows a closed box
+// instead of the inside of its far faces and the ground within its footprint.
 Status parse_obstacles(World& world, const ConfigNode& list) {
   if (!list.is_sequence()) return node_error(list, "key 'obstacles': expected a list");
   int index = 0;
@@ -269,11 +269,13 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
       for (const auto& q : ring) r = std::max(r, cv::norm(q - c));
       world.movers[static_cast<std::size_t>(mover)].radius_m = r;
     }
+    const std::size_t first_wall = world.walls.size();
     for (std::size_t i = 0; i < ring.size(); ++i) {
       VISNAV_TRY(add_wall(world, ring[i], ring[(i + 1) % ring.size()], 0.0, height_m, texture, LabelClass::obstacle,
                           name, o));
       world.walls.back().mover = mover;
     }
+    world.caps.push_back(Cap{std::move(ring), height_m, texture, LabelClass::obstacle, first_wall, mover});
   }
   return ok();
 }

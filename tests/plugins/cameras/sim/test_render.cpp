@@ -143,6 +143,48 @@ TEST(SimRender, LabelsMarkThePathOnStraight6m) {
   EXPECT_LT(path_fraction, 0.97);  // with grass on both sides
 }
 
+TEST(SimRender, AnObstacleLowerThanTheCameraShowsItsTopNotTheGroundInside) {
+  // A long low crate (x 1..3 m, 0.3 m tall) seen from 0.5 m: the ray over its near top edge
+  // would reach the ground at x = 2.5 m, inside the crate, if the top were open.
+  const std::string world_text = std::string(kGeometryWorld) +
+                                 "  obstacles:\n"
+                                 "    - {name: crate, kind: box, at: [2, 0], size_m: [2, 1], height_m: 0.3, texture: b}\n"
+                                 "    - {name: tall, kind: box, at: [2, 3], size_m: [2, 1], height_m: 0.8, texture: b}\n";
+  auto world = vs::parse_world(world_text, "crate.yaml", ".");
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  ASSERT_EQ((*world)->caps.size(), 2u);
+  EXPECT_DOUBLE_EQ((*world)->caps[0].top_m, 0.3);
+  const vs::CameraModel m = model(10.0);
+  vs::Renderer r(*world, m);
+  cv::Mat bgr, labels, ids;
+  r.render(Pose2D{}, bgr, &labels, &ids);
+  const vs::CameraPose pose = vs::camera_pose(m, Pose2D{});
+  const auto far_top = vs::project(m, pose, {3.0, 0.0, 0.3});
+  const auto near_bottom = vs::project(m, pose, {1.0, 0.0, 0.0});
+  ASSERT_TRUE(far_top && near_bottom);
+  const std::uint16_t crate_id = static_cast<std::uint16_t>(0x8000 + (*world)->caps[0].first_wall);
+  const int first = static_cast<int>(std::ceil(far_top->y)) + 1, last = static_cast<int>(std::floor(near_bottom->y)) - 1;
+  ASSERT_GT(last - first, 20);
+  int not_crate = 0;
+  for (int v = first; v <= last; ++v) {
+    not_crate += labels.at<std::uint8_t>(v, 160) != static_cast<std::uint8_t>(vs::LabelClass::obstacle);
+    // the top and the near face belong to the crate (the face's id is its own wall's)
+    const std::uint16_t id = ids.at<std::uint16_t>(v, 160);
+    not_crate += id < crate_id || id > crate_id + 3;
+  }
+  EXPECT_EQ(not_crate, 0) << "rows " << first << ".." << last;
+  // the top's middle is drawn with the top's id (not a far face seen from inside)
+  const auto middle = vs::project(m, pose, {2.0, 0.0, 0.3});
+  ASSERT_TRUE(middle);
+  EXPECT_EQ(ids.at<std::uint16_t>(cv::Point(160, static_cast<int>(std::lround(middle->y)))), crate_id);
+  // a box taller than the camera hides its top: above its near face's top edge is what lies beyond
+  const auto tall_top = vs::project(m, pose, {1.0, 3.0, 0.8});
+  ASSERT_TRUE(tall_top);
+  const int u = static_cast<int>(std::lround(tall_top->x));
+  const std::uint16_t tall_id = static_cast<std::uint16_t>(0x8000 + (*world)->caps[1].first_wall);
+  EXPECT_NE(ids.at<std::uint16_t>(static_cast<int>(std::floor(tall_top->y)) - 2, u), tall_id);
+}
+
 TEST(SimRender, TexturesGiveStableKeypointsAtBothResolutions) {
   auto path = vs::resolve_world_path("straight6m");
   ASSERT_TRUE(path.ok());

@@ -1,5 +1,6 @@
-// The robocentric EKF (spec §11 items 20-22, 24): operators, dead reckoning without landmarks,
-// noise-free exactness and the landmark removal rule, and NEES consistency in Monte Carlo runs.
+// The robocentric EKF (spec §11 items 20-24): operators, dead reckoning without landmarks,
+// noise-free exactness and the landmark removal rule, NEES consistency in Monte Carlo runs, and
+// a systematic heading bias.
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -68,10 +69,16 @@ std::vector<GroundObservation> observe(const Eigen::Vector3d& robot, const std::
   return out;
 }
 
-std::vector<Eigen::Vector2d> corridor_landmarks(std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> x(-1.0, 16.0), y(-1.5, 1.5);
+/// Ground landmarks strewn over a corridor 3 m wide from x = -1 to `length_m` (about 35 per m).
+std::vector<Eigen::Vector2d> corridor_landmarks(std::mt19937_64& rng, double length_m = 16.0) {
+  std::uniform_real_distribution<double> x(-1.0, length_m), y(-1.5, 1.5);
   std::vector<Eigen::Vector2d> out;
-  for (int i = 0; i < 600; ++i) out.emplace_back(x(rng), y(rng));
+  const int count = static_cast<int>(std::lround(600.0 * (length_m + 1.0) / 17.0));
+  for (int i = 0; i < count; ++i) {
+    const double xi = x(rng);
+    const double yi = y(rng);
+    out.emplace_back(xi, yi);
+  }
   return out;
 }
 
@@ -142,6 +149,63 @@ TEST(RobocentricEkf, MonteCarloNeesIsConsistentAndBeatsDeadReckoning) {
   EXPECT_GT(anees, 2.0);
   EXPECT_LT(anees, 4.5);
   EXPECT_LT(ekf_err, 0.5 * dr_err);
+}
+
+struct BiasDrift {
+  double ekf_lateral_m = 0.0, dr_lateral_m = 0.0, ekf_heading_deg = 0.0;  // means over the runs
+};
+
+/// Drives a straight corridor of `length_m` in 6 cm steps while the odometry reports an extra turn
+/// of `bias_deg_per_m` plus noise `sigma_odo` (m and rad per step); the filter runs with `Q`.
+BiasDrift heading_bias_drift(double bias_deg_per_m, double sigma_odo, const Eigen::Matrix3d& Q, double length_m, int runs) {
+  const double sigma_z = 0.01, step_m = 0.06;
+  const int steps = static_cast<int>(std::lround(length_m / step_m));
+  BiasDrift out;
+  for (int run = 0; run < runs; ++run) {
+    std::mt19937_64 rng(300 + run);
+    const auto world = corridor_landmarks(rng, length_m + 2.5);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    RobocentricEkf ekf;
+    Eigen::Vector3d truth = Eigen::Vector3d::Zero(), dr = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d u = v3(step_m, 0.0, 0.0);
+    for (int k = 0; k < steps; ++k) {
+      truth = oplus(truth, u);
+      const double nx = unit(rng);
+      const double ny = unit(rng);
+      const double nt = unit(rng);
+      const Eigen::Vector3d measured =
+          u + v3(sigma_odo * nx, sigma_odo * ny, sigma_odo * nt + bias_deg_per_m * step_m * M_PI / 180.0);
+      dr = oplus(dr, measured);
+      EXPECT_TRUE(ekf.step(measured, Q, observe(truth, world, sigma_z, &rng)).ok());
+    }
+    const Pose2D p = ekf.world_pose();
+    out.ekf_lateral_m += std::fabs(p.y_m - truth(1)) / runs;
+    out.dr_lateral_m += std::fabs(dr(1) - truth(1)) / runs;
+    out.ekf_heading_deg += std::fabs(std::remainder(p.heading_rad - truth(2), 2 * M_PI)) * 180.0 / M_PI / runs;
+  }
+  return out;
+}
+
+TEST(RobocentricEkf, AHeadingBiasDriftsDeadReckoningSidewaysNotTheFilter) {
+  // Spec §11 item 23 (the deflated-wheel case): a straight 25 m corridor, the odometry reporting
+  // 0.2 or 0.5 degrees of turn per metre that the robot does not make, on top of noise of
+  // σ = 0.001 m and rad per 6 cm step (a heading random walk of 1.2° over the corridor, small
+  // against the bias's 5-12.5°). Q models the noise only: the bias per step (0.0002-0.0005 rad)
+  // is below the noise, so sizing Q for it as well changes nothing (measured: 0.307 m instead of
+  // 0.328 m at 0.2°/m). What the filter keeps is the landmarks' correction of the heading; the
+  // rest is its own drift (no loop closure).
+  const double sigma_odo = 0.001, length_m = 25.0;
+  const Eigen::Matrix3d Q = Eigen::Matrix3d::Identity() * sigma_odo * sigma_odo;
+  for (const double bias_deg_per_m : {0.2, 0.5}) {
+    const BiasDrift drift = heading_bias_drift(bias_deg_per_m, sigma_odo, Q, length_m, 3);
+    std::printf("heading bias %.1f deg/m over %.0f m: mean lateral drift dead reckoning %.3f m, EKF %.3f m "
+                "(its heading error %.2f deg)\n",
+                bias_deg_per_m, length_m, drift.dr_lateral_m, drift.ekf_lateral_m, drift.ekf_heading_deg);
+    // dead reckoning drifts by bias * L^2 / 2 (1.09 m at 0.2 deg/m, 2.73 m at 0.5)
+    EXPECT_GT(drift.dr_lateral_m, 0.7 * bias_deg_per_m * M_PI / 180.0 * length_m * length_m / 2.0);
+    EXPECT_LT(drift.ekf_lateral_m, 0.5 * drift.dr_lateral_m) << "bias " << bias_deg_per_m << " deg/m";
+    EXPECT_LT(drift.ekf_heading_deg, 0.5 * bias_deg_per_m * length_m);
+  }
 }
 
 TEST(RobocentricEkf, GroundObservationCovarianceGrowsWithRange) {

@@ -11,9 +11,11 @@
 // Rendering: sky gradient and ground are ray-cast row by row (per row one ray-plane
 // intersection, then the ground point is linear in u); ground regions come from the world's
 // rasterised region map; walls are rasterised as convex polygons with perspective-correct
-// texturing and an inverse-depth buffer. Textures are mip-mapped, nearest-texel lookup.
+// texturing and an inverse-depth buffer; obstacle tops (World::caps) likewise, into the same
+// buffer, when the camera is above them. Textures are mip-mapped, nearest-texel lookup.
 // Optional label render: LabelClass per pixel (CV_8UC1) and object ids (CV_16UC1: 0 sky,
-// 1..R ground region index+1, 0x7FFF default ground, 0x8000 + wall index for walls).
+// 1..R ground region index+1, 0x7FFF default ground, 0x8000 + wall index for walls; an
+// obstacle's top carries the id of the obstacle's first wall).
 //
 // Ownership/threads: a Renderer holds a shared_ptr to its World and its own scratch buffers;
 // render() reuses them and the caller's output Mats (no allocation once sizes are stable).
@@ -106,6 +108,8 @@ class Renderer {
   void render_ground(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids);
   template <bool kLabels>
   void render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids, double time_s);
+  template <bool kLabels>
+  void render_caps(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels, cv::Mat* ids, double time_s);
 
   std::shared_ptr<const World> world_;
   MoverOffsets mover_offsets_;
@@ -114,7 +118,7 @@ class Renderer {
   std::vector<const Texture*> texture_for_id_;  // after the seasonal swap
   std::vector<const Texture*> region_texture_;  // index 0: default ground; r: regions[r-1]
   std::vector<std::uint8_t> region_label_;
-  std::vector<float> inv_depth_;                // per pixel, walls only
+  std::vector<float> inv_depth_;                // per pixel, walls and obstacle tops
   std::vector<cv::Vec3b> sky_row_;
   std::vector<std::uint8_t> shadow_lut_;        // 256 entries per shadow period, factor*255
   std::vector<std::uint16_t> fog_lut_;          // fog weight*256 per 0.25 m of depth

@@ -88,6 +88,18 @@ struct Wall {
   int mover = -1;  ///< index into World::movers when the wall belongs to a moving obstacle, else -1
 };
 
+/// The horizontal top of an obstacle (a convex polygon at height top_m), drawn by the renderer
+/// when the camera is above it; it carries the obstacle's label and the object id of its first
+/// wall. Collisions use the obstacle's walls only.
+struct Cap {
+  std::vector<cv::Point2d> ring;  ///< world metres, convex, >= 3 vertices (the obstacle's footprint)
+  double top_m = 1.0;
+  int texture = 0;
+  LabelClass label = LabelClass::obstacle;
+  std::size_t first_wall = 0;  ///< index in World::walls of the obstacle's first wall (its object id)
+  int mover = -1;              ///< index into World::movers when the obstacle moves, else -1
+};
+
 /// An obstacle that moves (issue 16: a walking person, a moving box). Its walls are stored in
 /// World::walls at the first point of `path` (with Wall::mover set) and are displaced by
 /// offset_at(t) at simulated time t, seconds since the run started; the renderer and the
@@ -129,6 +141,7 @@ struct World {
   std::vector<GroundRegion> regions;
   std::vector<Wall> walls;
   std::vector<MovingObstacle> movers;  ///< moving obstacles; their walls are in `walls` (Wall::mover)
+  std::vector<Cap> caps;               ///< tops of `obstacles:` entries (drawn, not collided with)
 
   int default_texture = 0;  ///< ground outside every region
   LabelClass default_label = LabelClass::ground;

@@ -57,6 +57,13 @@ struct TrackScratch {
 int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams& params, std::vector<cv::Point2f>& a,
                std::vector<cv::Point2f>& b, TrackScratch& scratch);
 
+/// Step 3 alone: RANSAC on the fundamental matrix (ransac_threshold_px, ransac_iterations,
+/// confidence 0.99) over the matches a[i] → b[i]; keeps the inliers in a and b (in order) and
+/// returns how many were dropped. Fewer than 8 matches (or sizes that differ): nothing dropped.
+/// `inliers` is scratch (the mask of the last call).
+int reject_epipolar_outliers(std::vector<cv::Point2f>& a, std::vector<cv::Point2f>& b, const PipelineParams& params,
+                             std::vector<std::uint8_t>& inliers);
+
 struct PairResult {
   std::vector<ClassifiedFeature> features;
   std::vector<ContactPoint> contacts;

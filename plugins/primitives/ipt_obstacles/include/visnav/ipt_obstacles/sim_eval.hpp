@@ -50,7 +50,13 @@ struct RocOptions {
   double noise_std = 2.0;                  ///< sensor noise, grey levels
   double odom_position_sd_m = 0.0;         ///< noise on the pair's relative translation
   double odom_heading_sd_rad = 0.0;        ///< noise on the pair's relative heading
-  int max_features = 250;                  ///< thesis KLT count (Ch. 5)
+  int max_features = 250;                  ///< thesis KLT count (Ch. 5); also the detectors' cap
+  /// How the pair's matches are found (spec §11 item 26, the thesis's tracker comparison):
+  /// "klt" (Shi-Tomasi + pyramidal LK, the pipeline's), "sift" (SIFT, L2, ratio 0.8), "orb" (ORB,
+  /// Hamming, ratio 0.8; stands in for SURF, which Debian's OpenCV does not ship), "fast" (FAST
+  /// corners, threshold 20, described by the 16 pixels of their Bresenham circle and matched by
+  /// the smallest SSD within 30 px, mutual best). All go through the same RANSAC on F.
+  std::string tracker = "klt";
   PipelineParams tracking;                 ///< corners, LK and RANSAC settings (max_features above wins)
   int seed = 1;
   int picture_run = -1;                    ///< the picture shows the last pair of this run (−1: of the last run)
@@ -84,6 +90,11 @@ struct RocReport {
   long features = 0;
   long contact_points = 0;
   long contact_points_on_obstacle_base = 0;  ///< contact points whose pixel lies within 3 px of an obstacle pixel
+  // the tracker's cost and yield (spec §11 item 26), summed over the pairs
+  double tracking_ms = 0.0;                ///< wall time of finding a pair's matches (detection in both frames included)
+  long detected = 0;                       ///< features detected in the pairs' first frames
+  long matched = 0;                        ///< matches before RANSAC
+  long inliers = 0;                        ///< matches RANSAC kept
 };
 
 /// Runs the evaluation. Error when the world does not load or an option is out of range.

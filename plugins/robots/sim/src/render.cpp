@@ -11,6 +11,72 @@ namespace {
 
 constexpr double kTexOffset = 16777216.0;  // 2^24: keeps texel coordinates positive before masking
 constexpr double kNearM = 0.02;
+constexpr int kMaxPolygon = 72;  // an obstacle top of 64 sides (the schema's limit) after near-plane clipping
+
+// A convex polygon clipped against the near plane and projected: pixel vertices and bounds.
+struct ScreenPolygon {
+  cv::Point2d img[kMaxPolygon];
+  int n = 0;
+  double vmin = 1e300, vmax = -1e300, umin = 1e300, umax = -1e300;
+};
+
+// Clips the convex polygon `cam` (camera coordinates, `count` vertices, count + 8 <= kMaxPolygon)
+// against the near plane (Sutherland–Hodgman, one plane) and projects it. False when nothing of
+// it lies in front of the camera or inside the W x H image.
+bool clip_and_project(const cv::Vec3d* cam, int count, double f, double cx, double cy, int W, int H, ScreenPolygon& out) {
+  cv::Vec3d clipped[kMaxPolygon];
+  int n = 0;
+  for (int k = 0; k < count; ++k) {
+    const cv::Vec3d& a = cam[k];
+    const cv::Vec3d& b = cam[(k + 1) % count];
+    const bool ain = a[2] > kNearM, bin = b[2] > kNearM;
+    if (ain) clipped[n++] = a;
+    if (ain != bin) {
+      const double s = (kNearM - a[2]) / (b[2] - a[2]);
+      clipped[n++] = a + (b - a) * s;
+    }
+  }
+  if (n < 3) return false;
+  out.n = n;
+  out.vmin = out.umin = 1e300;
+  out.vmax = out.umax = -1e300;
+  for (int k = 0; k < n; ++k) {
+    out.img[k] = cv::Point2d(f * clipped[k][0] / clipped[k][2] + cx, f * clipped[k][1] / clipped[k][2] + cy);
+    out.vmin = std::min(out.vmin, out.img[k].y); out.vmax = std::max(out.vmax, out.img[k].y);
+    out.umin = std::min(out.umin, out.img[k].x); out.umax = std::max(out.umax, out.img[k].x);
+  }
+  return !(out.vmax < 0 || out.vmin > H - 1 || out.umax < 0 || out.umin > W - 1);
+}
+
+// Pixel columns [u0, u1] of row v inside the polygon; false when the row misses it.
+bool row_span(const ScreenPolygon& p, int v, int W, int& u0, int& u1) {
+  double xl = 1e300, xr = -1e300;
+  for (int k = 0; k < p.n; ++k) {
+    const cv::Point2d& a = p.img[k];
+    const cv::Point2d& b = p.img[(k + 1) % p.n];
+    if ((a.y <= v && b.y > v) || (b.y <= v && a.y > v)) {
+      const double x = a.x + (v - a.y) * (b.x - a.x) / (b.y - a.y);
+      xl = std::min(xl, x); xr = std::max(xr, x);
+    } else if (a.y == v && b.y == v) {
+      xl = std::min({xl, a.x, b.x}); xr = std::max({xr, a.x, b.x});
+    }
+  }
+  if (xl > xr) return false;
+  u0 = std::max(0, static_cast<int>(std::ceil(xl)));
+  u1 = std::min(W - 1, static_cast<int>(std::ceil(xr)) - 1);
+  return u0 <= u1;
+}
+
+// A texel faded towards the horizon colour by `fog` (0-256; 0 = none).
+cv::Vec3b fogged(std::uint32_t texel, int fog, const cv::Vec3b& horizon) {
+  int b = static_cast<int>(texel & 0xFF), g = static_cast<int>((texel >> 8) & 0xFF), r = static_cast<int>((texel >> 16) & 0xFF);
+  if (fog > 0) {
+    b = (b * (256 - fog) + horizon[0] * fog) >> 8;
+    g = (g * (256 - fog) + horizon[1] * fog) >> 8;
+    r = (r * (256 - fog) + horizon[2] * fog) >> 8;
+  }
+  return {static_cast<unsigned char>(b), static_cast<unsigned char>(g), static_cast<unsigned char>(r)};
+}
 
 inline int floor_log2(float x) {  // x > 0
   const auto bits = std::bit_cast<std::uint32_t>(x);
@@ -265,28 +331,8 @@ void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* label
       any_front = any_front || cam[k][2] > kNearM;
     }
     if (!any_front) continue;
-    // clip against the near plane (Sutherland–Hodgman, one plane)
-    cv::Vec3d clipped[8];
-    int n = 0;
-    for (int k = 0; k < 4; ++k) {
-      const cv::Vec3d& a = cam[k];
-      const cv::Vec3d& b = cam[(k + 1) % 4];
-      const bool ain = a[2] > kNearM, bin = b[2] > kNearM;
-      if (ain) clipped[n++] = a;
-      if (ain != bin) {
-        const double s = (kNearM - a[2]) / (b[2] - a[2]);
-        clipped[n++] = a + (b - a) * s;
-      }
-    }
-    if (n < 3) continue;
-    cv::Point2d img[8];
-    double vmin = 1e300, vmax = -1e300, umin = 1e300, umax = -1e300;
-    for (int k = 0; k < n; ++k) {
-      img[k] = cv::Point2d(f * clipped[k][0] / clipped[k][2] + cx, f * clipped[k][1] / clipped[k][2] + cy);
-      vmin = std::min(vmin, img[k].y); vmax = std::max(vmax, img[k].y);
-      umin = std::min(umin, img[k].x); umax = std::max(umax, img[k].x);
-    }
-    if (vmax < 0 || vmin > H - 1 || umax < 0 || umin > W - 1) continue;
+    ScreenPolygon poly;
+    if (!clip_and_project(cam, 4, f, cx, cy, W, H, poly)) continue;
     // plane in camera coordinates
     const cv::Vec3d ec = Rt * e, zc = Rt * cv::Vec3d(0, 0, 1), Ac = Rt * (p0 - C);
     const cv::Vec3d nc = ec.cross(zc);
@@ -304,22 +350,10 @@ void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* label
     const std::uint16_t oid_value = static_cast<std::uint16_t>(0x8000 + wi);
     const int max_level = static_cast<int>(tex.levels.size()) - 1;
 
-    const int v0 = std::max(0, static_cast<int>(std::ceil(vmin))), v1 = std::min(H - 1, static_cast<int>(std::floor(vmax)));
+    const int v0 = std::max(0, static_cast<int>(std::ceil(poly.vmin))), v1 = std::min(H - 1, static_cast<int>(std::floor(poly.vmax)));
     for (int v = v0; v <= v1; ++v) {
-      double xl = 1e300, xr = -1e300;
-      for (int k = 0; k < n; ++k) {
-        const cv::Point2d& a = img[k];
-        const cv::Point2d& b = img[(k + 1) % n];
-        if ((a.y <= v && b.y > v) || (b.y <= v && a.y > v)) {
-          const double x = a.x + (v - a.y) * (b.x - a.x) / (b.y - a.y);
-          xl = std::min(xl, x); xr = std::max(xr, x);
-        } else if (a.y == v && b.y == v) {
-          xl = std::min({xl, a.x, b.x}); xr = std::max({xr, a.x, b.x});
-        }
-      }
-      if (xl > xr) continue;
-      const int u0 = std::max(0, static_cast<int>(std::ceil(xl))), u1 = std::min(W - 1, static_cast<int>(std::ceil(xr)) - 1);
-      if (u0 > u1) continue;
+      int u0 = 0, u1 = -1;
+      if (!row_span(poly, v, W, u0, u1)) continue;
       const double yv = (v - cy) / f;
       // affine-in-u quantities: inverse depth, e·d, z·d
       const double iz0 = (nc[1] * yv + nc[2] - nc[0] * cx / f) / dist, iz1 = nc[0] / f / dist;
@@ -354,14 +388,7 @@ void Renderer::render_walls(const CameraPose& pose, cv::Mat& bgr, cv::Mat* label
         const std::uint32_t texel = data[(ty << lside_log2) | tx];
         if (tex.has_alpha && (texel >> 24) < 128) continue;
         zb[u] = static_cast<float>(iz);
-        int b = static_cast<int>(texel & 0xFF), g = static_cast<int>((texel >> 8) & 0xFF), r = static_cast<int>((texel >> 16) & 0xFF);
-        if (fog_on) {
-          const int fog = fog_lut_[std::min<size_t>(fog_lut_.size() - 1, static_cast<size_t>(z * 4.0))];
-          b = (b * (256 - fog) + hz[0] * fog) >> 8;
-          g = (g * (256 - fog) + hz[1] * fog) >> 8;
-          r = (r * (256 - fog) + hz[2] * fog) >> 8;
-        }
-        out[u] = cv::Vec3b(static_cast<unsigned char>(b), static_cast<unsigned char>(g), static_cast<unsigned char>(r));
+        out[u] = fogged(texel, fog_on ? fog_lut_[std::min<size_t>(fog_lut_.size() - 1, static_cast<size_t>(z * 4.0))] : 0, hz);
         if constexpr (kLabels) {
           if (lab != nullptr) lab[u] = label;
           if (oid != nullptr) oid[u] = oid_value;
@@ -385,17 +412,16 @@ void Renderer::render_caps(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels
   const cv::Vec3d nc = Rt * cv::Vec3d(0, 0, 1);  // the tops' normal in camera coordinates
   const cv::Vec3b hz = w.sky_horizon_bgr;
   const bool fog_on = w.fog_distance_m > 0;
-  constexpr int kMaxVertices = 72;  // 64 sides (the schema's limit) + near-plane clipping
 
   for (const Cap& cap : w.caps) {
     const double dist = cap.top_m - C[2];  // signed distance of the top's plane along world up
     if (dist > -1e-6) continue;             // at or above the camera: its underside faces the camera
     const std::size_t nv = cap.ring.size();
-    if (nv < 3 || nv + 8 > static_cast<std::size_t>(kMaxVertices)) continue;
+    if (nv < 3 || nv + 8 > static_cast<std::size_t>(kMaxPolygon)) continue;
     const cv::Point2d shift = cap.mover >= 0 && mover_offsets_ ? mover_offsets_(cap.mover, time_s)
                                                                 : (cap.mover >= 0 ? w.movers[static_cast<std::size_t>(cap.mover)].offset_at(time_s)
                                                                                   : cv::Point2d(0, 0));
-    cv::Vec3d cam[kMaxVertices];
+    cv::Vec3d cam[kMaxPolygon];
     bool any_front = false;
     double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
     for (std::size_t k = 0; k < nv; ++k) {
@@ -406,24 +432,8 @@ void Renderer::render_caps(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels
       any_front = any_front || cam[k][2] > kNearM;
     }
     if (!any_front) continue;
-    cv::Vec3d clipped[kMaxVertices];
-    int n = 0;
-    for (std::size_t k = 0; k < nv; ++k) {
-      const cv::Vec3d& a = cam[k];
-      const cv::Vec3d& b = cam[(k + 1) % nv];
-      const bool ain = a[2] > kNearM, bin = b[2] > kNearM;
-      if (ain) clipped[n++] = a;
-      if (ain != bin) clipped[n++] = a + (b - a) * ((kNearM - a[2]) / (b[2] - a[2]));
-    }
-    if (n < 3) continue;
-    cv::Point2d img[kMaxVertices];
-    double vmin = 1e300, vmax = -1e300, umin = 1e300, umax = -1e300;
-    for (int k = 0; k < n; ++k) {
-      img[k] = cv::Point2d(f * clipped[k][0] / clipped[k][2] + cx, f * clipped[k][1] / clipped[k][2] + cy);
-      vmin = std::min(vmin, img[k].y); vmax = std::max(vmax, img[k].y);
-      umin = std::min(umin, img[k].x); umax = std::max(umax, img[k].x);
-    }
-    if (vmax < 0 || vmin > H - 1 || umax < 0 || umin > W - 1) continue;
+    ScreenPolygon poly;
+    if (!clip_and_project(cam, static_cast<int>(nv), f, cx, cy, W, H, poly)) continue;
     const Texture& tex = *texture_for_id_[static_cast<size_t>(cap.texture)];
     const int side = 1 << tex.size_log2;
     const double tile_scale = 1.0 / tex.texel_m;
@@ -435,22 +445,10 @@ void Renderer::render_caps(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels
     const int max_level = static_cast<int>(tex.levels.size()) - 1;
     const double height_above_m = -dist;
 
-    const int v0 = std::max(0, static_cast<int>(std::ceil(vmin))), v1 = std::min(H - 1, static_cast<int>(std::floor(vmax)));
+    const int v0 = std::max(0, static_cast<int>(std::ceil(poly.vmin))), v1 = std::min(H - 1, static_cast<int>(std::floor(poly.vmax)));
     for (int v = v0; v <= v1; ++v) {
-      double xl = 1e300, xr = -1e300;
-      for (int k = 0; k < n; ++k) {
-        const cv::Point2d& a = img[k];
-        const cv::Point2d& b = img[(k + 1) % n];
-        if ((a.y <= v && b.y > v) || (b.y <= v && a.y > v)) {
-          const double x = a.x + (v - a.y) * (b.x - a.x) / (b.y - a.y);
-          xl = std::min(xl, x); xr = std::max(xr, x);
-        } else if (a.y == v && b.y == v) {
-          xl = std::min({xl, a.x, b.x}); xr = std::max({xr, a.x, b.x});
-        }
-      }
-      if (xl > xr) continue;
-      const int u0 = std::max(0, static_cast<int>(std::ceil(xl))), u1 = std::min(W - 1, static_cast<int>(std::ceil(xr)) - 1);
-      if (u0 > u1) continue;
+      int u0 = 0, u1 = -1;
+      if (!row_span(poly, v, W, u0, u1)) continue;
       const double yv = (v - cy) / f;
       // inverse depth and the world ray are affine in u along a row
       const double iz0 = (nc[1] * yv + nc[2] - nc[0] * cx / f) / dist, iz1 = nc[0] / f / dist;
@@ -486,14 +484,7 @@ void Renderer::render_caps(const CameraPose& pose, cv::Mat& bgr, cv::Mat* labels
         const std::uint32_t texel = data[(ty << lside_log2) | tx];
         if (tex.has_alpha && (texel >> 24) < 128) continue;
         zb[u] = static_cast<float>(iz);
-        int b = static_cast<int>(texel & 0xFF), g = static_cast<int>((texel >> 8) & 0xFF), r = static_cast<int>((texel >> 16) & 0xFF);
-        if (fog_on) {
-          const int fog = fog_lut_[std::min<size_t>(fog_lut_.size() - 1, static_cast<size_t>(range * 4.0))];
-          b = (b * (256 - fog) + hz[0] * fog) >> 8;
-          g = (g * (256 - fog) + hz[1] * fog) >> 8;
-          r = (r * (256 - fog) + hz[2] * fog) >> 8;
-        }
-        out[u] = cv::Vec3b(static_cast<unsigned char>(b), static_cast<unsigned char>(g), static_cast<unsigned char>(r));
+        out[u] = fogged(texel, fog_on ? fog_lut_[std::min<size_t>(fog_lut_.size() - 1, static_cast<size_t>(range * 4.0))] : 0, hz);
         if constexpr (kLabels) {
           if (lab != nullptr) lab[u] = label;
           if (oid != nullptr) oid[u] = oid_value;

@@ -236,6 +236,19 @@ TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
   std::filesystem::remove_all(dir);
 }
 
+/// The clear path world with config/worlds/campus.yaml's concrete texture added (the vans' texture).
+std::string clear_path_with_concrete() {
+  std::string clear = clear_path();
+  const std::string textures = "  textures:\n";
+  const auto at = clear.find(textures);
+  EXPECT_NE(at, std::string::npos);
+  if (at != std::string::npos)
+    clear.insert(at + textures.size(),
+                 "    concrete: {procedural: noise, color: [172, 170, 164], color2: [132, 130, 126], size_m: 2.0, "
+                 "feature_m: 0.1, detail: 0.25}\n");
+  return clear;
+}
+
 // A concrete-grey van on the gravel path (the campus's van, docs/obstacles.md "A van hiding the
 // path"): its colour is the path's, so FollowPathEdge gives up "path lost (path fills image)"
 // 2-3 m before it, where the IPT sees nothing of its plain rear. ReplayPathAvoiding probes on
@@ -244,13 +257,7 @@ TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
 // follower loses the path, nothing stands ahead) still stops, with the follower's reason.
 TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   const auto dir = replay_dir("hidden");
-  std::string clear = clear_path();
-  const std::string textures = "  textures:\n";
-  ASSERT_NE(clear.find(textures), std::string::npos);
-  // config/worlds/campus.yaml's concrete.
-  clear.insert(clear.find(textures) + textures.size(),
-               "    concrete: {procedural: noise, color: [172, 170, 164], color2: [132, 130, 126], size_m: 2.0, "
-               "feature_m: 0.1, detail: 0.25}\n");
+  const std::string clear = clear_path_with_concrete();
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   // As on the campus: 0.4 m off the path's centre, to the robot's right; its rear at 7.1 m.
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
@@ -287,12 +294,7 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
 // and hit the van's rear corner; now it keeps its side and stops with the reason.
 TEST(ReplayAvoiding, TheLaneDetourKeepsItsSideBeforeAVanAndStopsWithTheReason) {
   const auto dir = replay_dir("commit");
-  std::string clear = clear_path();
-  const std::string textures = "  textures:\n";
-  ASSERT_NE(clear.find(textures), std::string::npos);
-  clear.insert(clear.find(textures) + textures.size(),
-               "    concrete: {procedural: noise, color: [172, 170, 164], color2: [132, 130, 126], size_m: 2.0, "
-               "feature_m: 0.1, detail: 0.25}\n");
+  const std::string clear = clear_path_with_concrete();
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, 0.4], texture: concrete}\n");
   const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");

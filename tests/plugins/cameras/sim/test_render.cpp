@@ -149,7 +149,7 @@ TEST(SimRender, AnObstacleLowerThanTheCameraShowsItsTopNotTheGroundInside) {
   const std::string world_text = std::string(kGeometryWorld) +
                                  "  obstacles:\n"
                                  "    - {name: crate, kind: box, at: [2, 0], size_m: [2, 1], height_m: 0.3, texture: b}\n"
-                                 "    - {name: tall, kind: box, at: [2, 3], size_m: [2, 1], height_m: 0.8, texture: b}\n";
+                                 "    - {name: tall, kind: box, at: [4, 1.2], size_m: [2, 0.8], height_m: 0.8, texture: b}\n";
   auto world = vs::parse_world(world_text, "crate.yaml", ".");
   ASSERT_TRUE(world.ok()) << world.error().message;
   ASSERT_EQ((*world)->caps.size(), 2u);
@@ -178,11 +178,14 @@ TEST(SimRender, AnObstacleLowerThanTheCameraShowsItsTopNotTheGroundInside) {
   ASSERT_TRUE(middle);
   EXPECT_EQ(ids.at<std::uint16_t>(cv::Point(160, static_cast<int>(std::lround(middle->y)))), crate_id);
   // a box taller than the camera hides its top: above its near face's top edge is what lies beyond
-  const auto tall_top = vs::project(m, pose, {1.0, 3.0, 0.8});
+  const auto tall_top = vs::project(m, pose, {3.0, 1.2, 0.8});
   ASSERT_TRUE(tall_top);
   const int u = static_cast<int>(std::lround(tall_top->x));
+  const int above = static_cast<int>(std::floor(tall_top->y)) - 2;
+  ASSERT_TRUE(u >= 0 && u < ids.cols && above >= 0 && above < ids.rows) << u << ", " << above;
+  EXPECT_EQ(ids.at<std::uint16_t>(above + 4, u) & 0x8000, 0x8000);  // just below the edge: the tall box's face
   const std::uint16_t tall_id = static_cast<std::uint16_t>(0x8000 + (*world)->caps[1].first_wall);
-  EXPECT_NE(ids.at<std::uint16_t>(static_cast<int>(std::floor(tall_top->y)) - 2, u), tall_id);
+  EXPECT_NE(ids.at<std::uint16_t>(above, u), tall_id);
 }
 
 TEST(SimRender, TexturesGiveStableKeypointsAtBothResolutions) {

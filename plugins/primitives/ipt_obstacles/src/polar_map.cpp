@@ -77,7 +77,9 @@ const ParamSchema<PolarMapParams>& PolarMapParams::schema() {
           .field("repulsion_gain", &P::repulsion_gain, "potential field repulsion gain").range(0.0, 1e6)
           .field("attraction_gain", &P::attraction_gain, "potential field attraction gain").range(0.0, 1e6)
           .field("reset_keep_near_m", &P::reset_keep_near_m, "points this close survive a reset (0 = thesis)")
-          .range(0.0, 100.0);
+          .range(0.0, 100.0)
+          .field("merge_cell_m", &P::merge_cell_m, "one stored point per square cell of this side (0 = keep every point)")
+          .range(0.0, 1.0);
   return s;
 }
 
@@ -129,19 +131,44 @@ int NavigationFilter::sector_of(double bearing_rad) const {
   return ((k % n) + n) % n;
 }
 
+std::int64_t NavigationFilter::cell_of(const cv::Point2d& p) const {
+  const double c = params_.merge_cell_m;
+  const auto ix = static_cast<std::int64_t>(std::floor(p.x / c)), iy = static_cast<std::int64_t>(std::floor(p.y / c));
+  return (ix << 32) ^ (iy & 0xffffffffLL);
+}
+
 void NavigationFilter::add_points(std::span<const cv::Point2d> points_m) {
-  points_.insert(points_.end(), points_m.begin(), points_m.end());
+  if (params_.merge_cell_m <= 0.0) {
+    points_.insert(points_.end(), points_m.begin(), points_m.end());
+    return;
+  }
+  // One point per cell, the newest: a robot standing or creeping before an obstacle sees the
+  // same contacts every cycle, and the map grew by every sighting (80 000 points after 2 500
+  // cycles in a U, each decision sorting them all).
+  for (const cv::Point2d& p : points_m) {
+    const auto [it, fresh] = cell_index_.try_emplace(cell_of(p), points_.size());
+    if (fresh) points_.push_back(p);
+    else points_[it->second] = p;
+  }
+}
+
+void NavigationFilter::reindex() {
+  cell_index_.clear();
+  if (params_.merge_cell_m <= 0.0) return;
+  for (std::size_t i = 0; i < points_.size(); ++i) cell_index_[cell_of(points_[i])] = i;
 }
 
 void NavigationFilter::reset(const Pose2D& robot) {
   const double keep = params_.reset_keep_near_m;
   std::erase_if(points_, [&](const cv::Point2d& p) { return std::hypot(p.x - robot.x_m, p.y - robot.y_m) > keep; });
+  reindex();
   tenacity_on_ = false;
   rotate_side_ = 0;
 }
 
 void NavigationFilter::reset() {
   points_.clear();
+  cell_index_.clear();
   tenacity_on_ = false;
   rotate_side_ = 0;
 }
@@ -167,15 +194,70 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
   // S1: the potential field.
   const bool high_risk = std::any_of(pts.begin(), pts.end(), [&](const Polar& q) { return q.range_m < S; });
   if (high_risk) {
-    double fx = params_.attraction_gain * std::cos(goal.bearing_rad), fy = params_.attraction_gain * std::sin(goal.bearing_rad);
-    for (const auto& q : pts) {
+    // Attracted by the goal, or, while an obstacle is being bypassed (tenacity), by the
+    // direction of the last gap taken: pulled towards the goal beside a wall end, the robot
+    // turned back into the U it was leaving (spec §11 item 19 (c)).
+    double attract_rad = tenacity_on_ ? wrap(tenacity_heading_world_rad_ - robot.heading_rad) : goal.bearing_rad;
+    // [ours] Through a gap wider than W_gap but narrower than 2·S_dist both edges are inside
+    // S_dist: attracted by the goal beyond the gap's edge, the field held the robot in front of
+    // it (a corridor with 1 m gaps, spec §11 item 19 (e)). The gap ahead whose middle is nearest
+    // the attraction's direction attracts instead, and the edges' repulsion centres the robot.
+    bool through_gap = false;
+    {
+      std::vector<const Polar*> ahead;
+      for (const auto& q : pts)
+        if (in_front(q.bearing_rad)) ahead.push_back(&q);
+      std::sort(ahead.begin(), ahead.end(), [](const Polar* a, const Polar* b) { return a->bearing_rad < b->bearing_rad; });
+      double best = std::numeric_limits<double>::infinity();
+      std::optional<double> gap_rad;
+      for (std::size_t i = 1; i < ahead.size(); ++i) {
+        const Polar& r = *ahead[i - 1];
+        const Polar& l = *ahead[i];
+        if (cv::norm(l.p - r.p) <= params_.gap_width_m) continue;
+        const cv::Point2d mid = 0.5 * (l.p + r.p);
+        const double mid_rad = polar_of(robot, mid).bearing_rad;
+        const double off = std::fabs(wrap(mid_rad - attract_rad));
+        const bool towards_goal = std::fabs(wrap(mid_rad - goal.bearing_rad)) < kPi / 2;
+        if (off < best && towards_goal && std::min(l.range_m, r.range_m) < S + params_.gap_width_m) {
+          best = off;
+          gap_rad = mid_rad;
+        }
+      }
+      if (gap_rad) attract_rad = *gap_rad;
+      through_gap = gap_rad.has_value();
+    }
+    double rx = 0.0, ry = 0.0;
+    std::vector<int> nearest_risk(static_cast<std::size_t>(sector_count()), -1);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      int& k = nearest_risk[static_cast<std::size_t>(sector_of(pts[i].bearing_rad))];
+      if (k < 0 || pts[i].range_m < pts[static_cast<std::size_t>(k)].range_m) k = static_cast<int>(i);
+    }
+    for (const int k : nearest_risk) {
+      if (k < 0) continue;
+      const Polar& q = pts[static_cast<std::size_t>(k)];
       if (q.range_m >= S || q.range_m <= 1e-6) continue;
       const double mag = params_.repulsion_gain * (1.0 / q.range_m - 1.0 / S) / (q.range_m * q.range_m);
-      fx -= mag * std::cos(q.bearing_rad);
-      fy -= mag * std::sin(q.bearing_rad);
+      rx -= mag * std::cos(q.bearing_rad);
+      ry -= mag * std::sin(q.bearing_rad);
     }
+    const double ax = std::cos(attract_rad), ay = std::sin(attract_rad);
+    if (through_gap) {
+      // Into a gap only the repulsion across it acts (it centres the robot); along it, the
+      // edges' push would hold the robot in front of any gap narrower than 2·S_dist.
+      const double along = rx * ax + ry * ay;
+      if (along < 0.0) {
+        rx -= along * ax;
+        ry -= along * ay;
+      }
+    }
+    const double fx = params_.attraction_gain * ax + rx, fy = params_.attraction_gain * ay + ry;
     d.situation = Situation::high_risk;
     d.heading_rad = std::atan2(fy, fx);
+    // A field pointing nearly straight back flips between ±180° with the noise, and the robot
+    // turning towards it alternately left and right never turns: keep the side of the turn
+    // while the field points behind the robot.
+    if (std::fabs(d.heading_rad) > kPi / 2 && field_side_ != 0) d.heading_rad = field_side_ * std::fabs(d.heading_rad);
+    field_side_ = std::fabs(d.heading_rad) > kPi / 2 ? (d.heading_rad > 0 ? 1 : -1) : 0;
     d.translate = true;
     d.reason = "obstacle within the security distance: potential field";
     return d;
@@ -286,14 +368,12 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
       const Polar& l = sorted[order[s]];
       if (m == 1) break;
       ccw = gap_candidate(r, l, 1);
-      if (!in_front(l.bearing_rad) && !in_front(r.bearing_rad)) break;
     }
     for (std::size_t s = 0; s < m && !cw; ++s) {
       const Polar& l = sorted[order[(m - s) % m]];
       const Polar& r = sorted[order[m - 1 - s]];
       if (m == 1) break;
       cw = gap_candidate(r, l, -1);
-      if (!in_front(l.bearing_rad) && !in_front(r.bearing_rad)) break;
     }
     if (m == 1) {  // one point: pass it on the side nearer the goal
       const Polar& x = sorted[0];
@@ -328,6 +408,7 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
     return d;
   }
   tenacity_on_ = true;
+  tenacity_heading_world_rad_ = wrap(chosen->heading_rad + robot.heading_rad);
   rotate_side_ = 0;
   d.situation = chosen->situation;
   d.heading_rad = chosen->heading_rad;

@@ -174,5 +174,52 @@ TEST(NavigationFilter, EnclosedGoalGivesNoCandidateWithAReason) {
   EXPECT_FALSE(d.reason.empty());
 }
 
+
+TEST(NavigationFilterBookkeeping, RepeatedSightingsKeepOnePointPerCell) {
+  // a robot standing before a 1 m wall sees its 21 points every cycle
+  std::vector<cv::Point2d> wall;
+  for (int i = 0; i <= 20; ++i) wall.emplace_back(2.0, -0.5 + 0.05 * i + 0.01);
+  NavigationFilter merged(PolarMapParams{});
+  for (int cycle = 0; cycle < 200; ++cycle) merged.add_points(wall);
+  EXPECT_EQ(merged.points().size(), wall.size());
+  PolarMapParams every;
+  every.merge_cell_m = 0.0;
+  NavigationFilter kept(every);
+  for (int cycle = 0; cycle < 200; ++cycle) kept.add_points(wall);
+  EXPECT_EQ(kept.points().size(), 200 * wall.size());
+  // a reset keeps the near points, and the cells are re-indexed: sightings again add nothing
+  PolarMapParams near_keep;
+  near_keep.reset_keep_near_m = 2.03;
+  NavigationFilter filter(near_keep);
+  filter.add_points(wall);
+  filter.reset(Pose2D{0.0, 0.0, 0.0});
+  const std::size_t after_reset = filter.points().size();
+  EXPECT_GT(after_reset, 0U);
+  EXPECT_LT(after_reset, wall.size());
+  filter.add_points(wall);
+  EXPECT_EQ(filter.points().size(), wall.size());
+  PolarMapParams bad;
+  bad.merge_cell_m = -0.1;
+  const Status st = bad.validate();
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("merge_cell_m"), std::string::npos) << st.error().message;
+}
+
+TEST(NavigationFilter, AFieldPointingBehindKeepsItsTurningSide) {
+  // two walls close on both sides and one ahead: the potential field points behind the robot;
+  // its side must not flip from one cycle to the next with a small change of the points
+  NavigationFilter filter(PolarMapParams{});
+  std::vector<cv::Point2d> pts = {{0.6, 0.02}, {0.5, 0.6}, {0.5, -0.6}};
+  filter.add_points(pts);
+  const Decision first = filter.decide(Pose2D{0, 0, 0}, {5.0, 0.0});
+  ASSERT_EQ(first.situation, Situation::high_risk);
+  ASSERT_GT(std::fabs(first.heading_rad), CV_PI / 2);
+  filter.reset();
+  filter.add_points(std::vector<cv::Point2d>{{0.6, first.heading_rad > 0 ? 0.04 : -0.04}, {0.5, 0.6}, {0.5, -0.6}});
+  const Decision second = filter.decide(Pose2D{0, 0, 0}, {5.0, 0.0});
+  ASSERT_EQ(second.situation, Situation::high_risk);
+  EXPECT_GT(first.heading_rad * second.heading_rad, 0.0) << first.heading_rad << " then " << second.heading_rad;
+}
+
 }  // namespace
 }  // namespace visnav::ipt

@@ -10,7 +10,11 @@
 //    covers bearings [−180° + 12k, −180° + 12(k+1))); only points closer than the goal count
 //    (R_nf = |goal − robot|). Per cycle (spec §7.5):
 //      S0 goal reached (R_nf < goal_tolerance_m): reset, stop;
-//      S1 a point closer than security_distance_m (S_dist): potential-field direction;
+//      S1 a point closer than security_distance_m (S_dist): potential-field direction, repelled
+//         by every point within S_dist [ours: attracted by the middle of the gap ahead nearest
+//         the goal direction, with the repulsion along it dropped, so that a gap narrower than
+//         2·S_dist is entered; else by the last GO candidate's direction while tenacity is on,
+//         else by the goal; a direction behind the robot keeps the side of the previous turn];
 //      GF goal sector free: P_L/P_R the nearest points of the first occupied sectors left and
 //         right; a gap narrower than gap_width_m is handled as GO; else with P_X the closer
 //         (the one in front if the other is behind) and ε = asin(S_dist/d_X):
@@ -21,9 +25,13 @@
 //         when |P_L − P_R| > gap_width_m and d_X > S_dist; θ_mot = θ_PX ∓ ε towards the far
 //         end; a candidate whose sector holds a point nearer than S_dist + step_m is rejected.
 //         Side: the tenacity side once chosen, else the smaller deviation from the goal.
+//         [ours] The searches walk on past pairs whose ends are both behind the robot (they are
+//         not candidates): with the goal behind the robot they used to stop at the first pair,
+//         and a robot inside a U turned in place for ever.
 //         No candidate: rotate in place (no translation) with a reason.
 //      S9 no stored point ahead (|α| < 90°) any more: reset (the obstacle is passed).
 //    [spec I] simplification: the "current obstacle" of the reset test is every stored point.
+//    [ours] Stored points are merged per merge_cell_m square cell (the newest sighting kept).
 //
 // Frames: points and poses in one ground frame (odom or world), metres; bearings and θ_mot in
 // the robot frame, radians, CCW positive, 0 = heading. Pure; no clock, no I/O.
@@ -32,6 +40,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <opencv2/core/types.hpp>
@@ -53,6 +62,8 @@ struct PolarMapParams {
   double attraction_gain = 1.0;       ///< potential field: gain · unit vector to the goal
   double reset_keep_near_m = 0.0;     ///< on a reset keep the points this close (spec §7.5 [I]
                                       ///< reset_keep_near; 0 = the thesis: forget everything)
+  double merge_cell_m = 0.05;         ///< [ours] one stored point per cell of this side, the newest
+                                      ///< (0 = keep every sighting; the map then grows every cycle)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<PolarMapParams>& schema();
@@ -106,8 +117,13 @@ class NavigationFilter {
   PolarMapParams params_;
   std::vector<cv::Point2d> points_;
   bool tenacity_on_ = false;
+  std::unordered_map<std::int64_t, std::size_t> cell_index_;  // merge cell -> index in points_
+  [[nodiscard]] std::int64_t cell_of(const cv::Point2d& p) const;
+  void reindex();
   int tenacity_side_ = 1;
-  int rotate_side_ = 0;  // side of an ongoing in-place rotation without tenacity (0 = none)
+  double tenacity_heading_world_rad_ = 0.0;  // the last GO candidate's direction, ground frame
+  int rotate_side_ = 0;
+  int field_side_ = 0;   // side of a potential-field turn towards a direction behind the robot  // side of an ongoing in-place rotation without tenacity (0 = none)
 };
 
 }  // namespace visnav::ipt

@@ -262,24 +262,25 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
       PipelineParams tracking = options.tracking;
       tracking.max_features = options.max_features;
       const auto started = std::chrono::steady_clock::now();
+      // odometry: the true relative motion plus noise (also the epipolar check's lens motion)
+      Pose2D p1_odo = p1;
+      p1_odo.x_m += options.odom_position_sd_m * unit(odo_rng);
+      p1_odo.y_m += options.odom_position_sd_m * unit(odo_rng);
+      p1_odo.heading_rad += options.odom_heading_sd_rad * unit(odo_rng);
+      const OdometryEpipolar motion{cam, lens_pose(cam, p0), lens_pose(cam, p1_odo)};
       int outliers = 0;
       if (options.tracker == "klt") {
-        outliers = track_pair(grey0, grey1, tracking, ia, ib, tracks);
+        outliers = track_pair(grey0, grey1, tracking, ia, ib, tracks, &motion);
         report.detected += static_cast<long>(tracks.corners.size());
       } else {
         report.detected += descriptor_matches(grey0, grey1, options, ia, ib);
-        outliers = reject_epipolar_outliers(ia, ib, tracking, tracks.inliers);
+        outliers = reject_epipolar_outliers(ia, ib, tracking, tracks.inliers, &motion);
       }
       report.tracking_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
       report.matched += static_cast<long>(ia.size()) + outliers;
       report.inliers += static_cast<long>(ia.size());
       report.at_operating_point.ransac_outliers += outliers;
       if (ia.size() < 8) continue;
-      // odometry: the true relative motion plus noise
-      Pose2D p1_odo = p1;
-      p1_odo.x_m += options.odom_position_sd_m * unit(odo_rng);
-      p1_odo.y_m += options.odom_position_sd_m * unit(odo_rng);
-      p1_odo.heading_rad += options.odom_heading_sd_rad * unit(odo_rng);
       VISNAV_ASSIGN(auto classified, classify_features(cam, lens_pose(cam, p0), lens_pose(cam, p1_odo), ia, ib,
                                                        options.classifier));
       ++report.pairs;

@@ -14,7 +14,7 @@ const char* const kIptRocUsage =
     "usage: visnav ipt-roc [--world NAME] [--seed N] [--noise-std GREY] [--odom-sd-m M] [--odom-sd-deg DEG]\n"
     "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
     "                      [--vertical-run-px N] [--support N] [--support-radius-px P]\n"
-    "                      [--forward-backward-px P] [--tracker klt|sift|orb|fast]\n"
+    "                      [--forward-backward-px P] [--odometry-epipolar-px P] [--tracker klt|sift|orb|fast]\n"
     "                      [--picture FILE.png] [--picture-run K]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
@@ -24,7 +24,9 @@ const char* const kIptRocUsage =
     "--tracker compares the thesis's trackers on the same pairs (spec 11.26): klt (default, the\n"
     "pipeline's), sift, orb (in place of SURF, not in Debian's OpenCV) or fast (FAST corners matched\n"
     "by the SSD of their 16-pixel circle); it prints features per frame, matches per pair, the\n"
-    "share RANSAC keeps, the share misclassified and the tracking time per pair.\n";
+    "share RANSAC keeps, the share misclassified and the tracking time per pair.\n"
+    "--odometry-epipolar-px P also drops matches more than P px from the epipolar line of the pair's\n"
+    "odometry (with the --odom-sd-* noise); 0 (default) = RANSAC alone, as the thesis.\n";
 
 namespace {
 
@@ -88,6 +90,8 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       if (!value(options.profiles.ground_reach_px)) return 2;
     } else if (arg == "--forward-backward-px") {
       if (!value(options.tracking.forward_backward_px)) return 2;
+    } else if (arg == "--odometry-epipolar-px") {
+      if (!value(options.tracking.odometry_epipolar_px)) return 2;
     } else if (arg == "--tracker" && i + 1 < argc) {
       options.tracker = argv[++i];
     } else if (arg == "--no-band") {

@@ -1,6 +1,7 @@
 #include "visnav/ipt_obstacles/pipeline.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -34,12 +35,35 @@ const ParamSchema<PipelineParams>& PipelineParams::schema() {
           .range(0.001, 3.2)
           .field("forward_backward_px", &P::forward_backward_px,
                  "drop tracks whose backward track misses the corner by more (0 = off)")
+          .range(0.0, 100.0)
+          .field("odometry_epipolar_px", &P::odometry_epipolar_px,
+                 "also drop matches farther from the odometry's epipolar line (0 = off)")
           .range(0.0, 100.0);
   return s;
 }
 
+double odometry_epipolar_distance_px(const OdometryEpipolar& motion, const cv::Point2d& a, const cv::Point2d& b) {
+  const IptCamera& cam = motion.camera;
+  // the ray of `a` from the first lens: x_n·r + y_n·w + o with project_point()'s right, up and
+  // optical-axis vectors, so that its projection into the first frame is `a` again
+  const double theta = motion.first.azimuth_rad - CV_PI / 2.0;
+  const double ct = std::cos(theta), st = std::sin(theta);
+  const double cp = std::cos(cam.pitch_rad), sp = std::sin(cam.pitch_rad);
+  const double xn = (a.x - cam.cx_px) / cam.fx_px, yn = (cam.cy_px - a.y) / cam.fy_px;
+  const cv::Vec3d r(ct, st, 0.0), w(sp * st, -sp * ct, cp), o(-cp * st, cp * ct, sp);
+  const cv::Vec3d ray = xn * r + yn * w + o;
+  const cv::Vec3d lens(motion.first.x_m, motion.first.y_m, cam.height_m);
+  const auto near_px = project_point(cam, motion.second, lens + 0.3 * ray);
+  const auto far_px = project_point(cam, motion.second, lens + 1000.0 * ray);
+  if (!near_px || !far_px) return std::numeric_limits<double>::infinity();
+  const cv::Point2d d = *far_px - *near_px;
+  const double length = std::hypot(d.x, d.y);
+  if (length < 1e-9) return cv::norm(b - *far_px);
+  return std::fabs(d.x * (b.y - near_px->y) - d.y * (b.x - near_px->x)) / length;
+}
+
 int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams& params, std::vector<cv::Point2f>& a,
-               std::vector<cv::Point2f>& b, TrackScratch& t) {
+               std::vector<cv::Point2f>& b, TrackScratch& t, const OdometryEpipolar* motion) {
   a.clear();
   b.clear();
   cv::goodFeaturesToTrack(first, t.corners, params.max_features, params.quality_level, params.min_distance_px);
@@ -54,14 +78,18 @@ int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams
     a.push_back(t.corners[i]);
     b.push_back(t.tracked[i]);
   }
-  return reject_epipolar_outliers(a, b, params, t.inliers);
+  return reject_epipolar_outliers(a, b, params, t.inliers, motion);
 }
 
 int reject_epipolar_outliers(std::vector<cv::Point2f>& a, std::vector<cv::Point2f>& b, const PipelineParams& params,
-                             std::vector<std::uint8_t>& inliers) {
+                             std::vector<std::uint8_t>& inliers, const OdometryEpipolar* motion) {
   if (a.size() < 8 || a.size() != b.size()) return 0;
   cv::findFundamentalMat(a, b, cv::FM_RANSAC, params.ransac_threshold_px, 0.99, params.ransac_iterations, inliers);
   if (inliers.empty()) return 0;
+  if (motion != nullptr && params.odometry_epipolar_px > 0.0) {
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (inliers[i] != 0 && odometry_epipolar_distance_px(*motion, a[i], b[i]) > params.odometry_epipolar_px) inliers[i] = 0;
+  }
   std::size_t kept = 0;
   int outliers = 0;
   for (std::size_t i = 0; i < a.size(); ++i) {
@@ -114,7 +142,8 @@ Result<std::optional<PairResult>> ObstaclePipeline::process(const cv::Mat& grey,
   }
   PairResult out;
   out.pose = odom_pose;
-  out.ransac_outliers = track_pair(first_, grey, pipeline_, a_, b_, tracks_);
+  const OdometryEpipolar motion{camera_, first_lens, lens};
+  out.ransac_outliers = track_pair(first_, grey, pipeline_, a_, b_, tracks_, &motion);
   VISNAV_ASSIGN(out.features, classify_features(camera_, first_lens, lens, a_, b_, classifier_));
   reduced_canny(grey, profiles_, edges_, scratch_);
   out.contacts = contact_points(edges_, out.features, camera_, odom_pose, profiles_);

@@ -23,7 +23,16 @@ struct RansacScore {
 /// One synthetic pair: `count` points, a share `ground_share` on the ground 0.7-4 m ahead, the
 /// rest on surfaces 1.5-6 m ahead, 0-1.5 m high; the lens drives 2 cm forward and turns 0.3°.
 /// A share `outlier_share` of the second frame's points is displaced 5-40 px in a random direction.
-RansacScore score_pair(std::mt19937_64& rng, int count, double ground_share, double outlier_share) {
+/// With odometric_px > 0 the odometry's epipolar check follows RANSAC, the second lens pose
+/// read with the given position and heading errors (normal, per pair).
+struct OdometryCheck {
+  double odometric_px = 0.0;
+  double position_sd_m = 0.0;
+  double heading_sd_rad = 0.0;
+};
+
+RansacScore score_pair(std::mt19937_64& rng, int count, double ground_share, double outlier_share,
+                       const OdometryCheck& check = {}) {
   const IptCamera cam = testing::thesis_rig();
   const LensPose first{0.0, 0.0, 0.0};
   const LensPose second{0.02, 0.0, 0.3 * CV_PI / 180.0};
@@ -76,7 +85,14 @@ RansacScore score_pair(std::mt19937_64& rng, int count, double ground_share, dou
   RansacScore score;
   std::vector<cv::Point2f> ka = a, kb = b;
   std::vector<std::uint8_t> mask;
-  const int dropped = reject_epipolar_outliers(ka, kb, params, mask);
+  PipelineParams checked = params;
+  checked.odometry_epipolar_px = check.odometric_px;
+  std::normal_distribution<double> unit_normal(0.0, 1.0);
+  const double error_x = unit_normal(rng) * check.position_sd_m;
+  const double error_y = unit_normal(rng) * check.position_sd_m;
+  const double error_heading = unit_normal(rng) * check.heading_sd_rad;
+  const OdometryEpipolar motion{cam, first, LensPose{second.x_m + error_x, second.y_m + error_y, second.azimuth_rad + error_heading}};
+  const int dropped = reject_epipolar_outliers(ka, kb, checked, mask, &motion);
   EXPECT_EQ(static_cast<std::size_t>(dropped) + ka.size(), a.size());
   for (std::size_t i = 0; i < a.size(); ++i) {
     const bool kept = !mask.empty() && mask[i] != 0;
@@ -99,11 +115,11 @@ struct Rates {
   double outliers_removed = 0.0, off_line_removed = 0.0, inliers_kept = 0.0;
 };
 
-Rates rates(double ground_share, double outlier_share, int trials) {
+Rates rates(double ground_share, double outlier_share, int trials, const OdometryCheck& check = {}) {
   RansacScore total;
   for (int trial = 0; trial < trials; ++trial) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(1000 * outlier_share + 100 * ground_share) * 131 + trial);
-    const RansacScore s = score_pair(rng, 200, ground_share, outlier_share);
+    const RansacScore s = score_pair(rng, 200, ground_share, outlier_share, check);
     total.inliers += s.inliers;
     total.inliers_kept += s.inliers_kept;
     total.outliers += s.outliers;
@@ -140,6 +156,50 @@ TEST(IptRansac, MostlyGroundScenesFareAsWell) {
     const Rates r = rates(0.85, outlier_share, 10);
     EXPECT_GE(r.off_line_removed, 0.89) << "outliers " << outlier_share;
     EXPECT_GE(r.inliers_kept, 0.92) << "outliers " << outlier_share;
+  }
+}
+
+TEST(IptRansac, TheOdometrysEpipolarLineHoldsTrueMatchesAtEveryDepth) {
+  const IptCamera cam = testing::thesis_rig();
+  const LensPose first{1.0, 2.0, 0.4};
+  const LensPose second{1.0 + 0.02 * std::cos(0.41), 2.0 + 0.02 * std::sin(0.41), 0.41};
+  const OdometryEpipolar motion{cam, first, second};
+  int tested = 0;
+  for (const cv::Vec3d& local : {cv::Vec3d(0.8, 0.3, 0.0), cv::Vec3d(3.0, -1.2, 0.0), cv::Vec3d(2.0, 0.5, 1.2),
+                                cv::Vec3d(40.0, 10.0, 6.0), cv::Vec3d(1.5, 0.0, 0.2)}) {
+    const double c = std::cos(0.4), s = std::sin(0.4);
+    const cv::Vec3d p(1.0 + c * local[0] - s * local[1], 2.0 + s * local[0] + c * local[1], local[2]);
+    const auto pa = project_point(cam, first, p);
+    const auto pb = project_point(cam, second, p);
+    ASSERT_TRUE(pa && pb);
+    EXPECT_LT(odometry_epipolar_distance_px(motion, *pa, *pb), 0.01) << local[0] << ", " << local[1] << ", " << local[2];
+    // the same ray's point ten times nearer lies on the line; 6 px across the line is off it
+    const cv::Vec3d lens(first.x_m, first.y_m, cam.height_m);
+    const auto nearer = project_point(cam, second, lens + 0.1 * (p - lens));
+    ASSERT_TRUE(nearer);
+    EXPECT_LT(odometry_epipolar_distance_px(motion, *pa, *nearer), 0.01) << local[0] << ", " << local[1] << ", " << local[2];
+    const cv::Point2d along = *nearer - *pb;
+    if (cv::norm(along) > 0.5) {
+      const cv::Point2d across = cv::Point2d(-along.y, along.x) * (6.0 / cv::norm(along));
+      EXPECT_GT(odometry_epipolar_distance_px(motion, *pa, *pb + across), 5.0) << local[0] << ", " << local[1] << ", " << local[2];
+      ++tested;
+    }
+  }
+  EXPECT_GE(tested, 4);  // the point straight ahead lies near the epipole, where the line has no direction
+}
+
+TEST(IptRansac, TheOdometrysEpipolarLinesRemoveTheOutliersRansacKeeps) {
+  // spec §11 item 6 at the thesis's 2 cm: RANSAC alone removes 0.92-0.95 of the outliers off
+  // their epipolar line (above); the odometric check after it, with the odometry's pose of the
+  // second lens off by 2 mm and 0.05° (a 2 cm step of the simulated robot errs by less), gets
+  // past the spec's 95 % and keeps 90 % of the inliers
+  const OdometryCheck check{1.5, 0.002, 0.05 * CV_PI / 180.0};
+  for (const double ground_share : {0.5, 0.85}) {
+    for (const double outlier_share : {0.2, 0.3, 0.4}) {
+      const Rates r = rates(ground_share, outlier_share, 10, check);
+      EXPECT_GE(r.off_line_removed, 0.95) << "ground " << ground_share << ", outliers " << outlier_share;
+      EXPECT_GE(r.inliers_kept, 0.90) << "ground " << ground_share << ", outliers " << outlier_share;
+    }
   }
 }
 

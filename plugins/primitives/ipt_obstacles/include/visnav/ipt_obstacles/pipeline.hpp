@@ -39,10 +39,26 @@ struct PipelineParams {
   double max_pair_distance_m = 0.2;  ///< a longer gap (stall, jump) restarts the pair
   double max_pair_rotation_rad = 0.05;  ///< a larger turn within a pair restarts it (KLT needs small motion) [ours]
   double forward_backward_px = 0.2;  ///< [ours, measured] > 0: drop tracks whose backward LK track misses the corner by more
+  double odometry_epipolar_px = 0.0;  ///< [ours] > 0: also drop matches farther than this from the epipolar
+                                      ///< line the odometry's lens motion predicts (0 = off: RANSAC alone)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<PipelineParams>& schema();
 };
+
+/// The lens motion of a pair from the odometry: with it every first-frame pixel has one
+/// epipolar line in the second frame (the second view of its ray), with no model to fit.
+struct OdometryEpipolar {
+  IptCamera camera;
+  LensPose first, second;
+};
+
+/// Distance in pixels of `b` from the epipolar line of `a` that the lens motion predicts (the
+/// line through the second views of the ray's points 0.3 and 1000 optical-axis units out); the
+/// distance to the one view when both coincide (a point at the epipole), infinity when the
+/// ray's points are not both in front of the second lens.
+[[nodiscard]] double odometry_epipolar_distance_px(const OdometryEpipolar& motion, const cv::Point2d& a,
+                                                   const cv::Point2d& b);
 
 /// Scratch of track_pair() (no allocation once sizes are stable).
 struct TrackScratch {
@@ -54,15 +70,20 @@ struct TrackScratch {
 /// Steps 2-3 of the cycle for one pair: Shi-Tomasi corners in `first`, pyramidal LK into
 /// `second` (with the forward-backward check when forward_backward_px > 0), RANSAC on F.
 /// Fills the inlier tracks `a` → `b`; returns the number of RANSAC outliers.
+/// With `motion` and odometry_epipolar_px > 0 the odometric check follows RANSAC.
 int track_pair(const cv::Mat& first, const cv::Mat& second, const PipelineParams& params, std::vector<cv::Point2f>& a,
-               std::vector<cv::Point2f>& b, TrackScratch& scratch);
+               std::vector<cv::Point2f>& b, TrackScratch& scratch, const OdometryEpipolar* motion = nullptr);
 
 /// Step 3 alone: RANSAC on the fundamental matrix (ransac_threshold_px, ransac_iterations,
 /// confidence 0.99) over the matches a[i] → b[i]; keeps the inliers in a and b (in order) and
 /// returns how many were dropped. Fewer than 8 matches (or sizes that differ): nothing dropped.
-/// `inliers` is scratch (the mask of the last call).
+/// `inliers` is scratch (the mask of the last call, 0 for every dropped match). With `motion`
+/// and odometry_epipolar_px > 0, a RANSAC inlier farther than odometry_epipolar_px from its
+/// odometric epipolar line (odometry_epipolar_distance_px) is dropped too: at the thesis's 2 cm
+/// baseline the flow is a few pixels and many F fit the inliers, so RANSAC alone keeps 5-8 % of
+/// the outliers (docs/obstacles.md, "Other measurements").
 int reject_epipolar_outliers(std::vector<cv::Point2f>& a, std::vector<cv::Point2f>& b, const PipelineParams& params,
-                             std::vector<std::uint8_t>& inliers);
+                             std::vector<std::uint8_t>& inliers, const OdometryEpipolar* motion = nullptr);
 
 struct PairResult {
   std::vector<ClassifiedFeature> features;

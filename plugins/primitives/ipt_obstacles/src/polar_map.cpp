@@ -191,6 +191,13 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
     if (q.range_m <= goal.range_m) pts.push_back(q);
   }
   const double S = params_.security_distance_m;
+  // Each sector's representative: its nearest point (spec §7.3).
+  const int n = sector_count();
+  std::vector<int> nearest(static_cast<std::size_t>(n), -1);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    int& k = nearest[static_cast<std::size_t>(sector_of(pts[i].bearing_rad))];
+    if (k < 0 || pts[i].range_m < pts[static_cast<std::size_t>(k)].range_m) k = static_cast<int>(i);
+  }
   // S1: the potential field.
   const bool high_risk = std::any_of(pts.begin(), pts.end(), [&](const Polar& q) { return q.range_m < S; });
   if (high_risk) {
@@ -226,13 +233,10 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
       if (gap_rad) attract_rad = *gap_rad;
       through_gap = gap_rad.has_value();
     }
+    // Repelled by each sector's representative, not every stored point: summed over all of them
+    // a wall's push grew with how often it had been seen.
     double rx = 0.0, ry = 0.0;
-    std::vector<int> nearest_risk(static_cast<std::size_t>(sector_count()), -1);
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      int& k = nearest_risk[static_cast<std::size_t>(sector_of(pts[i].bearing_rad))];
-      if (k < 0 || pts[i].range_m < pts[static_cast<std::size_t>(k)].range_m) k = static_cast<int>(i);
-    }
-    for (const int k : nearest_risk) {
+    for (const int k : nearest) {
       if (k < 0) continue;
       const Polar& q = pts[static_cast<std::size_t>(k)];
       if (q.range_m >= S || q.range_m <= 1e-6) continue;
@@ -261,12 +265,6 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
     d.translate = true;
     d.reason = "obstacle within the security distance: potential field";
     return d;
-  }
-  const int n = sector_count();
-  std::vector<int> nearest(static_cast<std::size_t>(n), -1);
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    int& k = nearest[static_cast<std::size_t>(sector_of(pts[i].bearing_rad))];
-    if (k < 0 || pts[i].range_m < pts[static_cast<std::size_t>(k)].range_m) k = static_cast<int>(i);
   }
   const int goal_sector = sector_of(goal.bearing_rad);
   auto eps_of = [&](double range_m) { return std::asin(std::min(1.0, S / range_m)); };

@@ -11,7 +11,7 @@
 //    (R_nf = |goal − robot|). Per cycle (spec §7.5):
 //      S0 goal reached (R_nf < goal_tolerance_m): reset, stop;
 //      S1 a point closer than security_distance_m (S_dist): potential-field direction, repelled
-//         by every point within S_dist [ours: attracted by the middle of the gap ahead nearest
+//         by each sector's nearest point within S_dist [ours: attracted by the middle of the gap ahead nearest
 //         the goal direction, with the repulsion along it dropped, so that a gap narrower than
 //         2·S_dist is entered; else by the last GO candidate's direction while tenacity is on,
 //         else by the goal; a direction behind the robot keeps the side of the previous turn];

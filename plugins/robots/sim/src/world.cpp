@@ -177,7 +177,7 @@ Status parse_trees(World& world, const ConfigNode& list) {
 Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& name, const cv::Point2d& at) {
   const ConfigNode* path = o.find("path");
   if (path == nullptr) {
-    for (const char* key : {"speed_mps", "start_s", "motion", "yield_m"})
+    for (const char* key : {"speed_mps", "start_s", "motion", "yield_m", "pause_s"})
       if (const ConfigNode* n = o.find(key))
         return node_error(*n, name + ": key '" + key + "' needs 'path' (the waypoints the obstacle moves through)",
                           ErrorCode::missing, "path");
@@ -197,6 +197,10 @@ Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& n
   VISNAV_ASSIGN(m.speed_mps, get_double(o, "speed_mps", 1.0, 0.01, 20.0));
   VISNAV_ASSIGN(m.start_s, get_double(o, "start_s", 0.0, 0.0, 1e6));
   VISNAV_ASSIGN(m.yield_m, get_double(o, "yield_m", 0.0, 0.0, 5.0));
+  VISNAV_ASSIGN(m.pause_s, get_double(o, "pause_s", 0.0, 0.0, 600.0));
+  if (m.pause_s > 0.0 && m.yield_m > 0.0)
+    return node_error(*o.find("pause_s"), name + ": key 'pause_s' is for a blind walker; it cannot be combined with 'yield_m'",
+                      ErrorCode::inconsistent, "pause_s");
   VISNAV_ASSIGN(const std::string motion, get_string(o, "motion", "once"));
   if (motion == "once") m.motion = MovingObstacle::Motion::once;
   else if (motion == "loop") m.motion = MovingObstacle::Motion::loop;
@@ -221,7 +225,7 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
   for (const auto& o : list.items()) {
     const std::string what = "obstacle " + std::to_string(index++);
     VISNAV_TRY(check_keys(o, {"name", "kind", "at", "yaw_deg", "size_m", "radius_m", "sides", "height_m", "texture", "path",
-                              "speed_mps", "start_s", "motion", "yield_m"},
+                              "speed_mps", "start_s", "motion", "yield_m", "pause_s"},
                           what));
     VISNAV_ASSIGN(const std::string name, get_string(o, "name", what));
     VISNAV_ASSIGN(const std::string kind, get_string(o, "kind", "box"));
@@ -437,6 +441,38 @@ cv::Vec3b label_color(LabelClass label) {
     case LabelClass::obstacle: return {200, 0, 200};
   }
   return {0, 0, 0};
+}
+
+double MovingObstacle::walked_at(double time_s) const {
+  if (time_s <= start_s) return 0.0;
+  const double t = time_s - start_s;
+  if (pause_s <= 0.0 || path.size() < 2) return speed_mps * t;
+  // The legs in walked order over one cycle: the polyline, then the closing segment (loop) or
+  // the polyline backwards (back_and_forth); a pause after each leg.
+  const std::size_t n = path.size() - 1;
+  const std::size_t legs = motion == Motion::loop ? n + 1 : motion == Motion::back_and_forth ? 2 * n : n;
+  auto leg_m = [&](std::size_t k) {
+    if (k < n) return cv::norm(path[k + 1] - path[k]);
+    if (motion == Motion::loop) return cv::norm(path.front() - path.back());
+    return cv::norm(path[2 * n - k] - path[2 * n - k - 1]);  // backwards: leg n-1, n-2, ..., 0
+  };
+  double cycle_m = 0.0;
+  for (std::size_t k = 0; k < legs; ++k) cycle_m += leg_m(k);
+  const double cycle_s = cycle_m / speed_mps + static_cast<double>(legs) * pause_s;
+  double walked = 0.0, left_s = t;
+  if (motion != Motion::once) {
+    const double cycles = std::floor(left_s / cycle_s);
+    walked = cycles * cycle_m;
+    left_s -= cycles * cycle_s;
+  }
+  for (std::size_t k = 0; k < legs; ++k) {
+    const double leg_s = leg_m(k) / speed_mps;
+    if (left_s < leg_s) return walked + speed_mps * left_s;
+    walked += leg_m(k);
+    left_s -= leg_s + pause_s;
+    if (left_s < 0.0) return walked;  // standing at the waypoint
+  }
+  return walked;  // once: at the end
 }
 
 cv::Point2d MovingObstacle::position_at(double time_s) const {

@@ -63,6 +63,29 @@ TEST(MovingObstacles, PositionFollowsThePolylineAtTheSpeed) {
   EXPECT_NEAR(cv::norm(m.position_at(1.0 + 6.0 + std::sqrt(5.0)) - cv::Point2d(1, 0.5)), 0.0, 1e-9);
 }
 
+TEST(MovingObstacles, APauseStandsAtEveryWaypoint) {
+  MovingObstacle m;
+  m.path = {{0, 0}, {2, 0}, {2, 1}};  // legs of 2 m and 1 m
+  m.speed_mps = 1.0;
+  m.start_s = 1.0;
+  m.pause_s = 3.0;
+  EXPECT_NEAR(cv::norm(m.position_at(2.0) - cv::Point2d(1, 0)), 0.0, 1e-12);
+  EXPECT_NEAR(cv::norm(m.position_at(3.5) - cv::Point2d(2, 0)), 0.0, 1e-12);   // standing at the turn
+  EXPECT_NEAR(cv::norm(m.position_at(5.9) - cv::Point2d(2, 0)), 0.0, 1e-12);
+  EXPECT_NEAR(cv::norm(m.position_at(6.5) - cv::Point2d(2, 0.5)), 0.0, 1e-12);  // walks on after 3 s
+  EXPECT_NEAR(cv::norm(m.position_at(100.0) - cv::Point2d(2, 1)), 0.0, 1e-12);  // once: stays at the end
+  m.motion = MovingObstacle::Motion::back_and_forth;  // a cycle: 2 + 1 + 1 + 2 m and 4 pauses = 18 s
+  EXPECT_NEAR(cv::norm(m.position_at(1.0 + 8.0) - cv::Point2d(2, 1)), 0.0, 1e-12);  // standing at the far end
+  EXPECT_NEAR(cv::norm(m.position_at(1.0 + 9.5) - cv::Point2d(2, 0.5)), 0.0, 1e-12);
+  EXPECT_NEAR(cv::norm(m.position_at(1.0 + 18.0 + 1.0) - cv::Point2d(1, 0)), 0.0, 1e-9);  // the next cycle
+  m.motion = MovingObstacle::Motion::loop;  // 2 + 1 + sqrt(5) m and 3 pauses
+  const double lap_s = 3.0 + std::sqrt(5.0) + 9.0;
+  EXPECT_NEAR(cv::norm(m.position_at(1.0 + lap_s + 0.5) - cv::Point2d(0.5, 0)), 0.0, 1e-9);
+  EXPECT_NEAR(cv::norm(m.position_at(1.0 + lap_s - 1.0) - cv::Point2d(0, 0)), 0.0, 1e-9);  // standing at the start
+  m.pause_s = 0.0;  // without pauses as before
+  EXPECT_NEAR(m.walked_at(11.0), 10.0, 1e-12);
+}
+
 TEST(MovingObstacles, PersonWallsMoveWithTime) {
   auto world = world_or_die(kWorld);
   ASSERT_NE(world, nullptr);
@@ -213,6 +236,12 @@ TEST(MovingObstacles, BadMotionSpecsNameTheKeyAndLine) {
                          ErrorCode::out_of_range, At{"inline.yaml", 6, "yield_m"}));
   EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], yield_m: 0.6, texture: cloth}\n"),
                          ErrorCode::missing, At{"inline.yaml", 6, "path"}));
+  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], pause_s: 2, texture: cloth}\n"),
+                         ErrorCode::missing, At{"inline.yaml", 6, "path"}));
+  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, pause_s: -1, texture: cloth}\n"),
+                         ErrorCode::out_of_range, At{"inline.yaml", 6, "pause_s"}));
+  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, pause_s: 2, yield_m: 0.6, texture: cloth}\n"),
+                         ErrorCode::inconsistent, At{"inline.yaml", 6, "pause_s"}));
 }
 
 TEST(MovingObstacles, ObstacleFileAddsToTheWorldPerRun) {

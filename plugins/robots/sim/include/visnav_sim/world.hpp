@@ -121,10 +121,12 @@ struct MovingObstacle {
   /// Position of the obstacle's reference point (path[0] at rest) at simulated time `time_s`
   /// (a blind walker: walked_at(time_s) metres along its motion).
   [[nodiscard]] cv::Point2d position_at(double time_s) const;
-  /// Metres walked along the motion by time `time_s` without stopping.
-  [[nodiscard]] double walked_at(double time_s) const {
-    return time_s <= start_s ? 0.0 : speed_mps * (time_s - start_s);
-  }
+  /// Stands this long at every waypoint it reaches (the ends and turns of back_and_forth and
+  /// loop included), seconds; 0 = walks on. Not with yield_m > 0 (the world file refuses it).
+  double pause_s = 0.0;
+
+  /// Metres walked along the motion by time `time_s` (a blind walker; its pauses counted).
+  [[nodiscard]] double walked_at(double time_s) const;
   /// Position after walking `walked_m` metres along the motion (the motion mode applied), and
   /// the unit walking direction there when `direction` is non-null ((0, 0) when it stands at
   /// the end of a `once` path).

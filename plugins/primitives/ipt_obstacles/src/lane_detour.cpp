@@ -81,10 +81,13 @@ bool LaneDetour::lane_free(double lane_m, double s_robot_m) const {
 }
 
 bool LaneDetour::sweep_free(double from_m, double to_m, double s_robot_m) const {
-  const double lo = std::min(from_m, to_m), hi = std::max(from_m, to_m);
+  // The band from the robot's offset to the target's far clearance: points on the robot's other
+  // side (it moves away from them) do not count.
   for (std::size_t i = 0; i < points_.size(); ++i) {
     const double half = half_m(i, s_robot_m);
-    if (points_[i].y > lo - half && points_[i].y < hi + half && held(i, s_robot_m)) return false;
+    const double l = points_[i].y;
+    const bool between = to_m >= from_m ? (l > from_m && l < to_m + half) : (l < from_m && l > to_m - half);
+    if (between && held(i, s_robot_m)) return false;
   }
   return true;
 }

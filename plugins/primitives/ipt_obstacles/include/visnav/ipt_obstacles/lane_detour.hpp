@@ -94,7 +94,8 @@ class LaneDetour {
  private:
   [[nodiscard]] cv::Point2d to_line(double x_m, double y_m) const;  // (s, l)
   [[nodiscard]] bool lane_free(double lane_m, double s_robot_m) const;
-  /// No held point in the band the body sweeps between lateral offsets from_m and to_m.
+  /// No held point in the band the body sweeps from lateral offset from_m (the robot) to to_m
+  /// (plus the clearance beyond to_m).
   [[nodiscard]] bool sweep_free(double from_m, double to_m, double s_robot_m) const;
   /// How far behind the robot point i still holds: behind_m cut for the line's end, never less
   /// than min_behind_m nor the body radius + clearance.

@@ -395,6 +395,10 @@ bt::PortsList ReplayAvoiding::provided_ports() {
       "longer-baseline triangulation looks; probe_min_points corners in the corridor ahead: lane detour with all of "
       "them (the face's full width), else resume (back_off_look.hpp); 0 = off (resume at once)"));
   ports.push_back(bt::input_port<double>("backoff_speed_mps", "0.15", "back-off: reverse speed"));
+  ports.push_back(bt::input_port<double>(
+      "drift_rad_per_m", "0.012",
+      "lane detour: odometry heading drift assumed while passing points out of view; a point's clearance grows by "
+      "0.5*drift*d^2 (d: travel along the line since it was seen, at most 0.4 m more); 0 = off"));
   ports.push_back(bt::input_port<bool>(
       "backoff_compact", "true",
       "back-off only after a stop whose changed pixels (moving_stop_m's frame difference) came in solid pieces "
@@ -926,6 +930,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       if (clearance) params.clearance_m = *clearance;
       if (widest) params.max_offset_m = *widest;
       if (auto commit = get_input<double>("commit_m")) params.commit_m = *commit;
+      if (auto drift = get_input<double>("drift_rad_per_m")) params.drift_rad_per_m = *drift;
       Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
       if (st) st = detour_.begin(*this, odom.pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
       if (!st) {

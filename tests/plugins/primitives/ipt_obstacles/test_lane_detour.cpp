@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "error_expect.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/profiles.hpp"
 
@@ -259,6 +260,9 @@ TEST(LaneDetour, BadParamsAreOutOfRange) {
   const Status st = p.validate();
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, ErrorCode::out_of_range);
+  LaneDetourParams drift;
+  drift.drift_rad_per_m = 1.5;  // the port drift_rad_per_m: rad per metre, at most 1
+  EXPECT_TRUE(visnav::test::fails_with(drift.validate(), ErrorCode::out_of_range, visnav::test::key_only("drift_rad_per_m")));
 }
 
 // ----------------------------------------------------------------------- contact repairs

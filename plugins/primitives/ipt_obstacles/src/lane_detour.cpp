@@ -114,8 +114,8 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     return d;
   }
   std::optional<double> lane;
-  // Back to the line (or to a nearer lane) only when the band the body sweeps on the way there
-  // is free too: a point released by its hold on the line may still hold a lane in between.
+  // Back to the line only when the band the body sweeps on the way there is free too: a point
+  // released by its hold on the line may still hold a lane in between.
   if (lane_free(0.0, r.x) && (side_ == 0 || sweep_free(r.y, 0.0, r.x))) {
     lane = 0.0;
   } else if (side_ != 0 && lane_m_ != 0.0 && lane_free(lane_m_, r.x)) {

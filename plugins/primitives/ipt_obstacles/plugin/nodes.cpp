@@ -395,6 +395,15 @@ bt::PortsList ReplayAvoiding::provided_ports() {
       "longer-baseline triangulation looks; probe_min_points corners in the corridor ahead: lane detour with all of "
       "them (the face's full width), else resume (back_off_look.hpp); 0 = off (resume at once)"));
   ports.push_back(bt::input_port<double>("backoff_speed_mps", "0.15", "back-off: reverse speed"));
+  ports.push_back(bt::input_port<double>(
+      "drift_rad_per_m", "0.012",
+      "lane detour: odometry heading drift assumed while passing points out of view; a point's clearance grows by "
+      "0.5*drift*d^2 (d: travel along the line since it was seen, at most 0.4 m more); 0 = off"));
+  ports.push_back(bt::input_port<bool>(
+      "backoff_compact", "true",
+      "back-off only after a stop whose changed pixels (moving_stop_m's frame difference) came in solid pieces "
+      "(a face close ahead, its texture magnified), not in the specks of ground shimmer (motion_watch.hpp, change_shape()); false = after every "
+      "fruitless look"));
   ports.push_back(bt::input_port<double>("commit_m", "2.0",
                                          "lane detour: the chosen side is kept within this of an obstacle point (its "
                                          "closing blocks the detour instead of a swing across the obstacle); 0 = off"));
@@ -478,6 +487,7 @@ NodeStatus ReplayAvoiding::tick() {
     stop(host_);
     return NodeStatus::failure;
   }
+  stop_by_drive_watch_ = *near;
   if (*near) {
     halt_child();
     probing_ = false;
@@ -723,7 +733,16 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
   // Only at cruising speed (>= 2 cm per frame): the shimmer of fine ground texture grows with
   // the speed, so counts while starting or stopping say nothing about it (ShimmerTrigger).
   const bool cruising = std::abs(motion.x_m) >= 0.02;
-  return drive_shimmer_.update(*changed, cruising, drive_watch_->moving());
+  if (!drive_shimmer_.update(*changed, cruising, drive_watch_->moving())) return false;
+  // What stopped the robot: one compact region (a face close ahead) or scattered shimmer; the
+  // back-off after a fruitless look asks for the former (backoff_compact).
+  stop_shape_ = change_shape(drive_watch_->last_changed(), ChangeShapeParams{}, shape_labels_, shape_stats_, shape_centroids_);
+  host_.logger().info(path(), "near corridor changed: " + std::to_string(stop_shape_.changed_px) + " px in " +
+                                  std::to_string(stop_shape_.pieces) + " pieces (largest " +
+                                  std::to_string(stop_shape_.largest_px) + " px), " + std::to_string(stop_shape_.solid_px) +
+                                  " px in solid pieces (share " + std::to_string(stop_shape_.share) + "): " +
+                                  (stop_shape_.compact ? "solid (something close)" : "specks (shimmer)"));
+  return true;
 }
 
 NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
@@ -911,6 +930,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       if (clearance) params.clearance_m = *clearance;
       if (widest) params.max_offset_m = *widest;
       if (auto commit = get_input<double>("commit_m")) params.commit_m = *commit;
+      if (auto drift = get_input<double>("drift_rad_per_m")) params.drift_rad_per_m = *drift;
       Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
       if (st) st = detour_.begin(*this, odom.pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
       if (!st) {
@@ -1009,6 +1029,13 @@ Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
   // per place: after a fruitless back-off, none until 2 backoff_m past where it stopped (a
   // shimmering floor stops the robot every 0.6 m; measured on the campus, e12 and e14).
   if (distance <= 0.0 || replay_done_m_ < 1.0 || odom.distance_m < backoff_again_at_m_) return false;
+  // Only after a stop on something close standing ahead: ground shimmer stops the robot too
+  // (campus gravel and tiles, 2-12 times a run), and each fruitless back-off costs accuracy.
+  VISNAV_ASSIGN(const bool compact_only, get_input<bool>("backoff_compact"));
+  if (compact_only && stop_by_drive_watch_ && !stop_shape_.compact) {
+    host_.logger().info(path(), "nothing moves ahead and no contact; the stop's changed pixels were specks (ground shimmer): no back-off");
+    return false;
+  }
   BackOffLookParams params;
   params.distance_m = distance;
   VISNAV_ASSIGN(params.speed_mps, get_input<double>("backoff_speed_mps"));

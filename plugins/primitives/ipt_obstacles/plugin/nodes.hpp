@@ -243,6 +243,9 @@ class ReplayAvoiding : public bt::DecoratorNode {
   std::uint64_t drive_sequence_ = 0;
   bool have_drive_sequence_ = false;
   ShimmerTrigger drive_shimmer_;            // the near corridor's count against the texture's shimmer level
+  ChangeShape stop_shape_;                  // the changed pixels that stopped the robot (drive watch)
+  bool stop_by_drive_watch_ = false;        // the last stop-and-look began on the drive watch
+  cv::Mat shape_labels_, shape_stats_, shape_centroids_;
   double drive_quiet_until_m_ = -1e300;     // odometer reading before which moving_near() is not asked
   cv::Mat watch_grey_;
   bool child_started_ = false;

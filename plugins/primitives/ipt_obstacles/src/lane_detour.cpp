@@ -36,7 +36,10 @@ const ParamSchema<LaneDetourParams>& LaneDetourParams::schema() {
                             .field("min_progress_m", &P::min_progress_m, "along-line travel before the detour ends")
                             .range(0.0, 50.0)
                             .field("commit_m", &P::commit_m, "the chosen side is kept within this of an obstacle point")
-                            .range(0.0, 50.0);
+                            .range(0.0, 50.0)
+                            .field("drift_rad_per_m", &P::drift_rad_per_m, "odometry heading drift assumed while passing blind")
+                            .range(0.0, 1.0)
+                            .field("max_drift_m", &P::max_drift_m, "largest clearance added for that drift").range(0.0, 5.0);
   return s;
 }
 
@@ -47,26 +50,53 @@ cv::Point2d LaneDetour::to_line(double x_m, double y_m) const {
 }
 
 void LaneDetour::add_points(std::span<const cv::Point2d> points_m) {
-  for (const auto& p : points_m) points_.push_back(to_line(p.x, p.y));
+  for (const auto& p : points_m) {
+    points_.push_back(to_line(p.x, p.y));
+    seen_s_.push_back(s_now_);
+  }
+}
+
+double LaneDetour::hold_m(std::size_t i) const {
+  // The unseen length (behind_m), cut for the line's end (return_m before it), but never less
+  // than the body radius + clearance: a point seen (the far end of an obstacle's side too) is
+  // passed by the body before the robot turns back, also once it is out of view.
+  const double cut = std::min(params_.behind_m, params_.end_s_m - params_.return_m - points_[i].x);
+  return std::max({params_.min_behind_m, params_.body_radius_m + params_.clearance_m, cut});
+}
+
+bool LaneDetour::held(std::size_t i, double s_robot_m) const {
+  const double s = points_[i].x;
+  return s >= s_robot_m - hold_m(i) && s <= s_robot_m + params_.lookahead_m;
+}
+
+double LaneDetour::half_m(std::size_t i, double s_robot_m) const {
+  const double d = std::max(0.0, s_robot_m - seen_s_[i]);
+  return params_.body_radius_m + params_.clearance_m + std::min(params_.max_drift_m, 0.5 * params_.drift_rad_per_m * d * d);
 }
 
 bool LaneDetour::lane_free(double lane_m, double s_robot_m) const {
-  const double half = params_.body_radius_m + params_.clearance_m;
-  for (const auto& p : points_) {
-    const double behind =
-        std::max(params_.min_behind_m, std::min(params_.behind_m, params_.end_s_m - params_.return_m - p.x));
-    if (p.x >= s_robot_m - behind && p.x <= s_robot_m + params_.lookahead_m && std::fabs(p.y - lane_m) < half)
-      return false;
+  for (std::size_t i = 0; i < points_.size(); ++i)
+    if (std::fabs(points_[i].y - lane_m) < half_m(i, s_robot_m) && held(i, s_robot_m)) return false;
+  return true;
+}
+
+bool LaneDetour::sweep_free(double from_m, double to_m, double s_robot_m) const {
+  // The band from the robot's offset to the target's far clearance: points on the robot's other
+  // side (it moves away from them) do not count.
+  for (std::size_t i = 0; i < points_.size(); ++i) {
+    const double half = half_m(i, s_robot_m);
+    const double l = points_[i].y;
+    const bool between = to_m >= from_m ? (l > from_m && l < to_m + half) : (l < from_m && l > to_m - half);
+    if (between && held(i, s_robot_m)) return false;
   }
   return true;
 }
 
 bool LaneDetour::near_obstacle(double s_robot_m) const {
   if (params_.commit_m <= 0.0) return false;
-  for (const auto& p : points_) {
-    const double behind =
-        std::max(params_.min_behind_m, std::min(params_.behind_m, params_.end_s_m - params_.return_m - p.x));
-    if (p.x >= s_robot_m - behind && p.x <= s_robot_m + params_.commit_m) return true;
+  for (std::size_t i = 0; i < points_.size(); ++i) {
+    const double s = points_[i].x;
+    if (s >= s_robot_m - hold_m(i) && s <= s_robot_m + params_.commit_m) return true;
   }
   return false;
 }
@@ -76,6 +106,7 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
   const cv::Point2d r = to_line(robot.x_m, robot.y_m);
   d.s_m = r.x;
   d.l_m = r.y;
+  s_now_ = r.x;
   const double heading_on_line = std::remainder(robot.heading_rad - start_.heading_rad, 2.0 * CV_PI);
   if (r.x >= params_.end_s_m) {
     d.kind = LaneDecision::Kind::done;
@@ -83,7 +114,9 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     return d;
   }
   std::optional<double> lane;
-  if (lane_free(0.0, r.x)) {
+  // Back to the line only when the band the body sweeps on the way there is free too: a point
+  // released by its hold on the line may still hold a lane in between.
+  if (lane_free(0.0, r.x) && (side_ == 0 || sweep_free(r.y, 0.0, r.x))) {
     lane = 0.0;
   } else if (side_ != 0 && lane_m_ != 0.0 && lane_free(lane_m_, r.x)) {
     lane = lane_m_;  // keep a free target: re-choosing every cycle would swing

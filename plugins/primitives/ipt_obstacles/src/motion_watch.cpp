@@ -145,6 +145,38 @@ Result<std::optional<int>> MotionWatch::observe(const cv::Mat& grey, const Pose2
   return std::optional<int>{last_changed_px_};
 }
 
+Status ChangeShapeParams::validate() const {
+  if (auto st = schema().check(*this); !st) return st.error().with_default_code(ErrorCode::out_of_range);
+  return ok();
+}
+
+const ParamSchema<ChangeShapeParams>& ChangeShapeParams::schema() {
+  using P = ChangeShapeParams;
+  static const auto s = ParamSchema<P>{}
+                            .field("min_piece_px", &P::min_piece_px, "a changed piece this large is solid, px").range(1, 1000000)
+                            .field("min_share", &P::min_share, "solid pieces' share of the changed pixels").range(0.0, 1.0)
+                            .field("min_solid_px", &P::min_solid_px, "solid pixels at least").range(0, 1000000);
+  return s;
+}
+
+ChangeShape change_shape(const cv::Mat& changed, const ChangeShapeParams& params, cv::Mat& scratch_labels,
+                         cv::Mat& scratch_stats, cv::Mat& scratch_centroids) {
+  ChangeShape out;
+  if (changed.empty()) return out;
+  out.changed_px = cv::countNonZero(changed);
+  if (out.changed_px == 0) return out;
+  const int n = cv::connectedComponentsWithStats(changed, scratch_labels, scratch_stats, scratch_centroids, 4, CV_32S);
+  out.pieces = n - 1;
+  for (int k = 1; k < n; ++k) {
+    const int area = scratch_stats.at<int>(k, cv::CC_STAT_AREA);
+    out.largest_px = std::max(out.largest_px, area);
+    if (area >= params.min_piece_px) out.solid_px += area;
+  }
+  out.share = static_cast<double>(out.solid_px) / out.changed_px;
+  out.compact = out.share >= params.min_share && out.solid_px >= params.min_solid_px;
+  return out;
+}
+
 bool ShimmerTrigger::update(int changed_px, bool cruising, bool moving) {
   int level = 0;
   if (count_n_ > 0) {

@@ -227,12 +227,14 @@ TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: obstacle ahead at"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
-  // The detour ends before the edge's end: the path follower drives the rest (edge distance < 16 m).
+  // The detour ends before the edge's end: the path follower drives the rest (edge distance < 16 m;
+  // measured 13.76 m before session 14, 15.59 m with the lane detour's drift margin, which widens
+  // the lane from 1.45 to 1.8 m over the 6.5 m blind hold beside the crate).
   const auto at = replay.output.find("detour done: the edge resumes at ");
   ASSERT_NE(at, std::string::npos) << replay.output;
   const double resumed_m = std::stod(replay.output.substr(at + std::string("detour done: the edge resumes at ").size()));
   EXPECT_GT(resumed_m, 6.0);
-  EXPECT_LT(resumed_m, 15.0);
+  EXPECT_LT(resumed_m, 16.0) << replay.output;
   std::filesystem::remove_all(dir);
 }
 

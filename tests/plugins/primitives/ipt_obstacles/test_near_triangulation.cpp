@@ -3,6 +3,7 @@
 // from a textured ground with a textured wall standing on it 3 m ahead, a robot driving 0.3 m
 // towards it finds obstacle points on the wall and none on the bare ground.
 #include <cmath>
+#include <string>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -11,6 +12,7 @@
 
 #include "error_expect.hpp"
 #include "visnav/ipt_obstacles/back_off_look.hpp"
+#include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav/ipt_obstacles/near_triangulation.hpp"
 
 namespace visnav::ipt {
@@ -43,7 +45,7 @@ struct Wall {
 
 /// Ray-cast frame: textured ground (z = 0), and with `wall` a textured wall (default: x = 3 m,
 /// |y| <= 0.6), for the robot at x_m on the x axis heading +x.
-cv::Mat render(const IptCamera& camera, double x_m, bool wall, const Wall& w = Wall{}) {
+cv::Mat render(const IptCamera& camera, double x_m, bool wall, const Wall& w = Wall{}, double ground_cell_m = 0.04) {
   cv::Mat img(camera.height_px, camera.width_px, CV_8UC1, cv::Scalar(128));
   const LensPose lens = lens_pose(camera, Pose2D{x_m, 0.0, 0.0});
   for (int v = 0; v < camera.height_px; ++v) {
@@ -55,7 +57,7 @@ cv::Mat render(const IptCamera& camera, double x_m, bool wall, const Wall& w = W
         const double t = -o[2] / d[2];
         const cv::Vec3d p = o + t * d;
         best = t;
-        value = texture(p[0], p[1], 0.04);
+        value = texture(p[0], p[1], ground_cell_m);
       }
       if (wall && d[0] > 1e-9) {
         const double t = (w.x_m - o[0]) / d[0];
@@ -164,6 +166,51 @@ TEST(BackOffLook, FindsAFacesDistanceAndFullWidthAndNothingOnBareGround) {
   const BackOffVerdict none = back_off(false, bare, end);
   EXPECT_FALSE(none.found);
   EXPECT_LE(none.in_corridor, 1);
+}
+
+// The back-off's trigger (change_shape, motion_watch.hpp): the drive watch's changed pixels
+// (ReplayAvoiding's moving_stop_m watch: 0.8-2 m ahead, ±1.2 m, 4 x 80 px) while driving at
+// 3 cm per frame. Stopping 0.6 m before a textured face (the campus van's rear, 0.4 m right of
+// the heading) changes one compact region; a fine ground texture that aliases (gravel: cells of
+// 6 mm, below a pixel's footprint at 1-2 m) with nothing standing changes scattered specks.
+ChangeShape shape_when_driving(bool wall, double ground_cell_m, int& changed_px) {
+  IptCamera camera;
+  MotionWatchParams params;
+  params.near_m = 0.8;
+  params.far_m = 2.0;
+  params.half_width_m = 1.2;
+  params.min_changed_px = 320;
+  auto watch = MotionWatch::create(camera, params);
+  EXPECT_TRUE(watch.ok());
+  const Wall van{1.5, -0.4 - 0.95, -0.4 + 0.95};
+  const double step_m = 0.03;
+  for (double x = 0.78; x <= 0.9 + 1e-9; x += step_m) {  // the face from 0.72 to 0.6 m ahead
+    auto changed = watch->observe(render(camera, x, wall, van, ground_cell_m), Pose2D{step_m, 0.0, 0.0});
+    EXPECT_TRUE(changed.ok());
+    changed_px = changed && *changed ? **changed : 0;
+  }
+  cv::Mat labels, stats, centroids;
+  return change_shape(watch->last_changed(), ChangeShapeParams{}, labels, stats, centroids);
+}
+
+std::string describe(const ChangeShape& s) {
+  return std::to_string(s.changed_px) + " px in " + std::to_string(s.pieces) + " pieces (largest " +
+         std::to_string(s.largest_px) + "), solid " + std::to_string(s.solid_px) + " (share " + std::to_string(s.share) + ")";
+}
+
+TEST(ChangeShape, AFaceCloseAheadIsSolidGroundShimmerIsSpecks) {
+  int face_px = 0, shimmer_px = 0;
+  const ChangeShape face = shape_when_driving(true, 0.04, face_px);
+  EXPECT_GE(face_px, 320) << describe(face);  // the drive watch calls it motion
+  EXPECT_TRUE(face.compact) << describe(face);
+  const ChangeShape shimmer = shape_when_driving(false, 0.006, shimmer_px);
+  EXPECT_GE(shimmer_px, 320) << describe(shimmer);  // as many changed pixels: the count alone stops the robot
+  EXPECT_FALSE(shimmer.compact) << describe(shimmer);
+  cv::Mat labels, stats, centroids;
+  EXPECT_FALSE(change_shape(cv::Mat::zeros(240, 320, CV_8UC1), ChangeShapeParams{}, labels, stats, centroids).compact);
+  ChangeShapeParams share;
+  share.min_share = 1.5;
+  EXPECT_TRUE(fails_with(share.validate(), ErrorCode::out_of_range, key_only("min_share")));
 }
 
 TEST(BackOffLook, ReversesHoldingTheHeadingAndStopsAfterItsDistance) {

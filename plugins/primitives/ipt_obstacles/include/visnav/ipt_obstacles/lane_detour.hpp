@@ -13,7 +13,15 @@
 //    length: the camera sees an obstacle's near face, rarely its side (measured: with 0.8 m the
 //    robot turned back into a parked van's side). Before the line's end (end_s_m, the edge's
 //    end) the robot must be back: a point holds it only until end_s_m − return_m (but at least
-//    min_behind_m past the point);
+//    min_behind_m past the point), and never before the body (radius + clearance) is past the
+//    point: the far end of an obstacle's side seen while turning out holds the robot in its lane
+//    until the body has cleared it, also once it is out of view behind the robot;
+//  * a point's clearance grows with the travel along the line since it was seen, d: by
+//    min(max_drift_m, 0.5·drift_rad_per_m·d²), the lateral error a heading drift of the odometry
+//    puts between the robot and points it no longer sees (campus seed 5: 0.07 rad of drift over
+//    a 6.8 m pass, the robot's true offset 0.34 m nearer the van's side than its odometry said);
+//  * the robot returns towards the line (or a nearer lane) only when the whole band its body
+//    sweeps on the way is free of held points;
 //  * target: the line itself (l = 0) when free, else the free lane nearest to it on the side
 //    chosen at the first blocked decision (the other side only when that side has none); a
 //    free current target is kept (no swinging). Within commit_m of an obstacle point (ahead of
@@ -56,6 +64,8 @@ struct LaneDetourParams {
   double done_heading_rad = 0.15;  ///< ... and heading within this of the line's
   double min_progress_m = 0.5;   ///< along-line travel before the detour may end
   double commit_m = 2.0;         ///< the chosen side is kept within this of an obstacle point ahead; 0 = off
+  double drift_rad_per_m = 0.012;  ///< odometry heading drift assumed while passing blind: clearance grows by 0.5·drift·d²
+  double max_drift_m = 0.4;      ///< ... (d: travel along the line since the point was seen) up to this; 0 = off
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<LaneDetourParams>& schema();
@@ -84,12 +94,23 @@ class LaneDetour {
  private:
   [[nodiscard]] cv::Point2d to_line(double x_m, double y_m) const;  // (s, l)
   [[nodiscard]] bool lane_free(double lane_m, double s_robot_m) const;
+  /// No held point in the band the body sweeps from lateral offset from_m (the robot) to to_m
+  /// (plus the clearance beyond to_m).
+  [[nodiscard]] bool sweep_free(double from_m, double to_m, double s_robot_m) const;
+  /// How far behind the robot point i still holds: behind_m cut for the line's end, never less
+  /// than min_behind_m nor the body radius + clearance.
+  [[nodiscard]] double hold_m(std::size_t i) const;
+  [[nodiscard]] bool held(std::size_t i, double s_robot_m) const;
+  /// Body radius + clearance + the drift margin of point i with the robot at s_robot_m.
+  [[nodiscard]] double half_m(std::size_t i, double s_robot_m) const;
   /// An obstacle point at most commit_m ahead of the robot or beside it (still holding a lane).
   [[nodiscard]] bool near_obstacle(double s_robot_m) const;
 
   LaneDetourParams params_;
   Pose2D start_;
   std::vector<cv::Point2d> points_;  // (s, l)
+  std::vector<double> seen_s_;       // per point: the robot's s when it was added
+  double s_now_ = 0.0;               // the robot's s at the last decide()
   int side_ = 0;                     // +1 left, −1 right, 0 not chosen yet
   double lane_m_ = 0.0;
 };

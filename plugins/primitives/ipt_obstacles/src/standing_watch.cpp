@@ -35,6 +35,8 @@ NearTriangulationParams StandingWatch::triangulation_params() {
   p.max_corners = 600;
   p.quality_level = 0.003;
   p.max_range_m = 5.0;
+  p.max_rotation_rad = 0.02;  // the follower's steering: the odometry's heading error makes stray points
+  p.min_height_m = 0.3;       // mis-triangulated ground lies low
   return p;
 }
 

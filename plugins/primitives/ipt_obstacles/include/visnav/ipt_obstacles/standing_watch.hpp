@@ -68,7 +68,8 @@ class StandingWatch {
   [[nodiscard]] const StandingWatchParams& params() const { return params_; }
   /// The triangulation the watch is meant to be fed by while driving: a longer baseline than the
   /// probe's (0.6 m: a corner 4 m ahead near the focus of expansion moves too little over 0.3 m)
-  /// and more, weaker corners (a plain face's texture is weaker than the grass around it).
+  /// and more, weaker corners (a plain face's texture is weaker than the grass around it); only
+  /// while nearly straight (0.02 rad over the baseline) and corners at least 0.3 m high.
   [[nodiscard]] static NearTriangulationParams triangulation_params();
 
  private:

@@ -42,6 +42,8 @@ bt::PortsList standing_ports() {
           bt::input_port<double>("standing_depth_m", "0.6", "standing watch: forward depth of one face's points, m"),
           bt::input_port<double>("standing_range_m", "4.0",
                                  "standing watch: corners at most this far ahead count (the triangulation's reach), m"),
+          bt::input_port<double>("standing_min_width_m", "0.5",
+                                 "standing watch: the face's points must span this much across, m"),
           bt::input_port<double>("standing_min_range_m", "0",
                                  "standing watch: a face found nearer than this is left to the other watches (the "
                                  "frame difference, back-off), m; 0 = any")};
@@ -54,10 +56,11 @@ Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNod
   params.min_points = min_points;
   VISNAV_ASSIGN(params.depth_band_m, node.get_input<double>("standing_depth_m"));
   VISNAV_ASSIGN(params.max_range_m, node.get_input<double>("standing_range_m"));
+  VISNAV_ASSIGN(params.min_width_m, node.get_input<double>("standing_min_width_m"));
   VISNAV_ASSIGN(params.corridor_half_width_m, node.get_input<double>("corridor_half_width_m"));
   VISNAV_ASSIGN(const double min_range_m, node.get_input<double>("standing_min_range_m"));
   if (auto st = params.validate(); !st)
-    return st.error().with_context("ports 'standing_min_points'/'standing_depth_m'/'standing_range_m'");
+    return st.error().with_context("ports 'standing_min_points'/'standing_depth_m'/'standing_range_m'/'standing_min_width_m'");
   if (!std::isfinite(min_range_m) || min_range_m < 0.0 || min_range_m >= params.max_range_m)
     return Error{"port 'standing_min_range_m': " + std::to_string(min_range_m) + " must lie in [0, standing_range_m)",
                  ErrorCode::out_of_range};

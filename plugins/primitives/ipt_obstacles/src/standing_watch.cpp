@@ -25,7 +25,8 @@ const ParamSchema<StandingWatchParams>& StandingWatchParams::schema() {
                             .field("min_batches", &P::min_batches, "distinct triangulations that fire").range(1, 1000)
                             .field("memory_m", &P::memory_m, "points kept for this travel, m").range(0.1, 20.0)
                             .field("extent_half_width_m", &P::extent_half_width_m, "lateral extent reach, m")
-                            .range(0.05, 10.0);
+                            .range(0.05, 10.0)
+                            .field("min_width_m", &P::min_width_m, "lateral span of a face, m").range(0.0, 10.0);
   return s;
 }
 
@@ -100,7 +101,7 @@ StandingVerdict StandingWatch::judge(const Pose2D& pose) const {
   }
   v.left_m = left;
   v.right_m = right;
-  v.found = v.in_face >= params_.min_points && v.batches >= params_.min_batches;
+  v.found = v.in_face >= params_.min_points && v.batches >= params_.min_batches && left - right >= params_.min_width_m;
   return v;
 }
 

@@ -5,7 +5,8 @@
 //    found at least 2.5 m before it, its distance within 0.3 m, both lateral edges within 0.3 m;
 //  * bare textured ground driven straight and on bends of 40 and 8 m radius: never found;
 //  * the window logic on hand points: one triangulation is not enough, points outside the
-//    corridor do not fire it but count for the extent, points age out after memory_m; bad params.
+//    corridor do not fire it but count for the extent, a bunch narrower than min_width_m does not
+//    fire, points age out after memory_m; bad params.
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -166,6 +167,14 @@ TEST(StandingWatch, NeedsSeveralTriangulationsAndSeparatesCorridorFromExtent) {
   EXPECT_NEAR(v.left_m, 1.2, 1e-9);
   EXPECT_NEAR(v.right_m, -0.3, 1e-9);
   EXPECT_EQ(v.points.size(), 7U);
+  // Points bunched within 0.2 m across (stray corners on the obstacle-free campus) are no face.
+  StandingWatch narrow(params);
+  const std::vector<cv::Point2d> bunch{{2.2, 0.15}, {2.3, 0.25}, {2.25, 0.2}};
+  (void)narrow.add(bunch, pose, 0.0);
+  v = narrow.add(bunch, pose, 0.6);
+  EXPECT_EQ(v.in_face, 6);
+  EXPECT_EQ(v.batches, 2);
+  EXPECT_FALSE(v.found);
   // Scattered points (one per depth window) do not make a face.
   StandingWatch scattered(params);
   for (int k = 0; k < 6; ++k) {

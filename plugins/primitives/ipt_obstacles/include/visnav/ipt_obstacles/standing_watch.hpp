@@ -12,7 +12,8 @@
 // points in the corridor ahead (|lateral| <= corridor_half_width_m, forward <= max_range_m) are
 // sorted by forward distance and the densest window of `depth_band_m` is the candidate face; it
 // fires when that window holds at least `min_points` points from at least `min_batches`
-// triangulations (a face is seen again from the next baseline; a stray point is not). The
+// triangulations (a face is seen again from the next baseline; a stray point is not) and the
+// face's points span at least `min_width_m` across (a van's rear, not a bunch of stray corners). The
 // verdict gives the face's distance (the median of the window's points), its lateral extent (every
 // remembered point in the window's depth band within `extent_half_width_m`, in or out of the
 // corridor: a van is wider than the corridor) and those points, for the lane detour.
@@ -39,6 +40,8 @@ struct StandingWatchParams {
   int min_batches = 2;                  ///< ... from at least this many triangulations
   double memory_m = 1.5;                ///< points are kept for this much travel (odometer)
   double extent_half_width_m = 2.5;     ///< the lateral extent counts points within this of the heading
+  double min_width_m = 0.5;             ///< the face's points must span this much laterally (stray
+                                        ///< corners on the obstacle-free campus bunched within 0.2 m)
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<StandingWatchParams>& schema();

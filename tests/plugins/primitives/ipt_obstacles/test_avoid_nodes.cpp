@@ -262,7 +262,10 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   // As on the campus: 0.4 m off the path's centre, to the robot's right; its rear at 7.1 m.
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
-  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
+  // The standing watch off: with it the van is found 2.7 m ahead before the follower loses the
+  // path (docs/obstacles.md "A standing face found while the follower drives"); this is the probe's case.
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0",
+                                "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("path fills image"), std::string::npos) << replay.output;

@@ -438,7 +438,6 @@ NodeStatus ReplayAvoiding::tick() {
     child_started_ = true;
     if (drive_watch_) drive_watch_->reset();
     drive_shimmer_.reset_hits();
-    if (standing_) standing_->reset();  // a new edge or a resume: new points
   }
   auto fresh = runner_.step(*this, host_);
   if (!fresh) {

@@ -372,6 +372,7 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                          "moving obstacles: grey-level change of a pixel that counts (frame difference)"));
   ports.push_back(bt::input_port<int>("motion_min_px", "80", "moving obstacles: changed corridor pixels that count as motion"));
   for (auto& p : crossing_ports()) ports.push_back(std::move(p));
+  for (auto& p : standing_ports()) ports.push_back(std::move(p));
   ports.push_back(bt::input_port<double>("moving_stop_m", "2.0",
                                          "moving obstacles: while replaying, what moves (or stands) in the corridor this "
                                          "close (ground-compensated frame difference, ±1.2 m wide) stops the robot to "
@@ -513,6 +514,16 @@ NodeStatus ReplayAvoiding::tick() {
     at_kerb_ = true;
     kerb_since_s_ = odom->timestamp_s;
     return NodeStatus::running;
+  }
+  if (!probing_) {
+    auto standing = standing_ahead(*odom);
+    if (!standing) {
+      host_.logger().error(path(), standing.error().message);
+      halt_child();
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    if (*standing) return **standing;
   }
   if (probing_) {
     auto near_points = triangulate_near(*odom);

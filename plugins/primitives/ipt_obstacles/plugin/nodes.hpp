@@ -25,6 +25,7 @@
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
 #include "crossing_watch.hpp"
+#include "standing_check.hpp"
 #include "visnav/ipt_obstacles/back_off_look.hpp"
 #include "visnav/ipt_obstacles/contact_persistence.hpp"
 #include "visnav/ipt_obstacles/hidden_path_probe.hpp"
@@ -201,6 +202,15 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus backoff_step(const Odometry& odom);
   std::optional<BackOffLook> backoff_;
   bool backing_ = false;
+  /// While the child drives (standing_min_points > 0; standing_check.hpp): feeds the frame to the
+  /// triangulation and the standing watch; when it fires, stops the child and starts the lane
+  /// detour with the face's points and returns the detour's first status. Error: bad ports.
+  Result<std::optional<bt::NodeStatus>> standing_ahead(const Odometry& odom);
+  std::optional<StandingCheck> standing_;
+  bool standing_read_ = false;
+  std::uint64_t standing_sequence_ = 0;
+  bool have_standing_sequence_ = false;
+  cv::Mat standing_grey_;
   double backoff_again_at_m_ = -1e300;  // odometer reading before which no back-off starts
 
   HostServices& host_;

@@ -11,7 +11,8 @@
 //    on a taught gravel path is passed and the path follower takes the edge over again; a
 //    concrete van that hides the path from the follower is found by the probe and passed, and a
 //    path lost with nothing ahead still stops the robot; with the van 0.4 m left the lane detour
-//    keeps its side when it closes before the van and stops with the reason (commit_m).
+//    keeps its side when it closes before the van and stops with the reason (commit_m); with the
+//    van 0.6 m right the follower keeps the path up to it and the standing watch finds it.
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -263,7 +264,10 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   // As on the campus: 0.4 m off the path's centre, to the robot's right; its rear at 7.1 m.
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
-  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
+  // The standing watch off: with it the van is found 2.7 m ahead before the follower loses the
+  // path (docs/obstacles.md "A standing face found while the follower drives"); this is the probe's case.
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0",
+                                "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("path fills image"), std::string::npos) << replay.output;
@@ -299,11 +303,55 @@ TEST(ReplayAvoiding, TheLaneDetourKeepsItsSideBeforeAVanAndStopsWithTheReason) {
   const std::string clear = clear_path_with_concrete();
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, 0.4], texture: concrete}\n");
-  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
+  // Without the standing watch (it finds this van 3.3 m ahead while driving and the detour passes
+  // it: ReplayAvoiding.APathFollowingEdgePassesAVanOnItsEdge...), the probe's case.
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0",
+                                "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 1) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: probe: "), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("stopped: the left side closes"), std::string::npos) << replay.output;
+  std::filesystem::remove_all(dir);
+}
+
+// The concrete van 0.6 m right of the path's centre (docs/obstacles.md "A van the path follower
+// keeps the path up to"): the path's left part stays in view, so the follower keeps the path up
+// to the van, the IPT finds no contact on its plain rear and the frame difference does not stop
+// the robot (without the standing watch it hit the van's rear corner at (6.87, 0.45)). The
+// standing watch (standing_min_points in the tree) finds the face 2-4 m ahead while driving, the
+// lane detour passes it on the left and the follower finishes the edge.
+TEST(ReplayAvoiding, APathFollowingEdgePassesAVanOnItsEdgeThatTheFollowerKeepsThePathUpTo) {
+  const auto dir = replay_dir("standing");
+  const std::string clear = clear_path_with_concrete();
+  ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
+  // 0.6 m right (the follower keeps the path); 0.4 m left (the probe's detour stopped before it,
+  // test above: the watch finds it earlier, with its full width, and the detour passes it).
+  for (const char* at : {"9.5, -0.6", "9.5, 0.4"}) {
+    SCOPED_TRACE(at);
+    write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [" + at + "], texture: concrete}\n");
+    const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
+    EXPECT_EQ(replay.status, 0) << replay.output;
+    EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
+    EXPECT_EQ(replay.output.find("path fills image"), std::string::npos) << replay.output;  // found before
+    const std::string found = "ReplayPathAvoiding[1]: standing obstacle: ";
+    const auto found_at = replay.output.find(found);
+    ASSERT_NE(found_at, std::string::npos) << replay.output;
+    // Found with room to detour: the robot at most 4.6 m along the edge (the van's rear at 7.1 m).
+    const std::string edge_at = " m of the edge";
+    const auto m_at = replay.output.find(edge_at, found_at);
+    ASSERT_NE(m_at, std::string::npos);
+    const auto num_at = replay.output.rfind(" at ", m_at);
+    const double found_at_m = std::stod(replay.output.substr(num_at + 4, m_at - num_at - 4));
+    EXPECT_LT(found_at_m, 4.6);
+    EXPECT_GT(found_at_m, 2.0);
+    EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
+    const std::string resumed = "detour done: the edge resumes at ";
+    const auto r_at = replay.output.find(resumed);
+    ASSERT_NE(r_at, std::string::npos) << replay.output;
+    const double resumed_m = std::stod(replay.output.substr(r_at + resumed.size()));
+    EXPECT_GT(resumed_m, 12.0);  // past the van's front (11.9 m)
+    EXPECT_LT(resumed_m, 20.5);  // the follower finishes the edge
+  }
   std::filesystem::remove_all(dir);
 }
 

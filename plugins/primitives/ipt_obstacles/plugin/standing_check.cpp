@@ -1,0 +1,124 @@
+// ReplayAvoiding's standing-obstacle watch while the child drives (see standing_check.hpp).
+#include "standing_check.hpp"
+
+#include <cmath>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+#include "nodes.hpp"
+
+namespace visnav::ipt {
+
+namespace {
+// The camera ports as nodes.cpp's read_camera() reads them (kept here so that the shared nodes.cpp
+// stays untouched but for the call).
+Result<IptCamera> camera_from_ports(const bt::TreeNode& node, const cv::Mat& image) {
+  IptCamera c;
+  VISNAV_ASSIGN(const double hfov_deg, node.get_input<double>("hfov_deg"));
+  VISNAV_ASSIGN(c.height_m, node.get_input<double>("camera_height_m"));
+  VISNAV_ASSIGN(const double pitch_down_deg, node.get_input<double>("camera_pitch_down_deg"));
+  VISNAV_ASSIGN(c.forward_m, node.get_input<double>("camera_forward_m"));
+  VISNAV_ASSIGN(c.lateral_m, node.get_input<double>("camera_lateral_m"));
+  if (!(hfov_deg > 1.0 && hfov_deg < 179.0))
+    return Error{"hfov_deg must lie in (1, 179) (got " + std::to_string(hfov_deg) + ")", ErrorCode::out_of_range};
+  c.width_px = image.cols;
+  c.height_px = image.rows;
+  c.fx_px = c.fy_px = 0.5 * image.cols / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
+  c.cx_px = 0.5 * (image.cols - 1);
+  c.cy_px = 0.5 * (image.rows - 1);
+  c.pitch_rad = -pitch_down_deg * CV_PI / 180.0;
+  VISNAV_TRY(c.validate());
+  return c;
+}
+}  // namespace
+
+bt::PortsList standing_ports() {
+  return {bt::input_port<int>(
+              "standing_min_points", "0",
+              "while the child drives: corners triangulated above the ground (near_triangulation.hpp) within one face's "
+              "depth (standing_depth_m) in the corridor ahead, from at least 2 triangulations of the last 1.5 m, that "
+              "stop the child and start the lane detour with the face's points (standing_watch.hpp); 0 = off"),
+          bt::input_port<double>("standing_depth_m", "0.6", "standing watch: forward depth of one face's points, m"),
+          bt::input_port<double>("standing_range_m", "4.0",
+                                 "standing watch: corners at most this far ahead count (the triangulation's reach), m"),
+          bt::input_port<double>("standing_min_width_m", "0.5",
+                                 "standing watch: the face's points must span this much across, m"),
+          bt::input_port<double>("standing_min_range_m", "0",
+                                 "standing watch: a face found nearer than this is left to the other watches (the "
+                                 "frame difference, back-off), m; 0 = any")};
+}
+
+Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNode& node) {
+  VISNAV_ASSIGN(const int min_points, node.get_input<int>("standing_min_points"));
+  if (min_points == 0) return std::optional<StandingCheck>{};
+  StandingWatchParams params;
+  params.min_points = min_points;
+  VISNAV_ASSIGN(params.depth_band_m, node.get_input<double>("standing_depth_m"));
+  VISNAV_ASSIGN(params.max_range_m, node.get_input<double>("standing_range_m"));
+  VISNAV_ASSIGN(params.min_width_m, node.get_input<double>("standing_min_width_m"));
+  VISNAV_ASSIGN(params.corridor_half_width_m, node.get_input<double>("corridor_half_width_m"));
+  VISNAV_ASSIGN(const double min_range_m, node.get_input<double>("standing_min_range_m"));
+  if (auto st = params.validate(); !st)
+    return st.error().with_context("ports 'standing_min_points'/'standing_depth_m'/'standing_range_m'/'standing_min_width_m'");
+  if (!std::isfinite(min_range_m) || min_range_m < 0.0 || min_range_m >= params.max_range_m)
+    return Error{"port 'standing_min_range_m': " + std::to_string(min_range_m) + " must lie in [0, standing_range_m)",
+                 ErrorCode::out_of_range};
+  return std::optional<StandingCheck>(StandingCheck(params, min_range_m));
+}
+
+Result<StandingVerdict> StandingCheck::observe(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose,
+                                               double odometer_m, int& new_points) {
+  if (!have_last_ || std::fabs(odometer_m - last_odometer_m_) > 0.1) reset();
+  have_last_ = true;
+  last_odometer_m_ = odometer_m;
+  if (!near_) {
+    VISNAV_ASSIGN(auto made, NearTriangulation::create(camera, StandingWatch::triangulation_params()));
+    near_.emplace(std::move(made));
+  }
+  VISNAV_ASSIGN(const auto points, near_->observe(grey, pose));
+  ground_.clear();
+  for (const auto& p : points) ground_.push_back(p.ground_m);
+  new_points = static_cast<int>(ground_.size());
+  return watch_.add(ground_, pose, odometer_m);
+}
+
+Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odometry& odom) {
+  if (!standing_read_) {
+    VISNAV_ASSIGN(standing_, StandingCheck::from_ports(*this));
+    standing_read_ = true;
+  }
+  if (!standing_) return std::optional<bt::NodeStatus>{};
+  FrameBus* bus = host_.frame_bus();
+  auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
+  if (!frame || frame->image.empty() || (have_standing_sequence_ && frame->sequence == standing_sequence_))
+    return std::optional<bt::NodeStatus>{};
+  have_standing_sequence_ = true;
+  standing_sequence_ = frame->sequence;
+  if (frame->image.channels() == 3) cv::cvtColor(frame->image, standing_grey_, cv::COLOR_BGR2GRAY);
+  else standing_grey_ = frame->image;
+  VISNAV_ASSIGN(const IptCamera camera, camera_from_ports(*this, standing_grey_));
+  int new_points = 0;
+  VISNAV_ASSIGN(const StandingVerdict v, standing_->observe(standing_grey_, camera, odom.pose, odom.distance_m, new_points));
+  if (new_points > 0 && v.in_face > 0)
+    host_.logger().log(LogLevel::debug, path(),
+                       "standing watch: " + std::to_string(new_points) + " new corners; face " + std::to_string(v.in_face) +
+                           " corners from " + std::to_string(v.batches) + " triangulations " + std::to_string(v.range_m) +
+                           " m ahead, " + std::to_string(v.right_m) + " to " + std::to_string(v.left_m) + " m left");
+  if (!v.found || v.range_m < standing_->min_range_m()) return std::optional<bt::NodeStatus>{};
+  halt_child();
+  if (Robot* robot = host_.robot()) (void)robot->stop();
+  replay_done_m_ = odom.distance_m - replay_origin_m_;
+  detour_start_ = odom.pose;
+  host_.logger().info(path(), "standing obstacle: " + std::to_string(v.in_face) + " corners from " +
+                                  std::to_string(v.batches) + " triangulations in the corridor " +
+                                  std::to_string(v.range_m) + " m ahead at " + std::to_string(replay_done_m_) +
+                                  " m of the edge, points from " + std::to_string(v.right_m) + " to " +
+                                  std::to_string(v.left_m) + " m left of the heading: detour");
+  const bt::NodeStatus st = begin_detour(odom);
+  if (lane_) lane_->add_points(v.points);
+  standing_->reset();
+  return std::optional<bt::NodeStatus>(st);
+}
+
+}  // namespace visnav::ipt

@@ -1,0 +1,53 @@
+// visnav IPT obstacles — ReplayAvoiding's watch for a standing obstacle on the path while the
+// replay child drives (issue 16, docs/obstacles.md "A van the path follower keeps the path up
+// to"): the longer-baseline triangulation (near_triangulation.hpp) runs on every frame while the
+// child drives and StandingWatch (standing_watch.hpp) judges its points; when it fires, the node
+// stops the child and starts the lane detour with the face's points. Thin: the logic is in
+// standing_watch.hpp.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "visnav/bt/node.hpp"
+#include "visnav/ipt_obstacles/standing_watch.hpp"
+
+namespace visnav::ipt {
+
+/// The ports (standing_min_points = 0: off, the default).
+[[nodiscard]] bt::PortsList standing_ports();
+
+class StandingCheck {
+ public:
+  /// nullopt when standing_min_points is 0 (off). Error: a bad port value (naming the port).
+  static Result<std::optional<StandingCheck>> from_ports(const bt::TreeNode& node);
+  /// One triangulation's points (possibly none) at `pose`, odometer `odometer_m`. A jump of the
+  /// odometer since the last call (the watch was not asked: a detour, a back-off, a stop) forgets
+  /// the points first; `restarted` tells the caller to restart the triangulation's reference too.
+  /// One frame (CV_8UC1) at `pose`, odometer `odometer_m`: triangulates (its own
+  /// NearTriangulation with StandingWatch::triangulation_params()) and judges. A jump of the
+  /// odometer since the last frame (the watch was not asked: a detour, a back-off, a stop) first
+  /// forgets the points and the triangulation's reference. `new_points` receives the count of
+  /// this frame's triangulated points. Error: wrong image.
+  Result<StandingVerdict> observe(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose, double odometer_m,
+                                  int& new_points);
+  /// Forgets the points (a new place).
+  void reset() {
+    watch_.reset();
+    have_last_ = false;
+    if (near_) near_->reset();
+  }
+  [[nodiscard]] double min_range_m() const { return min_range_m_; }
+
+ private:
+  explicit StandingCheck(const StandingWatchParams& params, double min_range_m)
+      : watch_(params), min_range_m_(min_range_m) {}
+  StandingWatch watch_;
+  double min_range_m_;
+  std::optional<NearTriangulation> near_;
+  std::vector<cv::Point2d> ground_;
+  bool have_last_ = false;
+  double last_odometer_m_ = 0.0;
+};
+
+}  // namespace visnav::ipt

@@ -1,0 +1,203 @@
+// The standing watch (standing_watch.hpp) on ray-cast frames fed through the longer-baseline
+// triangulation while the robot drives at 2 cm per frame with a 2 % odometry scale error:
+//  * a textured face 1.9 m wide standing across the path 0.6 m right of the robot's line (the
+//    van_path van's rear, docs/obstacles.md "A van the path follower keeps the path up to"):
+//    found at least 2.5 m before it, its distance within 0.3 m, both lateral edges within 0.3 m;
+//  * bare textured ground driven straight and on bends of 40 and 8 m radius: never found;
+//  * the window logic on hand points: one triangulation is not enough, points outside the
+//    corridor do not fire it but count for the extent, a bunch narrower than min_width_m does not
+//    fire, points age out after memory_m; bad params.
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "error_expect.hpp"
+#include "visnav/ipt_obstacles/near_triangulation.hpp"
+#include "visnav/ipt_obstacles/standing_watch.hpp"
+
+namespace visnav::ipt {
+namespace {
+
+using visnav::test::fails_with;
+using visnav::test::key_only;
+
+/// Smooth value noise in [0, 255] on a 2-D coordinate (cell `cell_m`), deterministic.
+double noise(double a, double b, double cell_m) {
+  auto hash = [](long i, long j) {
+    std::uint64_t h = static_cast<std::uint64_t>(i) * 2654435761ULL ^ static_cast<std::uint64_t>(j) * 40503ULL;
+    h ^= h >> 15;
+    h *= 0x2c1b3c6dULL;
+    h ^= h >> 12;
+    return static_cast<double>(h % 256);
+  };
+  const double u = a / cell_m, v = b / cell_m;
+  const long i = static_cast<long>(std::floor(u)), j = static_cast<long>(std::floor(v));
+  const double fu = u - static_cast<double>(i), fv = v - static_cast<double>(j);
+  const double top = hash(i, j) * (1 - fu) + hash(i + 1, j) * fu;
+  const double bottom = hash(i, j + 1) * (1 - fu) + hash(i + 1, j + 1) * fu;
+  return top * (1 - fv) + bottom * fv;
+}
+
+/// A face x = x_m, y_right_m <= y <= y_left_m, 0 <= z <= height_m, facing the robot.
+struct Face {
+  double x_m = 7.1, y_right_m = -1.55, y_left_m = 0.35, height_m = 1.9;
+};
+
+/// Ray-cast frame of textured ground (a lighter path band |y| <= 1.2 on it), the face if given.
+cv::Mat render(const IptCamera& camera, const Pose2D& pose, const std::optional<Face>& face) {
+  cv::Mat img(camera.height_px, camera.width_px, CV_8UC1, cv::Scalar(128));
+  const LensPose lens = lens_pose(camera, pose);
+  const cv::Vec3d o(lens.x_m, lens.y_m, camera.height_m);
+  // The rays at heading 0, once; a pose's rays are them turned by its heading.
+  static std::vector<cv::Vec3d> rays;
+  if (rays.empty()) {
+    const LensPose level = lens_pose(camera, Pose2D{});
+    for (int v = 0; v < camera.height_px; ++v)
+      for (int u = 0; u < camera.width_px; ++u)
+        rays.push_back(NearTriangulation::ray(camera, level, {static_cast<double>(u), static_cast<double>(v)}));
+  }
+  const double c = std::cos(pose.heading_rad), sn = std::sin(pose.heading_rad);
+  for (int v = 0; v < camera.height_px; ++v) {
+    for (int u = 0; u < camera.width_px; ++u) {
+      const cv::Vec3d& r = rays[static_cast<std::size_t>(v * camera.width_px + u)];
+      const cv::Vec3d d(c * r[0] - sn * r[1], sn * r[0] + c * r[1], r[2]);
+      double best = 1e9, value = 210.0;  // sky
+      if (d[2] < -1e-9) {
+        const double t = -o[2] / d[2];
+        const cv::Vec3d p = o + t * d;
+        best = t;
+        value = 0.5 * noise(p[0], p[1], 0.05) + (std::fabs(p[1]) <= 1.2 ? 90.0 : 40.0);
+      }
+      if (face && std::fabs(d[0]) > 1e-9) {
+        const double t = (face->x_m - o[0]) / d[0];
+        const cv::Vec3d p = o + t * d;
+        if (t > 0.0 && t < best && p[1] >= face->y_right_m && p[1] <= face->y_left_m && p[2] >= 0.0 &&
+            p[2] <= face->height_m)
+          value = 0.6 * noise(p[1], p[2], 0.06) + 60.0;
+      }
+      img.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(value);
+    }
+  }
+  return img;
+}
+
+struct Found {
+  std::optional<StandingVerdict> verdict;
+  Pose2D at;  // the robot's true pose when it fired
+};
+
+/// Drives `frames` frames of 2 cm from (start_x_m, 0) along +x (or on a left bend of `radius_m` > 0),
+/// the odometry reading 2 % long; feeds every frame's triangulation to a StandingWatch; the
+/// first verdict that fires.
+Found drive(const std::optional<Face>& face, int frames, double radius_m = 0.0, double start_x_m = 0.0) {
+  IptCamera camera;
+  auto near = NearTriangulation::create(camera, StandingWatch::triangulation_params());
+  EXPECT_TRUE(near.ok());
+  StandingWatch watch(StandingWatchParams{});
+  Pose2D truth{start_x_m, 0.0, 0.0}, odom{start_x_m, 0.0, 0.0};
+  double odometer = 0.0;
+  for (int k = 0; k < frames; ++k) {
+    auto points = near->observe(render(camera, truth, face), odom);
+    EXPECT_TRUE(points.ok());
+    std::vector<cv::Point2d> ground;
+    if (points)
+      for (const auto& p : *points) ground.push_back(p.ground_m);
+    StandingVerdict v = watch.add(ground, odom, odometer);
+    if (v.found) return Found{v, truth};
+    const double step = 0.02, turn = radius_m > 0.0 ? step / radius_m : 0.0;
+    truth.x_m += step * std::cos(truth.heading_rad + 0.5 * turn);
+    truth.y_m += step * std::sin(truth.heading_rad + 0.5 * turn);
+    truth.heading_rad += turn;
+    odom.x_m += 1.02 * step * std::cos(odom.heading_rad + 0.5 * turn);
+    odom.y_m += 1.02 * step * std::sin(odom.heading_rad + 0.5 * turn);
+    odom.heading_rad += turn;
+    odometer += 1.02 * step;
+  }
+  return Found{std::nullopt, truth};
+}
+
+TEST(StandingWatch, FindsAFaceOnThePathEarlyWithItsDistanceAndWidth) {
+  const Face van;
+  // From 5.6 m before the face, up to 4 m driven.
+  const Found f = drive(van, 200, 0.0, 1.5);
+  ASSERT_TRUE(f.verdict.has_value()) << "not found by x = " << f.at.x_m;
+  const double ahead_m = van.x_m - f.at.x_m;
+  EXPECT_GE(ahead_m, 2.5) << "fired at x = " << f.at.x_m;
+  // The odometry reads 2 % long, so its distance is compared with a tolerance.
+  EXPECT_NEAR(f.verdict->range_m, ahead_m, 0.3);
+  EXPECT_NEAR(f.verdict->right_m, van.y_right_m, 0.3);
+  EXPECT_NEAR(f.verdict->left_m, van.y_left_m, 0.3);
+  EXPECT_GE(f.verdict->batches, 2);
+  EXPECT_GE(f.verdict->points.size(), static_cast<std::size_t>(f.verdict->in_face));
+}
+
+TEST(StandingWatch, NothingOnAClearPathStraightOrOnABend) {
+  const Found straight = drive(std::nullopt, 80);
+  EXPECT_FALSE(straight.verdict.has_value()) << "fired at x = " << straight.at.x_m << ", " << straight.verdict->in_face;
+  // A bend the triangulation still runs on (0.015 rad per 0.6 m baseline), and a sharp one
+  // (8 m radius: 0.075 rad per baseline, past max_rotation_rad).
+  for (const double radius_m : {40.0, 8.0}) {
+    const Found bend = drive(std::nullopt, 80, radius_m);
+    EXPECT_GT(bend.at.heading_rad, 1.5 / radius_m);  // it did turn
+    EXPECT_FALSE(bend.verdict.has_value()) << radius_m << " m: fired at x = " << bend.at.x_m;
+  }
+}
+
+TEST(StandingWatch, NeedsSeveralTriangulationsAndSeparatesCorridorFromExtent) {
+  StandingWatchParams params;
+  params.min_points = 4;
+  params.min_batches = 2;
+  StandingWatch watch(params);
+  const Pose2D pose{};
+  // One triangulation: 4 corners 3 m ahead in the corridor, 2 more 1.2 m left beside it.
+  const std::vector<cv::Point2d> first{{3.0, 0.1}, {3.1, -0.2}, {3.2, 0.3}, {3.05, 0.0}, {3.1, 1.2}, {3.0, 1.0}};
+  StandingVerdict v = watch.add(first, pose, 0.0);
+  EXPECT_FALSE(v.found);
+  EXPECT_EQ(v.in_face, 4);
+  EXPECT_EQ(v.batches, 1);
+  // The next triangulation sees the face again: found, its extent includes the points beside.
+  const std::vector<cv::Point2d> second{{3.0, -0.3}};
+  v = watch.add(second, pose, 0.3);
+  ASSERT_TRUE(v.found);
+  EXPECT_EQ(v.in_face, 5);
+  EXPECT_NEAR(v.range_m, 3.05, 1e-9);  // the median
+  EXPECT_NEAR(v.left_m, 1.2, 1e-9);
+  EXPECT_NEAR(v.right_m, -0.3, 1e-9);
+  EXPECT_EQ(v.points.size(), 7U);
+  // Points bunched within 0.2 m across (stray corners on the obstacle-free campus) are no face.
+  StandingWatch narrow(params);
+  const std::vector<cv::Point2d> bunch{{2.2, 0.15}, {2.3, 0.25}, {2.25, 0.2}};
+  (void)narrow.add(bunch, pose, 0.0);
+  v = narrow.add(bunch, pose, 0.6);
+  EXPECT_EQ(v.in_face, 6);
+  EXPECT_EQ(v.batches, 2);
+  EXPECT_FALSE(v.found);
+  // Scattered points (one per depth window) do not make a face.
+  StandingWatch scattered(params);
+  for (int k = 0; k < 6; ++k) {
+    const std::vector<cv::Point2d> one{{1.0 + 0.5 * k, 0.0}};
+    v = scattered.add(one, pose, 0.1 * k);
+  }
+  EXPECT_FALSE(v.found);
+  // Points age out after memory_m of travel.
+  v = watch.add({}, pose, 0.0 + params.memory_m + 0.01);
+  EXPECT_EQ(v.in_face, 1);
+  EXPECT_FALSE(v.found);
+  watch.reset();
+  EXPECT_EQ(watch.judge(pose).in_face, 0);
+}
+
+TEST(StandingWatch, BadParamsAreRejected) {
+  StandingWatchParams bad;
+  bad.min_points = 0;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("min_points")));
+  bad = StandingWatchParams{};
+  bad.depth_band_m = -1.0;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("depth_band_m")));
+}
+
+}  // namespace
+}  // namespace visnav::ipt

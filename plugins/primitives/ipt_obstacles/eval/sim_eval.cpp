@@ -217,6 +217,7 @@ long descriptor_matches(const cv::Mat& grey0, const cv::Mat& grey1, const RocOpt
 Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* picture) {
   VISNAV_TRY(options.classifier.validate());
   VISNAV_TRY(options.profiles.validate());
+  VISNAV_TRY(options.tracking.validate());
   if (!(options.step_m > 0.0) || !(options.pair_every_m > 0.0) || options.max_features < 8)
     return Error{"ipt-roc: step_m and pair_every_m must be > 0 and max_features >= 8", ErrorCode::out_of_range};
   if (options.tracker != "klt" && options.tracker != "sift" && options.tracker != "orb" && options.tracker != "fast")

@@ -15,7 +15,8 @@ const char* const kIptRocUsage =
     "                      [--beta-m M] [--no-band] [--edge-sigma-px S] [--edge-high G] [--ground-reach-px P]\n"
     "                      [--vertical-run-px N] [--support N] [--support-radius-px P]\n"
     "                      [--forward-backward-px P] [--odometry-epipolar-px P] [--tracker klt|sift|orb|fast]\n"
-    "                      [--picture FILE.png] [--picture-run K]\n"
+    "                      [--picture FILE.png] [--picture-run K] [--run X,Y,DEG,LEN]...\n"
+    "                      [--mount HEIGHT_M,PITCH_DOWN_DEG,HFOV_DEG] [--direction-test]\n"
     "Renders image pairs 2 cm apart along runs past the obstacles of the obstacle_course world\n"
     "(thesis rig: 320x240, FOV 65.5 deg, lens 0.43 m, pitch -9 deg), tracks Shi-Tomasi corners with\n"
     "pyramidal Lucas-Kanade, rejects outliers with RANSAC on F and classifies the inliers with the\n"
@@ -26,7 +27,12 @@ const char* const kIptRocUsage =
     "by the SSD of their 16-pixel circle); it prints features per frame, matches per pair, the\n"
     "share RANSAC keeps, the share misclassified and the tracking time per pair.\n"
     "--odometry-epipolar-px P also drops matches more than P px from the epipolar line of the pair's\n"
-    "odometry (with the --odom-sd-* noise); 0 (default) = RANSAC alone, as the thesis.\n";
+    "odometry (with the --odom-sd-* noise); 0 (default) = RANSAC alone, as the thesis.\n"
+    "--run X,Y,DEG,LEN (repeatable) replaces the obstacle course's runs: pairs from (X, Y) in the\n"
+    "world frame along heading DEG (from +x, counter-clockwise) for LEN metres, e.g. a replay's\n"
+    "place in --world campus; --mount the camera instead of the thesis rig (the campus robot:\n"
+    "0.5,5,60). --direction-test: an OBSTACLE-by-D feature whose ground projection moved with the\n"
+    "lens is unclassified (ClassifierParams::signed_discrepancy, off by default; docs/obstacles.md).\n";
 
 namespace {
 
@@ -41,6 +47,7 @@ bool parse_double(const char* text, double& out) {
 int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
   RocOptions options;
   std::string picture_path;
+  bool custom_runs = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&](double& out) {
@@ -92,8 +99,31 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       if (!value(options.tracking.forward_backward_px)) return 2;
     } else if (arg == "--odometry-epipolar-px") {
       if (!value(options.tracking.odometry_epipolar_px)) return 2;
+    } else if (arg == "--run" && i + 1 < argc) {
+      double x = 0.0, y = 0.0, deg = 0.0, len = 0.0;
+      char tail = 0;
+      if (std::sscanf(argv[i + 1], "%lf,%lf,%lf,%lf%c", &x, &y, &deg, &len, &tail) != 4 || !(len > 0.0)) {
+        std::fprintf(stderr, "visnav ipt-roc: --run needs X,Y,DEG,LEN with LEN > 0 (got '%s')\n%s", argv[i + 1],
+                     kIptRocUsage);
+        return 2;
+      }
+      ++i;
+      if (!custom_runs) options.runs.clear();
+      custom_runs = true;
+      options.runs.push_back({Pose2D{x, y, deg * CV_PI / 180.0}, len});
+    } else if (arg == "--mount" && i + 1 < argc) {
+      char tail = 0;
+      if (std::sscanf(argv[i + 1], "%lf,%lf,%lf%c", &options.mount_height_m, &options.pitch_down_deg,
+                      &options.hfov_deg, &tail) != 3) {
+        std::fprintf(stderr, "visnav ipt-roc: --mount needs HEIGHT_M,PITCH_DOWN_DEG,HFOV_DEG (got '%s')\n%s",
+                     argv[i + 1], kIptRocUsage);
+        return 2;
+      }
+      ++i;
     } else if (arg == "--tracker" && i + 1 < argc) {
       options.tracker = argv[++i];
+    } else if (arg == "--direction-test") {
+      options.classifier.signed_discrepancy = true;
     } else if (arg == "--no-band") {
       options.classifier.unclassified_bands_m.clear();
     } else {

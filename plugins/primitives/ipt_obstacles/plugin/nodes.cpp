@@ -125,7 +125,10 @@ bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confir
           bt::input_port<double>("confirm_radius_m", "0.3", "largest distance between two sightings of one contact"),
           bt::input_port<int>("confirm_views", "3",
                               "... and a contact must have been found at that ground point by this many pairs "
-                              "(distinct robot positions; rejects occasional mis-tracks in periodic textures)")};
+                              "(distinct robot positions; rejects occasional mis-tracks in periodic textures)"),
+          bt::input_port<double>("confirm_view_share", "0",
+                                 "... and by this share of the pairs made between the first and the last of them "
+                                 "(0 = off; rejects the ends of noise traces on a tiled floor)")};
 }
 
 void CorridorMemory::add(const std::vector<cv::Point2d>& points, const Odometry& odom) {
@@ -149,14 +152,16 @@ Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& o
     VISNAV_ASSIGN(const double baseline, node.get_input<double>("confirm_baseline_m"));
     VISNAV_ASSIGN(const double radius, node.get_input<double>("confirm_radius_m"));
     VISNAV_ASSIGN(const int views, node.get_input<int>("confirm_views"));
+    VISNAV_ASSIGN(const double share, node.get_input<double>("confirm_view_share"));
     filter_on_ = baseline > 0.0;
     if (filter_on_) {
       ContactPersistenceParams params;
       params.min_baseline_m = baseline;
       params.max_radius_m = radius;
       params.min_views = views;
+      params.min_view_share = share;
       if (auto st = params.validate(); !st)
-        return st.error().with_context("ports 'confirm_baseline_m'/'confirm_radius_m'/'confirm_views'");
+        return st.error().with_context("ports 'confirm_baseline_m'/'confirm_radius_m'/'confirm_views'/'confirm_view_share'");
       sightings_.set_params(params);  // the sightings added before the first test stay
     } else if (baseline < 0.0) {
       return Error{"port 'confirm_baseline_m': must be >= 0 (got " + std::to_string(baseline) + ")", ErrorCode::out_of_range};
@@ -171,10 +176,21 @@ Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& o
     const double fwd = c * dx + s * dy, lat = -s * dx + c * dy;
     return fwd > 0.0 && fwd <= lookahead && std::fabs(lat) <= half_width;
   };
-  if (filter_on_) return !sightings_.confirmed(in_corridor).empty();
-  for (const auto& p : sightings_.all())
-    if (in_corridor(p)) return true;
-  return false;
+  std::vector<cv::Point2d> in;
+  if (filter_on_) {
+    in = sightings_.confirmed(in_corridor);
+  } else {
+    for (const auto& p : sightings_.all())
+      if (in_corridor(p)) in.push_back(p);
+  }
+  if (in.empty()) return false;
+  blocking_.clear();
+  char buf[48];
+  for (const auto& p : in) {
+    std::snprintf(buf, sizeof buf, "%s(%.2f, %.2f)", blocking_.empty() ? "" : " ", p.x, p.y);
+    blocking_ += buf;
+  }
+  return true;
 }
 
 bt::PortsList ObstacleAhead::provided_ports() {
@@ -478,7 +494,9 @@ NodeStatus ReplayAvoiding::tick() {
       return NodeStatus::failure;
     }
     if (*look == 0) return begin_detour(*odom);
-    begin_look(*odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
+    begin_look(*odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge (robot at (" +
+                          std::to_string(odom->pose.x_m) + ", " + std::to_string(odom->pose.y_m) +
+                          "), contacts " + corridor_.blocking_points() + "): stop and look");
     return NodeStatus::running;
   }
   auto near = moving_near(*odom);

@@ -79,11 +79,15 @@ class CorridorMemory {
   [[nodiscard]] std::vector<cv::Point2d> points() const {
     return filter_on_ ? sightings_.confirmed() : sightings_.all();
   }
+  /// The kept points in the corridor at the last blocked() that returned true (odom frame), e.g.
+  /// "(x, y) (x, y)", for the stop's log message.
+  [[nodiscard]] const std::string& blocking_points() const { return blocking_; }
 
  private:
   ContactPersistence sightings_{ContactPersistenceParams{}};
   bool configured_ = false, filter_on_ = false;
   double memory_m_ = 1.0;
+  std::string blocking_;
 };
 
 bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confirm_baseline_default_m);

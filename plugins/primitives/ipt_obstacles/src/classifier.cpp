@@ -22,6 +22,7 @@ const char* to_string(ClassReason reason) {
     case ClassReason::d_ground: return "d_ground";
     case ClassReason::d_band: return "d_band";
     case ClassReason::d_obstacle: return "d_obstacle";
+    case ClassReason::d_below_ground: return "d_below_ground";
   }
   return "?";
 }
@@ -51,7 +52,10 @@ const ParamSchema<ClassifierParams>& ClassifierParams::schema() {
           .field("max_range_applies_to_obstacles", &P::max_range_applies_to_obstacles,
                  "the range cut also unclassifies OBSTACLE labels (spec 1.5 literally)")
           .field("min_baseline_m", &P::min_baseline_m, "lens translation below which nothing is classified")
-          .range(0.0, 1.0);
+          .range(0.0, 1.0)
+          .field("signed_discrepancy", &P::signed_discrepancy,
+                 "an OBSTACLE-by-D feature whose projection moved with the lens (a point below the ground) is "
+                 "unclassified");
   return s;
 }
 
@@ -111,6 +115,17 @@ Result<std::vector<ClassifiedFeature>> classify_features(const IptCamera& camera
     }
     f.discrepancy_m = discrepancy_m(camera, previous, current, p0, f.pixel);
     f.label = label_for_discrepancy(f.discrepancy_m, params, &f.reason);
+    if (params.signed_discrepancy && f.label == FeatureClass::obstacle) {
+      // An elevated point's projection moves against the lens travel t, by t·h/(Z0 − h).
+      const GroundHit before = back_project(camera, previous, p0);
+      const cv::Point2d moved = hit.ground_m - before.ground_m;
+      const double back_m = -(moved.x * (current.x_m - previous.x_m) + moved.y * (current.y_m - previous.y_m)) / baseline_m;
+      if (back_m <= 0.0) {
+        f.label = FeatureClass::unclassified;
+        f.reason = ClassReason::d_below_ground;
+        continue;
+      }
+    }
     // The range cut (spec §1.5 [I]) on the ground projection. An elevated point projects far
     // beyond where it stands (h = 0.35 m at 1.4 m projects to 7.5 m with Z0 = 0.43 m), so by
     // default the cut spares OBSTACLE labels; see docs/obstacles.md.

@@ -45,6 +45,7 @@ enum class ClassReason : std::uint8_t {
   d_ground,        ///< D ≤ β: GROUND
   d_band,          ///< D in a stored band: UNCLASSIFIED
   d_obstacle,      ///< D above β and outside every band: OBSTACLE
+  d_below_ground,  ///< D says OBSTACLE but the projection moved with the lens, not against it: UNCLASSIFIED
 };
 [[nodiscard]] const char* to_string(ClassReason reason);
 
@@ -55,6 +56,15 @@ struct ClassifierParams {
   double max_range_m = 3.0;                             ///< farther ground projections unclassified [spec §1.5 I]
   double min_baseline_m = 0.005;                        ///< below: no classification [spec §2.1 I]
   bool max_range_applies_to_obstacles = false;          ///< true: spec §1.5 literally
+  /// [ours, measured] The direction of the discrepancy: the IPT projection of a point at height
+  /// 0 < h < Z0 moves by exactly −t·h/(Z0 − h) (t the lens travel; spec §3.5), i.e. against the
+  /// travel. A feature that D (4.9) labels OBSTACLE but whose projection moved with the lens
+  /// (component along t ≥ 0: a point below the ground, i.e. tracking noise) is UNCLASSIFIED
+  /// (reason d_below_ground). D itself, and so the ROC's scores, stay the thesis's length.
+  /// Off by default: it drops OBSTACLE labels of points high on an obstacle too, and in test
+  /// ReplayAvoiding.TheLaneDetourKeepsItsSideBeforeAVanAndStopsWithTheReason the IPT then no
+  /// longer closed the lane beside the van and the detour hit its corner (docs/obstacles.md).
+  bool signed_discrepancy = false;
 
   /// Schema ranges, bands as ordered (lo < hi) pairs.
   [[nodiscard]] Status validate() const;

@@ -15,7 +15,9 @@
 // point must have been seen from min_views distinct robot positions (pairs) within
 // min(max_radius_m, radius_ratio · max(|c_a − c_b|, min_baseline_m)): a real obstacle's contact
 // is found in most pairs while it is in view, a mis-tracked paver corner of a periodic texture
-// now and then at the same place (measured on the campus square: 2 of about 36 pairs).
+// now and then at the same place (measured on the campus square: 2 of about 36 pairs). With
+// min_view_share, those views must also be that share of all the pairs made between the first
+// and the last of them.
 // Frames: ground frame (odom), metres. Pure; not thread-safe.
 #pragma once
 
@@ -35,6 +37,11 @@ struct ContactPersistenceParams {
   double max_radius_m = 0.3;    ///< two sightings of one ground point at most this far apart ...
   double radius_ratio = 0.5;    ///< ... and at most this fraction of the robot travel between them
   int min_views = 3;            ///< distinct robot positions (2 cm apart) that saw the point
+  /// ... and at least this share of the pairs made from robot positions between the first and the
+  /// last of those views saw it (0 = off): a real obstacle's contact is found by most pairs while
+  /// it is in view; the ends of traces from noise obstacle features on a tiled floor now and then
+  /// (campus hall, session 14: 3 of 11-17 pairs).
+  double min_view_share = 0.0;
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<ContactPersistenceParams>& schema();
@@ -48,11 +55,15 @@ class ContactPersistence {
   /// New limits for the next confirmed(); the kept sightings stay. Params must validate().
   void set_params(const ContactPersistenceParams& params) { params_ = params; }
   /// Sightings of one pair: ground points seen with the robot at `robot_m`, odometer reading
-  /// `odom_distance_m` (for forget()).
+  /// `odom_distance_m` (for forget()). Call it for every pair, also one without points: the pairs
+  /// count for min_view_share.
   void add(std::span<const cv::Point2d> points_m, const cv::Point2d& robot_m, double odom_distance_m);
   /// Drops sightings made more than memory_m of travel away from `odom_distance_m`.
   void forget(double odom_distance_m, double memory_m);
-  void clear() { sightings_.clear(); }
+  void clear() {
+    sightings_.clear();
+    pairs_m_.clear();
+  }
   /// The sightings confirmed by another sighting from a different robot position (see above);
   /// with `candidate`, only the sightings it accepts are tested (the corridor ahead).
   [[nodiscard]] std::vector<cv::Point2d> confirmed(const std::function<bool(const cv::Point2d&)>& candidate = {}) const;
@@ -72,6 +83,7 @@ class ContactPersistence {
 
   ContactPersistenceParams params_;
   std::vector<Sighting> sightings_;
+  std::vector<double> pairs_m_;  ///< odometer readings of the pairs added (ascending), for min_view_share
   mutable std::vector<cv::Point2d> views_scratch_;  ///< is_confirmed's robot positions, kept to avoid reallocating
 };
 

@@ -34,6 +34,8 @@ void stop(HostServices& host) {
   if (Robot* robot = host.robot()) (void)robot->stop();
 }
 
+}  // namespace
+
 Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
   IptCamera c;
   VISNAV_ASSIGN(const double hfov_deg, node.get_input<double>("hfov_deg"));
@@ -52,8 +54,6 @@ Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
   VISNAV_TRY(c.validate());
   return c;
 }
-
-}  // namespace
 
 bt::PortsList camera_ports(const char* foot_radius_default_px) {
   return {bt::input_port<double>("hfov_deg", "60", "camera horizontal field of view (pinhole, centred principal point)"),

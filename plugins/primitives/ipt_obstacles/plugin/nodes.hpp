@@ -57,6 +57,9 @@ class PipelineRunner {
 
 /// Camera mounting and contact-point ports; foot_radius_px defaults differ per node.
 bt::PortsList camera_ports(const char* foot_radius_default_px);
+/// The IPT camera of camera_ports() for frames of `image`'s size (a pinhole with a centred
+/// principal point). Error: a port out of range, naming it.
+Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image);
 
 /// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
 /// ObstacleAhead and ReplayAvoiding (ports corridor_ports()). With confirm_baseline_m > 0 only

@@ -10,29 +10,6 @@
 
 namespace visnav::ipt {
 
-namespace {
-// The camera ports as nodes.cpp's read_camera() reads them (kept here so that the shared nodes.cpp
-// stays untouched but for the call).
-Result<IptCamera> camera_from_ports(const bt::TreeNode& node, const cv::Mat& image) {
-  IptCamera c;
-  VISNAV_ASSIGN(const double hfov_deg, node.get_input<double>("hfov_deg"));
-  VISNAV_ASSIGN(c.height_m, node.get_input<double>("camera_height_m"));
-  VISNAV_ASSIGN(const double pitch_down_deg, node.get_input<double>("camera_pitch_down_deg"));
-  VISNAV_ASSIGN(c.forward_m, node.get_input<double>("camera_forward_m"));
-  VISNAV_ASSIGN(c.lateral_m, node.get_input<double>("camera_lateral_m"));
-  if (!(hfov_deg > 1.0 && hfov_deg < 179.0))
-    return Error{"hfov_deg must lie in (1, 179) (got " + std::to_string(hfov_deg) + ")", ErrorCode::out_of_range};
-  c.width_px = image.cols;
-  c.height_px = image.rows;
-  c.fx_px = c.fy_px = 0.5 * image.cols / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
-  c.cx_px = 0.5 * (image.cols - 1);
-  c.cy_px = 0.5 * (image.rows - 1);
-  c.pitch_rad = -pitch_down_deg * CV_PI / 180.0;
-  VISNAV_TRY(c.validate());
-  return c;
-}
-}  // namespace
-
 bt::PortsList standing_ports() {
   return {bt::input_port<int>(
               "standing_min_points", "0",
@@ -97,7 +74,7 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
   standing_sequence_ = frame->sequence;
   if (frame->image.channels() == 3) cv::cvtColor(frame->image, standing_grey_, cv::COLOR_BGR2GRAY);
   else standing_grey_ = frame->image;
-  VISNAV_ASSIGN(const IptCamera camera, camera_from_ports(*this, standing_grey_));
+  VISNAV_ASSIGN(const IptCamera camera, read_camera(*this, standing_grey_));
   int new_points = 0;
   VISNAV_ASSIGN(const StandingVerdict v, standing_->observe(standing_grey_, camera, odom.pose, odom.distance_m, new_points));
   if (new_points > 0 && v.in_face > 0)

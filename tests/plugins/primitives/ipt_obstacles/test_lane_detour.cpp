@@ -14,6 +14,17 @@
 namespace visnav::ipt {
 namespace {
 
+/// One 0.1 s step of the kinematic robot the detour tests drive: turning towards `heading_rad`
+/// (robot frame) at most 0.6 rad/s, forward at 0.2 m/s scaled by its cosine, standing when it
+/// points more than 1 rad off.
+void drive_towards(Pose2D& pose, double heading_rad) {
+  const double w = std::clamp(1.5 * heading_rad, -0.6, 0.6);
+  const double v = std::fabs(heading_rad) > 1.0 ? 0.0 : 0.2 * std::max(0.0, std::cos(heading_rad));
+  pose.heading_rad += w * 0.1;
+  pose.x_m += v * 0.1 * std::cos(pose.heading_rad);
+  pose.y_m += v * 0.1 * std::sin(pose.heading_rad);
+}
+
 struct Box {  // axis-aligned footprint
   double x0, x1, y0, y1;
   [[nodiscard]] double distance(double x, double y) const {
@@ -38,11 +49,7 @@ LoopResult drive(LaneDetourParams params, const std::vector<cv::Point2d>& seen, 
   for (; r.cycles < 2000; ++r.cycles) {
     r.last = detour.decide(pose);
     if (r.last.kind != LaneDecision::Kind::drive) break;
-    const double w = std::clamp(1.5 * r.last.heading_rad, -0.6, 0.6);
-    const double v = std::fabs(r.last.heading_rad) > 1.0 ? 0.0 : 0.2 * std::max(0.0, std::cos(r.last.heading_rad));
-    pose.heading_rad += w * 0.1;
-    pose.x_m += v * 0.1 * std::cos(pose.heading_rad);
-    pose.y_m += v * 0.1 * std::sin(pose.heading_rad);
+    drive_towards(pose, r.last.heading_rad);
     r.min_clearance_m = std::min(r.min_clearance_m, van.distance(pose.x_m, pose.y_m));
   }
   return r;
@@ -129,11 +136,7 @@ PassResult pass_seeing(LaneDetourParams params, const Box& box) {
     detour.add_points(seen_from(pose, box));
     r.last = detour.decide(pose);
     if (r.last.kind != LaneDecision::Kind::drive) break;
-    const double w = std::clamp(1.5 * r.last.heading_rad, -0.6, 0.6);
-    const double v = std::fabs(r.last.heading_rad) > 1.0 ? 0.0 : 0.2 * std::max(0.0, std::cos(r.last.heading_rad));
-    pose.heading_rad += w * 0.1;
-    pose.x_m += v * 0.1 * std::cos(pose.heading_rad);
-    pose.y_m += v * 0.1 * std::sin(pose.heading_rad);
+    drive_towards(pose, r.last.heading_rad);
     if (pose.x_m > box.x0 + 1.0) r.min_beside_m = std::min(r.min_beside_m, box.distance(pose.x_m, pose.y_m));
   }
   r.points = detour.point_count();

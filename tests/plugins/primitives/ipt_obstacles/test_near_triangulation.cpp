@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "error_expect.hpp"
+#include "value_noise.hpp"
 #include "visnav/ipt_obstacles/back_off_look.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
 #include "visnav/ipt_obstacles/near_triangulation.hpp"
@@ -21,22 +22,7 @@ namespace {
 using visnav::test::fails_with;
 using visnav::test::key_only;
 
-/// Smooth value noise in [0, 255] on a 2-D coordinate (cell `cell_m`), deterministic.
-double texture(double a, double b, double cell_m) {
-  auto hash = [](long i, long j) {
-    std::uint64_t h = static_cast<std::uint64_t>(i) * 73856093ULL ^ static_cast<std::uint64_t>(j) * 19349663ULL;
-    h ^= h >> 13;
-    h *= 0x5bd1e995ULL;
-    h ^= h >> 15;
-    return static_cast<double>(h % 256);
-  };
-  const double u = a / cell_m, v = b / cell_m;
-  const long i = static_cast<long>(std::floor(u)), j = static_cast<long>(std::floor(v));
-  const double fu = u - static_cast<double>(i), fv = v - static_cast<double>(j);
-  const double top = hash(i, j) * (1 - fu) + hash(i + 1, j) * fu;
-  const double bottom = hash(i, j + 1) * (1 - fu) + hash(i + 1, j + 1) * fu;
-  return top * (1 - fv) + bottom * fv;
-}
+using testing::value_noise;
 
 /// A textured wall x = x_m, y_right_m <= y <= y_left_m, 0 <= z <= 1.5 (facing -x).
 struct Wall {
@@ -57,13 +43,13 @@ cv::Mat render(const IptCamera& camera, double x_m, bool wall, const Wall& w = W
         const double t = -o[2] / d[2];
         const cv::Vec3d p = o + t * d;
         best = t;
-        value = texture(p[0], p[1], ground_cell_m);
+        value = value_noise(p[0], p[1], ground_cell_m);
       }
       if (wall && d[0] > 1e-9) {
         const double t = (w.x_m - o[0]) / d[0];
         const cv::Vec3d p = o + t * d;
         if (t < best && p[1] >= w.y_right_m && p[1] <= w.y_left_m && p[2] >= 0.0 && p[2] <= 1.5)
-          value = texture(p[1], p[2], 0.05);
+          value = value_noise(p[1], p[2], 0.05);
       }
       img.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(value);
     }

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "error_expect.hpp"
+#include "value_noise.hpp"
 #include "visnav/ipt_obstacles/near_triangulation.hpp"
 #include "visnav/ipt_obstacles/standing_watch.hpp"
 
@@ -24,22 +25,7 @@ namespace {
 using visnav::test::fails_with;
 using visnav::test::key_only;
 
-/// Smooth value noise in [0, 255] on a 2-D coordinate (cell `cell_m`), deterministic.
-double noise(double a, double b, double cell_m) {
-  auto hash = [](long i, long j) {
-    std::uint64_t h = static_cast<std::uint64_t>(i) * 2654435761ULL ^ static_cast<std::uint64_t>(j) * 40503ULL;
-    h ^= h >> 15;
-    h *= 0x2c1b3c6dULL;
-    h ^= h >> 12;
-    return static_cast<double>(h % 256);
-  };
-  const double u = a / cell_m, v = b / cell_m;
-  const long i = static_cast<long>(std::floor(u)), j = static_cast<long>(std::floor(v));
-  const double fu = u - static_cast<double>(i), fv = v - static_cast<double>(j);
-  const double top = hash(i, j) * (1 - fu) + hash(i + 1, j) * fu;
-  const double bottom = hash(i, j + 1) * (1 - fu) + hash(i + 1, j + 1) * fu;
-  return top * (1 - fv) + bottom * fv;
-}
+using testing::value_noise;
 
 /// A face x = x_m, y_right_m <= y <= y_left_m, 0 <= z <= height_m, facing the robot.
 struct Face {
@@ -69,14 +55,14 @@ cv::Mat render(const IptCamera& camera, const Pose2D& pose, const std::optional<
         const double t = -o[2] / d[2];
         const cv::Vec3d p = o + t * d;
         best = t;
-        value = 0.5 * noise(p[0], p[1], 0.05) + (std::fabs(p[1]) <= 1.2 ? 90.0 : 40.0);
+        value = 0.5 * value_noise(p[0], p[1], 0.05) + (std::fabs(p[1]) <= 1.2 ? 90.0 : 40.0);
       }
       if (face && std::fabs(d[0]) > 1e-9) {
         const double t = (face->x_m - o[0]) / d[0];
         const cv::Vec3d p = o + t * d;
         if (t > 0.0 && t < best && p[1] >= face->y_right_m && p[1] <= face->y_left_m && p[2] >= 0.0 &&
             p[2] <= face->height_m)
-          value = 0.6 * noise(p[1], p[2], 0.06) + 60.0;
+          value = 0.6 * value_noise(p[1], p[2], 0.06) + 60.0;
       }
       img.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(value);
     }

@@ -12,6 +12,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include <Eigen/Cholesky>
+
 #include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav_sim/render.hpp"
 #include "visnav_sim/world.hpp"
@@ -392,6 +394,103 @@ Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptio
     pairs.push_back(std::move(p));
   }
   return calibrate_height_pitch(ipt_camera_of(model, options.guess_height_m, options.guess_pitch_down_deg), pairs);
+}
+
+Result<EkfRunReport> evaluate_ground_odometry(const EkfRunOptions& options) {
+  VISNAV_TRY(options.filter.validate());
+  if (!(options.frame_step_m > 0.0 && options.frame_step_m <= 0.2) || !(options.run.length_m > 0.0) ||
+      !std::isfinite(options.turn_deg_per_m) || !(std::fabs(options.odom_scale_error) < 0.5) ||
+      !(std::fabs(options.odom_heading_bias_rad_per_m) < 1.0))
+    return Error{"ipt-ekf: frame_step_m must be in (0, 0.2], the run's length > 0, |scale error| < 0.5 and "
+                 "|heading bias| < 1 rad/m",
+                 ErrorCode::out_of_range};
+  VISNAV_ASSIGN(const RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
+                                                         options.hfov_deg, options.mount_height_m, options.pitch_down_deg));
+  const IptCamera cam = ipt_camera_of(scene.model, scene.model.height_m, scene.model.pitch_down_deg);
+  VISNAV_TRY(cam.validate());
+  VISNAV_ASSIGN(ObstaclePipeline pipeline, ObstaclePipeline::create(cam, PipelineParams{}, ClassifierParams{}, ProfileParams{}));
+  VISNAV_ASSIGN(GroundOdometry filter, GroundOdometry::create(cam, options.filter));
+
+  vs::Renderer renderer(scene.world, scene.model);
+  cv::RNG pixel_rng(static_cast<std::uint64_t>(options.seed) * 6133u + 5u);
+  std::mt19937_64 odo_rng(static_cast<std::uint64_t>(options.seed) * 31u + 7u);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  cv::Mat bgr, noise, sum, grey;
+  auto render = [&](const Pose2D& pose) {
+    renderer.render(pose, bgr);
+    if (options.noise_std > 0.0) {
+      noise.create(bgr.size(), CV_16SC3);
+      pixel_rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_std);
+      cv::add(bgr, noise, sum, cv::noArray(), CV_16SC3);
+      sum.convertTo(bgr, CV_8UC3);
+    }
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  };
+  auto compose = [](const Pose2D& p, double dx, double dy, double dth) {
+    const double c = std::cos(p.heading_rad), s = std::sin(p.heading_rad);
+    return Pose2D{p.x_m + c * dx - s * dy, p.y_m + s * dx + c * dy, std::remainder(p.heading_rad + dth, 2.0 * CV_PI)};
+  };
+
+  EkfRunReport report;
+  Pose2D truth = options.run.start, odometry = options.run.start;
+  filter.reset(odometry);
+  const double turn_rad_per_m = options.turn_deg_per_m * CV_PI / 180.0;
+  const double sd_t = options.filter.translation_sd_per_m * options.frame_step_m;
+  const double sd_h = options.filter.heading_sd_rad_per_m * options.frame_step_m;
+  double nees_sum = 0.0, observations = 0.0, wall_ms = 0.0;
+  const int frames = static_cast<int>(std::floor(options.run.length_m / options.frame_step_m + 1e-9)) + 1;
+  for (int k = 0; k < frames; ++k) {
+    if (k > 0) {
+      // True increment: an arc of frame_step_m (chord at half the turn), then what the wheels report.
+      const double dth = turn_rad_per_m * options.frame_step_m;
+      const double dx = options.frame_step_m * std::cos(dth / 2), dy = options.frame_step_m * std::sin(dth / 2);
+      truth = compose(truth, dx, dy, dth);
+      double ox = dx * (1.0 + options.odom_scale_error), oy = dy * (1.0 + options.odom_scale_error);
+      double oth = dth + options.odom_heading_bias_rad_per_m * options.frame_step_m;
+      if (options.odom_noise) {
+        const double nx = unit(odo_rng);
+        const double ny = unit(odo_rng);
+        const double nh = unit(odo_rng);
+        ox += sd_t * nx;
+        oy += sd_t * ny;
+        oth += sd_h * nh;
+      }
+      odometry = compose(odometry, ox, oy, oth);
+    }
+    render(truth);
+    const auto t0 = std::chrono::steady_clock::now();
+    VISNAV_ASSIGN(auto pair, pipeline.process(grey, odometry));
+    if (pair) {
+      (void)filter.add_pair(pair->first_pose, pair->pose, pair->features);  // a rejected update follows the odometry
+      ++report.pairs;
+      observations += filter.last_observations();
+      // NEES in the start frame (the filter's world frame).
+      const Pose2D f = filter.pose();
+      const double c0 = std::cos(options.run.start.heading_rad), s0 = std::sin(options.run.start.heading_rad);
+      const double ex = f.x_m - truth.x_m, ey = f.y_m - truth.y_m;
+      const Eigen::Vector3d e(c0 * ex + s0 * ey, -s0 * ex + c0 * ey, std::remainder(f.heading_rad - truth.heading_rad, 2.0 * CV_PI));
+      const Eigen::Matrix3d P = filter.covariance();
+      nees_sum += e.dot(P.ldlt().solve(e));
+    }
+    wall_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  report.frames = frames;
+  report.mean_observations = report.pairs > 0 ? observations / report.pairs : 0.0;
+  report.mean_nees = report.pairs > 0 ? nees_sum / report.pairs : 0.0;
+  report.ms_per_pair = report.pairs > 0 ? wall_ms / report.pairs : 0.0;
+  report.truth_end = truth;
+  report.odometry_end = odometry;
+  report.filter_end = filter.pose();
+  const double c0 = std::cos(options.run.start.heading_rad), s0 = std::sin(options.run.start.heading_rad);
+  auto errors = [&](const Pose2D& p, double& along, double& lateral, double& heading) {
+    const double ex = p.x_m - truth.x_m, ey = p.y_m - truth.y_m;
+    along = c0 * ex + s0 * ey;
+    lateral = -s0 * ex + c0 * ey;
+    heading = std::remainder(p.heading_rad - truth.heading_rad, 2.0 * CV_PI);
+  };
+  errors(odometry, report.odometry_along_error_m, report.odometry_lateral_error_m, report.odometry_heading_error_rad);
+  errors(report.filter_end, report.filter_along_error_m, report.filter_lateral_error_m, report.filter_heading_error_rad);
+  return report;
 }
 
 }  // namespace visnav::ipt

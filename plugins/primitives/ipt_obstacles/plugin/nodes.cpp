@@ -106,7 +106,42 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
   points.reserve(pair->contacts.size());
   for (const auto& c : pair->contacts) points.push_back(c.ground_m);
   points.insert(points.end(), pair->span_points.begin(), pair->span_points.end());
+  if (correcting_ && ground_) {
+    // A rejected update leaves the filter on the odometry for this pair: nothing to stop for.
+    (void)ground_->add_pair(pair->first_pose, pair->pose, pair->features);
+    heading_offset_rad_ = std::remainder(ground_->pose().heading_rad - pair->pose.heading_rad, 2.0 * CV_PI);
+    // The points were placed from the raw pose; move them with the robot into the corrected frame.
+    const Pose2D raw = pair->pose, fixed = correct(raw);
+    const double dh = fixed.heading_rad - raw.heading_rad, c = std::cos(dh), s = std::sin(dh);
+    for (auto& p : points) {
+      const double dx = p.x - raw.x_m, dy = p.y - raw.y_m;
+      p = {fixed.x_m + c * dx - s * dy, fixed.y_m + s * dx + c * dy};
+    }
+  }
   return std::optional<std::vector<cv::Point2d>>{std::move(points)};
+}
+
+Status PipelineRunner::start_correction(const Pose2D& raw, const GroundOdometryParams& params) {
+  correcting_ = false;
+  if (!pipeline_) return Error{"ekf_heading: the IPT pipeline has not seen a frame yet", ErrorCode::missing};
+  VISNAV_ASSIGN(auto filter, GroundOdometry::create(pipeline_->camera(), params));
+  filter.reset(raw);
+  ground_.emplace(std::move(filter));
+  last_raw_ = corrected_ = raw;
+  heading_offset_rad_ = 0.0;
+  correcting_ = true;
+  return ok();
+}
+
+Pose2D PipelineRunner::correct(const Pose2D& raw) {
+  if (!correcting_) return raw;
+  const double c = std::cos(heading_offset_rad_), s = std::sin(heading_offset_rad_);
+  const double dx = raw.x_m - last_raw_.x_m, dy = raw.y_m - last_raw_.y_m;
+  corrected_.x_m += c * dx - s * dy;
+  corrected_.y_m += s * dx + c * dy;
+  corrected_.heading_rad = std::remainder(raw.heading_rad + heading_offset_rad_, 2.0 * CV_PI);
+  last_raw_ = raw;
+  return corrected_;
 }
 
 // ------------------------------------------------------------------------------ ObstacleAhead
@@ -417,6 +452,11 @@ bt::PortsList ReplayAvoiding::provided_ports() {
       "lane detour: odometry heading drift assumed while passing points out of view; a point's clearance grows by "
       "0.5*drift*d^2 (d: travel along the line since it was seen, at most 0.4 m more); 0 = off"));
   ports.push_back(bt::input_port<bool>(
+      "ekf_heading", "false",
+      "lane detour: steer by the heading of the thesis's robocentric EKF whose landmarks are the IPT pairs' GROUND "
+      "features (ground_odometry.hpp; corrects the odometry's heading drift in the blind pass past an obstacle); "
+      "false = the raw odometry"));
+  ports.push_back(bt::input_port<bool>(
       "backoff_compact", "true",
       "back-off only after a stop whose changed pixels (moving_stop_m's frame difference) came in solid pieces "
       "(a face close ahead, its texture magnified), not in the specks of ground shimmer (motion_watch.hpp, change_shape()); false = after every "
@@ -445,6 +485,7 @@ NodeStatus ReplayAvoiding::tick() {
     if (st == NodeStatus::running) return NodeStatus::running;
     detour_.end();
     lane_.reset();
+    runner_.stop_correction();
     detouring_ = false;
     if (st == NodeStatus::failure) return NodeStatus::failure;
     if (probe_) probe_->reset();  // past the obstacle: a later hidden path gets a new budget
@@ -968,6 +1009,11 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
         return NodeStatus::failure;
       }
       detour_.end();
+      runner_.stop_correction();
+      if (auto ekf = get_input<bool>("ekf_heading"); ekf && *ekf) {
+        if (auto started = runner_.start_correction(odom.pose); !started)
+          host_.logger().warn(path(), "lane detour on the raw odometry: " + started.error().message);
+      }
       lane_.emplace(params, odom.pose);
       lane_.value().add_points(corridor_.points());
       lane_kind_ = LaneDecision::Kind::blocked;
@@ -985,8 +1031,11 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
   }
 }
 
-NodeStatus ReplayAvoiding::lane_step(const Odometry& odom) {
+NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
   auto fresh = runner_.step(*this, host_);
+  // With ekf_heading the detour steers by the ground-feature EKF's heading (the raw pose otherwise).
+  Odometry odom = raw_odom;
+  odom.pose = runner_.correct(raw_odom.pose);
   if (!fresh) {
     host_.logger().error(path(), fresh.error().message);
     stop(host_);
@@ -1046,6 +1095,7 @@ void ReplayAvoiding::halt() {
   probing_ = false;
   detour_.end();
   lane_.reset();
+  runner_.stop_correction();
   detouring_ = false;
   child_started_ = false;
   corridor_.clear();

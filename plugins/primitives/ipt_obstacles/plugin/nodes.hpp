@@ -28,6 +28,7 @@
 #include "standing_check.hpp"
 #include "visnav/ipt_obstacles/back_off_look.hpp"
 #include "visnav/ipt_obstacles/contact_persistence.hpp"
+#include "visnav/ipt_obstacles/ground_odometry.hpp"
 #include "visnav/ipt_obstacles/hidden_path_probe.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
@@ -47,9 +48,24 @@ class PipelineRunner {
   void restart() {
     if (pipeline_) pipeline_->restart();
   }
+  /// Heading correction by the ground-feature EKF (ground_odometry.hpp) from here until
+  /// stop_correction(): every pair feeds the filter, step() returns its points in the corrected
+  /// frame and correct() maps the raw odometry pose into it. Error when the pipeline has not run
+  /// yet (no camera) or a param is out of range; the caller then drives on the raw odometry.
+  Status start_correction(const Pose2D& raw, const GroundOdometryParams& params = {});
+  void stop_correction() { correcting_ = false; }
+  /// The corrected pose of the raw odometry pose `raw` (call once per tick with the newest
+  /// pose; `raw` unchanged when not correcting). Translation stays the wheels' (the edge's
+  /// along-track distance keeps its meaning); only the heading takes the filter's.
+  Pose2D correct(const Pose2D& raw);
+  [[nodiscard]] double heading_correction_rad() const { return correcting_ ? heading_offset_rad_ : 0.0; }
 
  private:
   std::optional<ObstaclePipeline> pipeline_;
+  std::optional<GroundOdometry> ground_;
+  bool correcting_ = false;
+  Pose2D last_raw_, corrected_;
+  double heading_offset_rad_ = 0.0;
   std::uint64_t last_sequence_ = 0;
   bool have_sequence_ = false;
   cv::Mat grey_;

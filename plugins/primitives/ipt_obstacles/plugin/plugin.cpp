@@ -1,10 +1,11 @@
 // libvisnav_ipt_obstacles.so — IPT-based obstacle detection and avoidance (nodes plugin,
-// issue 16): the ObstacleAhead and AvoidObstacles nodes (nodes.hpp), `visnav ipt-roc` and
-// `visnav calibrate-ipt`.
+// issue 16): the ObstacleAhead and AvoidObstacles nodes (nodes.hpp), `visnav ipt-roc`,
+// `visnav ipt-ekf` and `visnav calibrate-ipt`.
 #include <exception>
 #include <string>
 
 #include "cmd_calibrate_ipt.hpp"
+#include "cmd_ipt_ekf.hpp"
 #include "cmd_ipt_roc.hpp"
 #include "nodes.hpp"
 #include "visnav/plugin.hpp"
@@ -19,6 +20,8 @@ visnav::Status register_nodes(visnav::bt::NodeRegistry& registry, visnav::HostSe
 const visnav::CommandEntry kCommands[] = {
     {"ipt-roc", "IPT obstacle/ground classifier on rendered frames: precision, recall, ROC AUC",
      &visnav::guarded_command<&visnav::ipt::run_ipt_roc>},
+    {"ipt-ekf", "the robocentric EKF on the IPT pipeline's ground features along a rendered run: drift and NEES",
+     &visnav::guarded_command<&visnav::ipt::run_ipt_ekf>},
     {"calibrate-ipt", "camera height and pitch for the IPT from flat-ground frames (NLopt), in the simulator",
      &visnav::guarded_command<&visnav::ipt::run_calibrate_ipt>},
 };

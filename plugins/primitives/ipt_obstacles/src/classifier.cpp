@@ -95,6 +95,7 @@ Result<std::vector<ClassifiedFeature>> classify_features(const IptCamera& camera
   for (std::size_t i = 0; i < out.size(); ++i) {
     ClassifiedFeature& f = out[i];
     f.pixel = pixel_current[i];
+    f.pixel_previous = pixel_previous[i];
     const cv::Point2d p0 = pixel_previous[i];
     // (4.14)/(4.15): above the horizon in either frame, the point is above the lens plane.
     if (f.pixel.y < v_h || p0.y < v_h) {

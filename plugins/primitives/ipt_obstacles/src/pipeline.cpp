@@ -142,6 +142,7 @@ Result<std::optional<PairResult>> ObstaclePipeline::process(const cv::Mat& grey,
   }
   PairResult out;
   out.pose = odom_pose;
+  out.first_pose = first_pose_;
   const OdometryEpipolar motion{camera_, first_lens, lens};
   out.ransac_outliers = track_pair(first_, grey, pipeline_, a_, b_, tracks_, &motion);
   VISNAV_ASSIGN(out.features, classify_features(camera_, first_lens, lens, a_, b_, classifier_));

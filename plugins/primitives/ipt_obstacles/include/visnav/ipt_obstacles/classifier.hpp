@@ -77,6 +77,7 @@ struct ClassifiedFeature {
   double discrepancy_m = -1.0;  ///< D; −1 when not computed (above horizon, guard band, no baseline)
   cv::Point2d ground_m;         ///< ground projection in frame k (valid when below the guard band)
   cv::Point2d pixel;            ///< the feature in frame k
+  cv::Point2d pixel_previous;   ///< the same track in frame k−1 (the ground-feature EKF observes both)
 };
 
 /// The ground-projection discrepancy D (4.9) of one track; −1 when either pixel does not

@@ -90,6 +90,7 @@ struct PairResult {
   std::vector<ContactPoint> contacts;
   std::vector<cv::Point2d> span_points;  ///< fill_obstacle_spans() of the contacts (ground frame)
   Pose2D pose;                       ///< odometry pose of the pair's second frame
+  Pose2D first_pose;                 ///< odometry pose of the pair's first frame
   int ransac_outliers = 0;
 };
 

@@ -21,6 +21,7 @@
 
 #include "visnav/ipt_obstacles/calibration.hpp"
 #include "visnav/ipt_obstacles/classifier.hpp"
+#include "visnav/ipt_obstacles/ground_odometry.hpp"
 #include "visnav/ipt_obstacles/pipeline.hpp"
 #include "visnav/ipt_obstacles/profiles.hpp"
 #include "visnav/result.hpp"
@@ -127,5 +128,46 @@ struct CalibrationRunOptions {
 };
 
 [[nodiscard]] Result<CalibrationResult> calibrate_on_rendered_frames(const CalibrationRunOptions& options);
+
+/// `visnav ipt-ekf`: the ground-feature EKF (ground_odometry.hpp) on frames rendered along a
+/// run, against the wheel odometry it corrects. The true path starts at `run.start` and turns
+/// at `turn_deg_per_m`; one frame every `frame_step_m`; the odometry reads each true increment
+/// with a scale error, a heading bias (a turn the robot does not make: the wheel-size asymmetry
+/// of spec §11 item 23) and Gaussian noise of the filter's own model (σ_t·d, σ_θ·d), so the NEES
+/// tests the filter against what it was told. The frames go through the replay's pipeline
+/// (ObstaclePipeline, default params) at the odometry's poses.
+struct EkfRunOptions {
+  std::string world = "campus";
+  RocRun run{Pose2D{26.0, -26.0, CV_PI}, 7.0};  ///< default: the gravel leg e14, westbound, to the van's place
+  double frame_step_m = 0.05;                  ///< travel between frames (0.5 m/s at 10 Hz)
+  double turn_deg_per_m = 0.0;                 ///< the true path's curvature, deg/m (left positive)
+  int width_px = 320;
+  int height_px = 240;
+  double hfov_deg = 60.0;                      ///< the campus robot's camera (config/sim_experiment.yaml)
+  double mount_height_m = 0.5;
+  double pitch_down_deg = 5.0;
+  double noise_std = 3.0;                      ///< sensor noise, grey levels
+  double odom_scale_error = 0.0;               ///< the odometry reads (1 + this) × the travel
+  double odom_heading_bias_rad_per_m = 0.0;    ///< reported turn per metre the robot does not make
+  bool odom_noise = true;                      ///< add the filter's modelled increment noise
+  int seed = 1;
+  GroundOdometryParams filter;
+};
+
+struct EkfRunReport {
+  int frames = 0;
+  int pairs = 0;
+  double mean_observations = 0.0;              ///< ground features per pair the filter used
+  Pose2D truth_end, odometry_end, filter_end;  ///< world frame
+  // Errors at the run's end in the run's start frame: along = along its heading, lateral = left of it.
+  double odometry_heading_error_rad = 0.0, filter_heading_error_rad = 0.0;
+  double odometry_lateral_error_m = 0.0, filter_lateral_error_m = 0.0;
+  double odometry_along_error_m = 0.0, filter_along_error_m = 0.0;
+  double mean_nees = 0.0;                      ///< of the filter's pose (3 dof) over the pairs
+  double ms_per_pair = 0.0;                    ///< pipeline + filter, wall time
+};
+
+/// Error when the world does not load, an option or a filter param is out of range.
+[[nodiscard]] Result<EkfRunReport> evaluate_ground_odometry(const EkfRunOptions& options);
 
 }  // namespace visnav::ipt

@@ -1058,6 +1058,9 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
     lane_target_m_ = d.lane_m;
   }
   if (d.kind == LaneDecision::Kind::done) {
+    if (runner_.heading_correction_rad() != 0.0)
+      host_.logger().info(path(), "lane detour done; the ground-feature EKF turned the odometry's heading by " +
+                                      std::to_string(runner_.heading_correction_rad() * 180.0 / CV_PI) + " deg");
     stop(host_);
     return NodeStatus::success;
   }

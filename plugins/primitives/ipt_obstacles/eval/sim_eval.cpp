@@ -404,8 +404,12 @@ Result<EkfRunReport> evaluate_ground_odometry(const EkfRunOptions& options) {
     return Error{"ipt-ekf: frame_step_m must be in (0, 0.2], the run's length > 0, |scale error| < 0.5 and "
                  "|heading bias| < 1 rad/m",
                  ErrorCode::out_of_range};
-  VISNAV_ASSIGN(const RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
-                                                         options.hfov_deg, options.mount_height_m, options.pitch_down_deg));
+  VISNAV_ASSIGN(RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
+                                                   options.hfov_deg, options.mount_height_m, options.pitch_down_deg));
+  if (!options.obstacles_path.empty()) {
+    VISNAV_ASSIGN(const std::string path, vs::resolve_world_path(options.world));
+    VISNAV_ASSIGN(scene.world, vs::load_world_with_obstacles(path, options.obstacles_path));
+  }
   const IptCamera cam = ipt_camera_of(scene.model, scene.model.height_m, scene.model.pitch_down_deg);
   VISNAV_TRY(cam.validate());
   VISNAV_ASSIGN(ObstaclePipeline pipeline, ObstaclePipeline::create(cam, PipelineParams{}, ClassifierParams{}, ProfileParams{}));
@@ -461,7 +465,8 @@ Result<EkfRunReport> evaluate_ground_odometry(const EkfRunOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
     VISNAV_ASSIGN(auto pair, pipeline.process(grey, odometry));
     if (pair) {
-      (void)filter.add_pair(pair->first_pose, pair->pose, pair->features);  // a rejected update follows the odometry
+      // A rejected update follows the odometry for that pair.
+      (void)filter.add_pair(pair->first_pose, pair->pose, pair->features);
       ++report.pairs;
       observations += filter.last_observations();
       // NEES in the start frame (the filter's world frame).

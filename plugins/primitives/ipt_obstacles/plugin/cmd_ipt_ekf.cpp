@@ -11,7 +11,7 @@
 namespace visnav::ipt {
 
 const char* const kIptEkfUsage =
-    "usage: visnav ipt-ekf [--world NAME] [--run X,Y,DEG,LEN] [--seeds N] [--seed S] [--frame-step-m M]\n"
+    "usage: visnav ipt-ekf [--world NAME] [--obstacles FILE.yaml] [--run X,Y,DEG,LEN] [--seeds N] [--seed S] [--frame-step-m M]\n"
     "                      [--turn-deg-per-m D] [--heading-bias-deg-per-m B] [--scale-error-pct P]\n"
     "                      [--no-odom-noise] [--pixel-sd-px P] [--translation-sd-per-m S]\n"
     "                      [--heading-sd-deg-per-m S] [--max-observations N]\n"
@@ -23,7 +23,8 @@ const char* const kIptEkfUsage =
     "noise, to the replay's IPT pipeline and the robocentric EKF whose landmarks are the pairs'\n"
     "GROUND features. Prints per seed and on average the end errors (heading, lateral, along) of the\n"
     "odometry and of the filter, the filter's NEES (3 is consistent), the ground features per pair\n"
-    "and the time per pair.\n";
+    "and the time per pair. --obstacles adds an obstacle file (as `visnav experiment --obstacles`),\n"
+    "e.g. config/obstacles/campus_van.yaml with --run 26,-26,180,6 to approach the van's rear.\n";
 
 namespace {
 
@@ -55,6 +56,8 @@ int run_ipt_ekf(int argc, char** argv, HostServices& /*host*/) {
       return 0;
     } else if (arg == "--world" && i + 1 < argc) {
       options.world = argv[++i];
+    } else if (arg == "--obstacles" && i + 1 < argc) {
+      options.obstacles_path = argv[++i];
     } else if (arg == "--seeds" || arg == "--seed" || arg == "--max-observations") {
       if (!value(v)) return 2;
       if (v < 1 || v > 100000 || v != std::floor(v)) {

@@ -138,6 +138,7 @@ struct CalibrationRunOptions {
 /// (ObstaclePipeline, default params) at the odometry's poses.
 struct EkfRunOptions {
   std::string world = "campus";
+  std::string obstacles_path;                  ///< optional obstacle file added to the world (sim docs)
   RocRun run{Pose2D{26.0, -26.0, CV_PI}, 7.0};  ///< default: the gravel leg e14, westbound, to the van's place
   double frame_step_m = 0.05;                  ///< travel between frames (0.5 m/s at 10 Hz)
   double turn_deg_per_m = 0.0;                 ///< the true path's curvature, deg/m (left positive)

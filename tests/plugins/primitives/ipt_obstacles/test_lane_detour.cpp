@@ -362,6 +362,28 @@ TEST(LaneDetour, BothSidesClosedOrTheRecoveryUsedUpStopsWithTheReason) {
   EXPECT_NE(bounded.last.reason.find("reversed"), std::string::npos) << bounded.last.reason;
 }
 
+// The drift margin widens a lane, it does not close a side (van_path, session 15: a point 1.5 m
+// right of the line, its margin grown to 0.4 m beside the van, closed the right side past the
+// van's front). An obstacle from 1 m right to 3 m left of the line (s 2-8 m), a row of points
+// 1.6 m right.
+TEST(LaneDetour, TheDriftMarginDoesNotCloseASide) {
+  LaneDetour detour(LaneDetourParams{}, Pose2D{});
+  std::vector<cv::Point2d> pts;
+  for (double s = 2.0; s <= 8.0 + 1e-9; s += 0.25) {
+    for (double l = -1.0; l <= 3.0 + 1e-9; l += 0.2) pts.emplace_back(s, l);
+    pts.emplace_back(s, -1.6);
+  }
+  detour.add_points(pts);
+  const LaneDecision start = detour.decide(Pose2D{});
+  ASSERT_EQ(start.kind, LaneDecision::Kind::drive) << start.reason;
+  ASSERT_LT(start.lane_m, -2.15);  // right, beyond the row
+  // 9 m on, every point seen at s = 0: margins of 0.4 m would need a lane beyond -2.6 m.
+  const LaneDecision beside = detour.decide(Pose2D{9.0, -2.3, 0.0});
+  EXPECT_EQ(beside.kind, LaneDecision::Kind::drive) << beside.reason;
+  EXPECT_LE(beside.lane_m, -2.2 + 1e-9);
+  EXPECT_GE(beside.lane_m, -2.5 - 1e-9);
+}
+
 TEST(LaneDetour, BadParamsAreOutOfRange) {
   LaneDetourParams p;
   p.clearance_m = -0.1;

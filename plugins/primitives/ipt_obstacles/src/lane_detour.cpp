@@ -115,12 +115,30 @@ bool LaneDetour::clear_to_cross(double s_robot_m) const {
   return true;
 }
 
+double LaneDetour::came_at(double s_m) const {
+  // The latest forward pass: back from the end to the first point at or before s_m.
+  for (auto it = track_.rbegin(); it != track_.rend(); ++it)
+    if (it->x <= s_m) return it->y;
+  return 0.0;  // before the detour's start: the replay drove on the line
+}
+
 std::string LaneDetour::closes_reason(int side) const {
   return std::string("the ") + (side > 0 ? "left" : "right") + " side closes within " + std::to_string(params_.max_offset_m) +
          " m of the line, " + std::to_string(params_.commit_m) +
          " m or less before the obstacle: not crossing to the other side in front of it (" + std::to_string(points_.size()) +
          " obstacle points)";
 }
+
+namespace {
+
+/// The turn (robot frame) that makes a robot reversing at lateral offset l_m, heading
+/// heading_on_line_rad relative to the line, head for offset target_m a distance aim_m behind it:
+/// its back points at the aim, so its nose points at -atan2(target - l, aim) on the line.
+double reverse_turn(double l_m, double heading_on_line_rad, double target_m, double aim_m) {
+  return std::remainder(-std::atan2(target_m - l_m, aim_m) - heading_on_line_rad, 2.0 * CV_PI);
+}
+
+}  // namespace
 
 LaneDecision LaneDetour::decide(const Pose2D& robot) {
   LaneDecision d;
@@ -148,8 +166,8 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
       return d;
     } else {
       d.kind = LaneDecision::Kind::reverse;
-      d.heading_rad = -heading_on_line;
-      d.lane_m = lane_m_;
+      d.lane_m = came_at(r.x - params_.aim_ahead_m);
+      d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
       d.reason = "reversing along the line until the obstacle is " + std::to_string(params_.recover_clear_m) +
                  " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
       return d;
@@ -190,8 +208,8 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
         reversing_ = true;
         reverse_from_s_m_ = r.x;
         d.kind = LaneDecision::Kind::reverse;
-        d.heading_rad = -heading_on_line;
-        d.lane_m = lane_m_;
+        d.lane_m = came_at(r.x - params_.aim_ahead_m);
+        d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
         d.reason = closes_reason(side_) + ": reversing along the line until the obstacle is " +
                    std::to_string(params_.recover_clear_m) + " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
         return d;
@@ -221,6 +239,7 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     d.reason = "back on the line, past the obstacle";
     return d;
   }
+  track_.emplace_back(r.x, r.y);
   const double aim_line = std::atan2(*lane - r.y, params_.aim_ahead_m);  // relative to the line
   d.heading_rad = std::remainder(aim_line - heading_on_line, 2.0 * CV_PI);
   d.kind = LaneDecision::Kind::drive;

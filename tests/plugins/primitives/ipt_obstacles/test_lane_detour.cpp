@@ -267,8 +267,10 @@ struct Recovery {
   double min_clearance_m = 1e9;
   double min_s_m = 1e9;       // how far back it reversed
   double s_at_closing_m = -1;  // where the side closed
+  double l_at_closing_m = 0.0;
   bool reversed = false;
   double lane_after_m = 0.0;  // first lane driven after the reversing
+  double l_after_m = 1e9;     // the robot's offset when the reversing ended
 };
 
 Recovery recover(const LaneDetourParams& p, bool right_closes_too, bool right_closes_after) {
@@ -294,13 +296,17 @@ Recovery recover(const LaneDetourParams& p, bool right_closes_too, bool right_cl
     }
     r.last = detour.decide(pose);
     if (r.last.kind == LaneDecision::Kind::reverse) {
-      if (!r.reversed) r.s_at_closing_m = r.last.s_m;
+      if (!r.reversed) {
+        r.s_at_closing_m = r.last.s_m;
+        r.l_at_closing_m = r.last.l_m;
+      }
       r.reversed = true;
       const double w = std::clamp(1.5 * r.last.heading_rad, -0.6, 0.6);
       pose.heading_rad += w * 0.1;
       pose.x_m -= 0.15 * 0.1 * std::cos(pose.heading_rad);
       pose.y_m -= 0.15 * 0.1 * std::sin(pose.heading_rad);
     } else if (r.last.kind == LaneDecision::Kind::drive) {
+      if (r.reversed && r.l_after_m > 1e8) r.l_after_m = r.last.l_m;
       if (r.reversed && r.lane_after_m == 0.0 && r.last.lane_m != 0.0) r.lane_after_m = r.last.lane_m;
       if (right_closes_after && r.reversed && !wall_seen && r.last.l_m < -0.5) {
         wall_seen = true;  // on the right, a second wall closes that side as well
@@ -328,6 +334,8 @@ TEST(LaneDetour, AClosedSideNearTheObstacleReversesThenPassesOnTheOtherSide) {
   // Reversed until the face (s = 3) was recover_clear_m (3 m) ahead, not much farther.
   EXPECT_LE(r.min_s_m, 0.0 + 1e-6);
   EXPECT_GT(r.min_s_m, -0.3);
+  // Back along the way it came: it had turned out from the line, so it ends nearer the line.
+  EXPECT_LT(r.l_after_m, r.l_at_closing_m - 0.1) << r.l_at_closing_m << " -> " << r.l_after_m;
   EXPECT_LT(r.lane_after_m, 0.0);  // then the right side
   EXPECT_GT(r.last.s_m, 7.8);      // past the van
   EXPECT_GT(r.min_clearance_m, 0.25) << "the body touched the van";

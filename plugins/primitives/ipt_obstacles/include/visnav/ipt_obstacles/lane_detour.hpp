@@ -34,8 +34,8 @@
 //    hit 1.3 m after such a switch); the decision is then blocked, with the reason;
 //  * recovery from a closed side (max_recoveries, session 15): when the chosen side closes
 //    within commit_m of the obstacle and the other side has a free lane, the decision is
-//    `reverse` instead of `blocked`: the robot backs along the line (heading held on the line's)
-//    until no point lies between its body's back and recover_clear_m ahead, then takes the other
+//    `reverse` instead of `blocked`: the robot backs along the way it came (the lateral offsets
+//    it drove at, aim_ahead_m behind it; the line itself before the detour's start) until no point lies between its body's back and recover_clear_m ahead, then takes the other
 //    side with every point known, and keeps that side (it is not swapped back). Blocked with the
 //    reason when both sides close, when the recoveries are used up, or after max_reverse_m of
 //    reversing without the obstacle getting far enough ahead;
@@ -88,7 +88,7 @@ struct LaneDetourParams {
 struct LaneDecision {
   enum class Kind : std::uint8_t { drive, done, blocked, reverse };
   Kind kind = Kind::drive;
-  double heading_rad = 0.0;  ///< direction to drive in, robot frame (CCW +); reverse: the turn that aligns the robot with the line
+  double heading_rad = 0.0;  ///< direction to drive in, robot frame (CCW +); reverse: the turn that makes reversing follow the way it came
   double lane_m = 0.0;       ///< target lateral offset (left +)
   double s_m = 0.0;          ///< robot along the line from the detour start
   double l_m = 0.0;          ///< robot's lateral offset
@@ -126,6 +126,8 @@ class LaneDetour {
   /// No obstacle point from the body's back (radius + clearance behind) to recover_clear_m ahead.
   [[nodiscard]] bool clear_to_cross(double s_robot_m) const;
   [[nodiscard]] std::string closes_reason(int side) const;
+  /// The lateral offset the robot drove at when it last passed s_m going forward (0 before the detour).
+  [[nodiscard]] double came_at(double s_m) const;
 
   LaneDetourParams params_;
   Pose2D start_;
@@ -138,6 +140,7 @@ class LaneDetour {
   bool reversing_ = false;
   bool side_locked_ = false;     // after a recovery: the other side is not taken again
   double reverse_from_s_m_ = 0.0;
+  std::vector<cv::Point2d> track_;  // (s, l) of the robot at each forward decision: the way it came
 };
 
 }  // namespace visnav::ipt

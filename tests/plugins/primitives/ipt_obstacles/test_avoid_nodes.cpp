@@ -319,7 +319,7 @@ TEST(ReplayAvoiding, TheLaneDetourReversesWhenItsSideClosesBeforeAVanAndPassesOn
   EXPECT_NE(replay.output.find("m right of the line", closes), std::string::npos) << replay.output;  // the other side
   EXPECT_NE(replay.output.find("back on the line, past the obstacle", closes), std::string::npos) << replay.output;
   // Resumed past the van's front (11.9 m of the edge) and before the edge's end: the reverse is
-  // not counted twice (measured: 17.78 m).
+  // not counted twice (measured: 17.79 m).
   const std::string resumed = "detour done: the edge resumes at ";
   const auto at = replay.output.find(resumed);
   ASSERT_NE(at, std::string::npos) << replay.output;

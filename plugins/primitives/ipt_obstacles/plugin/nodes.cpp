@@ -464,6 +464,15 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   ports.push_back(bt::input_port<double>("commit_m", "2.0",
                                          "lane detour: the chosen side is kept within this of an obstacle point (its "
                                          "closing blocks the detour instead of a swing across the obstacle); 0 = off"));
+  ports.push_back(bt::input_port<int>(
+      "max_recoveries", "1",
+      "lane detour: the chosen side closes within commit_m of the obstacle and the other side is free: reverse along "
+      "the line (backoff_speed_mps) until no obstacle point is within recover_clear_m ahead, then take the other side; "
+      "this often per detour; 0 = stop with the reason (lane_detour.hpp)"));
+  ports.push_back(bt::input_port<double>("recover_clear_m", "3.0",
+                                         "lane detour recovery: reverse until no obstacle point is this close ahead"));
+  ports.push_back(bt::input_port<double>("max_reverse_m", "10.0",
+                                         "lane detour recovery: most reversing along the line; then stop with the reason"));
   return ports;
 }
 
@@ -1001,6 +1010,9 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       if (widest) params.max_offset_m = *widest;
       if (auto commit = get_input<double>("commit_m")) params.commit_m = *commit;
       if (auto drift = get_input<double>("drift_rad_per_m")) params.drift_rad_per_m = *drift;
+      if (auto n = get_input<int>("max_recoveries")) params.max_recoveries = *n;
+      if (auto clear = get_input<double>("recover_clear_m")) params.recover_clear_m = *clear;
+      if (auto most = get_input<double>("max_reverse_m")) params.max_reverse_m = *most;
       Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
       if (st) st = detour_.begin(*this, odom.pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
       if (!st) {
@@ -1041,16 +1053,32 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
     stop(host_);
     return NodeStatus::failure;
   }
-  if (*fresh) {
+  if (*fresh && !lane_->reversing()) {
     log_points(host_, *this, odom.pose, **fresh);
     // With the filter on, only confirmed contacts steer the detour too.
     lane_->add_points(corridor_.add_and_confirm(**fresh, odom));
   }
+  if (lane_->reversing()) {
+    // Reversing on the line's heading (a recovery): the longer-baseline triangulation looks, as
+    // while backing off; the other side is chosen with what it adds.
+    auto points = triangulate_near(odom);
+    if (!points) {
+      host_.logger().error(path(), points.error().message);
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    if (!points->empty()) {
+      log_points(host_, *this, odom.pose, *points);
+      lane_->add_points(*points);
+    }
+  }
 
+  const bool was_reversing = lane_->reversing();
   const LaneDecision d = lane_->decide(odom.pose);
-  (void)set_output("situation", std::string(d.kind == LaneDecision::Kind::blocked ? "blocked"
-                                            : d.kind == LaneDecision::Kind::done  ? "done"
-                                                                                  : "lane"));
+  (void)set_output("situation", std::string(d.kind == LaneDecision::Kind::blocked   ? "blocked"
+                                            : d.kind == LaneDecision::Kind::done    ? "done"
+                                            : d.kind == LaneDecision::Kind::reverse ? "reverse"
+                                                                                    : "lane"));
   if (d.kind != lane_kind_ || (d.kind == LaneDecision::Kind::drive && d.lane_m != lane_target_m_)) {
     host_.logger().info(path(), "lane detour at s=" + std::to_string(d.s_m) + " m, l=" + std::to_string(d.l_m) +
                                     " m: " + d.reason);
@@ -1075,6 +1103,18 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
     return NodeStatus::running;
   }
   lane_blocked_cycles_ = 0;
+  if (d.kind == LaneDecision::Kind::reverse) {
+    if (!was_reversing && near_) near_->reset();  // a new reference for the triangulation
+    auto speed = get_input<double>("backoff_speed_mps");
+    if (!speed || *speed <= 0.0 || *speed > 1.0) {
+      host_.logger().error(path(), "port 'backoff_speed_mps': must be in (0, 1] m/s (the recovery's reverse speed)");
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    send(host_, -*speed, std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps));
+    return NodeStatus::running;
+  }
+  if (was_reversing) lane_best_s_m_ = d.s_m;  // progress counts again from where the reversing ended
   if (d.s_m > lane_best_s_m_ + 0.1) {
     lane_best_s_m_ = d.s_m;
     lane_stall_cycles_ = 0;

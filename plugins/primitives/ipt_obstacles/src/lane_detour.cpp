@@ -39,7 +39,13 @@ const ParamSchema<LaneDetourParams>& LaneDetourParams::schema() {
                             .range(0.0, 50.0)
                             .field("drift_rad_per_m", &P::drift_rad_per_m, "odometry heading drift assumed while passing blind")
                             .range(0.0, 1.0)
-                            .field("max_drift_m", &P::max_drift_m, "largest clearance added for that drift").range(0.0, 5.0);
+                            .field("max_drift_m", &P::max_drift_m, "largest clearance added for that drift").range(0.0, 5.0)
+                            .field("max_recoveries", &P::max_recoveries, "closed side near the obstacle: reverse and take the other side this often")
+                            .range(0, 10)
+                            .field("recover_clear_m", &P::recover_clear_m, "reverse until no obstacle point is this close ahead")
+                            .range(0.5, 20.0)
+                            .field("max_reverse_m", &P::max_reverse_m, "most reversing along the line per recovery")
+                            .range(0.5, 50.0);
   return s;
 }
 
@@ -69,14 +75,15 @@ bool LaneDetour::held(std::size_t i, double s_robot_m) const {
   return s >= s_robot_m - hold_m(i) && s <= s_robot_m + params_.lookahead_m;
 }
 
-double LaneDetour::half_m(std::size_t i, double s_robot_m) const {
+double LaneDetour::half_m(std::size_t i, double s_robot_m, bool drift) const {
+  if (!drift) return params_.body_radius_m + params_.clearance_m;
   const double d = std::max(0.0, s_robot_m - seen_s_[i]);
   return params_.body_radius_m + params_.clearance_m + std::min(params_.max_drift_m, 0.5 * params_.drift_rad_per_m * d * d);
 }
 
-bool LaneDetour::lane_free(double lane_m, double s_robot_m) const {
+bool LaneDetour::lane_free(double lane_m, double s_robot_m, bool drift) const {
   for (std::size_t i = 0; i < points_.size(); ++i)
-    if (std::fabs(points_[i].y - lane_m) < half_m(i, s_robot_m) && held(i, s_robot_m)) return false;
+    if (std::fabs(points_[i].y - lane_m) < half_m(i, s_robot_m, drift) && held(i, s_robot_m)) return false;
   return true;
 }
 
@@ -101,6 +108,38 @@ bool LaneDetour::near_obstacle(double s_robot_m) const {
   return false;
 }
 
+bool LaneDetour::clear_to_cross(double s_robot_m) const {
+  const double back = params_.body_radius_m + params_.clearance_m;
+  for (const auto& p : points_)
+    if (p.x >= s_robot_m - back && p.x <= s_robot_m + params_.recover_clear_m) return false;
+  return true;
+}
+
+double LaneDetour::came_at(double s_m) const {
+  // The latest forward pass: back from the end to the first point at or before s_m.
+  for (auto it = track_.rbegin(); it != track_.rend(); ++it)
+    if (it->x <= s_m) return it->y;
+  return 0.0;  // before the detour's start: the replay drove on the line
+}
+
+std::string LaneDetour::closes_reason(int side) const {
+  return std::string("the ") + (side > 0 ? "left" : "right") + " side closes within " + std::to_string(params_.max_offset_m) +
+         " m of the line, " + std::to_string(params_.commit_m) +
+         " m or less before the obstacle: not crossing to the other side in front of it (" + std::to_string(points_.size()) +
+         " obstacle points)";
+}
+
+namespace {
+
+/// The turn (robot frame) that makes a robot reversing at lateral offset l_m, heading
+/// heading_on_line_rad relative to the line, head for offset target_m a distance aim_m behind it:
+/// its back points at the aim, so its nose points at -atan2(target - l, aim) on the line.
+double reverse_turn(double l_m, double heading_on_line_rad, double target_m, double aim_m) {
+  return std::remainder(-std::atan2(target_m - l_m, aim_m) - heading_on_line_rad, 2.0 * CV_PI);
+}
+
+}  // namespace
+
 LaneDecision LaneDetour::decide(const Pose2D& robot) {
   LaneDecision d;
   const cv::Point2d r = to_line(robot.x_m, robot.y_m);
@@ -113,6 +152,27 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     d.reason = "at the line's end";
     return d;
   }
+  if (reversing_) {
+    if (clear_to_cross(r.x)) {
+      // Far enough before every point: the other side, with every point known, for good.
+      reversing_ = false;
+      side_ = -side_;
+      side_locked_ = true;
+      lane_m_ = 0.0;
+    } else if (reverse_from_s_m_ - r.x >= params_.max_reverse_m) {
+      d.kind = LaneDecision::Kind::blocked;
+      d.reason = "reversed " + std::to_string(reverse_from_s_m_ - r.x) + " m along the line and an obstacle point is still within " +
+                 std::to_string(params_.recover_clear_m) + " m ahead (" + std::to_string(points_.size()) + " obstacle points)";
+      return d;
+    } else {
+      d.kind = LaneDecision::Kind::reverse;
+      d.lane_m = came_at(r.x - params_.aim_ahead_m);
+      d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
+      d.reason = "reversing along the line until the obstacle is " + std::to_string(params_.recover_clear_m) +
+                 " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
+      return d;
+    }
+  }
   std::optional<double> lane;
   // Back to the line only when the band the body sweeps on the way there is free too: a point
   // released by its hold on the line may still hold a lane in between.
@@ -122,18 +182,41 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     lane = lane_m_;  // keep a free target: re-choosing every cycle would swing
   } else {
     // The free lane nearest the line, on the chosen side first.
+    // The drift margin widens a lane but does not close a side: without a lane with the margins,
+    // the lane free of body radius + clearance nearest the robot's offset (the least move).
     auto search = [&](int side) -> std::optional<double> {
       for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
         if (lane_free(side * l, r.x)) return side * l;
-      return std::nullopt;
+      std::optional<double> best;
+      for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
+        if (lane_free(side * l, r.x, false) && (!best || std::fabs(side * l - r.y) < std::fabs(*best - r.y))) best = side * l;
+      return best;
     };
     std::optional<double> left = search(1), right = search(-1);
-    if (side_ != 0 && !(side_ > 0 ? left : right) && near_obstacle(r.x)) {
+    const bool own_closed = side_ != 0 && !(side_ > 0 ? left : right);
+    const bool other_open = side_ != 0 && (side_ > 0 ? right : left).has_value();
+    if (own_closed && side_locked_) {
+      // The side taken after a recovery closes too: no third try.
       d.kind = LaneDecision::Kind::blocked;
-      d.reason = std::string("the ") + (side_ > 0 ? "left" : "right") + " side closes within " +
-                 std::to_string(params_.max_offset_m) + " m of the line, " + std::to_string(params_.commit_m) +
-                 " m or less before the obstacle: not crossing to the other side in front of it (" +
-                 std::to_string(points_.size()) + " obstacle points)";
+      d.reason = closes_reason(side_) + "; both sides closed, the other one after " + std::to_string(recoveries_) +
+                 " recovery(ies) by reversing";
+      return d;
+    }
+    if (own_closed && near_obstacle(r.x)) {
+      if (other_open && recoveries_ < params_.max_recoveries) {
+        ++recoveries_;
+        reversing_ = true;
+        reverse_from_s_m_ = r.x;
+        d.kind = LaneDecision::Kind::reverse;
+        d.lane_m = came_at(r.x - params_.aim_ahead_m);
+        d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
+        d.reason = closes_reason(side_) + ": reversing along the line until the obstacle is " +
+                   std::to_string(params_.recover_clear_m) + " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
+        return d;
+      }
+      d.kind = LaneDecision::Kind::blocked;
+      d.reason = closes_reason(side_) + (other_open ? "; recovery by reversing tried " + std::to_string(recoveries_) + " time(s)"
+                                                    : "; the other side closes too");
       return d;
     }
     if (side_ > 0 && left) lane = left;
@@ -156,6 +239,7 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     d.reason = "back on the line, past the obstacle";
     return d;
   }
+  track_.emplace_back(r.x, r.y);
   const double aim_line = std::atan2(*lane - r.y, params_.aim_ahead_m);  // relative to the line
   d.heading_rad = std::remainder(aim_line - heading_on_line, 2.0 * CV_PI);
   d.kind = LaneDecision::Kind::drive;

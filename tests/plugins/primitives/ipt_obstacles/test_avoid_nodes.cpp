@@ -10,8 +10,9 @@
 //  * the same tree on a path-following edge (ReplayPathAvoiding around FollowPathEdge): a crate
 //    on a taught gravel path is passed and the path follower takes the edge over again; a
 //    concrete van that hides the path from the follower is found by the probe and passed, and a
-//    path lost with nothing ahead still stops the robot; with the van 0.4 m left the lane detour
-//    keeps its side when it closes before the van and stops with the reason (commit_m); with the
+//    path lost with nothing ahead still stops the robot; with the van 0.4 m left the lane detour's
+//    side closes before the van: it reverses and passes on the other side (without the recovery
+//    it keeps its side and stops with the reason, commit_m); with the
 //    van 0.6 m right the follower keeps the path up to it and the standing watch finds it.
 #include <array>
 #include <cstdio>
@@ -297,20 +298,40 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
 // The van hiding the path 0.4 m left of the path's centre (docs/obstacles.md "A van hiding the
 // path", limit): the probe's points send the lane detour left, then the IPT closes the left up to
 // max_offset_m 1.3 m before the van. Before commit_m the detour swung across to the right there
-// and hit the van's rear corner; now it keeps its side and stops with the reason.
-TEST(ReplayAvoiding, TheLaneDetourKeepsItsSideBeforeAVanAndStopsWithTheReason) {
+// and hit the van's rear corner; with commit_m alone (max_recoveries 0) it keeps its side and
+// stops with the reason; with the recovery (max_recoveries 1, the default) it reverses along the
+// line until the van is 3 m ahead, passes on the right and the follower finishes the edge.
+TEST(ReplayAvoiding, TheLaneDetourReversesWhenItsSideClosesBeforeAVanAndPassesOnTheOtherSide) {
   const auto dir = replay_dir("commit");
   const std::string clear = clear_path_with_concrete();
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, 0.4], texture: concrete}\n");
   // Without the standing watch (it finds this van 3.3 m ahead while driving and the detour passes
   // it: ReplayAvoiding.APathFollowingEdgePassesAVanOnItsEdge...), the probe's case.
-  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0",
-                                "replay_route_avoiding.xml");
-  EXPECT_EQ(replay.status, 1) << replay.output;
+  const std::string args = replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0";
+  const CliRun replay = run_cli(args, "replay_route_avoiding.xml");
+  EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: probe: "), std::string::npos) << replay.output;
-  EXPECT_NE(replay.output.find("stopped: the left side closes"), std::string::npos) << replay.output;
+  const auto closes = replay.output.find("the left side closes");
+  ASSERT_NE(closes, std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("reversing along the line until the obstacle is", closes), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("m right of the line", closes), std::string::npos) << replay.output;  // the other side
+  EXPECT_NE(replay.output.find("back on the line, past the obstacle", closes), std::string::npos) << replay.output;
+  // Resumed past the van's front (11.9 m of the edge) and before the edge's end: the reverse is
+  // not counted twice (measured: 17.79 m).
+  const std::string resumed = "detour done: the edge resumes at ";
+  const auto at = replay.output.find(resumed);
+  ASSERT_NE(at, std::string::npos) << replay.output;
+  const double resumed_m = std::stod(replay.output.substr(at + resumed.size()));
+  EXPECT_GT(resumed_m, 12.0);
+  EXPECT_LT(resumed_m, 20.5);
+  // The recovery off: the detour keeps its side and stops with the reason (commit_m).
+  const CliRun kept = run_cli(args + " --port ReplayPathAvoiding.max_recoveries=0", "replay_route_avoiding.xml");
+  EXPECT_EQ(kept.status, 1) << kept.output;
+  EXPECT_EQ(kept.output.find("collision with"), std::string::npos) << kept.output;
+  EXPECT_NE(kept.output.find("stopped: the left side closes"), std::string::npos) << kept.output;
+  EXPECT_EQ(kept.output.find("reversing along the line"), std::string::npos) << kept.output;
   std::filesystem::remove_all(dir);
 }
 

@@ -223,6 +223,7 @@ TEST(LaneDetour, NoFreeLaneIsBlockedWithAReason) {
 LaneDecision after_left_closes(double commit_m) {
   LaneDetourParams p;
   p.commit_m = commit_m;
+  p.max_recoveries = 0;  // the session 13 behaviour: blocked (the recovery: tests below)
   LaneDetour detour(p, Pose2D{});
   std::vector<cv::Point2d> first;
   for (double y = -0.55; y <= 0.2 + 1e-9; y += 0.15) first.emplace_back(2.0, y);
@@ -257,6 +258,140 @@ TEST(LaneDetour, KeepsItsSideCloseToTheObstacleAndIsBlockedWithTheReason) {
   EXPECT_LT(far.decide(Pose2D{3.5, 0.0, 0.0}).lane_m, 0.0);
 }
 
+// Recovery from a closed side (max_recoveries): a van whose bulk is on the left, of which the
+// camera first saw the right part of the rear face only, so the detour turns left; 1 m on, the
+// whole face and a hedge beside the van (1.6-3 m left) close the left side up to max_offset_m.
+// Kinematic robot: forward as drive_towards, reversing at 0.15 m/s with the same turn law.
+struct Recovery {
+  LaneDecision last;
+  double min_clearance_m = 1e9;
+  double min_s_m = 1e9;       // how far back it reversed
+  double s_at_closing_m = -1;  // where the side closed
+  double l_at_closing_m = 0.0;
+  bool reversed = false;
+  double lane_after_m = 0.0;  // first lane driven after the reversing
+  double l_after_m = 1e9;     // the robot's offset when the reversing ended
+};
+
+Recovery recover(const LaneDetourParams& p, bool right_closes_too, bool right_closes_after) {
+  const Box van{3.0, 7.8, -0.35, 1.6};
+  Pose2D pose{};
+  LaneDetour detour(p, pose);
+  std::vector<cv::Point2d> part;  // the right part of the rear face
+  for (double y = -0.35; y <= 0.3 + 1e-9; y += 0.15) part.emplace_back(3.0, y);
+  detour.add_points(part);
+  Recovery r;
+  bool more_seen = false, wall_seen = false;
+  for (int cycle = 0; cycle < 3000; ++cycle) {
+    if (!more_seen && pose.x_m >= 1.0) {
+      more_seen = true;
+      std::vector<cv::Point2d> more;
+      for (double y = 0.3; y <= 1.6 + 1e-9; y += 0.15) more.emplace_back(3.0, y);
+      for (double x = 3.0; x <= 8.0 + 1e-9; x += 0.25)
+        for (double y = 1.6; y <= 3.0 + 1e-9; y += 0.2) more.emplace_back(x, y);  // the hedge
+      if (right_closes_too)
+        for (double x = 1.5; x <= 8.0 + 1e-9; x += 0.25)
+          for (double y = -0.95; y >= -3.0 - 1e-9; y -= 0.2) more.emplace_back(x, y);
+      detour.add_points(more);
+    }
+    r.last = detour.decide(pose);
+    if (r.last.kind == LaneDecision::Kind::reverse) {
+      if (!r.reversed) {
+        r.s_at_closing_m = r.last.s_m;
+        r.l_at_closing_m = r.last.l_m;
+      }
+      r.reversed = true;
+      const double w = std::clamp(1.5 * r.last.heading_rad, -0.6, 0.6);
+      pose.heading_rad += w * 0.1;
+      pose.x_m -= 0.15 * 0.1 * std::cos(pose.heading_rad);
+      pose.y_m -= 0.15 * 0.1 * std::sin(pose.heading_rad);
+    } else if (r.last.kind == LaneDecision::Kind::drive) {
+      if (r.reversed && r.l_after_m > 1e8) r.l_after_m = r.last.l_m;
+      if (r.reversed && r.lane_after_m == 0.0 && r.last.lane_m != 0.0) r.lane_after_m = r.last.lane_m;
+      if (right_closes_after && r.reversed && !wall_seen && r.last.l_m < -0.5) {
+        wall_seen = true;  // on the right, a second wall closes that side as well
+        std::vector<cv::Point2d> wall;
+        for (double x = 2.5; x <= 8.0 + 1e-9; x += 0.25)
+          for (double y = -1.0; y >= -3.0 - 1e-9; y -= 0.2) wall.emplace_back(x, y);
+        detour.add_points(wall);
+        continue;
+      }
+      drive_towards(pose, r.last.heading_rad);
+    } else {
+      break;
+    }
+    r.min_clearance_m = std::min(r.min_clearance_m, van.distance(pose.x_m, pose.y_m));
+    r.min_s_m = std::min(r.min_s_m, r.last.s_m);
+  }
+  return r;
+}
+
+TEST(LaneDetour, AClosedSideNearTheObstacleReversesThenPassesOnTheOtherSide) {
+  const Recovery r = recover(LaneDetourParams{}, false, false);
+  ASSERT_TRUE(r.reversed);
+  EXPECT_EQ(r.last.kind, LaneDecision::Kind::done) << r.last.reason;
+  EXPECT_GT(r.s_at_closing_m, 0.9);
+  // Reversed until the face (s = 3) was recover_clear_m (3 m) ahead, not much farther.
+  EXPECT_LE(r.min_s_m, 0.0 + 1e-6);
+  EXPECT_GT(r.min_s_m, -0.3);
+  // Back along the way it came: it had turned out from the line, so it ends nearer the line.
+  EXPECT_LT(r.l_after_m, r.l_at_closing_m - 0.1) << r.l_at_closing_m << " -> " << r.l_after_m;
+  EXPECT_LT(r.lane_after_m, 0.0);  // then the right side
+  EXPECT_GT(r.last.s_m, 7.8);      // past the van
+  EXPECT_GT(r.min_clearance_m, 0.25) << "the body touched the van";
+  // Without the recovery: blocked where the side closed, with the session 13 reason.
+  LaneDetourParams off;
+  off.max_recoveries = 0;
+  const Recovery stopped = recover(off, false, false);
+  EXPECT_FALSE(stopped.reversed);
+  EXPECT_EQ(stopped.last.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(stopped.last.reason.find("the left side closes"), std::string::npos) << stopped.last.reason;
+  EXPECT_NE(stopped.last.reason.find("recovery by reversing tried 0 time(s)"), std::string::npos) << stopped.last.reason;
+}
+
+TEST(LaneDetour, BothSidesClosedOrTheRecoveryUsedUpStopsWithTheReason) {
+  // Both sides close at once: no reversing, blocked with the reason.
+  const Recovery both = recover(LaneDetourParams{}, true, false);
+  EXPECT_FALSE(both.reversed);
+  EXPECT_EQ(both.last.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(both.last.reason.find("the other side closes too"), std::string::npos) << both.last.reason;
+  // The other side closes after the recovery: no third try, blocked with the reason.
+  const Recovery again = recover(LaneDetourParams{}, false, true);
+  EXPECT_TRUE(again.reversed);
+  EXPECT_EQ(again.last.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(again.last.reason.find("both sides closed"), std::string::npos) << again.last.reason;
+  EXPECT_GT(again.min_clearance_m, 0.25);
+  // Reversing bounded: the obstacle never far enough ahead within max_reverse_m.
+  LaneDetourParams short_reverse;
+  short_reverse.max_reverse_m = 0.5;
+  const Recovery bounded = recover(short_reverse, false, false);
+  EXPECT_TRUE(bounded.reversed);
+  EXPECT_EQ(bounded.last.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(bounded.last.reason.find("reversed"), std::string::npos) << bounded.last.reason;
+}
+
+// The drift margin widens a lane, it does not close a side (van_path, session 15: a point 1.5 m
+// right of the line, its margin grown to 0.4 m beside the van, closed the right side past the
+// van's front). An obstacle from 1 m right to 3 m left of the line (s 2-8 m), a row of points
+// 1.6 m right.
+TEST(LaneDetour, TheDriftMarginDoesNotCloseASide) {
+  LaneDetour detour(LaneDetourParams{}, Pose2D{});
+  std::vector<cv::Point2d> pts;
+  for (double s = 2.0; s <= 8.0 + 1e-9; s += 0.25) {
+    for (double l = -1.0; l <= 3.0 + 1e-9; l += 0.2) pts.emplace_back(s, l);
+    pts.emplace_back(s, -1.6);
+  }
+  detour.add_points(pts);
+  const LaneDecision start = detour.decide(Pose2D{});
+  ASSERT_EQ(start.kind, LaneDecision::Kind::drive) << start.reason;
+  ASSERT_LT(start.lane_m, -2.15);  // right, beyond the row
+  // 9 m on, every point seen at s = 0: margins of 0.4 m would need a lane beyond -2.6 m.
+  const LaneDecision beside = detour.decide(Pose2D{9.0, -2.3, 0.0});
+  EXPECT_EQ(beside.kind, LaneDecision::Kind::drive) << beside.reason;
+  EXPECT_LE(beside.lane_m, -2.2 + 1e-9);
+  EXPECT_GE(beside.lane_m, -2.5 - 1e-9);
+}
+
 TEST(LaneDetour, BadParamsAreOutOfRange) {
   LaneDetourParams p;
   p.clearance_m = -0.1;
@@ -266,6 +401,12 @@ TEST(LaneDetour, BadParamsAreOutOfRange) {
   LaneDetourParams drift;
   drift.drift_rad_per_m = 1.5;  // the port drift_rad_per_m: rad per metre, at most 1
   EXPECT_TRUE(visnav::test::fails_with(drift.validate(), ErrorCode::out_of_range, visnav::test::key_only("drift_rad_per_m")));
+  LaneDetourParams recoveries;
+  recoveries.max_recoveries = -1;
+  EXPECT_TRUE(visnav::test::fails_with(recoveries.validate(), ErrorCode::out_of_range, visnav::test::key_only("max_recoveries")));
+  LaneDetourParams clear;
+  clear.recover_clear_m = 0.0;
+  EXPECT_TRUE(visnav::test::fails_with(clear.validate(), ErrorCode::out_of_range, visnav::test::key_only("recover_clear_m")));
 }
 
 // ----------------------------------------------------------------------- contact repairs

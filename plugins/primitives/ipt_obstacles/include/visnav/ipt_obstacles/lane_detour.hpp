@@ -20,6 +20,10 @@
 //    min(max_drift_m, 0.5·drift_rad_per_m·d²), the lateral error a heading drift of the odometry
 //    puts between the robot and points it no longer sees (campus seed 5: 0.07 rad of drift over
 //    a 6.8 m pass, the robot's true offset 0.34 m nearer the van's side than its odometry said);
+//    The margin widens the lane but never closes a side by itself: a side with no free lane
+//    with the margins is searched again without them (session 15: on van_path the margin of a
+//    point 1.5 m right of the line grew to 0.4 m beside the van and closed the right side 1.2 m
+//    past the van's front, the robot stopping there);
 //  * the robot returns towards the line (or a nearer lane) only when the whole band its body
 //    sweeps on the way is free of held points;
 //  * target: the line itself (l = 0) when free, else the free lane nearest to it on the side
@@ -28,6 +32,13 @@
 //    the robot or beside it) the chosen side is kept even when it closes: crossing to the other
 //    side there would swing the body across the obstacle's face (measured: a van's rear corner
 //    hit 1.3 m after such a switch); the decision is then blocked, with the reason;
+//  * recovery from a closed side (max_recoveries, session 15): when the chosen side closes
+//    within commit_m of the obstacle and the other side has a free lane, the decision is
+//    `reverse` instead of `blocked`: the robot backs along the way it came (the lateral offsets
+//    it drove at, aim_ahead_m behind it; the line itself before the detour's start) until no point lies between its body's back and recover_clear_m ahead, then takes the other
+//    side with every point known, and keeps that side (it is not swapped back). Blocked with the
+//    reason when both sides close, when the recoveries are used up, or after max_reverse_m of
+//    reversing without the obstacle getting far enough ahead;
 //  * steering: towards the point aim_ahead_m further along the line at the target offset;
 //  * done when the line is free, the robot is back on it (|l| < done_offset_m, heading within
 //    done_heading_rad of the line) and has covered min_progress_m, or at the line's end;
@@ -66,15 +77,18 @@ struct LaneDetourParams {
   double commit_m = 2.0;         ///< the chosen side is kept within this of an obstacle point ahead; 0 = off
   double drift_rad_per_m = 0.012;  ///< odometry heading drift assumed while passing blind: clearance grows by 0.5·drift·d²
   double max_drift_m = 0.4;      ///< ... (d: travel along the line since the point was seen) up to this; 0 = off
+  int max_recoveries = 1;        ///< closed side within commit_m: reverse and take the other side this often; 0 = stop (session 13)
+  double recover_clear_m = 3.0;  ///< reverse until no obstacle point is this close ahead (or beside the body)
+  double max_reverse_m = 10.0;   ///< most reversing along the line per recovery; then blocked
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<LaneDetourParams>& schema();
 };
 
 struct LaneDecision {
-  enum class Kind : std::uint8_t { drive, done, blocked };
+  enum class Kind : std::uint8_t { drive, done, blocked, reverse };
   Kind kind = Kind::drive;
-  double heading_rad = 0.0;  ///< direction to drive in, robot frame (CCW +)
+  double heading_rad = 0.0;  ///< direction to drive in, robot frame (CCW +); reverse: the turn that makes reversing follow the way it came
   double lane_m = 0.0;       ///< target lateral offset (left +)
   double s_m = 0.0;          ///< robot along the line from the detour start
   double l_m = 0.0;          ///< robot's lateral offset
@@ -90,10 +104,14 @@ class LaneDetour {
   void add_points(std::span<const cv::Point2d> points_m);
   [[nodiscard]] LaneDecision decide(const Pose2D& robot);
   [[nodiscard]] std::size_t point_count() const { return points_.size(); }
+  /// Recoveries (reverse, then the other side) begun so far.
+  [[nodiscard]] int recoveries() const { return recoveries_; }
+  [[nodiscard]] bool reversing() const { return reversing_; }
 
  private:
   [[nodiscard]] cv::Point2d to_line(double x_m, double y_m) const;  // (s, l)
-  [[nodiscard]] bool lane_free(double lane_m, double s_robot_m) const;
+  /// `drift`: with the drift margin (false: body radius + clearance only).
+  [[nodiscard]] bool lane_free(double lane_m, double s_robot_m, bool drift = true) const;
   /// No held point in the band the body sweeps from lateral offset from_m (the robot) to to_m
   /// (plus the clearance beyond to_m).
   [[nodiscard]] bool sweep_free(double from_m, double to_m, double s_robot_m) const;
@@ -102,9 +120,14 @@ class LaneDetour {
   [[nodiscard]] double hold_m(std::size_t i) const;
   [[nodiscard]] bool held(std::size_t i, double s_robot_m) const;
   /// Body radius + clearance + the drift margin of point i with the robot at s_robot_m.
-  [[nodiscard]] double half_m(std::size_t i, double s_robot_m) const;
+  [[nodiscard]] double half_m(std::size_t i, double s_robot_m, bool drift = true) const;
   /// An obstacle point at most commit_m ahead of the robot or beside it (still holding a lane).
   [[nodiscard]] bool near_obstacle(double s_robot_m) const;
+  /// No obstacle point from the body's back (radius + clearance behind) to recover_clear_m ahead.
+  [[nodiscard]] bool clear_to_cross(double s_robot_m) const;
+  [[nodiscard]] std::string closes_reason(int side) const;
+  /// The lateral offset the robot drove at when it last passed s_m going forward (0 before the detour).
+  [[nodiscard]] double came_at(double s_m) const;
 
   LaneDetourParams params_;
   Pose2D start_;
@@ -113,6 +136,11 @@ class LaneDetour {
   double s_now_ = 0.0;               // the robot's s at the last decide()
   int side_ = 0;                     // +1 left, −1 right, 0 not chosen yet
   double lane_m_ = 0.0;
+  int recoveries_ = 0;
+  bool reversing_ = false;
+  bool side_locked_ = false;     // after a recovery: the other side is not taken again
+  double reverse_from_s_m_ = 0.0;
+  std::vector<cv::Point2d> track_;  // (s, l) of the robot at each forward decision: the way it came
 };
 
 }  // namespace visnav::ipt

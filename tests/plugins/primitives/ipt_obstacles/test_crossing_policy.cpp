@@ -126,6 +126,7 @@ TEST(CrossingPolicy, LearnsWhenAPacingPersonComesBackAndGoesOnlyAfterTheLongRetu
     for (double y = -0.4 * dir; y * dir <= 0.4 + 1e-9; y += 0.1 * dir, t0 += 0.1) {
       MovingPoint p;
       p.ground_m = {0.95, y};
+      p.at_view_edge = std::abs(y) >= 0.4 - 1e-9;  // leaving the view (its body cut by the image's side)
       policy.observe(t0, p);
     }
     return policy.decide(t0 + 0.6, true);  // 0.6 s later, out of view, extrapolated
@@ -203,6 +204,7 @@ TEST(CrossingPolicy, APersonPacingWithSixSecondReturnsWaitsAtReplaySpeedAndGoesA
         const double ex = noise(rng);
         const double ey = noise(rng);
         p.ground_m = {0.95 + ex, std::clamp(dir * dt, -0.4, 0.4) + ey};  // feet below the image: the bottom row
+        p.at_view_edge = std::abs(dir * dt) >= 0.4 - 1e-9;
         policy.observe(pass_s + dt, p);
       }
       CrossingDecision d;
@@ -242,6 +244,7 @@ TEST(CrossingPolicy, APersonPacingWithSixSecondReturnsWaitsAtReplaySpeedAndGoesA
     for (double dt = -0.4; dt <= 0.4 + 1e-9; dt += 0.1) {
       MovingPoint p;
       p.ground_m = {0.95, dir * dt};
+      p.at_view_edge = std::abs(dt) >= 0.4 - 1e-9;
       hand_set.observe(pass_s + dt, p);
     }
     d = hand_set.decide(pass_s + 1.0, true);

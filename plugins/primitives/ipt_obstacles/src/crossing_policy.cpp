@@ -147,6 +147,13 @@ double clear_time_s(const CrossingParams& params, double way_ahead_m) {
 
 void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
   const double y = point.ground_m.y;
+  if (params_.stand_after_s > 0.0 && last_seen_s_ >= 0.0 && time_s - last_seen_s_ >= params_.stand_after_s &&
+      !last_at_edge_ && std::abs(last_y_) <= params_.lane_half_width_m + params_.away_clear_m) {
+    // It stood near the line since its last point (track memory): a pass before that was no
+    // walk across, and a return counted from it would include the standing spell.
+    last_pass_dir_ = 0;
+    last_pass_speed_mps_ = -1.0;
+  }
   if (last_seen_s_ >= 0.0 && time_s - last_seen_s_ <= params_.window_s && ((last_y_ < 0.0) != (y < 0.0))) {
     const int dir = y > last_y_ ? 1 : -1;  // a pass: it walked across the robot's line
     if (last_pass_dir_ == -dir) return_after_s_[last_pass_dir_ > 0 ? 0 : 1] = time_s - last_pass_s_;
@@ -301,10 +308,12 @@ CrossingDecision CrossingPolicy::decide(double time_s, bool cautious, std::optio
     CrossingDecision away = d;
     if (away_rule(time_s, d.range_m, away)) {
       if (by_pass.arrival_s >= 0.0 && by_pass.arrival_s < away.arrival_s) {
+        // The earlier arrival counts, against the time to cross from here.
         away.arrival_s = by_pass.arrival_s;
-        away.kind = by_pass.kind;
-        away.cross_from_here = false;
-        away.reason += "; " + by_pass.reason;
+        away.cross_from_here = away.arrival_s >= away.required_s;
+        away.kind = away.cross_from_here ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
+        away.reason += "; " + std::string(away.cross_from_here ? "the pass-based " : "wait: the pass-based ") +
+                       by_pass.reason;
       }
       away.reason += "; " + where;
       return away;

@@ -376,6 +376,12 @@ TEST(CrossingPolicy, BadParamsNameTheKey) {
   p = CrossingParams{};
   p.forget_s = 0.5;  // below window_s 1.0
   EXPECT_TRUE(fails_with(p.validate(), ErrorCode::inconsistent, key_only("forget_s")));
+  p = CrossingParams{};
+  p.pace_factor = 0.5;  // a person slower than measured is no margin
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::out_of_range, key_only("pace_factor")));
+  p = CrossingParams{};
+  p.stand_after_s = -1.0;
+  EXPECT_TRUE(fails_with(p.validate(), ErrorCode::out_of_range, key_only("stand_after_s")));
 }
 
 TEST(CrossingPolicy, LocatesTheFeetOfTheChangedPixels) {

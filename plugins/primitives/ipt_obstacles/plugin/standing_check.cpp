@@ -1,6 +1,7 @@
 // ReplayAvoiding's standing-obstacle watch while the child drives (see standing_check.hpp).
 #include "standing_check.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -113,15 +114,22 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
                                   std::to_string(v.left_m) + " m left of the heading: detour");
   VISNAV_ASSIGN(const auto extent, standing_->extent(standing_grey_, camera, odom.pose, odom.distance_m, v));
   if (extent)
-    host_.logger().info(path(), "standing obstacle's extent from the image: " + std::to_string(extent->right_m) +
-                                    " to " + std::to_string(extent->left_m) + " m left (" +
+    host_.logger().info(path(), std::string("standing obstacle's extent from the image: ") +
+                                    (extent->found ? "" : "no face found, ") + std::to_string(extent->right_m) +
+                                    " to " + std::to_string(extent->left_m) + " m left, " +
+                                    std::to_string(extent->range_m) + " m ahead (" +
                                     std::to_string(extent->face_columns) + " face, " +
                                     std::to_string(extent->other_columns) + " other columns" +
                                     (extent->clipped_right ? ", to the image's right edge" : "") +
                                     (extent->clipped_left ? ", to the image's left edge" : "") + ")");
   const bt::NodeStatus st = begin_detour(odom);
   if (lane_) lane_->add_points(v.points);
-  if (lane_ && extent) lane_->add_points(extent->points);
+  if (lane_ && extent && extent->found) {
+    lane_->add_points(extent->points);
+    // The side for the face's whole width: its points may lie beyond the detour's lookahead,
+    // where the first decision would not see them.
+    lane_->prefer_side(side_past(std::min(v.right_m, extent->right_m), std::max(v.left_m, extent->left_m)));
+  }
   standing_->reset();
   return std::optional<bt::NodeStatus>(st);
 }

@@ -7,6 +7,7 @@
 //  * bare ground (nothing standing where the "seen" points were): the span does not grow;
 //  * bad input is rejected with its code.
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -30,11 +31,12 @@ struct Seen {
   double range_m = 0.0;
 };
 
-/// The robot 2.24 m before the face's plane (x = face.x_m), the earlier frame 0.5 m back.
-Seen look(const std::optional<Face>& face, double seen_right_m, double seen_left_m) {
+/// The robot `ahead_m` before the face's plane (x = face.x_m), the earlier frame 0.5 m back; the
+/// points seen 2.24 m ahead.
+Seen look(const std::optional<Face>& face, double seen_right_m, double seen_left_m, double ahead_m = 2.24) {
   const IptCamera camera;
   const double face_x = face ? face->x_m : 7.1;
-  const Pose2D now{face_x - 2.24, 0.0, 0.0}, earlier{face_x - 2.74, 0.0, 0.0};
+  const Pose2D now{face_x - ahead_m, 0.0, 0.0}, earlier{face_x - ahead_m - 0.5, 0.0, 0.0};
   auto r = face_extent(camera, render(camera, earlier, face), earlier, render(camera, now, face), now, 2.24,
                        seen_right_m, seen_left_m, FaceExtentParams{});
   EXPECT_TRUE(r.ok()) << (r ? std::string() : r.error().message);
@@ -62,10 +64,12 @@ TEST(FaceExtent, APartlySeenFaceGetsItsFullWidthAndTheDetourTheFreeSide) {
   van.y_right_m = -1.35;
   van.y_left_m = 0.55;
   const Seen s = look(van, -0.11, 0.45);
-  std::printf("extent %.3f .. %.3f m (%d face, %d other columns)\n", s.extent.right_m, s.extent.left_m,
+  std::printf("extent %.3f .. %.3f m at %.2f m (%d face, %d other columns)\n", s.extent.right_m, s.extent.left_m, s.extent.range_m,
               s.extent.face_columns, s.extent.other_columns);
   // The 60° camera sees 1.29 m to either side at 2.24 m: the right edge (−1.35 m) is just out
   // of view, so the face runs to the image's edge there.
+  EXPECT_TRUE(s.extent.found);
+  EXPECT_NEAR(s.extent.range_m, 2.24, 0.15);
   EXPECT_NEAR(s.extent.right_m, van.y_right_m, 0.2);
   EXPECT_NEAR(s.extent.left_m, van.y_left_m, 0.2);
   EXPECT_TRUE(s.extent.clipped_right);
@@ -92,13 +96,47 @@ TEST(FaceExtent, APartlySeenFaceGetsItsFullWidthAndTheDetourTheFreeSide) {
   EXPECT_EQ(side_taken(m.extent.points, start_x), -1);
 }
 
+// Campus seed 4: the watch's 6 corners put the face 2.24 m ahead, the van's rear stood 3.7 m
+// ahead (its image spans 1.9 m at 3.7 m): the sweep finds the plane and the full width there.
+TEST(FaceExtent, AFaceFartherThanItsSeenPointsIsFoundAtItsDistance) {
+  Face van;
+  van.x_m = 7.1;
+  van.y_right_m = -1.35;
+  van.y_left_m = 0.55;
+  const Seen s = look(van, -0.11, 0.45, 3.7);
+  std::printf("extent %.3f .. %.3f m at %.2f m\n", s.extent.right_m, s.extent.left_m, s.extent.range_m);
+  EXPECT_TRUE(s.extent.found);
+  EXPECT_NEAR(s.extent.range_m, 3.7, 0.2);
+  EXPECT_NEAR(s.extent.right_m, van.y_right_m, 0.2);
+  EXPECT_NEAR(s.extent.left_m, van.y_left_m, 0.2);
+  ASSERT_FALSE(s.extent.points.empty());
+  EXPECT_NEAR(s.extent.points.front().x, van.x_m, 0.2);
+  // The seen corners alone send the detour right; the side for the seen span and the extent
+  // together is the free one (left), and the detour takes it (the extent lies beyond its 3 m
+  // lookahead: the side is set before the first decision).
+  std::vector<cv::Point2d> points = across(van.x_m - 3.7 + 2.24, -0.11, 0.45);
+  EXPECT_EQ(side_taken(points, van.x_m - 3.7), -1);
+  EXPECT_EQ(side_past(-0.11, 0.45), -1);
+  const int side = side_past(std::min(-0.11, s.extent.right_m), std::max(0.45, s.extent.left_m));
+  EXPECT_EQ(side, 1);
+  points.insert(points.end(), s.extent.points.begin(), s.extent.points.end());
+  LaneDetour detour(LaneDetourParams{}, Pose2D{van.x_m - 3.7, 0.0, 0.0});
+  detour.add_points(points);
+  detour.prefer_side(side);
+  const LaneDecision d = detour.decide(Pose2D{van.x_m - 3.7, 0.0, 0.0});
+  EXPECT_EQ(d.kind, LaneDecision::Kind::drive) << d.reason;
+  EXPECT_GT(d.lane_m, 0.0) << d.reason;
+}
+
 TEST(FaceExtent, NothingStandingDoesNotGrowTheSpan) {
   const Seen s = look(std::nullopt, -0.11, 0.45);
   std::printf("bare ground: %.3f .. %.3f m (%d face, %d other columns)\n", s.extent.right_m, s.extent.left_m,
               s.extent.face_columns, s.extent.other_columns);
   EXPECT_LE(s.extent.left_m, 0.45 + 0.15);
   EXPECT_GE(s.extent.right_m, -0.11 - 0.15);
-  EXPECT_GT(s.extent.other_columns, 100);  // the ground behind the plane is seen as such
+  EXPECT_FALSE(s.extent.found);
+  EXPECT_GT(s.extent.other_columns, 20);  // the ground behind the plane is seen as such
+  EXPECT_NEAR(s.extent.range_m, 2.24, 1e-9);
 }
 
 TEST(FaceExtent, BadInputIsRejected) {

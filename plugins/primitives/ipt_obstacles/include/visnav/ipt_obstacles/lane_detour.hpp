@@ -90,6 +90,9 @@ class LaneDetour {
   void add_points(std::span<const cv::Point2d> points_m);
   [[nodiscard]] LaneDecision decide(const Pose2D& robot);
   [[nodiscard]] std::size_t point_count() const { return points_.size(); }
+  /// Sets the side (+1 left, −1 right) taken at the first blocked decision, before any: an
+  /// obstacle's full width known beyond the lookahead (face_extent.hpp). 0 leaves it open.
+  void prefer_side(int side) { side_ = side > 0 ? 1 : (side < 0 ? -1 : 0); }
 
  private:
   [[nodiscard]] cv::Point2d to_line(double x_m, double y_m) const;  // (s, l)

@@ -1,6 +1,7 @@
 // ReplayAvoiding's standing-obstacle watch while the child drives (see standing_check.hpp).
 #include "standing_check.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -23,7 +24,11 @@ bt::PortsList standing_ports() {
                                  "standing watch: the face's points must span this much across, m"),
           bt::input_port<double>("standing_min_range_m", "0",
                                  "standing watch: a face found nearer than this is left to the other watches (the "
-                                 "frame difference, back-off), m; 0 = any")};
+                                 "frame difference, back-off), m; 0 = any"),
+          bt::input_port<double>("standing_extent_m", "0",
+                                 "standing watch: when it fires, the face's full width from the image (a plane sweep at "
+                                 "its distance against the frame this far back, face_extent.hpp) is added to the lane "
+                                 "detour's points, m; 0 = off (only the triangulated points)")};
 }
 
 Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNode& node) {
@@ -41,7 +46,11 @@ Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNod
   if (!std::isfinite(min_range_m) || min_range_m < 0.0 || min_range_m >= params.max_range_m)
     return Error{"port 'standing_min_range_m': " + std::to_string(min_range_m) + " must lie in [0, standing_range_m)",
                  ErrorCode::out_of_range};
-  return std::optional<StandingCheck>(StandingCheck(params, min_range_m));
+  VISNAV_ASSIGN(const double extent_m, node.get_input<double>("standing_extent_m"));
+  if (!std::isfinite(extent_m) || extent_m < 0.0 || extent_m > 1.0)
+    return Error{"port 'standing_extent_m': " + std::to_string(extent_m) + " must lie in [0, 1] (0 = off)",
+                 ErrorCode::out_of_range};
+  return std::optional<StandingCheck>(StandingCheck(params, min_range_m, extent_m));
 }
 
 Result<StandingVerdict> StandingCheck::observe(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose,
@@ -54,10 +63,21 @@ Result<StandingVerdict> StandingCheck::observe(const cv::Mat& grey, const IptCam
     near_.emplace(std::move(made));
   }
   VISNAV_ASSIGN(const auto points, near_->observe(grey, pose));
+  if (extent_baseline_m_ > 0.0) trail_.add(grey, pose, odometer_m);
   ground_.clear();
   for (const auto& p : points) ground_.push_back(p.ground_m);
   new_points = static_cast<int>(ground_.size());
   return watch_.add(ground_, pose, odometer_m);
+}
+
+Result<std::optional<FaceExtent>> StandingCheck::extent(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose,
+                                                         double odometer_m, const StandingVerdict& verdict) const {
+  if (extent_baseline_m_ <= 0.0) return std::optional<FaceExtent>{};
+  const FrameTrail::Kept* earlier = trail_.back(odometer_m, extent_baseline_m_);
+  if (earlier == nullptr) return std::optional<FaceExtent>{};
+  VISNAV_ASSIGN(FaceExtent e, face_extent(camera, earlier->grey, earlier->pose, grey, pose, verdict.range_m,
+                                          verdict.right_m, verdict.left_m, FaceExtentParams{}));
+  return std::optional<FaceExtent>(std::move(e));
 }
 
 Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odometry& odom) {
@@ -92,8 +112,24 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
                                   std::to_string(v.range_m) + " m ahead at " + std::to_string(replay_done_m_) +
                                   " m of the edge, points from " + std::to_string(v.right_m) + " to " +
                                   std::to_string(v.left_m) + " m left of the heading: detour");
+  VISNAV_ASSIGN(const auto extent, standing_->extent(standing_grey_, camera, odom.pose, odom.distance_m, v));
+  if (extent)
+    host_.logger().info(path(), std::string("standing obstacle's extent from the image: ") +
+                                    (extent->found ? "" : "no face found, ") + std::to_string(extent->right_m) +
+                                    " to " + std::to_string(extent->left_m) + " m left, " +
+                                    std::to_string(extent->range_m) + " m ahead (" +
+                                    std::to_string(extent->face_columns) + " face, " +
+                                    std::to_string(extent->other_columns) + " other columns" +
+                                    (extent->clipped_right ? ", to the image's right edge" : "") +
+                                    (extent->clipped_left ? ", to the image's left edge" : "") + ")");
   const bt::NodeStatus st = begin_detour(odom);
   if (lane_) lane_->add_points(v.points);
+  if (lane_ && extent && extent->found) {
+    lane_->add_points(extent->points);
+    // The side for the face's whole width: its points may lie beyond the detour's lookahead,
+    // where the first decision would not see them.
+    lane_->prefer_side(side_past(std::min(v.right_m, extent->right_m), std::max(v.left_m, extent->left_m)));
+  }
   standing_->reset();
   return std::optional<bt::NodeStatus>(st);
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "visnav/bt/node.hpp"
+#include "visnav/ipt_obstacles/face_extent.hpp"
 #include "visnav/ipt_obstacles/standing_watch.hpp"
 
 namespace visnav::ipt {
@@ -36,18 +37,26 @@ class StandingCheck {
     watch_.reset();
     have_last_ = false;
     if (near_) near_->reset();
+    trail_.clear();
   }
   [[nodiscard]] double min_range_m() const { return min_range_m_; }
+  /// The face's full extent (face_extent.hpp) for a verdict that fired on the last frame observed
+  /// (`grey` at `pose`, `odometer_m`), from the frame standing_extent_m back; nullopt when off
+  /// (standing_extent_m 0) or no frame is that far back. Error: bad image (a bug).
+  Result<std::optional<FaceExtent>> extent(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose,
+                                           double odometer_m, const StandingVerdict& verdict) const;
 
  private:
-  explicit StandingCheck(const StandingWatchParams& params, double min_range_m)
-      : watch_(params), min_range_m_(min_range_m) {}
+  explicit StandingCheck(const StandingWatchParams& params, double min_range_m, double extent_baseline_m)
+      : watch_(params), min_range_m_(min_range_m), extent_baseline_m_(extent_baseline_m) {}
   StandingWatch watch_;
   double min_range_m_;
   std::optional<NearTriangulation> near_;
   std::vector<cv::Point2d> ground_;
   bool have_last_ = false;
   double last_odometer_m_ = 0.0;
+  double extent_baseline_m_ = 0.0;  // 0: no extent from the image
+  FrameTrail trail_{0.05, 1.2};
 };
 
 }  // namespace visnav::ipt

@@ -436,4 +436,54 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanOnItsEdgeThatTheFollowerKeepsTh
   std::filesystem::remove_all(dir);
 }
 
+// A van-sized face of two boxes side by side (docs/obstacles.md "The face's extent from the
+// image"): its left 0.8 m in the campus concrete, its right 1.1 m (its bulk, 1.35 m right of the
+// line like the campus van's) in a flat concrete (10 grey levels of contrast) that gives few
+// corners. The standing watch fires with corners at both ends of the face and few between; with
+// the points alone the lane detour took the gap between them (−0.9 m, measured: collision with
+// van_b at (6.85, −0.69)). With the face's extent from the image (standing_extent_m in the tree)
+// the whole face holds the lane: the detour passes on the left, free side, and the follower
+// finishes the edge.
+TEST(ReplayAvoiding, APathFollowingEdgePassesAFaceWhoseCornersCoverOnlyPartOfIt) {
+  const auto dir = replay_dir("extent");
+  std::string clear = clear_path_with_concrete();
+  const std::string concrete = "    concrete: {";
+  const auto at = clear.find(concrete);
+  ASSERT_NE(at, std::string::npos);
+  clear.insert(at, "    flat: {procedural: noise, color: [150, 148, 144], color2: [140, 138, 134], size_m: 2.0, "
+                   "feature_m: 0.1, detail: 0.1}\n");
+  ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 21));
+  write(dir / "van.yaml", clear + "  obstacles:\n"
+                                  "    - {name: van_a, kind: box, at: [9.5, 0.15], size_m: [4.8, 0.8], height_m: 1.9, "
+                                  "texture: concrete}\n"
+                                  "    - {name: van_b, kind: box, at: [9.5, -0.8], size_m: [4.8, 1.1], height_m: 1.9, "
+                                  "texture: flat}\n");
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml"), "replay_route_avoiding.xml");
+  EXPECT_EQ(replay.status, 0) << replay.output;
+  EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
+  ASSERT_NE(replay.output.find("ReplayPathAvoiding[1]: standing obstacle: "), std::string::npos) << replay.output;
+  const std::string extent = "standing obstacle's extent from the image: ";
+  const auto e_at = replay.output.find(extent);
+  ASSERT_NE(e_at, std::string::npos) << replay.output;
+  ASSERT_NE(replay.output.compare(e_at + extent.size(), 13, "no face found"), 0) << replay.output.substr(e_at, 200);
+  // The face's right edge (−1.35 m) within 0.4 m.
+  const double right_m = std::stod(replay.output.substr(e_at + extent.size()));
+  EXPECT_LT(right_m, -0.95);
+  // The first lane is on the left (the free side).
+  const std::string first_lane = "lane detour at s=";
+  const auto l_at = replay.output.find(first_lane, e_at);
+  ASSERT_NE(l_at, std::string::npos);
+  const auto line_end = replay.output.find('\n', l_at);
+  EXPECT_NE(replay.output.substr(l_at, line_end - l_at).find("m left of the line"), std::string::npos)
+      << replay.output.substr(l_at, line_end - l_at);
+  EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
+  const std::string resumed = "detour done: the edge resumes at ";
+  const auto r_at = replay.output.find(resumed);
+  ASSERT_NE(r_at, std::string::npos) << replay.output;
+  const double resumed_m = std::stod(replay.output.substr(r_at + resumed.size()));
+  EXPECT_GT(resumed_m, 12.0);  // past the face's boxes (11.9 m)
+  EXPECT_LT(resumed_m, 20.5);  // the follower finishes the edge
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace

@@ -107,6 +107,9 @@ class LaneDetour {
   /// Recoveries (reverse, then the other side) begun so far.
   [[nodiscard]] int recoveries() const { return recoveries_; }
   [[nodiscard]] bool reversing() const { return reversing_; }
+  /// Sets the side (+1 left, −1 right) taken at the first blocked decision, before any: an
+  /// obstacle's full width known beyond the lookahead (face_extent.hpp). 0 leaves it open.
+  void prefer_side(int side) { side_ = side > 0 ? 1 : (side < 0 ? -1 : 0); }
 
  private:
   [[nodiscard]] cv::Point2d to_line(double x_m, double y_m) const;  // (s, l)

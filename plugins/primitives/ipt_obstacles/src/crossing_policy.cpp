@@ -389,6 +389,27 @@ CrossingDecision CrossingPolicy::decide_by_pass(double time_s, bool cautious, Cr
   return d;
 }
 
+namespace {
+
+/// The away rules' verdict once d.arrival_s and d.required_s are set: overdue -> wait; back
+/// after the robot has crossed from here -> go (cross_from_here); otherwise wait. `learnt` says
+/// what the away time came from.
+void decide_on_away_time(const CrossingParams& params, double way_m, const std::string& learnt, CrossingDecision& d) {
+  if (d.arrival_s < 0.0) {
+    d.kind = CrossingDecision::Kind::wait;
+    d.reason = "away, overdue (" + learnt + ")";
+    return;
+  }
+  d.cross_from_here = d.arrival_s >= d.required_s;
+  d.kind = d.cross_from_here ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
+  d.reason = std::string(d.cross_from_here ? "away, back in the lane in " : "away, but back in the lane in ") +
+             fmt(d.arrival_s, 1) + " s (" + learnt + "; the robot needs " + fmt(d.required_s, 1) + " s for " +
+             fmt(clear_distance_m(params, way_m)) + " m at " + fmt(params.speed_mps) + " m/s + " +
+             fmt(params.margin_s, 1) + " s margin)";
+}
+
+}  // namespace
+
 bool CrossingPolicy::away_rule(double time_s, double way_m, CrossingDecision& d) const {
   if (params_.speed_mps <= 0.0 || away_side_ == 0) return false;
   const int k = away_side_ > 0 ? 0 : 1;
@@ -400,17 +421,7 @@ bool CrossingPolicy::away_rule(double time_s, double way_m, CrossingDecision& d)
   const std::string side = away_side_ > 0 ? "left" : "right";
   const std::string learnt = "left the lane to the " + side + " " + fmt(since_s, 1) + " s ago, stayed away " +
                              fmt(away_s_[k], 1) + " s last time";
-  if (d.arrival_s < 0.0) {
-    d.kind = CrossingDecision::Kind::wait;
-    d.reason = "away, overdue (" + learnt + ")";
-    return true;
-  }
-  d.cross_from_here = d.arrival_s >= d.required_s;
-  d.kind = d.cross_from_here ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
-  d.reason = std::string(d.cross_from_here ? "away, back in the lane in " : "away, but back in the lane in ") +
-             fmt(d.arrival_s, 1) + " s (" + learnt + "; the robot needs " + fmt(d.required_s, 1) + " s for " +
-             fmt(clear_distance_m(params_, way_m)) + " m at " + fmt(params_.speed_mps) + " m/s + " +
-             fmt(params_.margin_s, 1) + " s margin)";
+  decide_on_away_time(params_, way_m, learnt, d);
   return true;
 }
 
@@ -435,17 +446,7 @@ bool CrossingPolicy::view_exit_rule(double time_s, CrossingDecision& d) const {
   d.arrival_s = (away_s_[k] - since_s) / params_.pace_factor;
   const std::string learnt = "left the view to the " + std::string(k == 0 ? "left" : "right") + " " + fmt(since_s, 1) +
                              " s ago, stayed away " + fmt(away_s_[k], 1) + " s last time";
-  if (d.arrival_s < 0.0) {
-    d.kind = CrossingDecision::Kind::wait;
-    d.reason = "away, overdue (" + learnt + ")";
-    return true;
-  }
-  d.cross_from_here = d.arrival_s >= d.required_s;
-  d.kind = d.cross_from_here ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
-  d.reason = std::string(d.cross_from_here ? "away, back in the lane in " : "away, but back in the lane in ") +
-             fmt(d.arrival_s, 1) + " s (" + learnt + "; the robot needs " + fmt(d.required_s, 1) + " s for " +
-             fmt(clear_distance_m(params_, way_m)) + " m at " + fmt(params_.speed_mps) + " m/s + " +
-             fmt(params_.margin_s, 1) + " s margin)";
+  decide_on_away_time(params_, way_m, learnt, d);
   return true;
 }
 

@@ -16,6 +16,7 @@
 //    van 0.6 m right the follower keeps the path up to it and the standing watch finds it.
 #include <array>
 #include <cstdio>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -71,6 +72,13 @@ std::string clear_path() {
 }
 
 void write(const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+/// Where "detour done: the edge resumes at X m" says the edge resumed, m; NaN when the log has no such line.
+double resumed_at_m(const std::string& output) {
+  const std::string resumed = "detour done: the edge resumes at ";
+  const auto at = output.find(resumed);
+  return at == std::string::npos ? std::nan("") : std::stod(output.substr(at + resumed.size()));
+}
 
 // Teaches the 12 m feature edge of the replays below on the clear path into a new folder `dir`
 // (removed first) with the world written as dir/clear.yaml and the map as dir/map. Each test
@@ -335,10 +343,8 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   EXPECT_NE(replay.output.find("ReplayPathAvoiding[1]: probe: "), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
   // The detour ends past the van's front (11.9 m) and before the edge's end: the follower finishes it.
-  const std::string resumed = "detour done: the edge resumes at ";
-  const auto at = replay.output.find(resumed);
-  ASSERT_NE(at, std::string::npos) << replay.output;
-  const double resumed_m = std::stod(replay.output.substr(at + resumed.size()));
+  const double resumed_m = resumed_at_m(replay.output);
+  ASSERT_FALSE(std::isnan(resumed_m)) << replay.output;
   EXPECT_GT(resumed_m, 12.0);
   EXPECT_LT(resumed_m, 20.5);
   // No gravel: the path is lost with nothing ahead; the probe finds nothing and the robot stops.
@@ -380,10 +386,8 @@ TEST(ReplayAvoiding, TheLaneDetourReversesWhenItsSideClosesBeforeAVanAndPassesOn
   EXPECT_NE(replay.output.find("back on the line, past the obstacle", closes), std::string::npos) << replay.output;
   // Resumed past the van's front (11.9 m of the edge) and before the edge's end: the reverse is
   // not counted twice (measured: 17.79 m).
-  const std::string resumed = "detour done: the edge resumes at ";
-  const auto at = replay.output.find(resumed);
-  ASSERT_NE(at, std::string::npos) << replay.output;
-  const double resumed_m = std::stod(replay.output.substr(at + resumed.size()));
+  const double resumed_m = resumed_at_m(replay.output);
+  ASSERT_FALSE(std::isnan(resumed_m)) << replay.output;
   EXPECT_GT(resumed_m, 12.0);
   EXPECT_LT(resumed_m, 20.5);
   // The recovery off: the detour keeps its side and stops with the reason (commit_m).
@@ -426,10 +430,8 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanOnItsEdgeThatTheFollowerKeepsTh
     EXPECT_LT(found_at_m, 4.6);
     EXPECT_GT(found_at_m, 2.0);
     EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
-    const std::string resumed = "detour done: the edge resumes at ";
-    const auto r_at = replay.output.find(resumed);
-    ASSERT_NE(r_at, std::string::npos) << replay.output;
-    const double resumed_m = std::stod(replay.output.substr(r_at + resumed.size()));
+    const double resumed_m = resumed_at_m(replay.output);
+    ASSERT_FALSE(std::isnan(resumed_m)) << replay.output;
     EXPECT_GT(resumed_m, 12.0);  // past the van's front (11.9 m)
     EXPECT_LT(resumed_m, 20.5);  // the follower finishes the edge
   }
@@ -477,10 +479,8 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAFaceWhoseCornersCoverOnlyPartOfIt)
   EXPECT_NE(replay.output.substr(l_at, line_end - l_at).find("m left of the line"), std::string::npos)
       << replay.output.substr(l_at, line_end - l_at);
   EXPECT_NE(replay.output.find("back on the line, past the obstacle"), std::string::npos) << replay.output;
-  const std::string resumed = "detour done: the edge resumes at ";
-  const auto r_at = replay.output.find(resumed);
-  ASSERT_NE(r_at, std::string::npos) << replay.output;
-  const double resumed_m = std::stod(replay.output.substr(r_at + resumed.size()));
+  const double resumed_m = resumed_at_m(replay.output);
+  ASSERT_FALSE(std::isnan(resumed_m)) << replay.output;
   EXPECT_GT(resumed_m, 12.0);  // past the face's boxes (11.9 m)
   EXPECT_LT(resumed_m, 20.5);  // the follower finishes the edge
   std::filesystem::remove_all(dir);

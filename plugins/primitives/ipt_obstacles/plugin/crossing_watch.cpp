@@ -32,14 +32,7 @@ bt::PortsList crossing_ports() {
                                  "way is this far ahead of the robot centre, to watch it pass, m"),
           bt::input_port<double>("crossing_wait_s", "15",
                                  "crossing policy: at such a stop, seconds of waiting for the person to pass before the "
-                                 "robot goes on"),
-          bt::input_port<double>("crossing_stand_s", "0.5",
-                                 "crossing policy: a tracked person whose frame-difference points stop inside the view "
-                                 "in or beside the lane is taken as standing there after this long and waited for until "
-                                 "it is seen moving again (max_wait_frames bounds it); 0 = off, s"),
-          bt::input_port<double>("crossing_pace_factor", "1",
-                                 "crossing policy: the go holds if the person walks up to this many times faster than "
-                                 "measured (every predicted arrival in the lane is divided by it); 1-4")};
+                                 "robot goes on")};
 }
 
 Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNode& node, const IptCamera& camera) {
@@ -60,11 +53,9 @@ Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNod
   VISNAV_ASSIGN(params.body_radius_m, node.get_input<double>("body_radius_m"));
   VISNAV_ASSIGN(params.lane_half_width_m, node.get_input<double>("crossing_lane_m"));
   VISNAV_ASSIGN(params.away_clear_m, node.get_input<double>("crossing_clear_m"));
-  VISNAV_ASSIGN(params.stand_after_s, node.get_input<double>("crossing_stand_s"));
-  VISNAV_ASSIGN(params.pace_factor, node.get_input<double>("crossing_pace_factor"));
   if (auto st = params.validate(); !st)
     return Error{"ports 'crossing_s', 'crossing_speed_mps', 'crossing_margin_s', 'body_radius_m', 'crossing_lane_m', "
-                 "'crossing_clear_m', 'crossing_stand_s', 'crossing_pace_factor': " + st.error().message,
+                 "'crossing_clear_m': " + st.error().message,
                  ErrorCode::out_of_range};
   MotionWatchParams band;
   VISNAV_ASSIGN(band.half_width_m, node.get_input<double>("crossing_band_m"));

@@ -86,11 +86,7 @@ class CrossingWatch {
   double kerb_m_ = 0.7;
   double kerb_wait_s_ = 15.0;
   double drive_near_m_ = 0.8;
-  // A sighting while driving needs 2 x the recent level (the near-corridor stop 3 x): a person
-  // walking off the line 2.5-3.3 m ahead changed 1200-1750 pixels of the band against a level of
-  // 500-650 on van_path (pause_s test, docs/obstacles.md); a false sighting costs a stop at the
-  // way and crossing_wait_s, not a collision.
-  ShimmerTrigger drive_shimmer_{2.0};
+  ShimmerTrigger drive_shimmer_;
 };
 
 }  // namespace visnav::ipt

@@ -932,7 +932,7 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   still_frames_ = moving ? 0 : still_frames_ + 1;
   if (crossing && crossing->kind == CrossingDecision::Kind::go) {
     looking_ = false;
-    if (crossing->range_m <= crossing_->kerb_m() + 0.3 || crossing->cross_from_here) {
+    if (crossing->range_m <= crossing_->kerb_m() + 0.3) {
       crossing_->clear_lanes();  // it walked away just ahead: cross now
       if (crossing_->crossing_speed_mps() > 0.0) {
         begin_crossing(odom, crossing->way_ahead_m, "the crossing policy lets the robot go after " +

@@ -64,12 +64,6 @@ Result<std::optional<MovingPoint>> locate_moving(const cv::Mat& changed, const I
   if (v_low < 0 || v_low <= horizon + 1.0) return std::optional<MovingPoint>{};
   MovingPoint m;
   m.changed_px = total;
-  // Changed pixels in the outer columns: a body cut by the image's side (entering or leaving).
-  const int border = std::max(2, camera.width_px / 40);
-  int at_border = 0;
-  for (int u = 0; u < border; ++u)
-    at_border += per_column[static_cast<std::size_t>(u)] + per_column[static_cast<std::size_t>(changed.cols - 1 - u)];
-  m.at_view_edge = at_border >= std::max(4, border * 2);
   m.contact_visible = v_low < camera.height_px - 3;
   const double v = m.contact_visible ? v_low + 0.5 : camera.height_px - 0.5;
   const GroundHit hit = back_project(camera, lens_pose(camera, Pose2D{}), {u_med + 0.5, v});
@@ -124,12 +118,7 @@ const ParamSchema<CrossingParams>& CrossingParams::schema() {
           .field("pass_fit_m", &P::pass_fit_m, "a pass's speed is fitted to the points this near the line, m")
           .range(0.05, 2.0)
           .field("approach_m", &P::approach_m, "a way farther ahead is approached to its edge first, m")
-          .range(0.0, 10.0)
-          .field("stand_after_s", &P::stand_after_s,
-                 "a track that stops inside the view near the lane is a person standing there after this long (0 = off), s")
-          .range(0.0, 10.0)
-          .field("pace_factor", &P::pace_factor, "the person may walk this many times faster than measured")
-          .range(1.0, 4.0);
+          .range(0.0, 10.0);
   return s;
 }
 
@@ -147,13 +136,6 @@ double clear_time_s(const CrossingParams& params, double way_ahead_m) {
 
 void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
   const double y = point.ground_m.y;
-  if (params_.stand_after_s > 0.0 && last_seen_s_ >= 0.0 && time_s - last_seen_s_ >= params_.stand_after_s &&
-      !last_at_edge_ && std::abs(last_y_) <= params_.lane_half_width_m + params_.away_clear_m) {
-    // It stood near the line since its last point (track memory): a pass before that was no
-    // walk across, and a return counted from it would include the standing spell.
-    last_pass_dir_ = 0;
-    last_pass_speed_mps_ = -1.0;
-  }
   if (last_seen_s_ >= 0.0 && time_s - last_seen_s_ <= params_.window_s && ((last_y_ < 0.0) != (y < 0.0))) {
     const int dir = y > last_y_ ? 1 : -1;  // a pass: it walked across the robot's line
     if (last_pass_dir_ == -dir) return_after_s_[last_pass_dir_ > 0 ? 0 : 1] = time_s - last_pass_s_;
@@ -163,40 +145,9 @@ void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
       last_pass_speed_mps_ = -1.0;
     }
   }
-  // Exits from and entries into the lane, per side (away times).
-  const int side = std::abs(y) <= params_.lane_half_width_m ? 0 : (y > 0.0 ? 1 : -1);
-  const bool continuous = last_seen_s_ >= 0.0 && time_s - last_seen_s_ <= params_.window_s;
-  if (continuous && last_side_ == 0 && side != 0) {
-    exit_s_[side > 0 ? 0 : 1] = time_s;
-    away_side_ = side;
-  } else if (continuous && last_side_ != 0 && side == 0) {
-    const int k = last_side_ > 0 ? 0 : 1;
-    if (away_side_ == last_side_ && exit_s_[k] >= 0.0) away_s_[k] = time_s - exit_s_[k];
-    away_side_ = 0;
-  } else if (side == 0 && point.at_view_edge && away_side_ != 0 && (y > 0.0) == (away_side_ > 0)) {
-    // Back after a gap, first seen entering the view in the lane on the side it left to (a
-    // robot close to the way sees less than the lane's width): it entered the lane before it
-    // was seen, at most (lane's edge - |y|) / min_speed_mps earlier.
-    const int k = away_side_ > 0 ? 0 : 1;
-    if (exit_s_[k] >= 0.0)
-      away_s_[k] = std::max(0.0, time_s - exit_s_[k] - (params_.lane_half_width_m - std::abs(y)) / params_.min_speed_mps);
-    away_side_ = 0;
-  } else if (side == 0) {
-    away_side_ = 0;  // seen in the lane after a gap: not away (the away time is not measured)
-  }
-  // Close to the way the view is narrower than the lane: a person leaving it at its side and,
-  // after a gap, entering it again on that side stayed away for the gap less the time it may
-  // have walked from the view's edge to the lane's edge and back (at min_speed_mps).
-  if (!continuous && last_seen_s_ >= 0.0 && last_at_edge_ && point.at_view_edge && side == 0 && last_side_ == 0 &&
-      (y > 0.0) == (last_y_ > 0.0) && std::abs(last_y_) > 0.0) {
-    const double unseen_m = params_.lane_half_width_m - std::min(std::abs(y), std::abs(last_y_));
-    away_s_[y > 0.0 ? 0 : 1] = std::max(0.0, time_s - last_seen_s_ - 2.0 * unseen_m / params_.min_speed_mps);
-  }
-  last_at_edge_ = point.at_view_edge;
-  last_side_ = side;
   last_seen_s_ = time_s;
   last_y_ = y;
-  track_.push_back({time_s, point.ground_m, point.at_view_edge});
+  track_.push_back({time_s, point.ground_m});
   while (!track_.empty() && track_.front().time_s < time_s - params_.window_s) track_.pop_front();
   // The walking speed of the pass: y(t) fitted to the points near the line since shortly before it.
   if (last_pass_dir_ != 0 && std::abs(y) <= params_.pass_fit_m && time_s - last_pass_s_ <= params_.window_s) {
@@ -217,28 +168,7 @@ void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
 
 CrossingDecision CrossingPolicy::decide(double time_s, bool cautious, std::optional<double> way_ahead_m) const {
   CrossingDecision d;
-  if (!track_.empty() && params_.stand_after_s > 0.0) {
-    // Track memory: it stopped inside the view near the lane (see the header).
-    const Sample& last = track_.back();
-    const double unseen_s = time_s - last.time_s;
-    if (unseen_s >= params_.stand_after_s && last.at_view_edge && view_exit_rule(time_s, d)) return d;
-    if (unseen_s >= params_.stand_after_s && !last.at_view_edge &&
-        std::abs(last.ground_m.y) <= params_.lane_half_width_m + params_.away_clear_m) {
-      d.kind = CrossingDecision::Kind::wait;
-      d.standing = true;
-      d.lateral_m = last.ground_m.y;
-      d.range_m = last.ground_m.x;
-      d.reason = std::string("standing ") + (std::abs(last.ground_m.y) <= params_.lane_half_width_m ? "in" : "beside") +
-                 " the lane where it was last seen (lateral " + fmt(last.ground_m.y) + " m, " + fmt(last.ground_m.x) +
-                 " m ahead, still for " + fmt(unseen_s, 1) + " s)";
-      return d;
-    }
-  }
   if (track_.empty() || time_s - track_.back().time_s > params_.forget_s) {
-    // Out of view: away on a side whose away time is known -> when it is back.
-    const double way_m = track_.empty() ? params_.approach_m : std::max(0.0, track_.back().ground_m.x);
-    if (away_rule(time_s, way_m, d)) return d;
-    if (view_exit_rule(time_s, d)) return d;
     d.reason = track_.empty() ? "nothing tracked" : "the track is " + fmt(time_s - track_.back().time_s, 1) + " s old";
     return d;
   }
@@ -290,7 +220,7 @@ CrossingDecision CrossingPolicy::decide(double time_s, bool cautious, std::optio
                       " m at " + fmt(params_.speed_mps) + " m/s + " + fmt(params_.margin_s, 1) + " s margin)"
                 : "the crossing time " + fmt(params_.crossing_s, 1) + " s";
   if (d.lateral_speed_mps < -params_.min_speed_mps) {
-    d.arrival_s = beyond_m / -d.lateral_speed_mps / params_.pace_factor;
+    d.arrival_s = beyond_m / -d.lateral_speed_mps;
     d.kind = d.arrival_s < d.required_s ? CrossingDecision::Kind::wait : CrossingDecision::Kind::go;
     d.reason = "arrives in the lane in " + fmt(d.arrival_s, 1) + " s (" +
                (d.kind == CrossingDecision::Kind::wait ? "within" : "after") + " " + needs + "; " + where + ")";
@@ -299,38 +229,6 @@ CrossingDecision CrossingPolicy::decide(double time_s, bool cautious, std::optio
   d.kind = beyond_m >= params_.away_clear_m ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
   d.reason = std::string(d.kind == CrossingDecision::Kind::go ? "clear of the lane by " : "only ") + fmt(beyond_m) +
              " m beyond the lane's edge (" + where + ")";
-  const int dir = d.lateral_m > 0.0 ? 1 : -1;
-  if (geometric && away_side_ == dir && away_s(dir) >= 0.0 && d.lateral_speed_mps >= -params_.min_speed_mps &&
-      beyond_m >= params_.away_clear_m) {
-    // Away on this side (walking away or standing beyond the lane) with a learnt away time;
-    // a pass-based return, when known too, must leave the time as well.
-    CrossingDecision by_pass = decide_by_pass(time_s, cautious, d);
-    CrossingDecision away = d;
-    if (away_rule(time_s, d.range_m, away)) {
-      if (by_pass.arrival_s >= 0.0 && by_pass.arrival_s < away.arrival_s) {
-        // The earlier arrival counts, against the time to cross from here.
-        away.arrival_s = by_pass.arrival_s;
-        away.cross_from_here = away.arrival_s >= away.required_s;
-        away.kind = away.cross_from_here ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
-        away.reason += "; " + std::string(away.cross_from_here ? "the pass-based " : "wait: the pass-based ") +
-                       by_pass.reason;
-      }
-      away.reason += "; " + where;
-      return away;
-    }
-  }
-  return decide_by_pass(time_s, cautious, d);
-}
-
-CrossingDecision CrossingPolicy::decide_by_pass(double time_s, bool cautious, CrossingDecision d) const {
-  const bool geometric = params_.speed_mps > 0.0;
-  const std::string where = "lateral " + fmt(d.lateral_m) + " m, " + fmt(d.range_m) + " m ahead, moving " +
-                            fmt(d.lateral_speed_mps) + " m/s " + (d.lateral_speed_mps < 0.0 ? "towards" : "away from") +
-                            " the lane";
-  const std::string needs =
-      geometric ? "the robot needs " + fmt(d.required_s, 1) + " s (" + fmt(clear_distance_m(params_, d.way_ahead_m)) +
-                      " m at " + fmt(params_.speed_mps) + " m/s + " + fmt(params_.margin_s, 1) + " s margin)"
-                : "the crossing time " + fmt(params_.crossing_s, 1) + " s";
   const int dir = d.lateral_m > 0.0 ? 1 : -1;
   if (geometric && d.lateral_speed_mps > params_.min_speed_mps && last_pass_dir_ == dir &&
       last_pass_speed_mps_ > params_.min_speed_mps) {
@@ -350,7 +248,7 @@ CrossingDecision CrossingPolicy::decide_by_pass(double time_s, bool cautious, Cr
       d.reason = std::string(cautious ? "walking away; waiting to see whether it comes back (" : "walking away (") +
                  from_pass + "; " + where + ")";
     } else {
-      d.arrival_s = (back_s - since_pass_s - params_.lane_half_width_m / speed) / params_.pace_factor;
+      d.arrival_s = back_s - since_pass_s - params_.lane_half_width_m / speed;
       d.kind = d.arrival_s < d.required_s ? CrossingDecision::Kind::wait : CrossingDecision::Kind::go;
       d.reason = std::string(d.kind == CrossingDecision::Kind::wait ? "walking away, but it comes back into the lane in "
                                                                     : "walking away, back in the lane in ") +
@@ -367,7 +265,7 @@ CrossingDecision CrossingPolicy::decide_by_pass(double time_s, bool cautious, Cr
       // lane_half_width_m before it reaches the line, the learnt return after its pass.
       const double speed = std::max(d.lateral_speed_mps, params_.min_speed_mps);
       const double since_pass_s = std::abs(d.lateral_m) / speed;
-      d.arrival_s = (back_s - since_pass_s - params_.lane_half_width_m / speed) / params_.pace_factor;
+      d.arrival_s = back_s - since_pass_s - params_.lane_half_width_m / speed;
       if (d.arrival_s < d.required_s) {
         d.kind = CrossingDecision::Kind::wait;
         d.reason = "walking away, but it comes back into the lane in " + fmt(d.arrival_s, 1) + " s (return " +
@@ -387,67 +285,6 @@ CrossingDecision CrossingPolicy::decide_by_pass(double time_s, bool cautious, Cr
     }
   }
   return d;
-}
-
-namespace {
-
-/// The away rules' verdict once d.arrival_s and d.required_s are set: overdue -> wait; back
-/// after the robot has crossed from here -> go (cross_from_here); otherwise wait. `learnt` says
-/// what the away time came from.
-void decide_on_away_time(const CrossingParams& params, double way_m, const std::string& learnt, CrossingDecision& d) {
-  if (d.arrival_s < 0.0) {
-    d.kind = CrossingDecision::Kind::wait;
-    d.reason = "away, overdue (" + learnt + ")";
-    return;
-  }
-  d.cross_from_here = d.arrival_s >= d.required_s;
-  d.kind = d.cross_from_here ? CrossingDecision::Kind::go : CrossingDecision::Kind::wait;
-  d.reason = std::string(d.cross_from_here ? "away, back in the lane in " : "away, but back in the lane in ") +
-             fmt(d.arrival_s, 1) + " s (" + learnt + "; the robot needs " + fmt(d.required_s, 1) + " s for " +
-             fmt(clear_distance_m(params, way_m)) + " m at " + fmt(params.speed_mps) + " m/s + " +
-             fmt(params.margin_s, 1) + " s margin)";
-}
-
-}  // namespace
-
-bool CrossingPolicy::away_rule(double time_s, double way_m, CrossingDecision& d) const {
-  if (params_.speed_mps <= 0.0 || away_side_ == 0) return false;
-  const int k = away_side_ > 0 ? 0 : 1;
-  if (away_s_[k] < 0.0 || exit_s_[k] < 0.0) return false;
-  const double since_s = time_s - exit_s_[k];
-  d.arrival_s = (away_s_[k] - since_s) / params_.pace_factor;
-  d.way_ahead_m = way_m;
-  d.required_s = clear_time_s(params_, way_m) + params_.margin_s;
-  const std::string side = away_side_ > 0 ? "left" : "right";
-  const std::string learnt = "left the lane to the " + side + " " + fmt(since_s, 1) + " s ago, stayed away " +
-                             fmt(away_s_[k], 1) + " s last time";
-  decide_on_away_time(params_, way_m, learnt, d);
-  return true;
-}
-
-bool CrossingPolicy::view_exit_rule(double time_s, CrossingDecision& d) const {
-  // Left the view at its side inside the lane (close to the way), with a learnt away time for
-  // that side: back in the lane when it stayed away last time, counted from the last point
-  // less the walk from the view's edge to the lane's edge (at min_speed_mps).
-  if (params_.speed_mps <= 0.0 || track_.empty()) return false;
-  const Sample& last = track_.back();
-  if (!last.at_view_edge || std::abs(last.ground_m.y) > params_.lane_half_width_m || last.ground_m.y == 0.0) return false;
-  const int k = last.ground_m.y > 0.0 ? 0 : 1;
-  const int side = k == 0 ? 1 : -1;
-  // A pass seen that way with a learnt return: the pass-based rule knows better (its time is
-  // the pass's, not a view edge's).
-  if (away_s_[k] < 0.0 || (last_pass_dir_ == side && return_after_s(side) >= 0.0)) return false;
-  const double since_s = time_s - last.time_s;
-  const double way_m = std::max(0.0, last.ground_m.x);
-  d.lateral_m = last.ground_m.y;
-  d.range_m = last.ground_m.x;
-  d.way_ahead_m = way_m;
-  d.required_s = clear_time_s(params_, way_m) + params_.margin_s;
-  d.arrival_s = (away_s_[k] - since_s) / params_.pace_factor;
-  const std::string learnt = "left the view to the " + std::string(k == 0 ? "left" : "right") + " " + fmt(since_s, 1) +
-                             " s ago, stayed away " + fmt(away_s_[k], 1) + " s last time";
-  decide_on_away_time(params_, way_m, learnt, d);
-  return true;
 }
 
 void CrossingLanes::add(const Pose2D& robot, const cv::Point2d& ground_m, double time_s) {

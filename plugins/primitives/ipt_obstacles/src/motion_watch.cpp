@@ -185,7 +185,7 @@ bool ShimmerTrigger::update(int changed_px, bool cruising, bool moving) {
     std::nth_element(sorted.begin(), mid, sorted.begin() + static_cast<std::ptrdiff_t>(count_n_));
     level = *mid;
   }
-  const bool hit = cruising && count_n_ >= 5 && moving && changed_px > factor_ * level;
+  const bool hit = cruising && count_n_ >= 5 && moving && changed_px > 3 * level;
   if (cruising && !hit) {
     counts_[next_] = changed_px;
     next_ = (next_ + 1) % kHistory;

@@ -177,7 +177,7 @@ Status parse_trees(World& world, const ConfigNode& list) {
 Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& name, const cv::Point2d& at) {
   const ConfigNode* path = o.find("path");
   if (path == nullptr) {
-    for (const char* key : {"speed_mps", "start_s", "motion", "yield_m", "pause_s", "leg_speeds_mps"})
+    for (const char* key : {"speed_mps", "start_s", "motion", "yield_m", "pause_s"})
       if (const ConfigNode* n = o.find(key))
         return node_error(*n, name + ": key '" + key + "' needs 'path' (the waypoints the obstacle moves through)",
                           ErrorCode::missing, "path");
@@ -208,26 +208,6 @@ Result<int> parse_motion(World& world, const ConfigNode& o, const std::string& n
   else
     return node_error(*o.find("motion"), name + ": key 'motion': unknown value '" + motion + "' (known: once, loop, back_and_forth)",
                       ErrorCode::out_of_range, "motion");
-  if (const ConfigNode* legs = o.find("leg_speeds_mps")) {
-    const std::size_t n = m.path.size() - 1;
-    const std::size_t want = m.motion == MovingObstacle::Motion::loop             ? n + 1
-                             : m.motion == MovingObstacle::Motion::back_and_forth ? 2 * n
-                                                                                   : n;
-    if (m.yield_m > 0.0)
-      return node_error(*legs, name + ": key 'leg_speeds_mps' is for a blind walker; it cannot be combined with 'yield_m'",
-                        ErrorCode::inconsistent, "leg_speeds_mps");
-    if (!legs->is_sequence() || legs->items().size() != want)
-      return node_error(*legs, name + ": key 'leg_speeds_mps': expected a list of " + std::to_string(want) +
-                                   " speeds (one per leg walked, motion '" + motion + "'), got " + show(*legs),
-                        ErrorCode::inconsistent, "leg_speeds_mps");
-    for (const auto& item : legs->items()) {
-      VISNAV_ASSIGN(const double v, as_double(item, "leg_speeds_mps"));
-      if (!(v >= 0.01 && v <= 20.0))
-        return node_error(item, name + ": key 'leg_speeds_mps': value " + item.scalar() + " is out of range [0.01, 20]",
-                          ErrorCode::out_of_range, "leg_speeds_mps");
-      m.leg_speeds_mps.push_back(v);
-    }
-  }
   world.movers.push_back(std::move(m));
   return static_cast<int>(world.movers.size()) - 1;
 }
@@ -245,7 +225,7 @@ Status parse_obstacles(World& world, const ConfigNode& list) {
   for (const auto& o : list.items()) {
     const std::string what = "obstacle " + std::to_string(index++);
     VISNAV_TRY(check_keys(o, {"name", "kind", "at", "yaw_deg", "size_m", "radius_m", "sides", "height_m", "texture", "path",
-                              "speed_mps", "start_s", "motion", "yield_m", "pause_s", "leg_speeds_mps"},
+                              "speed_mps", "start_s", "motion", "yield_m", "pause_s"},
                           what));
     VISNAV_ASSIGN(const std::string name, get_string(o, "name", what));
     VISNAV_ASSIGN(const std::string kind, get_string(o, "kind", "box"));
@@ -466,7 +446,7 @@ cv::Vec3b label_color(LabelClass label) {
 double MovingObstacle::walked_at(double time_s) const {
   if (time_s <= start_s) return 0.0;
   const double t = time_s - start_s;
-  if ((pause_s <= 0.0 && leg_speeds_mps.empty()) || path.size() < 2) return speed_mps * t;
+  if (pause_s <= 0.0 || path.size() < 2) return speed_mps * t;
   // The legs in walked order over one cycle: the polyline, then the closing segment (loop) or
   // the polyline backwards (back_and_forth); a pause after each leg.
   const std::size_t n = path.size() - 1;
@@ -476,12 +456,9 @@ double MovingObstacle::walked_at(double time_s) const {
     if (motion == Motion::loop) return cv::norm(path.front() - path.back());
     return cv::norm(path[2 * n - k] - path[2 * n - k - 1]);  // backwards: leg n-1, n-2, ..., 0
   };
-  auto leg_speed = [&](std::size_t k) { return k < leg_speeds_mps.size() ? leg_speeds_mps[k] : speed_mps; };
-  double cycle_m = 0.0, cycle_s = static_cast<double>(legs) * pause_s;
-  for (std::size_t k = 0; k < legs; ++k) {
-    cycle_m += leg_m(k);
-    cycle_s += leg_m(k) / leg_speed(k);
-  }
+  double cycle_m = 0.0;
+  for (std::size_t k = 0; k < legs; ++k) cycle_m += leg_m(k);
+  const double cycle_s = cycle_m / speed_mps + static_cast<double>(legs) * pause_s;
   double walked = 0.0, left_s = t;
   if (motion != Motion::once) {
     const double cycles = std::floor(left_s / cycle_s);
@@ -489,8 +466,8 @@ double MovingObstacle::walked_at(double time_s) const {
     left_s -= cycles * cycle_s;
   }
   for (std::size_t k = 0; k < legs; ++k) {
-    const double leg_s = leg_m(k) / leg_speed(k);
-    if (left_s < leg_s) return walked + leg_speed(k) * left_s;
+    const double leg_s = leg_m(k) / speed_mps;
+    if (left_s < leg_s) return walked + speed_mps * left_s;
     walked += leg_m(k);
     left_s -= leg_s + pause_s;
     if (left_s < 0.0) return walked;  // standing at the waypoint

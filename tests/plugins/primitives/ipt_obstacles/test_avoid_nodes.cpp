@@ -226,66 +226,6 @@ TEST(ReplayAvoiding, APersonPacingSymmetricallyAcrossTheLineIsCrossedAtTheCrossi
   std::filesystem::remove_all(dir);
 }
 
-// trees/replay_route_avoiding.xml with the avoiding subtree's crossing settings (and `extra`
-// ports) on its ReplayAvoiding node.
-std::string crossing_tree(const std::string& extra = "") {
-  std::ifstream plain_tree(std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/replay_route_avoiding.xml");
-  std::string tree{std::istreambuf_iterator<char>(plain_tree), std::istreambuf_iterator<char>()};
-  const std::string mount_attr = "camera_pitch_down_deg=\"{camera_pitch_down_deg}\">";
-  for (std::size_t at = tree.find(mount_attr); at != std::string::npos; at = tree.find(mount_attr, at + 1))
-    tree.replace(at, mount_attr.size(),
-                 "camera_pitch_down_deg=\"{camera_pitch_down_deg}\" crossing_speed_mps=\"0.6\" confirm_baseline_m=\"0.3\" " +
-                     extra + ">");
-  return tree;
-}
-
-// A person who stops on the way (docs/obstacles.md, "A person who stops or changes pace"): it
-// paces across the line at x = 6 m (y = 3 .. -3, 1 m/s) with a waypoint on the line and stands
-// 6 s at every waypoint. Session 14 (no track memory): the frame difference lost it standing,
-// the robot never stopped and the person walked into its side at (6.02, 0). Now the robot sees
-// it walk off the line while driving, stops before its way, waits while it stands in the lane
-// (track memory), learns how long it stays away on either side and crosses then.
-TEST(ReplayAvoiding, APersonWhoStopsOnTheLineIsWaitedForAndCrossedWhenAway) {
-  const auto dir = replay_dir("pausing");
-  ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
-  write(dir / "pausing.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 3], path: [[6, 0], [6, -3]], speed_mps: 1.0, "
-                              "motion: back_and_forth, pause_s: 6, texture: van}\n");
-  write(dir / "crossing.xml", crossing_tree());
-  const CliRun r = run_cli(replay_args(dir, dir / "clear.yaml", dir / "pausing.yaml"),
-                           (dir / "crossing.xml").string());
-  EXPECT_EQ(r.status, 0) << r.output;
-  EXPECT_EQ(r.output.find("collision with"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("a person was seen crossing ahead: stop before its way"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("standing in the lane where it was last seen"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("stayed away"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("across the person's way: the edge resumes at"), std::string::npos) << r.output;
-  std::filesystem::remove_all(dir);
-}
-
-// A person who changes pace: it paces y = 3 .. -3 at x = 6 m, four legs at 1 m/s, then four at
-// 1.7 m/s (leg_speeds_mps), and stands at y = 3. With the default crossing_pace_factor 1 the robot learns the 1 m/s away
-// time, crosses on it, and the person, back 1.7 times as fast, walks into it; with
-// crossing_pace_factor 1.7 (every predicted arrival divided by 1.7) it waits and the edge
-// completes without a collision.
-TEST(ReplayAvoiding, APersonWhoSpeedsUpIsNotHitWithThePaceFactor) {
-  const auto dir = replay_dir("pace");
-  ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
-  std::string path;
-  for (int i = 0, y = -3; i < 8; ++i, y = -y) path += std::string(i > 0 ? ", " : "") + "[6, " + std::to_string(y) + "]";
-  write(dir / "pace.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 3], path: [" + path +
-                               "], speed_mps: 1.0, leg_speeds_mps: [1, 1, 1, 1, 1.7, 1.7, 1.7, 1.7], texture: van}\n");
-  write(dir / "steady.xml", crossing_tree());
-  write(dir / "pace.xml", crossing_tree("crossing_pace_factor=\"1.7\""));
-  const std::string args = replay_args(dir, dir / "clear.yaml", dir / "pace.yaml");
-  const CliRun steady = run_cli(args, (dir / "steady.xml").string());
-  EXPECT_NE(steady.output.find("collision with 'person'"), std::string::npos) << steady.output;
-  const CliRun paced = run_cli(args, (dir / "pace.xml").string());
-  EXPECT_EQ(paced.status, 0) << paced.output;
-  EXPECT_EQ(paced.output.find("collision with"), std::string::npos) << paced.output;
-  EXPECT_NE(paced.output.find("a person was seen crossing ahead: stop before its way"), std::string::npos) << paced.output;
-  std::filesystem::remove_all(dir);
-}
-
 TEST(ReplayAvoiding, APathFollowingEdgeResumesPastACrate) {
   const auto dir = replay_dir("path");
   const std::string clear = clear_path();

@@ -242,39 +242,6 @@ TEST(MovingObstacles, BadMotionSpecsNameTheKeyAndLine) {
                          ErrorCode::out_of_range, At{"inline.yaml", 6, "pause_s"}));
   EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, pause_s: 2, yield_m: 0.6, texture: cloth}\n"),
                          ErrorCode::inconsistent, At{"inline.yaml", 6, "pause_s"}));
-  // leg_speeds_mps: one per leg walked (back_and_forth over one segment: 2), each in [0.01, 20].
-  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, motion: back_and_forth, "
-                               "leg_speeds_mps: [1], texture: cloth}\n"),
-                         ErrorCode::inconsistent, At{"inline.yaml", 6, "leg_speeds_mps"}));
-  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, leg_speeds_mps: [0], "
-                               "texture: cloth}\n"),
-                         ErrorCode::out_of_range, At{"inline.yaml", 6, "leg_speeds_mps"}));
-  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], path: [[1, 0]], speed_mps: 1, yield_m: 0.6, "
-                               "leg_speeds_mps: [1], texture: cloth}\n"),
-                         ErrorCode::inconsistent, At{"inline.yaml", 6, "leg_speeds_mps"}));
-  EXPECT_TRUE(fails_with(parse("    - {name: a, kind: person, at: [0, 0], leg_speeds_mps: [1], texture: cloth}\n"),
-                         ErrorCode::missing, At{"inline.yaml", 6, "path"}));
-  auto good = parse("    - {name: a, kind: person, at: [0, 0], path: [[3, 0]], speed_mps: 1, motion: back_and_forth, "
-                    "leg_speeds_mps: [0.5, 1.5], texture: cloth}\n");
-  ASSERT_TRUE(good.ok()) << good.error().message;
-  ASSERT_EQ((*good)->movers.size(), 1u);
-  EXPECT_EQ((*good)->movers[0].leg_speeds_mps, (std::vector<double>{0.5, 1.5}));
-}
-
-TEST(MovingObstacles, LegSpeedsChangeThePaceLegByLeg) {
-  MovingObstacle m;
-  m.path = {{0, 0}, {3, 0}};  // out 3 m at 0.5 m/s (6 s), back at 1.5 m/s (2 s)
-  m.speed_mps = 1.0;
-  m.motion = MovingObstacle::Motion::back_and_forth;
-  m.leg_speeds_mps = {0.5, 1.5};
-  EXPECT_NEAR(cv::norm(m.position_at(2.0) - cv::Point2d(1, 0)), 0.0, 1e-12);
-  EXPECT_NEAR(cv::norm(m.position_at(6.0) - cv::Point2d(3, 0)), 0.0, 1e-12);
-  EXPECT_NEAR(cv::norm(m.position_at(7.0) - cv::Point2d(1.5, 0)), 0.0, 1e-12);  // back 3 times as fast
-  EXPECT_NEAR(cv::norm(m.position_at(8.0 + 2.0) - cv::Point2d(1, 0)), 0.0, 1e-9);  // the next 8 s cycle
-  m.pause_s = 1.0;  // with a pause at each end: a 10 s cycle
-  EXPECT_NEAR(cv::norm(m.position_at(6.5) - cv::Point2d(3, 0)), 0.0, 1e-12);
-  EXPECT_NEAR(cv::norm(m.position_at(8.0) - cv::Point2d(1.5, 0)), 0.0, 1e-12);
-  EXPECT_NEAR(cv::norm(m.position_at(10.0 + 2.0) - cv::Point2d(1, 0)), 0.0, 1e-9);
 }
 
 TEST(MovingObstacles, ObstacleFileAddsToTheWorldPerRun) {

@@ -124,11 +124,6 @@ struct MovingObstacle {
   /// Stands this long at every waypoint it reaches (the ends and turns of back_and_forth and
   /// loop included), seconds; 0 = walks on. Not with yield_m > 0 (the world file refuses it).
   double pause_s = 0.0;
-  /// A person who changes pace (`leg_speeds_mps`, docs/sim.md): one speed per leg in walked
-  /// order (once: the path's segments; loop: those and the closing one; back_and_forth: the
-  /// segments out, then back from the far end), m/s; empty = speed_mps on every leg. Blind
-  /// walkers only (the world file refuses it with yield_m).
-  std::vector<double> leg_speeds_mps;
 
   /// Metres walked along the motion by time `time_s` (a blind walker; its pauses counted).
   [[nodiscard]] double walked_at(double time_s) const;

@@ -21,24 +21,7 @@
 //      - walking away (or standing) at least away_clear_m beyond the lane's edge -> go; nearer
 //        -> wait;
 //      - no point for forget_s seconds: the track is dropped; `no_track` (the caller keeps its
-//        own rule, e.g. the corridor still for N frames);
-//      - track memory (stand_after_s): a person whose points stop while its last one lay inside
-//        the view (the changed pixels off the image's side borders) within the lane or
-//        away_clear_m beyond its edge has stopped there: the frame difference of a standing
-//        camera loses a person who stands, but it cannot leave without moving, and moving in
-//        view gives points again. Wait, without extrapolating or forgetting it, until it does
-//        (a person who walks out of view leaves its last points at the image's border: that
-//        track is extrapolated and forgotten as before). The caller bounds the wait.
-//    Away times (a person who pauses on the line or at the ends of its walk, so that no pass
-//    is seen): the time from the person's exit from the lane to one side to its next entry from
-//    that side is learnt per side (exit and entry each seen as two points within window_s, one
-//    in the lane and one beyond its edge). While it is away on a side whose away time is known
-//    (tracked walking away, or out of view after the exit), it is back in the lane at exit +
-//    away time; the robot goes when that leaves the time to cross the person's way as seen
-//    (not clamped to approach_m: `cross_from_here`), with the pass-based return as well when both
-//    are known (the earlier arrival counts); overdue: wait.
-//    pace_factor: every predicted arrival in the lane is divided by it, so that a go holds when
-//    the person walks up to that many times faster than measured (it speeds up).
+//        own rule, e.g. the corridor still for N frames).
 //    Between points the fitted line is extrapolated (a person leaving the view keeps walking).
 //    Passes: a point on the other side of the robot's line (y changed sign) than the one before
 //    is a pass in the direction it walks; the time from a pass in one direction to the next pass
@@ -85,9 +68,6 @@ namespace visnav::ipt {
 struct MovingPoint {
   cv::Point2d ground_m;          ///< robot frame, x ahead, y left
   bool contact_visible = true;   ///< false: the feet are below the image (x is an upper bound)
-  /// The changed pixels touch the image's left or right border (a body entering or leaving the
-  /// view): when the points stop, it may have walked out of view rather than stopped.
-  bool at_view_edge = false;
   int changed_px = 0;
 };
 
@@ -114,14 +94,6 @@ struct CrossingParams {
   double margin_s = 0.5;           ///< time the person's arrival must leave beyond the clear time, s
   double pass_fit_m = 0.3;         ///< a pass's walking speed: fitted to the points this near the robot's line, m
   double approach_m = 1.0;         ///< a way farther ahead is first approached to its edge (the clear time counts from here), m
-  /// Track memory (a person who stops): a track whose last point lay inside the view (not at its
-  /// edge) within lane_half_width_m + away_clear_m of the robot's line and that got no new point
-  /// for this long is a person standing where it was last seen: wait, neither extrapolated nor
-  /// forgotten, until it is seen moving again (the caller bounds the wait); 0 = off, s.
-  double stand_after_s = 0.5;
-  /// The person may walk this many times faster than its measured speed before it reaches the
-  /// robot's lane (it speeds up): every predicted arrival is divided by it; 1 = steady pace.
-  double pace_factor = 1.0;
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<CrossingParams>& schema();
@@ -136,10 +108,6 @@ struct CrossingDecision {
   double arrival_s = -1.0;           ///< time until it enters the lane (approaching, or the learnt return), else -1
   double way_ahead_m = 0.0;          ///< distance to the person's way used for the clear time (speed_mps > 0)
   double required_s = 0.0;           ///< the clear time (+ margin_s) the arrival was compared with
-  bool standing = false;             ///< held: a person that stopped where it was last seen (stand_after_s)
-  /// The go leaves the time to cross from here (way_ahead_m is the person's way as seen, not
-  /// clamped to approach_m): the caller may cross at once instead of approaching the way first.
-  bool cross_from_here = false;
   std::string reason;
 };
 
@@ -166,12 +134,7 @@ class CrossingPolicy {
   void reset() {
     forget_track();
     return_after_s_[0] = return_after_s_[1] = -1.0;
-    away_s_[0] = away_s_[1] = exit_s_[0] = exit_s_[1] = -1.0;
-    away_side_ = 0;
   }
-  /// Learnt time the person stays out of the lane after leaving it to the robot's left (side
-  /// +1) or right (-1) until it is back in the lane on that side; -1 when not seen yet.
-  [[nodiscard]] double away_s(int side) const { return away_s_[side > 0 ? 0 : 1]; }
   /// Forgets the track and the last pass, keeps the learnt returns (a new stop near the same
   /// person: how long it stays away is a property of its walk, not of the stop).
   void forget_track() {
@@ -193,7 +156,6 @@ class CrossingPolicy {
   struct Sample {
     double time_s;
     cv::Point2d ground_m;
-    bool at_view_edge = false;
   };
   CrossingParams params_;
   std::deque<Sample> track_;
@@ -203,21 +165,6 @@ class CrossingPolicy {
   double last_pass_s_ = 0.0;
   double last_pass_speed_mps_ = -1.0;
   double return_after_s_[2] = {-1.0, -1.0};  // [0]: after a pass to the left, [1]: to the right
-  // Away times (a person who pauses, on the line or at the ends of its walk): the lane's exits
-  // and entries on either side, from points within window_s of each other.
-  int last_side_ = 0;                        // side of the last point: +1 / -1 beyond the lane's edge, 0 in it
-  double exit_s_[2] = {-1.0, -1.0};          // time of the last exit to the left [0] / right [1]
-  double away_s_[2] = {-1.0, -1.0};          // learnt: exit to that side -> back in the lane from it
-  int away_side_ = 0;                        // the side it is away on since its last exit, 0 = in the lane
-  bool last_at_edge_ = false;                // the last point was at the view's edge
-  /// The away rule for a person that left the view at its side inside the lane (close to the way).
-  bool view_exit_rule(double time_s, CrossingDecision& d) const;
-  /// The away rule: the person left the lane to `side` at exit_s_ and stayed away away_s_ last
-  /// time; fills d (arrival, required time from `way_m`, kind, reason). False when not known.
-  bool away_rule(double time_s, double way_m, CrossingDecision& d) const;
-  /// The pass-based rules for a person beyond the lane's edge not approaching it (`d` filled up
-  /// to the lane test and the clear time).
-  CrossingDecision decide_by_pass(double time_s, bool cautious, CrossingDecision d) const;
 };
 
 /// Where a person was seen crossing ahead of a driving robot, remembered in the odometry frame

@@ -121,8 +121,6 @@ ChangeShape change_shape(const cv::Mat& changed, const ChangeShapeParams& params
 /// Fixed storage: no allocation per frame. Not thread-safe.
 class ShimmerTrigger {
  public:
-  /// `factor`: a frame counts when its changed pixels exceed this many times the recent level (> 1).
-  explicit ShimmerTrigger(double factor = 3.0) : factor_(factor) {}
   /// One frame: `changed_px` the watch's count, `cruising` the robot moved >= 2 cm since the
   /// previous frame, `moving` the watch's own verdict. True when the trigger fires.
   bool update(int changed_px, bool cruising, bool moving);
@@ -134,7 +132,6 @@ class ShimmerTrigger {
   std::array<int, kHistory> counts_{};  // ring buffer of the last cruising counts
   std::size_t count_n_ = 0, next_ = 0;
   int hits_ = 0;
-  double factor_ = 3.0;
 };
 
 }  // namespace visnav::ipt

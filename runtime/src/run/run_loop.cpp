@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <numbers>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -230,6 +231,13 @@ RunReport TickLoop::finish(RunOutcome outcome, std::string reason) {
     log_.info("run", summary);
   else
     log_.error("run", summary);
+  // A simulated robot's true end pose: what a teach-and-repeat run is judged by (the navigation
+  // never sees it; odometry is the robot's own, with its error models).
+  if (SimulationControl* sim = robot_.simulation(); sim != nullptr) {
+    const Pose2D truth = sim->ground_truth_pose();
+    log_.info("run", "simulated ground truth at the end: x=" + fmt_s(truth.x_m) + " y=" + fmt_s(truth.y_m) +
+                         " heading=" + fmt_s(truth.heading_rad * 180.0 / std::numbers::pi) + " deg");
+  }
   return report_;
 }
 

@@ -256,6 +256,11 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                                 "when the edge ends: how much earlier (positive) or later in odometric distance than "
                                 "its taught length the primitive ended it (a visual along-track correction; 0 for "
                                 "odometry alone); FollowRoute counts the next edge's carried distance from there"),
+        bt::output_port<double>("shift_m", "{edge_shift_m}",
+                                "while the edge runs, every frame: the primitive's visual along-track correction so far "
+                                "(its along-edge distance minus the odometric count, taught metres; 0 at the start and "
+                                "for odometry alone); a decorator that halts and restarts the node mid-edge "
+                                "(ReplayAvoiding) carries it into the restart"),
     };
     VISNAV_TRY(append_param_ports(p, primitive_ports(type)));
     VISNAV_TRY(append_param_ports(p, LostPolicyPorts::ports()));
@@ -270,6 +275,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
   NodeStatus on_start() override {
     replayer_.reset();
     (void)set_output("end_shift_m", 0.0);  // never a previous edge's
+    (void)set_output("shift_m", 0.0);
     (void)set_output("failure", std::string());
     if (auto st = start(); !st) return failed(st.error().message);
     return on_running();
@@ -290,6 +296,13 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                             type_->uses_detector ? &frames_.features() : nullptr, problem};
     ReplayStep step = replayer_->step(input);
     if (problem != nullptr) step.confidence = 0.0;
+    // The primitive's along-edge distance against odometry's: published before any failure, so a
+    // decorator that takes over mid-edge keeps the correction (lap 0 only: a closed path's
+    // distance restarts every lap).
+    if (step.lap == 0) {
+      const double shift_m = step.distance_m - input.edge_distance_m;
+      (void)set_output("shift_m", std::isfinite(shift_m) ? shift_m : 0.0);
+    }
     if (step.lap != lap_) {
       lap_ = step.lap;
       (void)set_output("lap", lap_);

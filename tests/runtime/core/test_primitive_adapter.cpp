@@ -67,6 +67,33 @@ class TestReplayer final : public EdgeReplayer {
   double length_m_ = 0.0;
 };
 
+/// Drives like TestReplayer but sees itself `kAheadM` farther along than odometry says (a visual
+/// along-track correction, as FollowPathEdge's thumbnails give).
+class AheadReplayer final : public EdgeReplayer {
+ public:
+  static constexpr double kAheadM = 0.3;
+  using Params = TestParams;
+  static constexpr bool kUsesDetector = false;
+  explicit AheadReplayer(const Params& p) : p_(p) {}
+  Status begin(const ReplayStart& s) override {
+    length_m_ = s.edge.length_m;
+    return ok();
+  }
+  ReplayStep step(const ReplayInput& in) override {
+    ReplayStep out;
+    out.distance_m = in.edge_distance_m + kAheadM;
+    out.finished = out.distance_m >= length_m_;
+    out.confidence = 1.0;
+    out.command = out.finished ? Twist{} : Twist{p_.speed_mps, 0.0};
+    out.status = "testing";
+    return out;
+  }
+
+ private:
+  Params p_;
+  double length_m_ = 0.0;
+};
+
 class TestTeacher final : public EdgeTeacher {
  public:
   using Params = TestParams;
@@ -112,6 +139,7 @@ class PrimitiveAdapter : public ::testing::Test {
     ASSERT_TRUE(bt::register_builtin_nodes(registry_).ok());
     ASSERT_TRUE(register_replayer<TestReplayer>(registry_, host_, "ReplayTestEdge", "test", {"test"}).ok());
     ASSERT_TRUE(register_teacher<TestTeacher>(registry_, host_, "TeachTestEdge", "test", {"test"}).ok());
+    ASSERT_TRUE(register_replayer<AheadReplayer>(registry_, host_, "ReplayAheadEdge", "test", {"test"}).ok());
   }
   void TearDown() override { fs::remove_all(dir_); }
 
@@ -240,6 +268,28 @@ TEST_F(PrimitiveAdapter, TheDistanceScaleMakesThePrimitiveCountTheEdgeInTaughtMe
   EXPECT_EQ(replay("distance_scale=\"3\""), NodeStatus::failure);
   EXPECT_NE(logger_.text.find("distance_scale"), std::string::npos) << logger_.text;
   EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+}
+
+TEST_F(PrimitiveAdapter, TheAlongTrackCorrectionIsPublishedEveryFrameAndAtTheEnd) {
+  // shift_m is what a decorator that restarts the node mid-edge (ReplayAvoiding) carries over;
+  // end_shift_m what FollowRoute ends the edge with. Both are 0 for odometry alone.
+  const std::string id = add_edge({7});
+  auto tree = test::load_main_tree("<ReplayAheadEdge edge=\"" + id + "\" speed_mps=\"0.25\"/>", registry_, &clock_);
+  tree.blackboard().set("edge_shift_m", 5.0);  // a previous edge's value is never seen
+  EXPECT_EQ(tick(tree), NodeStatus::running) << logger_.text;
+  EXPECT_NEAR(*tree.blackboard().get<double>("edge_shift_m"), AheadReplayer::kAheadM, 1e-9);
+  NodeStatus s = NodeStatus::running;
+  for (int i = 0; i < 100 && s == NodeStatus::running; ++i) s = tick(tree);
+  EXPECT_EQ(s, NodeStatus::success) << logger_.text;
+  EXPECT_NEAR(robot_.odom_.distance_m, 1.0 - AheadReplayer::kAheadM, 0.026);
+  EXPECT_NEAR(*tree.blackboard().get<double>("edge_end_shift_m"), AheadReplayer::kAheadM, 1e-9);
+
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  auto plain = test::load_main_tree("<ReplayTestEdge edge=\"" + id + "\" speed_mps=\"0.25\"/>", registry_, &clock_);
+  plain.blackboard().set("edge_shift_m", 5.0);
+  EXPECT_EQ(tick(plain), NodeStatus::running) << logger_.text;
+  EXPECT_EQ(*plain.blackboard().get<double>("edge_shift_m"), 0.0);
 }
 
 TEST_F(PrimitiveAdapter, ABadPayloadFailsBeforeTheRobotMoves) {

@@ -408,6 +408,15 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   ports.push_back(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
                                          "odometric metres per taught metre (FollowRoute's estimate, as the replay "
                                          "child's port): the rewritten carried_m is in taught metres; unset counts as 1"));
+  ports.push_back(bt::input_port<double>(
+      "child_shift_m", "{edge_shift_m}",
+      "the child's visual along-track correction so far (the replay nodes' output 'shift_m', taught m): every restart "
+      "of the child after a stop, look, back-off or detour carries it in carried_m, so the correction of a path or "
+      "feature edge survives the interruptions; unset counts as 0"));
+  ports.push_back(bt::inout_port<double>(
+      "end_shift_m", "{edge_end_shift_m}",
+      "when the child ends the edge: its own end shift (the replay nodes' output) plus the corrections carried "
+      "over its restarts, rewritten so that FollowRoute sees the whole edge's correction"));
   ports.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
                                          "the replay's last confident odometer reading (lost detection); set to the "
                                          "odometer when a detour ends: the detour was driven on the IPT, not blind"));
@@ -505,6 +514,9 @@ NodeStatus ReplayAvoiding::tick() {
   if (crossing_drive_) return cross_step(*odom);
   if (backing_) return backoff_step(*odom);
   if (!child_started_ && !probing_) {
+    if (!resumed_) carried_shift_m_ = 0.0;  // a new edge: nothing carried over yet
+    resumed_ = false;
+    child_ran_ = false;
     auto carried = get_input<double>("carried_m");
     // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
     auto scale = get_input<double>("distance_scale");
@@ -644,9 +656,17 @@ NodeStatus ReplayAvoiding::tick() {
     return NodeStatus::running;
   }
   const NodeStatus st = child()->execute_tick();
+  child_ran_ = true;
   if (st == NodeStatus::running) return st;
   child_started_ = false;
   if (st == NodeStatus::failure) return child_failed(*odom);
+  if (carried_shift_m_ != 0.0) {
+    // FollowRoute takes the end node from end_shift_m: the child's last run saw only its own part.
+    auto end_shift = get_input<double>("end_shift_m");
+    const double child_end_m = end_shift && std::isfinite(*end_shift) ? *end_shift : 0.0;
+    (void)set_output("end_shift_m", child_end_m + carried_shift_m_);
+  }
+  carried_shift_m_ = 0.0;
   if (probe_) probe_->reset();
   if (crossing_) crossing_->forget_person();  // the next edge's person is another
   corridor_.clear();
@@ -713,7 +733,20 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
   // the line; nothing after a wait).
   const double along_m = (odom.pose.x_m - detour_start_.x_m) * std::cos(detour_start_.heading_rad) +
                          (odom.pose.y_m - detour_start_.y_m) * std::sin(detour_start_.heading_rad);
-  const double carried = (replay_done_m_ + along_m) / scale_;  // odometric metres -> the edge's taught metres
+  // The child's visual along-track correction of the run just interrupted (taught metres): the
+  // restarted child begins a new estimate from 0, so the correction is carried in its start
+  // distance instead of being lost at every stop (a path edge stopped every 0.7 m by ground
+  // shimmer otherwise ends on odometry alone). Only a run the child made since its last start.
+  double shift_m = 0.0;
+  if (child_ran_) {
+    auto child_shift = get_input<double>("child_shift_m");
+    if (child_shift && std::isfinite(*child_shift)) shift_m = *child_shift;
+  }
+  child_ran_ = false;
+  resumed_ = true;
+  carried_shift_m_ += shift_m;
+  // odometric metres -> the edge's taught metres
+  const double carried = (replay_done_m_ + along_m) / scale_ + shift_m;
   (void)set_output("carried_m", carried);
   (void)set_output("confident_at_m", odom.distance_m);
   (void)set_output("image_changed_at_m", odom.distance_m);
@@ -1141,6 +1174,9 @@ void ReplayAvoiding::halt() {
   runner_.stop_correction();
   detouring_ = false;
   child_started_ = false;
+  resumed_ = false;
+  child_ran_ = false;
+  carried_shift_m_ = 0.0;
   corridor_.clear();
   halt_child();
 }

@@ -285,6 +285,9 @@ class ReplayAvoiding : public bt::DecoratorNode {
   double replay_origin_m_ = 0.0;   // odometry distance at which the edge counts as 0
   double scale_ = 1.0;             // odometric metres per taught metre (distance_scale port)
   double replay_done_m_ = 0.0;     // edge distance covered when the detour began
+  double carried_shift_m_ = 0.0;   // the child's along-track corrections carried over its restarts, taught m
+  bool child_ran_ = false;         // the child was ticked since its last (re)start: its shift_m is its own
+  bool resumed_ = false;           // resume_child() set carried_m for the next start (not a new edge)
   std::optional<HiddenPathProbe> probe_;  // made at the first probe (probe_* ports)
   bool probing_ = false;           // the child gave up on a hidden path: creeping on, looking
   std::string probe_reason_;       // the child's failure that started the probe

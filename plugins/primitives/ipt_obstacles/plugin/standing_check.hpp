@@ -40,6 +40,8 @@ class StandingCheck {
     trail_.clear();
   }
   [[nodiscard]] double min_range_m() const { return min_range_m_; }
+  /// A firing whose extent judges less of the image a face than this is dropped (0 = never).
+  [[nodiscard]] double min_face_share() const { return min_face_share_; }
   /// The face's full extent (face_extent.hpp) for a verdict that fired on the last frame observed
   /// (`grey` at `pose`, `odometer_m`), from the frame standing_extent_m back; nullopt when off
   /// (standing_extent_m 0) or no frame is that far back. Error: bad image (a bug).
@@ -47,8 +49,9 @@ class StandingCheck {
                                            double odometer_m, const StandingVerdict& verdict) const;
 
  private:
-  explicit StandingCheck(const StandingWatchParams& params, double min_range_m, double extent_baseline_m)
-      : watch_(params), min_range_m_(min_range_m), extent_baseline_m_(extent_baseline_m) {}
+  explicit StandingCheck(const StandingWatchParams& params, double min_range_m, double extent_baseline_m,
+                         double min_face_share)
+      : watch_(params), min_range_m_(min_range_m), extent_baseline_m_(extent_baseline_m), min_face_share_(min_face_share) {}
   StandingWatch watch_;
   double min_range_m_;
   std::optional<NearTriangulation> near_;
@@ -56,6 +59,7 @@ class StandingCheck {
   bool have_last_ = false;
   double last_odometer_m_ = 0.0;
   double extent_baseline_m_ = 0.0;  // 0: no extent from the image
+  double min_face_share_ = 0.0;     // 0: every firing starts a detour
   FrameTrail trail_{0.05, 1.2};
 };
 

@@ -69,6 +69,7 @@ TEST(FaceExtent, APartlySeenFaceGetsItsFullWidthAndTheDetourTheFreeSide) {
   // The 60° camera sees 1.29 m to either side at 2.24 m: the right edge (−1.35 m) is just out
   // of view, so the face runs to the image's edge there.
   EXPECT_TRUE(s.extent.found);
+  EXPECT_GE(s.extent.face_share(), 0.3);  // the avoiding trees' standing_min_face_share keeps it
   EXPECT_NEAR(s.extent.range_m, 2.24, 0.15);
   EXPECT_NEAR(s.extent.right_m, van.y_right_m, 0.2);
   EXPECT_NEAR(s.extent.left_m, van.y_left_m, 0.2);
@@ -106,6 +107,7 @@ TEST(FaceExtent, AFaceFartherThanItsSeenPointsIsFoundAtItsDistance) {
   const Seen s = look(van, -0.11, 0.45, 3.7);
   std::printf("extent %.3f .. %.3f m at %.2f m\n", s.extent.right_m, s.extent.left_m, s.extent.range_m);
   EXPECT_TRUE(s.extent.found);
+  EXPECT_GE(s.extent.face_share(), 0.3);
   EXPECT_NEAR(s.extent.range_m, 3.7, 0.2);
   EXPECT_NEAR(s.extent.right_m, van.y_right_m, 0.2);
   EXPECT_NEAR(s.extent.left_m, van.y_left_m, 0.2);
@@ -136,6 +138,7 @@ TEST(FaceExtent, NothingStandingDoesNotGrowTheSpan) {
   EXPECT_GE(s.extent.right_m, -0.11 - 0.15);
   EXPECT_FALSE(s.extent.found);
   EXPECT_GT(s.extent.other_columns, 20);  // the ground behind the plane is seen as such
+  EXPECT_LT(s.extent.face_share(), 0.3);  // a firing here is dropped by the avoiding trees' share
   EXPECT_NEAR(s.extent.range_m, 2.24, 1e-9);
 }
 

@@ -41,41 +41,18 @@ struct TestParams {
   }
 };
 
-/// Drives straight at speed_mps, always confident; payload: one byte, 7.
-class TestReplayer final : public EdgeReplayer {
+/// Drives straight at speed_mps, always confident; payload: one byte, 7. It sees itself kAheadMm
+/// farther along than odometry says (a visual along-track correction, as FollowPathEdge's
+/// thumbnails give; 0 for TestReplayer).
+template <int kAheadMm>
+class DrivingReplayer final : public EdgeReplayer {
  public:
+  static constexpr double kAheadM = kAheadMm / 1000.0;
   using Params = TestParams;
   static constexpr bool kUsesDetector = false;
-  explicit TestReplayer(const Params& p) : p_(p) {}
+  explicit DrivingReplayer(const Params& p) : p_(p) {}
   Status begin(const ReplayStart& s) override {
     if (s.payload.size() != 1 || s.payload[0] != 7) return fail("not a test payload");
-    length_m_ = s.edge.length_m;
-    return ok();
-  }
-  ReplayStep step(const ReplayInput& in) override {
-    ReplayStep out;
-    out.distance_m = in.edge_distance_m;
-    out.finished = in.edge_distance_m >= length_m_;
-    out.confidence = 1.0;
-    out.command = out.finished ? Twist{} : Twist{p_.speed_mps, 0.0};
-    out.status = "testing";
-    return out;
-  }
-
- private:
-  Params p_;
-  double length_m_ = 0.0;
-};
-
-/// Drives like TestReplayer but sees itself `kAheadM` farther along than odometry says (a visual
-/// along-track correction, as FollowPathEdge's thumbnails give).
-class AheadReplayer final : public EdgeReplayer {
- public:
-  static constexpr double kAheadM = 0.3;
-  using Params = TestParams;
-  static constexpr bool kUsesDetector = false;
-  explicit AheadReplayer(const Params& p) : p_(p) {}
-  Status begin(const ReplayStart& s) override {
     length_m_ = s.edge.length_m;
     return ok();
   }
@@ -93,6 +70,8 @@ class AheadReplayer final : public EdgeReplayer {
   Params p_;
   double length_m_ = 0.0;
 };
+using TestReplayer = DrivingReplayer<0>;
+using AheadReplayer = DrivingReplayer<300>;
 
 class TestTeacher final : public EdgeTeacher {
  public:

@@ -413,6 +413,11 @@ bt::PortsList ReplayAvoiding::provided_ports() {
       "the child's visual along-track correction so far (the replay nodes' output 'shift_m', taught m): every restart "
       "of the child after a stop, look, back-off or detour carries it in carried_m, so the correction of a path or "
       "feature edge survives the interruptions; unset counts as 0"));
+  ports.push_back(bt::output_port<double>(
+      "extra_travel_m", "{edge_extra_travel_m}",
+      "when the child ends an edge on which the node detoured, reversed, probed or crossed: the odometric metres "
+      "driven that were not progress along the edge (a detour's sideways legs), so FollowRoute leaves them out of "
+      "the next edge's carried distance and of its distance-scale fixes; not written otherwise"));
   ports.push_back(bt::inout_port<double>(
       "end_shift_m", "{edge_end_shift_m}",
       "when the child ends the edge: its own end shift (the replay nodes' output) plus the corrections carried "
@@ -514,14 +519,21 @@ NodeStatus ReplayAvoiding::tick() {
   if (crossing_drive_) return cross_step(*odom);
   if (backing_) return backoff_step(*odom);
   if (!child_started_ && !probing_) {
-    if (!resumed_) carried_shift_m_ = 0.0;  // a new edge: nothing carried over yet
+    auto carried = get_input<double>("carried_m");
+    const double carried_m = carried && std::isfinite(*carried) ? *carried : 0.0;
+    if (!resumed_) {
+      // A new edge: nothing carried over yet, nothing driven off it.
+      carried_shift_m_ = 0.0;
+      moved_off_line_ = false;
+      edge_start_odometer_m_ = odom->distance_m;
+      edge_start_carried_m_ = carried_m;
+    }
     resumed_ = false;
     child_ran_ = false;
-    auto carried = get_input<double>("carried_m");
     // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
     auto scale = get_input<double>("distance_scale");
     scale_ = scale && *scale >= 0.5 && *scale <= 2.0 ? *scale : 1.0;
-    replay_origin_m_ = odom->distance_m - scale_ * (carried && std::isfinite(*carried) ? *carried : 0.0);
+    replay_origin_m_ = odom->distance_m - scale_ * carried_m;
     child_started_ = true;
     if (drive_watch_) drive_watch_->reset();
     drive_shimmer_.reset_hits();
@@ -660,13 +672,16 @@ NodeStatus ReplayAvoiding::tick() {
   if (st == NodeStatus::running) return st;
   child_started_ = false;
   if (st == NodeStatus::failure) return child_failed(*odom);
-  if (carried_shift_m_ != 0.0) {
-    // FollowRoute takes the end node from end_shift_m: the child's last run saw only its own part.
+  {
     auto end_shift = get_input<double>("end_shift_m");
     const double child_end_m = end_shift && std::isfinite(*end_shift) ? *end_shift : 0.0;
-    (void)set_output("end_shift_m", child_end_m + carried_shift_m_);
+    const double end_shift_m = child_end_m + carried_shift_m_;
+    // FollowRoute takes the end node from end_shift_m: the child's last run saw only its own part.
+    if (carried_shift_m_ != 0.0) (void)set_output("end_shift_m", end_shift_m);
+    if (moved_off_line_) report_extra_travel(*odom, end_shift_m);
   }
   carried_shift_m_ = 0.0;
+  moved_off_line_ = false;
   if (probe_) probe_->reset();
   if (crossing_) crossing_->forget_person();  // the next edge's person is another
   corridor_.clear();
@@ -699,6 +714,7 @@ NodeStatus ReplayAvoiding::child_failed(const Odometry& odom) {
   }
   probe_->begin(odom.pose, odom.distance_m);
   probing_ = true;
+  moved_off_line_ = true;
   near_points_.clear();
   if (near_) near_->reset();
   probe_reason_ = *failure;
@@ -726,6 +742,21 @@ Result<std::vector<cv::Point2d>> ReplayAvoiding::triangulate_near(const Odometry
   out.reserve(points.size());
   for (const auto& p : points) out.push_back(p.ground_m);
   return out;
+}
+
+void ReplayAvoiding::report_extra_travel(const Odometry& odom, double end_shift_m) {
+  // Driven straight, the edge takes scale_ * (length - carried at the start - the visual
+  // corrections) of odometry; what the node drove beyond that went sideways or back and forth.
+  auto edge = get_input<std::string>("edge");
+  if (!edge || edge->empty() || host_.map() == nullptr) return;
+  const EdgeRecord* record = host_.map()->find_edge(*edge);
+  if (record == nullptr) return;
+  const double straight_m = scale_ * (record->length_m - edge_start_carried_m_ - end_shift_m);
+  const double extra_m = (odom.distance_m - edge_start_odometer_m_) - straight_m;
+  if (!std::isfinite(extra_m) || extra_m <= 0.0) return;
+  (void)set_output("extra_travel_m", extra_m);
+  host_.logger().info(path(), "edge " + *edge + " done: " + std::to_string(extra_m) +
+                                  " m of its odometry went off the route (detours, reversing), not along it");
 }
 
 void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) {
@@ -999,6 +1030,7 @@ void ReplayAvoiding::begin_crossing(const Odometry& odom, double way_ahead_m, co
   params.distance_m = crossing_->clear_distance_m(way_ahead_m);
   params.speed_mps = crossing_->crossing_speed_mps();
   crossing_drive_.emplace(params);
+  moved_off_line_ = true;
   crossing_drive_->begin(odom.pose, odom.distance_m);
   at_kerb_ = false;
   host_.logger().info(path(), why + ": crossing the person's way, " + std::to_string(params.distance_m) + " m at " +
@@ -1019,6 +1051,7 @@ NodeStatus ReplayAvoiding::cross_step(const Odometry& odom) {
 }
 
 NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
+  moved_off_line_ = true;
   {
     auto ahead = get_input<double>("goal_ahead_m");
     if (!ahead) return NodeStatus::failure;
@@ -1177,6 +1210,7 @@ void ReplayAvoiding::halt() {
   resumed_ = false;
   child_ran_ = false;
   carried_shift_m_ = 0.0;
+  moved_off_line_ = false;
   corridor_.clear();
   halt_child();
 }
@@ -1204,6 +1238,7 @@ Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
   backoff_->begin(odom.pose, odom.distance_m);
   if (near_) near_->reset();
   backing_ = true;
+  moved_off_line_ = true;
   host_.logger().info(path(), "nothing moves ahead and no contact: backing off " + std::to_string(distance) +
                                   " m while triangulating what stands ahead");
   return true;

@@ -206,6 +206,10 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus look_step(const Odometry& odom);
   /// The replay child starts again at the along-track distance reached (after a detour or a wait).
   void resume_child(const Odometry& odom, const std::string& why);
+  /// The child ended the edge after the node drove off its line: writes extra_travel_m, the
+  /// odometry beyond what the edge takes driven straight (`end_shift_m`: the whole edge's visual
+  /// correction), when positive.
+  void report_extra_travel(const Odometry& odom, double end_shift_m);
   /// While replaying: true when the ground-compensated frame difference shows something moving
   /// or standing within moving_stop_m ahead on two frames in a row (a person stepping in).
   Result<bool> moving_near(const Odometry& odom);
@@ -288,6 +292,9 @@ class ReplayAvoiding : public bt::DecoratorNode {
   double carried_shift_m_ = 0.0;   // the child's along-track corrections carried over its restarts, taught m
   bool child_ran_ = false;         // the child was ticked since its last (re)start: its shift_m is its own
   bool resumed_ = false;           // resume_child() set carried_m for the next start (not a new edge)
+  bool moved_off_line_ = false;    // this edge had a detour, back-off, probe or crossing (extra_travel_m)
+  double edge_start_odometer_m_ = 0.0;  // odometer when the edge's child first started
+  double edge_start_carried_m_ = 0.0;   // carried_m then (FollowRoute's), taught m
   std::optional<HiddenPathProbe> probe_;  // made at the first probe (probe_* ports)
   bool probing_ = false;           // the child gave up on a hidden path: creeping on, looking
   std::string probe_reason_;       // the child's failure that started the probe

@@ -231,6 +231,11 @@ bt::PortsList FollowRoute::provided_ports() {
                              "written by the replay child when it ends an edge: how much earlier in odometric "
                              "distance than the edge's length it put the end node (its visual along-track "
                              "correction); the overshoot carried into the next edge is counted from there (unset: 0)"),
+      bt::inout_port<double>(
+          "extra_travel_m", "{edge_extra_travel_m}",
+          "written by the replay child when it ends an edge: odometric metres it drove that were not progress along "
+          "the edge (ReplayAvoiding's detours, reversing, crossings); FollowRoute reset it to 0 at the edge's start and "
+          "counts route distance without it (the next edge's carried distance and the distance-scale fixes), m"),
       bt::input_port<bool>("checkpoint", "false",
                            "keep a progress checkpoint (edge, distance, goal) in the map folder, progress.yaml, "
                            "written crash-safely at each edge start and every checkpoint_interval_m, removed when the "
@@ -375,7 +380,7 @@ NodeStatus FollowRoute::tick() {
         turn_target_ = turn_target_rad(prev, edge, *heading);
         arc_start_m_.reset();
         if (FrameBus* bus = host_.frame_bus())
-          if (auto odom = bus->latest_odometry()) arc_start_m_ = odom->distance_m;
+          if (auto odom = bus->latest_odometry()) arc_start_m_ = route_odometer_m(*odom);
       }
       const Twist c = arc_turn_command(wrap_angle_rad(*turn_target_ - *heading), turn_, arc_);
       if (moving(c)) {
@@ -403,7 +408,7 @@ NodeStatus FollowRoute::tick() {
           carried_m = carried_distance_m(*arc_start_m_ - *ended_at_m_, 0.0, turn_between_edges_rad(*prev, edge),
                                          max_carry_m_);
         } else {
-          carried_m = carried_distance_m(odom->distance_m - *ended_at_m_, taught_gap_m,
+          carried_m = carried_distance_m(route_odometer_m(*odom) - *ended_at_m_, taught_gap_m,
                                          turn_between_edges_rad(*prev, edge), max_carry_m_);
         }
       }
@@ -414,8 +419,9 @@ NodeStatus FollowRoute::tick() {
     // carried_m is in taught metres: the odometric overshoot divided by the scale.
     carried_m /= (index_ == 0 && start_distance_m_ > 0.0) ? 1.0 : edge_scale_;
     edge_origin_m_.reset();
-    if (odom) edge_origin_m_ = odom->distance_m - edge_scale_ * carried_m;
+    if (odom) edge_origin_m_ = route_odometer_m(*odom) - edge_scale_ * carried_m;
     if (auto st = set_output("carried_m", carried_m); !st) return fail_node(host_, *this, st.error().message);
+    (void)set_output("extra_travel_m", 0.0);  // never a previous edge's (a tree may bind a literal)
     if (auto st = set_output("distance_scale", edge_scale_); !st) return fail_node(host_, *this, st.error().message);
     if (auto st = set_output("edge", edge.id); !st) return fail_node(host_, *this, st.error().message);
     (void)set_output("current_node", edge.from);
@@ -446,6 +452,10 @@ NodeStatus FollowRoute::tick() {
                                                                  edge.kind) != scale_fix_kinds_.end();
     if (scale_distance_ && fix_kind && shift_m != 0.0) scale_estimator_.add_fix(taught_total_m_ + edge.length_m, *ended_at_m_);
   }
+  // Odometry the child drove off the route (a detour's sideways legs) is no progress along it:
+  // route distances from here on leave it out.
+  if (const auto extra = get_input<double>("extra_travel_m"); extra && std::isfinite(*extra) && *extra > 0.0)
+    extra_travel_m_ += *extra;
   taught_total_m_ += edge.length_m;
   ended_edge_ = edge.id;
   ++index_;
@@ -482,7 +492,7 @@ void FollowRoute::save_progress(const EdgeRecord& edge) {
   if (!checkpoint_ || !edge_origin_m_ || host_.frame_bus() == nullptr) return;
   const auto odom = host_.frame_bus()->latest_odometry();
   if (!odom) return;
-  const double along_m = std::clamp((odom->distance_m - *edge_origin_m_) / edge_scale_, 0.0, edge.length_m);
+  const double along_m = std::clamp((route_odometer_m(*odom) - *edge_origin_m_) / edge_scale_, 0.0, edge.length_m);
   if (checkpointed_m_ && along_m - *checkpointed_m_ < checkpoint_interval_m_) return;
   MapStore& map = *host_.map();
   const EdgeRecord* last = map.find_edge(route_.back());

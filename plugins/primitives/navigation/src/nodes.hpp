@@ -98,7 +98,13 @@ class FollowRoute final : public bt::ControlNode {
   bool checkpoint_warned_ = false;
   bool first_turn_absolute_ = false;
   std::optional<double> edge_origin_m_;  ///< odometric distance at which the current edge counts as started
-  std::optional<double> ended_at_m_;     ///< odometric distance of the last finished edge's end node
+  std::optional<double> ended_at_m_;     ///< route distance (route_odometer_m) of the last finished edge's end node
+  /// Odometric metres the children drove off the route (their extra_travel_m), summed; never reset,
+  /// so every stored route distance stays in one frame.
+  double extra_travel_m_ = 0.0;
+  /// The odometer less the travel off the route: what the edge origins, the carried overshoot and
+  /// the distance-scale fixes count in.
+  [[nodiscard]] double route_odometer_m(const Odometry& odom) const { return odom.distance_m - extra_travel_m_; }
   std::string ended_edge_;               ///< that edge's id
   std::size_t index_ = 0;
   bool turning_ = true;

@@ -44,11 +44,17 @@ class TestReplayEdge final : public bt::StatefulActionNode {
             bt::input_port<double>("truth_scale", "0",
                                    "> 0: odometry reads this many metres per taught metre, and the child sees where "
                                    "the edge really ends (a visual fix); it counts the edge with distance_scale"),
+            bt::input_port<double>("off_route_m", "0",
+                                   "drive this much more odometry than the edge takes and report it as travel off the "
+                                   "route (a detour's sideways legs, ReplayAvoiding)"),
+            bt::output_port<double>("extra_travel_m", "{edge_extra_travel_m}", "odometry driven off the route"),
             bt::output_port<double>("end_shift_m", "{edge_end_shift_m}", "how much earlier it ended")};
   }
   NodeStatus on_start() override {
     auto early = get_input<double>("end_early_m");
     end_early_m_ = early ? *early : 0.0;
+    auto off_route = get_input<double>("off_route_m");
+    off_route_m_ = off_route ? *off_route : 0.0;
     auto edge = get_input<std::string>("edge");
     if (!edge) return NodeStatus::failure;
     const EdgeRecord* record = host_.map()->find_edge(*edge);
@@ -79,9 +85,10 @@ class TestReplayEdge final : public bt::StatefulActionNode {
       (void)host_.robot()->send_command({1.0, 0.0});
       return NodeStatus::running;
     }
-    if (odom.distance_m - start_m_ >= length_m_ - end_early_m_ - 1e-9) {
+    if (odom.distance_m - start_m_ >= length_m_ - end_early_m_ + off_route_m_ - 1e-9) {
       (void)host_.robot()->stop();
       (void)set_output("end_shift_m", end_early_m_);
+      if (off_route_m_ > 0.0) (void)set_output("extra_travel_m", off_route_m_);
       return NodeStatus::success;
     }
     (void)host_.robot()->send_command({1.0, 0.0});
@@ -92,7 +99,7 @@ class TestReplayEdge final : public bt::StatefulActionNode {
  private:
   HostServices& host_;
   Recorder& rec_;
-  double start_m_ = 0, length_m_ = 0, end_early_m_ = 0, scale_ = 1, truth_scale_ = 0;
+  double start_m_ = 0, length_m_ = 0, end_early_m_ = 0, scale_ = 1, truth_scale_ = 0, off_route_m_ = 0;
 };
 
 /// Teach child: records the distance while the operator drives; on {finish_edge} writes the
@@ -406,6 +413,23 @@ TEST_F(NavigationNodes, FollowRouteCarriesFromWhereTheChildEndedTheEdge) {
   ASSERT_EQ(rec_.carried_m.size(), 2u);
   EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
   EXPECT_NEAR(robot_.odom_.distance_m, 3.5, 1e-6);  // both ends 0.3 m early: 4.1 − 0.6
+}
+
+TEST_F(NavigationNodes, FollowRouteLeavesTheTravelOffTheRouteOutOfTheCarriedDistance) {
+  // The child drove 0.6 m of odometry beside its edges (a detour) and says so
+  // ({edge_extra_travel_m}): only the 0.05 m it stopped past the end node are carried into the
+  // straight continuation, not the 0.65 m the odometer shows (clamped to max_carry_m 0.5, the
+  // next edge would start half a metre ahead of where the robot is).
+  auto a = node("A"), b = node("B"), c = node("C");
+  edge(a, b, 2.05, 0.0, 0.0);
+  edge(b, c, 2.05, 0.0, 0.0);
+  auto tree = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge"><TestReplayEdge off_route_m="0.6"/></FollowRoute>
+      </Sequence>)");
+  EXPECT_EQ(run(tree), NodeStatus::success);
+  ASSERT_EQ(rec_.carried_m.size(), 2u);
+  EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
+  EXPECT_NEAR(robot_.odom_.distance_m, 4.1 + 2 * 0.6, 1e-6);
 }
 
 TEST_F(NavigationNodes, FollowRouteLearnsTheOdometryScaleFromVisualFixes) {

@@ -234,7 +234,7 @@ bt::PortsList FollowRoute::provided_ports() {
       bt::inout_port<double>(
           "extra_travel_m", "{edge_extra_travel_m}",
           "written by the replay child when it ends an edge: odometric metres it drove that were not progress along "
-          "the edge (ReplayAvoiding's detours, reversing, crossings); FollowRoute reset it to 0 at the edge's start and "
+          "the edge (ReplayAvoiding's detours, reversing, crossings); FollowRoute resets it to 0 at the edge's start and "
           "counts route distance without it (the next edge's carried distance and the distance-scale fixes), m"),
       bt::input_port<bool>("checkpoint", "false",
                            "keep a progress checkpoint (edge, distance, goal) in the map folder, progress.yaml, "

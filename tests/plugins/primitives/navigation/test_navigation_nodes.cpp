@@ -430,6 +430,19 @@ TEST_F(NavigationNodes, FollowRouteLeavesTheTravelOffTheRouteOutOfTheCarriedDist
   ASSERT_EQ(rec_.carried_m.size(), 2u);
   EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
   EXPECT_NEAR(robot_.odom_.distance_m, 4.1 + 2 * 0.6, 1e-6);
+
+  // A child that never writes the entry (the plain replay nodes) leaves no stale value behind:
+  // FollowRoute resets it at every edge start, so a leftover 5 m is not taken off the route.
+  rec_ = Recorder{};
+  robot_.odom_ = Odometry{};
+  robot_.publish();
+  auto plain = load(R"(<Sequence><PlanRoute start="A" goal="C"/>
+      <FollowRoute turn_tolerance_rad="0.01" primitives="feature_segment=TestReplayEdge"><TestReplayEdge/></FollowRoute>
+      </Sequence>)");
+  plain.blackboard().set("edge_extra_travel_m", 5.0);
+  EXPECT_EQ(run(plain), NodeStatus::success);
+  ASSERT_EQ(rec_.carried_m.size(), 2u);
+  EXPECT_NEAR(rec_.carried_m[1], 0.05, 1e-6);
 }
 
 TEST_F(NavigationNodes, FollowRouteLearnsTheOdometryScaleFromVisualFixes) {

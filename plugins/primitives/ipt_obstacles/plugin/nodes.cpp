@@ -1191,7 +1191,9 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
     return NodeStatus::failure;
   }
   const double w = std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps);
-  const double v = std::fabs(d.heading_rad) > 1.0 ? 0.0 : lim.speed_mps * std::max(0.0, std::cos(d.heading_rad));
+  // hold_forward: a known point in the body's way straight ahead: turn in place (lane_detour.hpp).
+  const double v = d.hold_forward || std::fabs(d.heading_rad) > 1.0 ? 0.0
+                                                                     : lim.speed_mps * std::max(0.0, std::cos(d.heading_rad));
   send(host_, v, w);
   return NodeStatus::running;
 }
@@ -1236,6 +1238,7 @@ Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
   if (auto st = params.validate(); !st) return st.error().with_context("ports 'backoff_m'/'backoff_speed_mps'");
   backoff_.emplace(params);
   backoff_->begin(odom.pose, odom.distance_m);
+  backoff_trail_.clear();
   if (near_) near_->reset();
   backing_ = true;
   moved_off_line_ = true;
@@ -1254,6 +1257,7 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
   }
   backoff_->add_points(*points);
   if (!points->empty()) log_points(host_, *this, odom.pose, *points);
+  if (!near_grey_.empty()) backoff_trail_.add(near_grey_, odom.pose, -odom.distance_m);
   const BackOffLook::Step s = backoff_->step(odom.pose, odom.distance_m);
   if (!s.done) {
     send(host_, s.command.linear_mps, s.command.angular_radps);
@@ -1276,8 +1280,40 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
                                   std::to_string(v.range_m) + " m ahead, points from " + std::to_string(v.right_m) +
                                   " to " + std::to_string(v.left_m) + " m left of the heading: detour");
   const NodeStatus st = begin_detour(odom);
-  if (lane_) lane_->add_points(backoff_->points());
+  if (lane_) {
+    lane_->add_points(backoff_->points());
+    add_backoff_extent(odom, v);
+  }
+  backoff_trail_.clear();
   return st;
+}
+
+void ReplayAvoiding::add_backoff_extent(const Odometry& odom, const BackOffVerdict& v) {
+  auto baseline = get_input<double>("standing_extent_m");
+  if (!baseline || *baseline <= 0.0 || near_grey_.empty()) return;
+  // The back-off's triangulated corners spread over what stands ahead and the clutter beside it
+  // (campus seed 3: 468 corners from 1.0 m right to 1.19 m left, the van 1.64 m right to 0.27 m
+  // left: the detour's lane ended at the van's corner); the plane sweep reads the face's edges
+  // from the image. The frame standing_extent_m nearer the face is the "earlier" one.
+  const FrameTrail::Kept* nearer = backoff_trail_.back(-odom.distance_m, *baseline);
+  if (nearer == nullptr) return;
+  auto camera = read_camera(*this, near_grey_);
+  cv::Mat grey = near_grey_;
+  if (grey.type() != CV_8UC1) return;
+  Result<FaceExtent> e = camera ? face_extent(*camera, nearer->grey, nearer->pose, grey, odom.pose, v.range_m, v.right_m,
+                                              v.left_m, FaceExtentParams{})
+                                : Result<FaceExtent>(camera.error());
+  if (!e) {
+    host_.logger().warn(path(), "back-off: no extent from the image: " + e.error().message);
+    return;
+  }
+  host_.logger().info(path(), std::string("back-off: the face's extent from the image: ") + (e->found ? "" : "no face found, ") +
+                                  std::to_string(e->right_m) + " to " + std::to_string(e->left_m) + " m left, " +
+                                  std::to_string(e->range_m) + " m ahead (" + std::to_string(e->face_columns) + " face, " +
+                                  std::to_string(e->other_columns) + " other columns)");
+  if (!e->found) return;
+  lane_->add_points(e->points);
+  lane_->prefer_side(side_past(std::min(v.right_m, e->right_m), std::max(v.left_m, e->left_m)));
 }
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {

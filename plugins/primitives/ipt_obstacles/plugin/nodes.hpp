@@ -229,6 +229,14 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus backoff_step(const Odometry& odom);
   std::optional<BackOffLook> backoff_;
   bool backing_ = false;
+  /// The back-off's frames, keyed by the negated odometer (it decreases while reversing), for the
+  /// face's extent from the image when the back-off finds something (standing_extent_m > 0).
+  FrameTrail backoff_trail_{0.05, 1.2};
+  /// After a back-off that found a face (`v`, last frame near_grey_ at `odom`): the face's full
+  /// width from the image (face_extent.hpp), against the back-off's frame standing_extent_m
+  /// nearer the face; added to the lane detour's points, and its side chosen for that width.
+  /// Logs and ignores a failure (the detour keeps the triangulated points).
+  void add_backoff_extent(const Odometry& odom, const BackOffVerdict& v);
   /// While the child drives (standing_min_points > 0; standing_check.hpp): feeds the frame to the
   /// triangulation and the standing watch; when it fires, stops the child and starts the lane
   /// detour with the face's points and returns the detour's first status. Error: bad ports.

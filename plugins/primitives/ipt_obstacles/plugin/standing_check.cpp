@@ -17,6 +17,11 @@ bt::PortsList standing_ports() {
               "while the child drives: corners triangulated above the ground (near_triangulation.hpp) within one face's "
               "depth (standing_depth_m) in the corridor ahead, from at least 2 triangulations of the last 1.5 m, that "
               "stop the child and start the lane detour with the face's points (standing_watch.hpp); 0 = off"),
+          bt::input_port<int>("standing_one_batch_points", "0",
+                              "standing watch: a face with at least this many corners fires from one triangulation "
+                              "(on a path edge the follower's steering may leave no second straight baseline before "
+                              "the face is reached; campus seed 9: 11 corners 3.1 m ahead, then none until contact); "
+                              "pair it with standing_min_face_share; 0 = off (two triangulations needed)"),
           bt::input_port<double>("standing_depth_m", "0.6", "standing watch: forward depth of one face's points, m"),
           bt::input_port<double>("standing_range_m", "4.0",
                                  "standing watch: corners at most this far ahead count (the triangulation's reach), m"),
@@ -42,13 +47,14 @@ Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNod
   if (min_points == 0) return std::optional<StandingCheck>{};
   StandingWatchParams params;
   params.min_points = min_points;
+  VISNAV_ASSIGN(params.one_batch_points, node.get_input<int>("standing_one_batch_points"));
   VISNAV_ASSIGN(params.depth_band_m, node.get_input<double>("standing_depth_m"));
   VISNAV_ASSIGN(params.max_range_m, node.get_input<double>("standing_range_m"));
   VISNAV_ASSIGN(params.min_width_m, node.get_input<double>("standing_min_width_m"));
   VISNAV_ASSIGN(params.corridor_half_width_m, node.get_input<double>("corridor_half_width_m"));
   VISNAV_ASSIGN(const double min_range_m, node.get_input<double>("standing_min_range_m"));
   if (auto st = params.validate(); !st)
-    return st.error().with_context("ports 'standing_min_points'/'standing_depth_m'/'standing_range_m'/'standing_min_width_m'");
+    return st.error().with_context("ports 'standing_min_points'/'standing_one_batch_points'/'standing_depth_m'/'standing_range_m'/'standing_min_width_m'");
   if (!std::isfinite(min_range_m) || min_range_m < 0.0 || min_range_m >= params.max_range_m)
     return Error{"port 'standing_min_range_m': " + std::to_string(min_range_m) + " must lie in [0, standing_range_m)",
                  ErrorCode::out_of_range};

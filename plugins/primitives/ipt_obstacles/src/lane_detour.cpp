@@ -45,7 +45,13 @@ const ParamSchema<LaneDetourParams>& LaneDetourParams::schema() {
                             .field("recover_clear_m", &P::recover_clear_m, "reverse until no obstacle point is this close ahead")
                             .range(0.5, 20.0)
                             .field("max_reverse_m", &P::max_reverse_m, "most reversing along the line per recovery")
-                            .range(0.5, 50.0);
+                            .range(0.5, 50.0)
+                            .field("guard_reach_m", &P::guard_reach_m, "no forward travel into a point this far beyond the body's front; 0 = off")
+                            .range(0.0, 5.0)
+                            .field("guard_margin_m", &P::guard_margin_m, "the guard's band: body radius + this either side")
+                            .range(0.0, 2.0)
+                            .field("guard_max_turn_rad", &P::guard_max_turn_rad, "the guard's search for a free heading, either way")
+                            .range(0.0, 3.2);
   return s;
 }
 
@@ -120,6 +126,19 @@ double LaneDetour::came_at(double s_m) const {
   for (auto it = track_.rbegin(); it != track_.rend(); ++it)
     if (it->x <= s_m) return it->y;
   return 0.0;  // before the detour's start: the replay drove on the line
+}
+
+bool LaneDetour::way_blocked(double s_m, double l_m, double dir_on_line_rad) const {
+  if (params_.guard_reach_m <= 0.0) return false;
+  const double c = std::cos(dir_on_line_rad), sn = std::sin(dir_on_line_rad);
+  const double half = params_.body_radius_m + params_.guard_margin_m;
+  const double reach = params_.body_radius_m + params_.guard_reach_m;
+  for (const auto& p : points_) {
+    const double ds = p.x - s_m, dl = p.y - l_m;
+    const double fwd = c * ds + sn * dl, lat = -sn * ds + c * dl;
+    if (fwd > 0.0 && fwd <= reach && std::fabs(lat) < half) return true;
+  }
+  return false;
 }
 
 std::string LaneDetour::closes_reason(int side) const {
@@ -240,11 +259,37 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     return d;
   }
   track_.emplace_back(r.x, r.y);
-  const double aim_line = std::atan2(*lane - r.y, params_.aim_ahead_m);  // relative to the line
-  d.heading_rad = std::remainder(aim_line - heading_on_line, 2.0 * CV_PI);
+  double aim_line = std::atan2(*lane - r.y, params_.aim_ahead_m);  // relative to the line
   d.kind = LaneDecision::Kind::drive;
   d.reason = *lane == 0.0 ? std::string("returning to the line")
                           : "lane " + std::to_string(*lane) + " m " + (*lane > 0 ? "left" : "right") + " of the line";
+  if (way_blocked(r.x, r.y, aim_line)) {
+    // The pursuit's direction runs into a known point: the nearest free direction, towards the
+    // target lane first (its side of the line), then the other way.
+    const double toward = *lane - r.y >= 0.0 ? 1.0 : -1.0;
+    std::optional<double> free_dir;
+    const double step = 0.05;
+    for (double k = step; k <= 2.0 * params_.guard_max_turn_rad + 1e-9 && !free_dir; k += step)
+      for (const double sign : {toward, -toward}) {
+        const double dir = aim_line + sign * k;
+        if (std::fabs(dir) > params_.guard_max_turn_rad) continue;
+        if (!way_blocked(r.x, r.y, dir)) {
+          free_dir = dir;
+          break;
+        }
+      }
+    if (!free_dir) {
+      d.kind = LaneDecision::Kind::blocked;
+      d.reason = "a known obstacle point lies in the body's way within " + std::to_string(params_.guard_reach_m) +
+                 " m in every direction within " + std::to_string(params_.guard_max_turn_rad) + " rad of the line (" +
+                 std::to_string(points_.size()) + " obstacle points)";
+      return d;
+    }
+    aim_line = *free_dir;
+    d.reason += " (steering round a point in the way)";
+  }
+  d.heading_rad = std::remainder(aim_line - heading_on_line, 2.0 * CV_PI);
+  d.hold_forward = way_blocked(r.x, r.y, heading_on_line);
   return d;
 }
 

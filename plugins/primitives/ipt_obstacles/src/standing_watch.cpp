@@ -23,6 +23,12 @@ const ParamSchema<StandingWatchParams>& StandingWatchParams::schema() {
                             .field("depth_band_m", &P::depth_band_m, "forward depth of one face, m").range(0.05, 5.0)
                             .field("min_points", &P::min_points, "face points that fire").range(1, 10000)
                             .field("min_batches", &P::min_batches, "distinct triangulations that fire").range(1, 1000)
+                            .field("one_batch_points", &P::one_batch_points,
+                                   "face points that fire from fewer triangulations; 0 = off")
+                            .range(0, 100000)
+                            .field("one_batch_points", &P::one_batch_points,
+                                   "face points that fire from fewer triangulations; 0 = off")
+                            .range(0, 100000)
                             .field("memory_m", &P::memory_m, "points kept for this travel, m").range(0.1, 20.0)
                             .field("extent_half_width_m", &P::extent_half_width_m, "lateral extent reach, m")
                             .range(0.05, 10.0)
@@ -101,7 +107,9 @@ StandingVerdict StandingWatch::judge(const Pose2D& pose) const {
   }
   v.left_m = left;
   v.right_m = right;
-  v.found = v.in_face >= params_.min_points && v.batches >= params_.min_batches && left - right >= params_.min_width_m;
+  const bool seen_again = v.in_face >= params_.min_points && v.batches >= params_.min_batches;
+  const bool seen_well = params_.one_batch_points > 0 && v.in_face >= params_.one_batch_points;
+  v.found = (seen_again || seen_well) && left - right >= params_.min_width_m;
   return v;
 }
 

@@ -16,10 +16,10 @@ namespace {
 
 /// One 0.1 s step of the kinematic robot the detour tests drive: turning towards `heading_rad`
 /// (robot frame) at most 0.6 rad/s, forward at 0.2 m/s scaled by its cosine, standing when it
-/// points more than 1 rad off.
-void drive_towards(Pose2D& pose, double heading_rad) {
+/// points more than 1 rad off or the decision holds the forward travel (as ReplayAvoiding).
+void drive_towards(Pose2D& pose, double heading_rad, bool hold_forward = false) {
   const double w = std::clamp(1.5 * heading_rad, -0.6, 0.6);
-  const double v = std::fabs(heading_rad) > 1.0 ? 0.0 : 0.2 * std::max(0.0, std::cos(heading_rad));
+  const double v = hold_forward || std::fabs(heading_rad) > 1.0 ? 0.0 : 0.2 * std::max(0.0, std::cos(heading_rad));
   pose.heading_rad += w * 0.1;
   pose.x_m += v * 0.1 * std::cos(pose.heading_rad);
   pose.y_m += v * 0.1 * std::sin(pose.heading_rad);
@@ -49,7 +49,7 @@ LoopResult drive(LaneDetourParams params, const std::vector<cv::Point2d>& seen, 
   for (; r.cycles < 2000; ++r.cycles) {
     r.last = detour.decide(pose);
     if (r.last.kind != LaneDecision::Kind::drive) break;
-    drive_towards(pose, r.last.heading_rad);
+    drive_towards(pose, r.last.heading_rad, r.last.hold_forward);
     r.min_clearance_m = std::min(r.min_clearance_m, van.distance(pose.x_m, pose.y_m));
   }
   return r;
@@ -136,7 +136,7 @@ PassResult pass_seeing(LaneDetourParams params, const Box& box) {
     detour.add_points(seen_from(pose, box));
     r.last = detour.decide(pose);
     if (r.last.kind != LaneDecision::Kind::drive) break;
-    drive_towards(pose, r.last.heading_rad);
+    drive_towards(pose, r.last.heading_rad, r.last.hold_forward);
     if (pose.x_m > box.x0 + 1.0) r.min_beside_m = std::min(r.min_beside_m, box.distance(pose.x_m, pose.y_m));
   }
   r.points = detour.point_count();
@@ -204,6 +204,34 @@ TEST(LaneDetour, KeepsClearOfAnUnseenSideWhileTheOdometryDrifts) {
   // No drift: the margin costs nothing but width.
   const double straight = pass_drifting(LaneDetourParams{}, van, 0.0);
   EXPECT_GT(straight, 0.25 + 0.3) << straight;
+}
+
+TEST(LaneDetour, NeverDrivesTheBodyIntoAKnownPoint) {
+  // Campus seed 3 (session 16): the detour began 1.2 m in front of a face it saw whole, its lane
+  // 0.9 m left of the line; pursuing a point 1.2 m ahead the robot was still turning out when
+  // its front reached the face. The guard holds the forward travel and turns in place instead.
+  const Box face{1.2, 1.4, -1.0, 0.35};
+  std::vector<cv::Point2d> seen;
+  for (double y = face.y0; y <= face.y1 + 1e-9; y += 0.05) seen.emplace_back(face.x0, y);
+  LaneDetourParams params;
+  params.clearance_m = 0.3;
+  params.behind_m = 0.5;
+  params.guard_reach_m = 0.0;
+  const LoopResult unguarded = drive(params, seen, face);
+  EXPECT_LT(unguarded.min_clearance_m, params.body_radius_m) << "the geometry must collide without the guard";
+  params.guard_reach_m = 0.3;
+  const LoopResult guarded = drive(params, seen, face);
+  ASSERT_EQ(guarded.last.kind, LaneDecision::Kind::done) << guarded.last.reason;
+  EXPECT_GT(guarded.min_clearance_m, params.body_radius_m);
+  EXPECT_GT(guarded.last.s_m, face.x1);
+  // Points in every direction within guard_max_turn_rad: blocked with the reason, not driven into.
+  LaneDetour boxed(LaneDetourParams{}, Pose2D{});
+  std::vector<cv::Point2d> ring;
+  for (double a = -1.7; a <= 1.7; a += 0.05) ring.emplace_back(0.4 * std::cos(a), 0.4 * std::sin(a));
+  boxed.add_points(ring);
+  const LaneDecision d = boxed.decide(Pose2D{});
+  EXPECT_EQ(d.kind, LaneDecision::Kind::blocked);
+  EXPECT_NE(d.reason.find("in the body's way"), std::string::npos) << d.reason;
 }
 
 TEST(LaneDetour, NoFreeLaneIsBlockedWithAReason) {
@@ -316,7 +344,7 @@ Recovery recover(const LaneDetourParams& p, bool right_closes_too, bool right_cl
         detour.add_points(wall);
         continue;
       }
-      drive_towards(pose, r.last.heading_rad);
+      drive_towards(pose, r.last.heading_rad, r.last.hold_forward);
     } else {
       break;
     }

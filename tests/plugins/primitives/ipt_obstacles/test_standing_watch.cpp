@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -132,6 +133,41 @@ TEST(StandingWatch, NeedsSeveralTriangulationsAndSeparatesCorridorFromExtent) {
   EXPECT_FALSE(v.found);
   watch.reset();
   EXPECT_EQ(watch.judge(pose).in_face, 0);
+}
+
+TEST(StandingWatch, OneTriangulationWithManyFacePointsFiresWhenAsked) {
+  // Campus seed 9, loop 2: one triangulation put 11 corners on the van's rear 3.1 m ahead and the
+  // follower's steering left no second straight baseline before contact.
+  StandingWatchParams params;
+  params.min_points = 6;
+  params.min_batches = 2;
+  const Pose2D pose{};
+  std::vector<cv::Point2d> face;
+  for (int k = 0; k < 11; ++k) face.emplace_back(3.0 + 0.03 * (k % 3), -0.4 + 0.08 * k);
+  StandingWatch twice(params);
+  StandingVerdict v = twice.add(face, pose, 0.0);
+  EXPECT_EQ(v.in_face, 11);
+  EXPECT_EQ(v.batches, 1);
+  EXPECT_FALSE(v.found);  // the default: seen again from a second baseline
+  params.one_batch_points = 10;
+  StandingWatch once(params);
+  v = once.add(face, pose, 0.0);
+  EXPECT_TRUE(v.found);
+  EXPECT_NEAR(v.range_m, 3.03, 0.031);
+  // Fewer than one_batch_points from one triangulation still wait for the second.
+  StandingWatch few(params);
+  v = few.add(std::span<const cv::Point2d>(face).first(9), pose, 0.0);
+  EXPECT_FALSE(v.found);
+  // Many points bunched narrower than min_width_m (a post, a stray cluster) do not fire either.
+  StandingWatch narrow(params);
+  std::vector<cv::Point2d> bunch;
+  for (int k = 0; k < 12; ++k) bunch.emplace_back(2.5 + 0.02 * k, 0.1 + 0.01 * k);
+  v = narrow.add(bunch, pose, 0.0);
+  EXPECT_EQ(v.in_face, 12);
+  EXPECT_FALSE(v.found);
+  StandingWatchParams bad = params;
+  bad.one_batch_points = -1;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("one_batch_points")));
 }
 
 TEST(StandingWatch, BadParamsAreRejected) {

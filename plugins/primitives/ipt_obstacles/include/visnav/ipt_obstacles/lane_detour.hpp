@@ -40,6 +40,13 @@
 //    reason when both sides close, when the recoveries are used up, or after max_reverse_m of
 //    reversing without the obstacle getting far enough ahead;
 //  * steering: towards the point aim_ahead_m further along the line at the target offset;
+//  * guard (session 17): the body never drives into a known point. A point up to guard_reach_m
+//    beyond the body's front within body_radius_m + guard_margin_m of the robot's heading holds
+//    the forward travel (`hold_forward`: turn in place); when the steering's direction has such a
+//    point too, the nearest direction (within guard_max_turn_rad of the line's, towards the
+//    target lane first) without one is steered to; none: blocked with the reason (campus seed 6:
+//    a detour widening its lane towards a pillar ran into it; seed 3: turning out 2.3 m in front
+//    of a van's rear, its side met the corner);
 //  * done when the line is free, the robot is back on it (|l| < done_offset_m, heading within
 //    done_heading_rad of the line) and has covered min_progress_m, or at the line's end;
 //  * blocked (no free lane within ±max_offset_m): the decision says so, with the reason.
@@ -80,6 +87,9 @@ struct LaneDetourParams {
   int max_recoveries = 1;        ///< closed side within commit_m: reverse and take the other side this often; 0 = stop (session 13)
   double recover_clear_m = 3.0;  ///< reverse until no obstacle point is this close ahead (or beside the body)
   double max_reverse_m = 10.0;   ///< most reversing along the line per recovery; then blocked
+  double guard_reach_m = 0.3;    ///< no forward travel while a point lies this far ahead of the body's front in its band; 0 = off
+  double guard_margin_m = 0.05;  ///< the band: body_radius_m + this either side of the heading
+  double guard_max_turn_rad = 1.6;  ///< the guard's search for a free heading, either way from the line's
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<LaneDetourParams>& schema();
@@ -89,6 +99,7 @@ struct LaneDecision {
   enum class Kind : std::uint8_t { drive, done, blocked, reverse };
   Kind kind = Kind::drive;
   double heading_rad = 0.0;  ///< direction to drive in, robot frame (CCW +); reverse: the turn that makes reversing follow the way it came
+  bool hold_forward = false; ///< drive: a known point lies in the body's way straight ahead: turn in place to heading_rad
   double lane_m = 0.0;       ///< target lateral offset (left +)
   double s_m = 0.0;          ///< robot along the line from the detour start
   double l_m = 0.0;          ///< robot's lateral offset
@@ -131,6 +142,9 @@ class LaneDetour {
   [[nodiscard]] std::string closes_reason(int side) const;
   /// The lateral offset the robot drove at when it last passed s_m going forward (0 before the detour).
   [[nodiscard]] double came_at(double s_m) const;
+  /// A point in the body's band up to guard_reach_m beyond its front, driving from (s_m, l_m) in
+  /// direction `dir_on_line_rad` (relative to the line).
+  [[nodiscard]] bool way_blocked(double s_m, double l_m, double dir_on_line_rad) const;
 
   LaneDetourParams params_;
   Pose2D start_;

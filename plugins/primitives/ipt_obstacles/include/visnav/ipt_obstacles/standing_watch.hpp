@@ -12,7 +12,10 @@
 // points in the corridor ahead (|lateral| <= corridor_half_width_m, forward <= max_range_m) are
 // sorted by forward distance and the densest window of `depth_band_m` is the candidate face; it
 // fires when that window holds at least `min_points` points from at least `min_batches`
-// triangulations (a face is seen again from the next baseline; a stray point is not) and the
+// triangulations (a face is seen again from the next baseline; a stray point is not), or at
+// least `one_batch_points` from fewer (one triangulation that places many corners on one
+// face: on a path edge the follower's steering often leaves no second straight baseline before
+// the face is reached), and the
 // face's points span at least `min_width_m` across (a van's rear, not a bunch of stray corners). The
 // verdict gives the face's distance (the median of the window's points), its lateral extent (every
 // remembered point in the window's depth band within `extent_half_width_m`, in or out of the
@@ -38,6 +41,9 @@ struct StandingWatchParams {
   double depth_band_m = 0.6;            ///< a face's points lie within this forward depth
   int min_points = 6;                   ///< points of the face in the corridor that fire
   int min_batches = 2;                  ///< ... from at least this many triangulations
+  int one_batch_points = 0;             ///< or at least this many from one triangulation (a wide textured face
+                                        ///< seen once before the robot is on it: campus seed 9, 11 corners
+                                        ///< 3.1 m ahead, then none until contact); 0 = off
   double memory_m = 1.5;                ///< points are kept for this much travel (odometer)
   double extent_half_width_m = 2.5;     ///< the lateral extent counts points within this of the heading
   double min_width_m = 0.5;             ///< the face's points must span this much laterally (stray

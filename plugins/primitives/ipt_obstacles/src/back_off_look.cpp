@@ -23,7 +23,9 @@ const ParamSchema<BackOffLookParams>& BackOffLookParams::schema() {
                             .field("min_points", &P::min_points, "corridor points that make an obstacle").range(1, 10000)
                             .field("corridor_half_width_m", &P::corridor_half_width_m, "corridor half width, m")
                             .range(0.05, 5.0)
-                            .field("reach_m", &P::reach_m, "points this far ahead count, m").range(0.1, 50.0);
+                            .field("reach_m", &P::reach_m, "points this far ahead count, m").range(0.1, 50.0)
+                            .field("face_depth_m", &P::face_depth_m, "lateral extent from points this near the face's distance, m; 0 = all")
+                            .range(0.0, 50.0);
   return s;
 }
 
@@ -69,6 +71,19 @@ BackOffVerdict BackOffLook::verdict(const Pose2D& pose) const {
     const auto mid = ranges.begin() + static_cast<std::ptrdiff_t>(ranges.size() / 2);
     std::nth_element(ranges.begin(), mid, ranges.end());
     v.range_m = *mid;
+  }
+  if (v.found && params_.face_depth_m > 0.0) {
+    // The extent of the face itself: points ahead at other depths (clutter beside it, the
+    // ground's own mis-triangulated corners) do not widen it.
+    left = -std::numeric_limits<double>::infinity();
+    right = std::numeric_limits<double>::infinity();
+    for (const auto& p : points_) {
+      const double dx = p.x - pose.x_m, dy = p.y - pose.y_m;
+      const double fwd = c * dx + sn * dy, lat = -sn * dx + c * dy;
+      if (std::fabs(fwd - v.range_m) > params_.face_depth_m || std::fabs(lat) > 3.0) continue;
+      left = std::max(left, lat);
+      right = std::min(right, lat);
+    }
   }
   if (v.ahead > 0) {
     v.left_m = left;

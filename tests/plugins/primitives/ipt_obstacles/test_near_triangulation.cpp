@@ -154,6 +154,30 @@ TEST(BackOffLook, FindsAFacesDistanceAndFullWidthAndNothingOnBareGround) {
   EXPECT_LE(none.in_corridor, 1);
 }
 
+TEST(BackOffLook, TheExtentIsTheFacesNotTheClutterAtOtherDepths) {
+  // Campus seed 3, loop 2: the van's rear 2.3 m ahead from 1.0 m right to 0.2 m left, and a
+  // corner 1.2 m left 3.5 m ahead: with every point ahead the left edge was 1.2 m and the detour
+  // took the right, where the van reached beyond the view.
+  BackOffLookParams params;
+  std::vector<cv::Point2d> pts;
+  for (double l = -1.0; l <= 0.2 + 1e-9; l += 0.1) pts.emplace_back(2.3 + 0.05 * std::sin(7.0 * l), l);
+  pts.emplace_back(3.5, 1.2);
+  BackOffLook look(params);
+  look.begin(Pose2D{}, 0.0);
+  look.add_points(pts);
+  BackOffVerdict v = look.verdict(Pose2D{});
+  ASSERT_TRUE(v.found);
+  EXPECT_NEAR(v.range_m, 2.3, 0.06);
+  EXPECT_NEAR(v.left_m, 0.2, 1e-6);
+  EXPECT_NEAR(v.right_m, -1.0, 1e-6);
+  params.face_depth_m = 0.0;  // every point ahead, as before
+  BackOffLook all(params);
+  all.begin(Pose2D{}, 0.0);
+  all.add_points(pts);
+  v = all.verdict(Pose2D{});
+  EXPECT_NEAR(v.left_m, 1.2, 1e-6);
+}
+
 // The back-off's trigger (change_shape, motion_watch.hpp): the drive watch's changed pixels
 // (ReplayAvoiding's moving_stop_m watch: 0.8-2 m ahead, ±1.2 m, 4 x 80 px) while driving at
 // 3 cm per frame. Stopping 0.6 m before a textured face (the campus van's rear, 0.4 m right of
@@ -226,8 +250,10 @@ TEST(BackOffLook, ReversesHoldingTheHeadingAndStopsAfterItsDistance) {
   EXPECT_TRUE(v.found);
   EXPECT_EQ(v.in_corridor, 4);
   EXPECT_DOUBLE_EQ(v.range_m, 2.1);
-  EXPECT_DOUBLE_EQ(v.left_m, 1.0);
-  EXPECT_DOUBLE_EQ(v.right_m, -1.1);
+  // The extent: points within face_depth_m of the face's 2.1 m, beside the corridor too (the
+  // one at 2.0 m, 0.9 m left), not the nearer ones at 1.0 and 1.2 m.
+  EXPECT_DOUBLE_EQ(v.left_m, 0.9);
+  EXPECT_DOUBLE_EQ(v.right_m, -0.4);
   BackOffLookParams bad;
   bad.distance_m = 0.0;
   EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("distance_m")));

@@ -39,6 +39,9 @@ struct BackOffLookParams {
   int min_points = 4;                   ///< points in the corridor ahead that make it an obstacle
   double corridor_half_width_m = 0.45;  ///< the corridor's half width about the held heading line
   double reach_m = 4.0;                 ///< points at most this far ahead of the final pose count
+  double face_depth_m = 0.6;            ///< the lateral extent counts points within this of the face's distance
+                                        ///< (found only; campus seed 3: a corner 1 m beside a van at another
+                                        ///< depth chose the side); 0 = every point ahead
 
   [[nodiscard]] Status validate() const;
   static const ParamSchema<BackOffLookParams>& schema();
@@ -49,8 +52,9 @@ struct BackOffVerdict {
   int in_corridor = 0;     ///< points in the corridor ahead
   int ahead = 0;           ///< points ahead within reach_m (any lateral offset within 3 m)
   double range_m = 0.0;    ///< median along-heading distance of the corridor points (found only)
-  double left_m = 0.0;     ///< largest lateral offset (left +) of the points ahead (ahead > 0)
-  double right_m = 0.0;    ///< smallest lateral offset of the points ahead (ahead > 0)
+  double left_m = 0.0;     ///< largest lateral offset (left +) of the points ahead (ahead > 0); found and
+                           ///< face_depth_m > 0: of the points within face_depth_m of range_m
+  double right_m = 0.0;    ///< smallest lateral offset of the same points
 };
 
 class BackOffLook {

@@ -1291,29 +1291,24 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
 void ReplayAvoiding::add_backoff_extent(const Odometry& odom, const BackOffVerdict& v) {
   auto baseline = get_input<double>("standing_extent_m");
   if (!baseline || *baseline <= 0.0 || near_grey_.empty()) return;
-  // The back-off's triangulated corners spread over what stands ahead and the clutter beside it
-  // (campus seed 3: 468 corners from 1.0 m right to 1.19 m left, the van 1.64 m right to 0.27 m
-  // left: the detour's lane ended at the van's corner); the plane sweep reads the face's edges
-  // from the image. The frame standing_extent_m nearer the face is the "earlier" one.
+  // The back-off's triangulated corners cover the part of the face with texture; the plane sweep
+  // reads the face's edges from the image (campus seed 3, session 17). The frame standing_extent_m
+  // nearer the face is the "earlier" one.
   const FrameTrail::Kept* nearer = backoff_trail_.back(-odom.distance_m, *baseline);
   if (nearer == nullptr) return;
   auto camera = read_camera(*this, near_grey_);
-  cv::Mat grey = near_grey_;
-  if (grey.type() != CV_8UC1) return;
-  Result<FaceExtent> e = camera ? face_extent(*camera, nearer->grey, nearer->pose, grey, odom.pose, v.range_m, v.right_m,
-                                              v.left_m, FaceExtentParams{})
-                                : Result<FaceExtent>(camera.error());
+  if (!camera) {
+    host_.logger().warn(path(), "back-off: no extent from the image: " + camera.error().message);
+    return;
+  }
+  auto e = face_extent(*camera, nearer->grey, nearer->pose, near_grey_, odom.pose, v.range_m, v.right_m, v.left_m,
+                       FaceExtentParams{});
   if (!e) {
     host_.logger().warn(path(), "back-off: no extent from the image: " + e.error().message);
     return;
   }
-  host_.logger().info(path(), std::string("back-off: the face's extent from the image: ") + (e->found ? "" : "no face found, ") +
-                                  std::to_string(e->right_m) + " to " + std::to_string(e->left_m) + " m left, " +
-                                  std::to_string(e->range_m) + " m ahead (" + std::to_string(e->face_columns) + " face, " +
-                                  std::to_string(e->other_columns) + " other columns)");
-  if (!e->found) return;
-  lane_->add_points(e->points);
-  lane_->prefer_side(side_past(std::min(v.right_m, e->right_m), std::max(v.left_m, e->left_m)));
+  host_.logger().info(path(), "back-off: the face's extent from the image: " + describe_extent(*e));
+  steer_by_extent(*lane_, v.right_m, v.left_m, *e);
 }
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {

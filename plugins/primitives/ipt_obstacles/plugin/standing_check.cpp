@@ -11,6 +11,21 @@
 
 namespace visnav::ipt {
 
+std::string describe_extent(const FaceExtent& e) {
+  return std::string(e.found ? "" : "no face found, ") + std::to_string(e.right_m) + " to " + std::to_string(e.left_m) +
+         " m left, " + std::to_string(e.range_m) + " m ahead (" + std::to_string(e.face_columns) + " face, " +
+         std::to_string(e.other_columns) + " other columns" + (e.clipped_right ? ", to the image's right edge" : "") +
+         (e.clipped_left ? ", to the image's left edge" : "") + ")";
+}
+
+void steer_by_extent(LaneDetour& lane, double seen_right_m, double seen_left_m, const FaceExtent& e) {
+  if (!e.found) return;
+  lane.add_points(e.points);
+  // The side for the face's whole width: its points may lie beyond the detour's lookahead,
+  // where the first decision would not see them.
+  lane.prefer_side(side_past(std::min(seen_right_m, e.right_m), std::max(seen_left_m, e.left_m)));
+}
+
 bt::PortsList standing_ports() {
   return {bt::input_port<int>(
               "standing_min_points", "0",
@@ -133,15 +148,7 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
                                   " m of the edge, points from " + std::to_string(v.right_m) + " to " +
                                   std::to_string(v.left_m) + " m left of the heading: detour");
   VISNAV_ASSIGN(const auto extent, standing_->extent(standing_grey_, camera, odom.pose, odom.distance_m, v));
-  if (extent)
-    host_.logger().info(path(), std::string("standing obstacle's extent from the image: ") +
-                                    (extent->found ? "" : "no face found, ") + std::to_string(extent->right_m) +
-                                    " to " + std::to_string(extent->left_m) + " m left, " +
-                                    std::to_string(extent->range_m) + " m ahead (" +
-                                    std::to_string(extent->face_columns) + " face, " +
-                                    std::to_string(extent->other_columns) + " other columns" +
-                                    (extent->clipped_right ? ", to the image's right edge" : "") +
-                                    (extent->clipped_left ? ", to the image's left edge" : "") + ")");
+  if (extent) host_.logger().info(path(), "standing obstacle's extent from the image: " + describe_extent(*extent));
   if (extent && extent->face_share() < standing_->min_face_share()) {
     // The corners were not a face the image shows (ground texture triangulated above the ground):
     // a detour on them drives blind beside the line for the obstacle's assumed length.
@@ -153,12 +160,7 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
   }
   const bt::NodeStatus st = begin_detour(odom);
   if (lane_) lane_->add_points(v.points);
-  if (lane_ && extent && extent->found) {
-    lane_->add_points(extent->points);
-    // The side for the face's whole width: its points may lie beyond the detour's lookahead,
-    // where the first decision would not see them.
-    lane_->prefer_side(side_past(std::min(v.right_m, extent->right_m), std::max(v.left_m, extent->left_m)));
-  }
+  if (lane_ && extent) steer_by_extent(*lane_, v.right_m, v.left_m, *extent);
   standing_->reset();
   return std::optional<bt::NodeStatus>(st);
 }

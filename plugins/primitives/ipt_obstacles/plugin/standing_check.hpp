@@ -7,13 +7,21 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "visnav/bt/node.hpp"
 #include "visnav/ipt_obstacles/face_extent.hpp"
+#include "visnav/ipt_obstacles/lane_detour.hpp"
 #include "visnav/ipt_obstacles/standing_watch.hpp"
 
 namespace visnav::ipt {
+
+/// One log line's description of a face's extent ("... to ... m left, ... m ahead (n face, m other columns...)").
+[[nodiscard]] std::string describe_extent(const FaceExtent& e);
+/// A found extent steers the lane detour: its points are added and the side is chosen for the
+/// span of the seen points (seen_right_m..seen_left_m) and the extent together. Not found: nothing.
+void steer_by_extent(LaneDetour& lane, double seen_right_m, double seen_left_m, const FaceExtent& e);
 
 /// The ports (standing_min_points = 0: off, the default).
 [[nodiscard]] bt::PortsList standing_ports();

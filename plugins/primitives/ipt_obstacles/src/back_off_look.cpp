@@ -54,9 +54,13 @@ BackOffVerdict BackOffLook::verdict(const Pose2D& pose) const {
   const double c = std::cos(heading_rad_), sn = std::sin(heading_rad_);
   std::vector<double> ranges;
   double left = -std::numeric_limits<double>::infinity(), right = std::numeric_limits<double>::infinity();
-  for (const auto& p : points_) {
+  // (forward, lateral) of a point on the held heading from the final pose.
+  auto relative = [&](const cv::Point2d& p) {
     const double dx = p.x - pose.x_m, dy = p.y - pose.y_m;
-    const double fwd = c * dx + sn * dy, lat = -sn * dx + c * dy;
+    return cv::Point2d(c * dx + sn * dy, -sn * dx + c * dy);
+  };
+  for (const auto& p : points_) {
+    const auto [fwd, lat] = relative(p);
     if (fwd <= 0.0 || fwd > params_.reach_m || std::fabs(lat) > 3.0) continue;
     ++v.ahead;
     left = std::max(left, lat);
@@ -78,8 +82,7 @@ BackOffVerdict BackOffLook::verdict(const Pose2D& pose) const {
     left = -std::numeric_limits<double>::infinity();
     right = std::numeric_limits<double>::infinity();
     for (const auto& p : points_) {
-      const double dx = p.x - pose.x_m, dy = p.y - pose.y_m;
-      const double fwd = c * dx + sn * dy, lat = -sn * dx + c * dy;
+      const auto [fwd, lat] = relative(p);
       if (std::fabs(fwd - v.range_m) > params_.face_depth_m || std::fabs(lat) > 3.0) continue;
       left = std::max(left, lat);
       right = std::min(right, lat);

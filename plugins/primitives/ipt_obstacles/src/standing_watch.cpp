@@ -26,9 +26,6 @@ const ParamSchema<StandingWatchParams>& StandingWatchParams::schema() {
                             .field("one_batch_points", &P::one_batch_points,
                                    "face points that fire from fewer triangulations; 0 = off")
                             .range(0, 100000)
-                            .field("one_batch_points", &P::one_batch_points,
-                                   "face points that fire from fewer triangulations; 0 = off")
-                            .range(0, 100000)
                             .field("memory_m", &P::memory_m, "points kept for this travel, m").range(0.1, 20.0)
                             .field("extent_half_width_m", &P::extent_half_width_m, "lateral extent reach, m")
                             .range(0.05, 10.0)

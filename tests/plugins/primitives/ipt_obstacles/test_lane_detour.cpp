@@ -435,6 +435,12 @@ TEST(LaneDetour, BadParamsAreOutOfRange) {
   LaneDetourParams clear;
   clear.recover_clear_m = 0.0;
   EXPECT_TRUE(visnav::test::fails_with(clear.validate(), ErrorCode::out_of_range, visnav::test::key_only("recover_clear_m")));
+  LaneDetourParams guard;
+  guard.guard_reach_m = -0.1;
+  EXPECT_TRUE(visnav::test::fails_with(guard.validate(), ErrorCode::out_of_range, visnav::test::key_only("guard_reach_m")));
+  guard = LaneDetourParams{};
+  guard.guard_max_turn_rad = 4.0;
+  EXPECT_TRUE(visnav::test::fails_with(guard.validate(), ErrorCode::out_of_range, visnav::test::key_only("guard_max_turn_rad")));
 }
 
 // ----------------------------------------------------------------------- contact repairs

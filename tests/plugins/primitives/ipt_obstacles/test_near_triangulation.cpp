@@ -257,6 +257,9 @@ TEST(BackOffLook, ReversesHoldingTheHeadingAndStopsAfterItsDistance) {
   BackOffLookParams bad;
   bad.distance_m = 0.0;
   EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("distance_m")));
+  bad = BackOffLookParams{};
+  bad.face_depth_m = -0.5;
+  EXPECT_TRUE(fails_with(bad.validate(), ErrorCode::out_of_range, key_only("face_depth_m")));
 }
 
 TEST(NearTriangulation, BadInputIsRejected) {

@@ -13,6 +13,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "visnav/feature_replay/align_score.hpp"
 #include "visnav/feature_replay/draw.hpp"
 #include "visnav/feature_replay/heading.hpp"
 
@@ -20,7 +21,8 @@ namespace visnav::feature_replay {
 
 const char* const kAlignUsage =
     "usage: visnav align A.png B.png [--detector D] [--draw out.png] [options]\n"
-    "       visnav align --pairs FILE [--detector D] [--tolerance-px T] [options]\n"
+    "       visnav align --pairs FILE [--detector D] [--tolerance-px T] [--csv OUT.csv]\n"
+    "                    [--gate-curve CURVE.csv [--gate-steps N]] [options]\n"
     "\n"
     "Estimates the horizontal offset of the scene between two images by matching features and\n"
     "voting their horizontal displacements into a histogram (seed 002 Sec. 2.4).\n"
@@ -43,9 +45,18 @@ const char* const kAlignUsage =
     "                     or, when there is no valid estimate,\n"
     "                       IMG_A IMG_B none reason: TEXT\n"
     "                     With a labelled SHIFT_PX, ERROR_PX = OFFSET_PX - SHIFT_PX and a last line\n"
-    "                     '# pairs N valid V wrong W error_rate_pct E tolerance_px T' counts a pair\n"
-    "                     as wrong when it is 'none' or |ERROR_PX| > T.\n"
+    "                     '# pairs N valid V wrong W error_rate_pct E tolerance_px T refused R\n"
+    "                      refusal_rate_pct F answered_wrong AW answered_error_rate_pct AE'\n"
+    "                     scores the labelled pairs by the GRIEF protocol (Krajnik et al. 2017):\n"
+    "                     wrong = 'none' or |ERROR_PX| > T; refused = 'none' (no estimate, or a\n"
+    "                     pair that failed); AE = wrong among the V answered pairs ('nan' if V = 0).\n"
     "  --tolerance-px T   error tolerance of labelled pairs (default 35)\n"
+    "  --csv OUT.csv      also write one CSV row per pair (a,b,shift_px,offset_px,inliers,matches,\n"
+    "                     confidence,ambiguity,valid,error_px,correct,reason)\n"
+    "  --gate-curve C.csv sweep the confidence gate over the labelled pairs: per threshold\n"
+    "                     (0, 1/N, ..., 1) the coverage (answered fraction) and the precision\n"
+    "                     (correct among answered), as min_confidence would give with --set\n"
+    "  --gate-steps N     thresholds of --gate-curve: N + 1 (default 20, i.e. steps of 0.05)\n"
     "\n"
     "Single pair output: 'offset_px O inliers N matches M confidence C ambiguity A', or\n"
     "'offset_px none inliers N matches M confidence C ambiguity A reason: TEXT'.\n"
@@ -59,6 +70,8 @@ struct Options {
   std::string detector = "star_brief";
   bool detector_given = false;
   double tolerance_px = 35.0;
+  std::string csv, gate_curve;
+  int gate_steps = 20;
   ConfigNode detector_params;
   ConfigNode heading_params;
 };
@@ -93,6 +106,17 @@ Result<Options> parse(int argc, char** argv) {
       o.tolerance_px = std::strtod(t.c_str(), &end);
       if (end == t.c_str() || *end != '\0' || !(o.tolerance_px >= 0.0))
         return fail("--tolerance-px expects a number >= 0, got '" + t + "'");
+    } else if (arg == "--csv") {
+      VISNAV_ASSIGN(o.csv, value("--csv"));
+    } else if (arg == "--gate-curve") {
+      VISNAV_ASSIGN(o.gate_curve, value("--gate-curve"));
+    } else if (arg == "--gate-steps") {
+      VISNAV_ASSIGN(const std::string t, value("--gate-steps"));
+      char* end = nullptr;
+      const long n = std::strtol(t.c_str(), &end, 10);
+      if (end == t.c_str() || *end != '\0' || n < 1 || n > 1000)
+        return fail("--gate-steps expects an integer in [1, 1000], got '" + t + "'");
+      o.gate_steps = static_cast<int>(n);
     } else if (arg == "--param" || arg == "--set") {
       VISNAV_ASSIGN(std::string kv, value(arg.c_str()));
       std::string k, v;
@@ -112,6 +136,8 @@ Result<Options> parse(int argc, char** argv) {
     if (!positional.empty()) return fail("--pairs takes no image arguments");
     if (!o.draw.empty()) return fail("--draw works with a single pair only");
   }
+  if (o.pairs.empty() && (!o.csv.empty() || !o.gate_curve.empty()))
+    return fail("--csv and --gate-curve work with --pairs only");
   return o;
 }
 
@@ -159,6 +185,38 @@ std::string invalid_reason(const HeadingEstimate& e, const HeadingParams& p) {
   }
   std::snprintf(buf, sizeof buf, "confidence %.3f < min_confidence %.3f (%d inliers, ambiguity %.2f)", e.confidence,
                 p.min_confidence, e.inliers, e.ambiguity);
+  return buf;
+}
+
+// A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a line break.
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  out += '"';
+  return out;
+}
+
+std::string format_number(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.2f", v);
+  return buf;
+}
+
+std::string percent_or_nan(double fraction) {
+  if (std::isnan(fraction)) return "nan";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.1f", 100.0 * fraction);
+  return buf;
+}
+
+std::string fraction_or_empty(double fraction) {
+  if (std::isnan(fraction)) return "";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.4f", fraction);
   return buf;
 }
 
@@ -274,9 +332,27 @@ int run_align(int argc, char** argv, HostServices& host) {
     std::fprintf(stderr, "visnav align: cannot open pairs file '%s'\n", opts->pairs.c_str());
     return 2;
   }
+  // Output files are opened before the first pair, so a bad path fails at once.
+  std::ofstream csv, curve;
+  if (!opts->csv.empty()) {
+    csv.open(opts->csv);
+    if (!csv) {
+      std::fprintf(stderr, "visnav align: --csv: cannot write '%s'\n", opts->csv.c_str());
+      return 2;
+    }
+    csv << "a,b,shift_px,offset_px,inliers,matches,confidence,ambiguity,valid,error_px,correct,reason\n";
+  }
+  if (!opts->gate_curve.empty()) {
+    curve.open(opts->gate_curve);
+    if (!curve) {
+      std::fprintf(stderr, "visnav align: --gate-curve: cannot write '%s'\n", opts->gate_curve.c_str());
+      return 2;
+    }
+  }
   const auto base = std::filesystem::path(opts->pairs).parent_path();
+  const HeadingParams& hp = al.estimator.params();
   int status = 0;
-  int labelled = 0, valid = 0, wrong = 0;
+  std::vector<PairOutcome> outcomes;
   std::string line;
   int line_no = 0;
   while (std::getline(in, line)) {
@@ -303,36 +379,78 @@ int run_align(int argc, char** argv, HostServices& host) {
         continue;
       }
       has_shift = true;
-      ++labelled;
     }
     auto est = al.align(resolve_pair_path(a, base), resolve_pair_path(b, base));
+    PairOutcome outcome;
+    outcome.shift_px = shift_px;
+    std::string reason;
     if (!est) {
       std::fprintf(stderr, "visnav align: %s:%d: %s\n", opts->pairs.c_str(), line_no, est.error().message.c_str());
-      std::printf("%s %s none reason: %s\n", a.c_str(), b.c_str(), est.error().message.c_str());
+      reason = est.error().message;
+    } else {
+      outcome.estimated = est->matches > 0;
+      outcome.offset_px = est->offset_px;
+      outcome.confidence = est->confidence;
+      if (!est->valid) reason = invalid_reason(*est, hp);
+    }
+    const bool valid = est && est->valid;
+    const double error_px = valid ? est->offset_px - shift_px : 0.0;
+    if (has_shift) outcomes.push_back(outcome);
+    if (!valid) {
+      std::printf("%s %s none reason: %s\n", a.c_str(), b.c_str(), reason.c_str());
       status = 1;
-      wrong += has_shift ? 1 : 0;
-      continue;
+    } else {
+      std::printf("%s %s %.2f %d %.3f %.3f", a.c_str(), b.c_str(), est->offset_px, est->inliers, est->confidence,
+                  est->ambiguity);
+      if (has_shift) std::printf(" %.2f", error_px);
+      std::printf("\n");
     }
-    if (!est->valid) {
-      std::printf("%s %s none reason: %s\n", a.c_str(), b.c_str(), invalid_reason(*est, al.estimator.params()).c_str());
-      status = 1;
-      wrong += has_shift ? 1 : 0;
-      continue;
+    if (csv.is_open()) {
+      char buf[256];
+      csv << csv_field(a) << ',' << csv_field(b) << ',';
+      if (has_shift) csv << format_number(shift_px);
+      csv << ',';
+      if (est) {
+        std::snprintf(buf, sizeof buf, "%s,%d,%d,%.4f,%.4f,%d", est->matches > 0 ? format_number(est->offset_px).c_str() : "",
+                      est->inliers, est->matches, est->confidence, est->ambiguity, est->valid ? 1 : 0);
+        csv << buf;
+      } else {
+        csv << ",0,0,0,1,0";
+      }
+      csv << ',';
+      if (has_shift && valid) csv << format_number(error_px);
+      csv << ',';
+      if (has_shift) csv << ((valid && std::abs(error_px) <= opts->tolerance_px) ? 1 : 0);
+      csv << ',' << csv_field(reason) << '\n';
     }
-    std::printf("%s %s %.2f %d %.3f %.3f", a.c_str(), b.c_str(), est->offset_px, est->inliers, est->confidence,
-                est->ambiguity);
-    if (has_shift) {
-      const double error_px = est->offset_px - shift_px;
-      std::printf(" %.2f", error_px);
-      ++valid;
-      wrong += std::abs(error_px) > opts->tolerance_px ? 1 : 0;
-    }
-    std::printf("\n");
   }
-  if (labelled > 0)
-    std::printf("# pairs %d valid %d wrong %d error_rate_pct %.1f tolerance_px %.1f\n", labelled, valid, wrong,
-                100.0 * wrong / labelled, opts->tolerance_px);
+  if (!outcomes.empty()) {
+    const AlignScore sc = score_pairs(outcomes, hp.min_confidence, opts->tolerance_px);
+    std::printf("# pairs %d valid %d wrong %d error_rate_pct %.1f tolerance_px %.1f refused %d refusal_rate_pct %.1f "
+                "answered_wrong %d answered_error_rate_pct %s\n",
+                sc.pairs, sc.answered, sc.wrong, 100.0 * sc.error_rate, opts->tolerance_px, sc.refused,
+                100.0 * sc.refusal_rate, sc.wrong_answered, percent_or_nan(sc.answered_error_rate).c_str());
+  }
+  if (curve.is_open()) {
+    curve << "min_confidence,pairs,answered,coverage,correct,precision,wrong,error_rate,refusal_rate,"
+             "answered_error_rate\n";
+    for (const AlignScore& pt : gate_curve(outcomes, opts->gate_steps, opts->tolerance_px)) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "%.4f,%d,%d,%.4f,%d,%s,%d,%.4f,%.4f,%s\n", pt.min_confidence, pt.pairs,
+                    pt.answered, pt.coverage, pt.answered - pt.wrong_answered, fraction_or_empty(pt.precision).c_str(),
+                    pt.wrong, pt.error_rate, pt.refusal_rate, fraction_or_empty(pt.answered_error_rate).c_str());
+      curve << buf;
+    }
+  }
   std::fflush(stdout);
+  for (auto* f : {&csv, &curve}) {
+    if (!f->is_open()) continue;
+    f->flush();
+    if (!*f) {
+      std::fprintf(stderr, "visnav align: cannot write '%s'\n", (f == &csv ? opts->csv : opts->gate_curve).c_str());
+      status = 1;
+    }
+  }
   return status;
 }
 

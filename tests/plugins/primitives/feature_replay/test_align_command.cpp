@@ -13,6 +13,7 @@
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "test_support.hpp"
 #include "visnav/detectors/detector_types.hpp"
@@ -303,4 +304,152 @@ TEST_F(AlignFixture, TrainDescriptorWritesResumesAndReportsBadLines) {
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("bad.txt:3: SHIFT_PX 'twelve' is not a number"), std::string::npos) << err;
   EXPECT_EQ(call_command(train, "train-descriptor", {"--pairs", pairs}), 2);  // no -o
+}
+
+namespace {
+
+// A textured picture drawn with its own generator: random grey rectangles and discs, lightly
+// blurred, so ORB finds hundreds of distinct corners and any crop of it aligns unambiguously.
+cv::Mat textured_picture(int seed) {
+  cv::RNG rng(static_cast<std::uint64_t>(seed));
+  cv::Mat img(400, 800, CV_8UC1, cv::Scalar(128));
+  for (int i = 0; i < 700; ++i) {
+    const int x = rng.uniform(0, 800);
+    const int y = rng.uniform(0, 400);
+    const int size = rng.uniform(3, 25);
+    const int grey = rng.uniform(0, 256);
+    if (rng.uniform(0, 2) == 0)
+      cv::rectangle(img, cv::Rect(x, y, size, rng.uniform(3, 25)), cv::Scalar(grey), cv::FILLED);
+    else
+      cv::circle(img, cv::Point(x, y), size / 2 + 1, cv::Scalar(grey), cv::FILLED);
+  }
+  cv::GaussianBlur(img, img, cv::Size(3, 3), 0.8);
+  return img;
+}
+
+std::vector<std::vector<std::string>> read_csv(const std::filesystem::path& path) {
+  std::vector<std::vector<std::string>> rows;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> row;
+    std::istringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) row.push_back(cell);
+    if (!line.empty() && line.back() == ',') row.emplace_back();
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+}  // namespace
+
+// Issue 36: the labelled-pair protocol of GRIEF. Four crops of a generated texture with known
+// shifts (right), a pair of blank images (no features: refused), and a correctly aligned pair
+// whose label is 170 px off (answered, wrong). Error rate counting `none` as wrong 2/6, refusal
+// 1/6, error among answered 1/5; the tolerance is a flag.
+TEST_F(AlignFixture, PairsFileReportsTheThreeRatesOfTheGriefProtocol) {
+  const cv::Mat img = textured_picture(36);
+  std::ofstream pairs(dir / "labelled.txt");
+  cv::imwrite((dir / "ref.png").string(), img(cv::Rect(200, 50, 340, 300)));
+  for (int s : {-40, -10, 15, 45}) {
+    std::string name = "s";
+    name.append(std::to_string(s + 100)).append(".png");
+    cv::imwrite((dir / name).string(), img(cv::Rect(200 + s, 50, 340, 300)));
+    pairs << "ref.png " << name << ' ' << -s << '\n';  // B cut s px right: the scene sits s px left
+  }
+  cv::imwrite((dir / "blank.png").string(), cv::Mat(300, 340, CV_8UC1, cv::Scalar(128)));
+  pairs << "blank.png blank.png 0\n";
+  cv::imwrite((dir / "m20.png").string(), img(cv::Rect(220, 50, 340, 300)));
+  pairs << "ref.png m20.png 150\n";  // true offset -20
+  pairs.close();
+  const std::string file = (dir / "labelled.txt").string();
+  const auto csv = dir / "pairs.csv", curve = dir / "curve.csv";
+  std::string out;
+  EXPECT_EQ(call({"--pairs", file, "--detector", "orb", "--csv", csv.string(), "--gate-curve", curve.string()}, &out),
+            1)
+      << out;  // the blank pair has no estimate
+  EXPECT_NE(out.find("blank.png blank.png none reason: no matches passed the gates"), std::string::npos) << out;
+  EXPECT_NE(out.find("# pairs 6 valid 5 wrong 2 error_rate_pct 33.3 tolerance_px 35.0 refused 1 refusal_rate_pct 16.7 "
+                     "answered_wrong 1 answered_error_rate_pct 20.0\n"),
+            std::string::npos)
+      << out;
+  // The tolerance is a flag: 200 px accepts the mislabelled pair.
+  EXPECT_EQ(call({"--pairs", file, "--detector", "orb", "--tolerance-px", "200"}, &out), 1);
+  EXPECT_NE(out.find("# pairs 6 valid 5 wrong 1 error_rate_pct 16.7 tolerance_px 200.0 refused 1 refusal_rate_pct 16.7 "
+                     "answered_wrong 0 answered_error_rate_pct 0.0\n"),
+            std::string::npos)
+      << out;
+
+  // Per-pair CSV: header + 6 rows; the blank pair not valid, the mislabelled one not correct.
+  const auto rows = read_csv(csv);
+  ASSERT_EQ(rows.size(), 7u);
+  ASSERT_EQ(rows[0].size(), 12u);
+  EXPECT_EQ(rows[0][0], "a");
+  EXPECT_EQ(rows[0][10], "correct");
+  int correct = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 12u) << i;
+    correct += rows[i][10] == "1" ? 1 : 0;
+  }
+  EXPECT_EQ(correct, 4);
+  EXPECT_EQ(rows[5][0], "blank.png");
+  EXPECT_EQ(rows[5][8], "0");
+  EXPECT_EQ(rows[6][1], "m20.png");
+  EXPECT_EQ(rows[6][8], "1");
+  EXPECT_EQ(rows[6][10], "0");
+  EXPECT_NEAR(std::stod(rows[6][3]), -20.0, 3.0);
+}
+
+// Issue 36: the gate curve. 21 thresholds 0..1; coverage never grows with the gate; the point at
+// a gate is what `--set min_confidence=` gives at that gate (here 0.25, the default, and 0.5).
+TEST_F(AlignFixture, GateCurveSweepsTheConfidenceThreshold) {
+  const cv::Mat img = textured_picture(36);
+  std::ofstream pairs(dir / "labelled.txt");
+  cv::imwrite((dir / "ref.png").string(), img(cv::Rect(200, 50, 340, 300)));
+  for (int s : {-30, 25}) {
+    std::string name = "s";
+    name.append(std::to_string(s + 100)).append(".png");
+    cv::imwrite((dir / name).string(), img(cv::Rect(200 + s, 50, 340, 300)));
+    pairs << "ref.png " << name << ' ' << -s << '\n';
+  }
+  // A weak pair: a small crop of the texture against a larger one (few shared features).
+  cv::Mat small = cv::Mat(300, 340, CV_8UC1, cv::Scalar(128));
+  img(cv::Rect(260, 120, 60, 60)).copyTo(small(cv::Rect(140, 120, 60, 60)));
+  cv::imwrite((dir / "small.png").string(), small);
+  pairs << "ref.png small.png 0\n";
+  cv::imwrite((dir / "blank.png").string(), cv::Mat(300, 340, CV_8UC1, cv::Scalar(128)));
+  pairs << "ref.png blank.png 0\n";
+  pairs.close();
+  const std::string file = (dir / "labelled.txt").string();
+  const auto curve = dir / "curve.csv";
+  std::string out;
+  call({"--pairs", file, "--detector", "orb", "--gate-curve", curve.string()}, &out);
+  const auto rows = read_csv(curve);
+  ASSERT_EQ(rows.size(), 22u);
+  ASSERT_EQ(rows[0].size(), 10u);
+  EXPECT_EQ(rows[0][2], "answered");
+  EXPECT_EQ(rows[0][3], "coverage");
+  EXPECT_EQ(rows[0][5], "precision");
+  EXPECT_EQ(rows[1][0], "0.0000");
+  EXPECT_EQ(rows[21][0], "1.0000");
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 10u) << i;
+    EXPECT_EQ(rows[i][1], "4");
+    if (i > 1) {
+      EXPECT_LE(std::stod(rows[i][3]), std::stod(rows[i - 1][3])) << i;
+    }
+  }
+  EXPECT_LE(std::stoi(rows[1][2]), 3);  // the blank pair is never answered
+  EXPECT_GE(std::stoi(rows[1][2]), 2);
+  auto summary_answered = [&](const std::string& text) {
+    const auto at = text.find("# pairs 4 valid ");
+    return at == std::string::npos ? -1 : std::stoi(text.substr(at + 16));
+  };
+  EXPECT_EQ(summary_answered(out), std::stoi(rows[6][2])) << out;  // row 6: gate 0.25
+  ASSERT_EQ(rows[11][0], "0.5000");
+  call({"--pairs", file, "--detector", "orb", "--set", "min_confidence=0.5"}, &out);
+  EXPECT_EQ(summary_answered(out), std::stoi(rows[11][2])) << out;
+  // Bad flag values are usage errors; an unwritable curve fails before any pair is aligned.
+  EXPECT_EQ(call({"--pairs", file, "--gate-steps", "0"}), 2);
+  EXPECT_EQ(call({"--pairs", file, "--detector", "orb", "--gate-curve", (dir / "no" / "such" / "c.csv").string()}), 2);
+  EXPECT_EQ(call({"a.png", "b.png", "--gate-curve", curve.string()}), 2);  // needs --pairs
 }

@@ -12,6 +12,7 @@
 #include "command.hpp"
 #include "mcap_input.hpp"
 #include "session_args.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/runner.hpp"
 
 namespace {
@@ -74,10 +75,9 @@ std::vector<std::string> recorded_list(const std::string& run_dir, const char* k
 /// Complete lines of a file; an unterminated last line (a killed recording) is dropped.
 std::vector<std::string> read_lines(const std::string& path) {
   std::vector<std::string> lines;
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
+  auto read = visnav::read_text_file(path, visnav::kMaxTableFileBytes, "log");
+  if (!read) return lines;  // a missing or refused log reads as empty (the caller reports that)
+  const std::string& text = *read;
   std::size_t start = 0;
   for (std::size_t nl = text.find('\n'); nl != std::string::npos; nl = text.find('\n', start)) {
     lines.push_back(text.substr(start, nl - start));

@@ -19,6 +19,7 @@
 #include "command.hpp"
 #include "session_args.hpp"
 #include "visnav/mcap.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/runner.hpp"
 
 namespace {
@@ -218,10 +219,7 @@ class McapSink final : public RunSink {
     options.compress = compression != "none";
     if (options.compress) options.compression = compression;
     VISNAV_ASSIGN(s->writer_, visnav::mcap::RunMcapWriter::create(path, with_truth, options));
-    std::ifstream in(config_file);
-    std::stringstream text;
-    text << in.rdbuf();
-    s->config_text_ = text.str();
+    VISNAV_ASSIGN(s->config_text_, visnav::read_text_file(config_file, visnav::kMaxConfigFileBytes, "config"));
     s->jpg_ = image_format == "jpg";
     s->jpeg_quality_ = jpeg_quality;
     return s;

@@ -261,8 +261,8 @@ int init(const std::vector<std::string>& args) {
   fs::remove(dir / "ca.srl", ec);
   std::cout << "keystore " << dir.string() << ": CA, governance (encrypt + sign), identities";
   for (const auto& role : roles) std::cout << " " << role.identity;
-  std::cout << "\nrun config: add " << (dir / (robot + "-mission") / "dds.yaml").string()
-            << "'s block; simd: --keystore " << dir.string() << " --identity " << robot
+  std::cout << "\nrun config: dds: {security: " << (dir / (robot + "-mission")).string()
+            << "} (or the block in " << (dir / (robot + "-mission") / "dds.yaml").string() << "); simd: --keystore " << dir.string() << " --identity " << robot
             << "-driver; monitor: --keystore " << dir.string() << " --identity " << operators.front() << "\n";
   return 0;
 }

@@ -9,6 +9,7 @@
 #include "command.hpp"
 #include "mcap_input.hpp"
 #include "visnav/config.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/params.hpp"
 
 namespace {
@@ -56,6 +57,9 @@ const visnav::cli::Command* find_command(const std::string& name) {
 
 /// The run-clock time of the recording's last frame (teaching ends a margin before it).
 visnav::Result<double> last_frame_time(const fs::path& run, const std::string& run_arg) {
+  if (auto checked = visnav::check_input_file((run / "frames.csv").string(), visnav::kMaxTableFileBytes, "frames");
+      !checked && checked.error().code != visnav::ErrorCode::not_found)
+    return checked.error();
   std::ifstream frames(run / "frames.csv");
   if (!frames) return visnav::fail(visnav::ErrorCode::not_found, {run_arg}, "not a recorded run (no frames.csv)");
   double last_t_s = 0.0;

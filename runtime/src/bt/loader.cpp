@@ -2,6 +2,7 @@
 #include <tinyxml2.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <set>
@@ -10,6 +11,7 @@
 #include "node_scripts.hpp"
 #include "subtree_node.hpp"
 #include "visnav/bt/tree.hpp"
+#include "visnav/file_io.hpp"
 
 namespace visnav::bt {
 
@@ -160,10 +162,7 @@ class Loader {
     include_root_ = options_.include_root.empty() ? pf->dir : options_.include_root;
     include_root_ = normalized(std::filesystem::absolute(include_root_.empty() ? std::filesystem::path(".") : include_root_));
     const std::string path_text = file.string();
-    if (pf->doc.LoadFile(path_text.c_str()) != tinyxml2::XML_SUCCESS) {
-      report_xml_error(*pf);
-      return;
-    }
+    if (!read_tree_file(*pf, path_text, nullptr, 0)) return;
     include_stack_.push_back(pf->key);
     process_root(std::move(pf), true);
     include_stack_.pop_back();
@@ -236,6 +235,38 @@ class Loader {
   void add(ErrorCode code, const ParsedFile* file, int line, std::string path, std::string message) {
     diags_.push_back(
         Diagnostic{file != nullptr ? file->display : std::string(), line, std::move(path), std::move(message), code});
+  }
+
+  /// Reads and parses one tree file into `pf`: the size and file-type checks come before any
+  /// byte is read (a device or a 200 MB file costs nothing), and a tree that is not UTF-8 is
+  /// refused with the line of the first bad byte (tinyxml2 would take any bytes). On failure
+  /// the problem is reported against `pf` (or, for an unreadable include, against the including
+  /// element) and false is returned.
+  bool read_tree_file(ParsedFile& pf, const std::string& path, const ParsedFile* includer, int include_line) {
+    auto text = read_text_file(path, kMaxTreeFileBytes, "tree");
+    if (!text) {
+      std::string msg = text.error().message;
+      if (msg.starts_with(path + ": ")) msg.erase(0, path.size() + 2);
+      if (includer != nullptr)
+        add(text.error().code, includer, include_line, {}, "included file '" + pf.display + "': " + msg);
+      else
+        add(text.error().code, &pf, 0, {}, msg);
+      return false;
+    }
+    if (const std::size_t bad = first_invalid_utf8(*text); bad != std::string_view::npos) {
+      const int line = 1 + static_cast<int>(std::count(text->begin(), text->begin() + static_cast<std::ptrdiff_t>(bad), '\n'));
+      char byte[8];
+      std::snprintf(byte, sizeof byte, "0x%02X", static_cast<unsigned>(static_cast<unsigned char>((*text)[bad])));
+      add(ErrorCode::parse_error, &pf, line, {},
+          std::string("not UTF-8: byte ") + byte + " at offset " + std::to_string(bad) +
+              " does not start a valid UTF-8 sequence (trees are UTF-8 XML)");
+      return false;
+    }
+    if (pf.doc.Parse(text->data(), text->size()) != tinyxml2::XML_SUCCESS) {
+      report_xml_error(pf);
+      return false;
+    }
+    return true;
   }
 
   void report_xml_error(const ParsedFile& pf) {
@@ -361,14 +392,7 @@ class Loader {
     inc->dir = target.parent_path();
     inc->key = key;
     const std::string target_text = target.string();
-    if (inc->doc.LoadFile(target_text.c_str()) != tinyxml2::XML_SUCCESS) {
-      const tinyxml2::XMLError err = inc->doc.ErrorID();
-      if (err == tinyxml2::XML_ERROR_FILE_NOT_FOUND || err == tinyxml2::XML_ERROR_FILE_COULD_NOT_BE_OPENED ||
-          err == tinyxml2::XML_ERROR_FILE_READ_ERROR) {
-        add(ErrorCode::io, pf, el->GetLineNum(), {}, "cannot read included file '" + inc->display + "'");
-      } else {
-        report_xml_error(*inc);
-      }
+    if (!read_tree_file(*inc, target_text, pf, el->GetLineNum())) {
       files_.push_back(std::move(inc));
       return;
     }

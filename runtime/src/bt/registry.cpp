@@ -7,6 +7,8 @@
 #include <map>
 #include <set>
 
+#include "visnav/file_io.hpp"
+
 namespace visnav::bt {
 
 namespace {
@@ -110,8 +112,9 @@ Result<std::vector<SubTreeModel>> subtree_models(const std::filesystem::path& tr
     const auto key = std::filesystem::weakly_canonical(file, ec);
     if (!seen.insert(ec ? file : key).second) continue;
     tinyxml2::XMLDocument doc;
-    if (doc.LoadFile(file.string().c_str()) != tinyxml2::XML_SUCCESS)
-      return fail(file.string() + ": cannot read the tree (" + std::string(doc.ErrorName()) + ")");
+    VISNAV_ASSIGN(const std::string text, read_text_file(file.string(), kMaxTreeFileBytes, "tree"));
+    if (doc.Parse(text.data(), text.size()) != tinyxml2::XML_SUCCESS)
+      return fail(ErrorCode::parse_error, file.string() + ": cannot read the tree (" + std::string(doc.ErrorName()) + ")");
     const tinyxml2::XMLElement* root = doc.RootElement();
     if (root == nullptr) return fail(file.string() + ": no root element");
     std::vector<const tinyxml2::XMLElement*> stack;

@@ -175,9 +175,27 @@ namespace {
 /// Problems are appended to `errors`, each with its code and the key's location.
 dds::SecurityFiles parse_security_block(const ConfigNode& node, std::vector<Error>& errors) {
   dds::SecurityFiles files;
+  if (node.is_scalar() && !node.scalar().empty()) {
+    // One key: an identity folder of a keystore made by `visnav security init DIR` (DIR/<identity>);
+    // the CA and the governance are the keystore's, one folder up.
+    std::filesystem::path identity(node.scalar());
+    const std::string& file = node.where().file;
+    if (identity.is_relative() && !file.empty() && file.rfind("--set", 0) != 0)
+      identity = std::filesystem::path(file).parent_path() / identity;
+    identity = identity.lexically_normal();
+    if (!identity.has_filename()) identity = identity.parent_path();  // "keys/r1-mission/"
+    const std::filesystem::path keystore = identity.parent_path();
+    files.ca = (keystore / "ca.pem").string();
+    files.governance = (keystore / "governance.p7s").string();
+    files.identity_cert = (identity / "cert.pem").string();
+    files.private_key = (identity / "key.pem").string();
+    files.permissions = (identity / "permissions.p7s").string();
+    return files;
+  }
   if (!node.is_map()) {
     errors.push_back(problem(ErrorCode::invalid_value, node.where(), "dds.security",
-                             "'dds.security' must be a map with keys ca, identity_cert, private_key, governance, permissions"));
+                             "'dds.security' must be an identity folder of a keystore (visnav security init DIR: "
+                             "DIR/<identity>) or a map with keys ca, identity_cert, private_key, governance, permissions"));
     return files;
   }
   std::pair<const char*, std::string*> keys[] = {{"ca", &files.ca},

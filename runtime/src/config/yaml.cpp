@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "visnav/config.hpp"
+#include "visnav/file_io.hpp"
 
 namespace visnav {
 
@@ -121,12 +122,8 @@ Result<ConfigNode> parse_yaml_string(std::string_view text, const std::string& f
 }
 
 Result<ConfigNode> parse_yaml_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Error{path + ": cannot open config file", ErrorCode::not_found, {path, 0, {}}};
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) return Error{path + ": cannot read config file", ErrorCode::io, {path, 0, {}}};
-  return parse_yaml_string(buffer.str(), path);
+  VISNAV_ASSIGN(const std::string text, read_text_file(path, kMaxConfigFileBytes, "config"));
+  return parse_yaml_string(text, path);
 }
 
 Status apply_override(ConfigNode& root, std::string_view assignment) {

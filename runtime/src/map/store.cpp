@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "map/graph_io.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/map.hpp"
 
 namespace visnav {
@@ -116,7 +117,8 @@ Result<std::vector<std::uint8_t>> read_file(const std::string& path, std::uint64
   return data;
 }
 
-constexpr std::uint64_t kMaxGraphBytes = 1ULL << 30;
+// graph.yaml is parsed whole by yaml-cpp (~6x its size in memory); 64 MB holds ~100k edges.
+constexpr std::uint64_t kMaxGraphBytes = kMaxGraphFileBytes;
 constexpr std::uint64_t kMaxUnrecordedPayloadBytes = 1ULL << 34;
 
 std::span<const std::uint8_t> as_bytes(const std::string& s) {

@@ -15,6 +15,8 @@
 #include <lz4frame.h>
 #endif
 
+#include "visnav/file_io.hpp"
+
 namespace visnav::mcap {
 namespace {
 
@@ -546,6 +548,8 @@ Status parse_record(ScanState& st, std::uint8_t op, Cursor c, std::uint64_t offs
 }  // namespace
 
 Result<ReadReport> read_file(const std::string& path, const ReadHandlers& handlers) {
+  // Streamed record by record, so any size is fine; a device or a pipe is not a recording.
+  VISNAV_TRY(check_input_file(path, UINT64_MAX, "MCAP"));
   std::ifstream in(path, std::ios::binary);
   if (!in) return fail(ErrorCode::io, {path}, "cannot open");
   char magic[8];

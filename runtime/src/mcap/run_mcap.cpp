@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "visnav/mcap.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/runtime_host.hpp"  // json_escape
 
 namespace visnav::mcap {
@@ -78,11 +79,11 @@ std::vector<std::string> split(const std::string& line) {
 
 Result<Table> read_table(const fs::path& p, bool required, const std::vector<std::string>& needed) {
   Table t;
+  std::error_code ec;
+  if (!required && !fs::exists(p, ec)) return t;
+  VISNAV_TRY(check_input_file(p.string(), kMaxTableFileBytes, "table"));
   std::ifstream in(p);
-  if (!in) {
-    if (required) return fail(ErrorCode::io, {p.string()}, "cannot open");
-    return t;
-  }
+  if (!in) return fail(ErrorCode::io, {p.string()}, "cannot open");
   std::string line;
   int n = 0;
   while (std::getline(in, line)) {
@@ -107,13 +108,7 @@ double cell_d(const Table& t, const std::vector<std::string>& row, const std::st
   return i < 0 ? 0.0 : std::strtod(row[static_cast<std::size_t>(i)].c_str(), nullptr);
 }
 
-Result<std::string> read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) return fail(ErrorCode::io, {p.string()}, "cannot open");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+Result<std::string> read_text(const fs::path& p) { return read_text_file(p.string(), kMaxConfigFileBytes, "text"); }
 
 Status write_text(const fs::path& p, const std::string& text) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);

@@ -374,6 +374,10 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     // The payload is read and verified once, here, before the robot moves (never per frame).
     auto body = map->read_payload(edge_id_);
     if (!body) return fail("edge " + edge_id_ + " payload: " + body.error().message);
+    // The primitive's own body check (length against the graph and against the body's evidence,
+    // loops), as `visnav map validate` runs it: a single-edge mission is not route-checked.
+    if (auto checked = map->check_payload(edge_id_); !checked)
+      return fail(checked.error().code, "edge " + edge_id_ + " payload: " + checked.error().message);
     std::optional<Odometry> odom = host_.frame_bus()->latest_odometry();
     if (!odom) return fail("no odometry yet");
     // The edge counts as started `carried_m` before here (FollowRoute; an unset entry counts as 0).

@@ -1,5 +1,11 @@
 // Session: builds logger, loader, host, devices, map, links and node registry from a RunConfig
 // (one step each); swaps the detector. Live reload is in session_reload.cpp.
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netdb.h>
+#include <netinet/in.h>
+
+#include <cstdlib>
 #include <filesystem>
 #include <system_error>
 
@@ -12,6 +18,33 @@ namespace visnav {
 namespace fs = std::filesystem;
 
 namespace {
+
+/// The first non-loopback IPv4/IPv6 interface that is up, as "name (address)", unless
+/// CYCLONEDDS_URI pins Cyclone DDS to the loopback interface (127.0.0.1 / ::1 / "lo"): where an
+/// unsecured participant can be reached from other machines. nullopt: loopback only.
+std::optional<std::string> dds_network_exposure() {
+  if (const char* uri = std::getenv("CYCLONEDDS_URI")) {
+    const std::string text(uri);
+    const bool pinned_to_loopback = text.find("127.0.0.1") != std::string::npos ||
+                                    text.find("\"::1\"") != std::string::npos ||
+                                    text.find("name=\"lo\"") != std::string::npos;
+    if (pinned_to_loopback && text.find("NetworkInterface") != std::string::npos) return std::nullopt;
+  }
+  struct ifaddrs* list = nullptr;
+  if (::getifaddrs(&list) != 0) return std::nullopt;
+  std::optional<std::string> found;
+  for (const struct ifaddrs* a = list; a != nullptr && !found; a = a->ifa_next) {
+    if (a->ifa_addr == nullptr || (a->ifa_flags & IFF_UP) == 0 || (a->ifa_flags & IFF_LOOPBACK) != 0) continue;
+    const int family = a->ifa_addr->sa_family;
+    if (family != AF_INET && family != AF_INET6) continue;
+    char host[NI_MAXHOST] = {};
+    const socklen_t len = family == AF_INET ? sizeof(struct sockaddr_in) : sizeof(struct sockaddr_in6);
+    if (::getnameinfo(a->ifa_addr, len, host, sizeof host, nullptr, 0, NI_NUMERICHOST) != 0) continue;
+    found = std::string(a->ifa_name) + " (" + host + ")";
+  }
+  ::freeifaddrs(list);
+  return found;
+}
 
 bool is_zero(const Twist& t) { return t.linear_mps == 0.0 && t.angular_radps == 0.0; }
 
@@ -193,13 +226,16 @@ Status Session::build_devices() {
                  ErrorCode::inconsistent, {config_.file, 0, "run.lockstep"}};
   lockstep_ = sim != nullptr && config_.run.lockstep != "off";
   const bool uses_dds = config_.dds.enabled || config_.robot.type == "dds" || config_.camera.type == "dds";
+  const std::optional<std::string> exposed = uses_dds && !secure ? dds_network_exposure() : std::nullopt;
   if (secure) {
     logger_->info("run", "DDS Security on: identity " + config_.dds.security->identity_cert +
                              " (authenticated, access-controlled; governance " + config_.dds.security->governance + ")");
-  } else if (uses_dds && sim == nullptr) {
-    logger_->warn("run", "DDS SECURITY IS OFF on a real robot: any participant on the domain can read telemetry, "
-                         "pause/abort the mission and publish cmd_vel/odometry. Add dds: {security: {...}} "
-                         "(visnav security init; docs/security.md)");
+  } else if (uses_dds && (sim == nullptr || exposed)) {
+    logger_->warn("run", std::string("DDS SECURITY IS OFF ") + (sim == nullptr ? "on a real robot" : "with a simulated robot") +
+                             (exposed ? ", DDS reachable on " + *exposed : std::string()) +
+                             ": any participant on the domain can read telemetry, pause/abort the mission and "
+                             "publish cmd_vel/odometry. Secure it: visnav security init keys --robot R --operator O, "
+                             "then dds: {security: keys/R-mission} (docs/security.md)");
   } else {
     logger_->info("run", std::string("DDS Security off") + (uses_dds ? " (simulated robot)" : " (no DDS in use)"));
   }

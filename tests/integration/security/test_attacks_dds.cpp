@@ -316,10 +316,8 @@ TEST_F(DdsAttacks, WithDdsSecurityUnauthenticatedParticipantsCannotCommandOrRead
                                    << "plugin_path: [" VISNAV_TEST_FIXTURE_PLUGIN_DIR "]\nnodes: [fixture_nodes]\n"
                                    << "run: {tick: rate, rate_hz: 20, max_frame_age_s: 1.0}\n"
                                    << "dds:\n  domain_id: " << domain_ << "\n  partition: " << partition_
-                                   << "\n  security:\n    ca: " << k("ca.pem") << "\n    identity_cert: "
-                                   << k("r1-mission/cert.pem") << "\n    private_key: " << k("r1-mission/key.pem")
-                                   << "\n    governance: " << k("governance.p7s") << "\n    permissions: "
-                                   << k("r1-mission/permissions.p7s") << "\n";
+                                   // The one key of the README: the identity folder in the keystore.
+                                   << "\n  security: " << k("r1-mission") << "\n";
   std::ofstream(dir_ / "drive.xml") << "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\">"
                                        "<FixtureDrive distance_m=\"1000\" speed_mps=\"0.2\"/></BehaviorTree></root>\n";
   auto run = std::make_unique<ChildProcess>(

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -16,12 +17,15 @@
 #include <vector>
 
 #include "run/odometry_check.hpp"
+#include "visnav/bt/tree.hpp"
 #include "visnav/config.hpp"
 #include "visnav/dds.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/loader.hpp"
 #include "visnav/map.hpp"
 #ifdef VISNAV_TEST_HAVE_SIM
+#include "visnav_sim/route.hpp"
 #include "visnav_sim/world.hpp"
 #endif
 
@@ -75,8 +79,9 @@ EdgeRecord edge(const std::string& id, const std::string& from, const std::strin
   return e;
 }
 
-/// A segment body as TeachFeatureEdge writes it: `length_m` and one landmark.
-std::vector<std::uint8_t> segment_body(double length_m) {
+/// A segment body as TeachFeatureEdge writes it: `length_m` and one landmark seen from 0.5 m to
+/// `seen_until_m` (default: 0.3 m before the end, as a taught edge's last landmarks are).
+std::vector<std::uint8_t> segment_body(double length_m, double seen_until_m = -1.0) {
   visnav::feature_replay::SegmentMap m;
   m.length_m = length_m;
   visnav::feature_replay::Landmark l;
@@ -84,10 +89,10 @@ std::vector<std::uint8_t> segment_body(double length_m) {
   l.first_px = {10.0f, 20.0f};
   l.last_px = {12.0f, 21.0f};
   l.first_distance_m = 0.5f;
-  l.last_distance_m = 1.5f;
+  l.last_distance_m = static_cast<float>(seen_until_m >= 0.0 ? seen_until_m : std::max(1.5, length_m - 0.3));
   m.landmarks.push_back(l);
   m.descriptors = cv::Mat(1, 32, CV_8UC1, cv::Scalar(7));
-  m.max_span_m = 1.0;
+  m.max_span_m = l.last_distance_m - l.first_distance_m;
   return m.serialize();
 }
 
@@ -166,6 +171,66 @@ TEST_F(Hardening, PayloadLengthDisagreeingWithTheGraphIsRefusedByThePrimitivesRe
   auto bare = run_cli("map validate '" + map.dir() + "' --no-plugins", dir_ / "bare.log");
   EXPECT_EQ(bare.exit_code, 0) << bare.out;
   EXPECT_TRUE(contains(bare.out, "no plugin provides a reader for edge kind 'feature_segment'")) << bare.out;
+}
+
+// Issue 39: a map whose graph record and payload body agree on 500 m (checksums recomputed) is
+// self-consistent; its landmarks cover 4 m, so it is refused by the evidence check.
+TEST_F(Hardening, ConsistentCraftedLengthIsRefusedByTheEdgesOwnEvidence) {
+  MapStore map = make_map();
+  const std::string graph_file = map.dir() + "/graph.yaml";
+  for (const double crafted_m : {500.0, 1000000.0}) {
+    // Body: the honest landmarks (seen until 3.7 m), the length raised; graph: the same length.
+    const auto body = segment_body(crafted_m, 3.7);
+    forge_payload(map, "e2", body);
+    std::string graph = slurp(graph_file);
+    const std::string honest = "length_m: 4\n";
+    const auto at = graph.find(honest);
+    ASSERT_NE(at, std::string::npos) << graph;
+    char raised[64];
+    std::snprintf(raised, sizeof raised, "length_m: %.0f\n", crafted_m);
+    std::string forged = graph;
+    forged.replace(at, honest.size(), raised);
+    // payload_bytes stays (same body size); write the graph as an attacker would.
+    std::ofstream(graph_file, std::ios::trunc) << forged;
+    auto reopened = MapStore::open(map.dir());
+    ASSERT_TRUE(reopened.ok()) << reopened.error().message;
+    visnav::PluginLoader loader({VISNAV_TEST_PLUGIN_DIR});
+    ASSERT_TRUE(loader.load_library("feature_replay").ok());
+    loader.install_payload_checks(*reopened);
+    auto st = reopened->check_payload("e2");
+    ASSERT_FALSE(st.ok()) << crafted_m;
+    EXPECT_TRUE(contains(st.error().message, "not backed by the edge's own evidence")) << st.error().message;
+    EXPECT_TRUE(contains(st.error().message, "landmarks end at 3.70 m")) << st.error().message;
+    EXPECT_TRUE(reopened->check_payload("e1").ok());
+    // Before moving: the route check fails on e2.
+    const std::vector<std::string> route = {"e1", "e2"};
+    EXPECT_FALSE(reopened->check_route(route).ok());
+    auto cli = run_cli("map validate '" + map.dir() + "'", dir_ / "validate.log");
+    EXPECT_EQ(cli.exit_code, 1) << cli.out;
+    EXPECT_TRUE(contains(cli.out, "not backed by the edge's own evidence")) << cli.out;
+    std::ofstream(graph_file, std::ios::trunc) << graph;  // back to honest for the next round
+    forge_payload(map, "e2", segment_body(4.0));
+  }
+  // Within the slack the honest map passes: a 4 m edge whose last landmark is at 3.7 m.
+  auto cli = run_cli("map validate '" + map.dir() + "'", dir_ / "honest.log");
+  EXPECT_EQ(cli.exit_code, 0) << cli.out;
+}
+
+// Issue 39: an edge from a node to itself is refused for kinds that join two places; a local-map
+// path (driven in laps) may close on its own node.
+TEST_F(Hardening, SelfLoopSegmentEdgeIsRefused) {
+  MapStore map = make_map();
+  auto loop = map.add_edge(edge("e3", "n2", "n2", 4.0), segment_body(4.0));
+  ASSERT_TRUE(loop.ok()) << loop.error().message;  // the store alone cannot tell the kinds apart
+  visnav::PluginLoader loader({VISNAV_TEST_PLUGIN_DIR});
+  ASSERT_TRUE(loader.load_library("feature_replay").ok());
+  loader.install_payload_checks(map);
+  auto st = map.check_payload("e3");
+  ASSERT_FALSE(st.ok());
+  EXPECT_TRUE(contains(st.error().message, "edge from node 'n2' to itself")) << st.error().message;
+  auto cli = run_cli("map validate '" + map.dir() + "'", dir_ / "validate.log");
+  EXPECT_EQ(cli.exit_code, 1) << cli.out;
+  EXPECT_TRUE(contains(cli.out, "to itself")) << cli.out;
 }
 
 TEST_F(Hardening, UndecodableBodyIsFoundByValidate) {
@@ -366,6 +431,108 @@ TEST(AliasBomb, WorldAndRouteFilesAreRefusedFastAndSmall) {
   expect_cheap_refusal(cost, "world/route alias bomb");
 }
 #endif
+
+// Issue 39: a device given as any input file is refused from its type, before a byte is read
+// (before the fix a config of /dev/zero read 2 GB: 4.1 GB RSS, 27 s).
+TEST(BoundedFiles, DevicesAreRefusedBeforeReadingForEveryFileKind) {
+  const fs::path dir = fs::temp_directory_path() / ("visnav_sec_dev_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "map" / "edges");
+  fs::create_symlink("/dev/zero", dir / "map" / "graph.yaml");
+  for (const char* device : {"/dev/zero", "/dev/urandom"}) {
+    const std::string dev = device;
+    expect_cheap_refusal(measure_in_child([&] {
+                           auto r = visnav::parse_yaml_file(dev);
+                           return !r.ok() && contains(r.error().message, "not a regular file");
+                         }),
+                         "config " + dev);
+    expect_cheap_refusal(measure_in_child([&] {
+                           visnav::bt::NodeRegistry registry;
+                           if (!visnav::bt::register_builtin_nodes(registry).ok()) return false;
+                           auto r = visnav::bt::load_tree_file(dev, registry);
+                           return !r.ok() && contains(r.error().message, "not a regular file");
+                         }),
+                         "tree " + dev);
+#ifdef VISNAV_TEST_HAVE_SIM
+    expect_cheap_refusal(measure_in_child([&] {
+                           auto r = visnav::sim::load_world(dev);
+                           return !r.ok() && contains(r.error().message, "not a regular file");
+                         }),
+                         "world " + dev);
+    expect_cheap_refusal(measure_in_child([&] {
+                           auto r = visnav::sim::load_route(dev);
+                           return !r.ok() && contains(r.error().message, "not a regular file");
+                         }),
+                         "route " + dev);
+#endif
+  }
+  expect_cheap_refusal(measure_in_child([&] {
+                         auto r = MapStore::open((dir / "map").string());
+                         return !r.ok() && contains(r.error().message, "not a regular file");
+                       }),
+                       "map graph /dev/zero");
+  fs::remove_all(dir);
+}
+
+// Issue 39: a 200 MB tree (valid XML, 12 million nodes) is refused from its size: < 2 s and
+// < 300 MB (before: 2.3 GB RSS and 14 s until the node limit).
+TEST(BoundedFiles, HugeTreeIsRefusedFromItsSize) {
+  const fs::path file = fs::temp_directory_path() / ("visnav_sec_tree_" + std::to_string(::getpid()) + ".xml");
+  {
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    out << "<root BTCPP_format=\"4\"><BehaviorTree ID=\"Main\"><Sequence>\n";
+    std::string block;
+    for (int i = 0; i < 4096; ++i) block += "<AlwaysSuccess/>\n";
+    for (std::size_t written = 0; written < 200u * 1000 * 1000; written += block.size()) out << block;
+    out << "</Sequence></BehaviorTree></root>\n";
+  }
+  const auto cost = measure_in_child([&] {
+    visnav::bt::NodeRegistry registry;
+    if (!visnav::bt::register_builtin_nodes(registry).ok()) return false;
+    auto r = visnav::bt::load_tree_file(file, registry);
+    return !r.ok() && contains(r.error().message, "larger than a tree file may be");
+  });
+  fs::remove(file);
+  EXPECT_EQ(cost.exit_code, 0) << "the 200 MB tree was not refused by its size";
+  EXPECT_LT(cost.cpu_seconds, 2.0);
+  struct rusage self {};
+  ::getrusage(RUSAGE_SELF, &self);
+  EXPECT_LT(cost.max_rss_kb - self.ru_maxrss, 300 * 1024) << cost.max_rss_kb << " kB peak";
+  std::printf("[ metric ] 200 MB tree: refused in %.3f s CPU, child peak RSS %ld kB\n", cost.cpu_seconds,
+              cost.max_rss_kb);
+}
+
+// Issue 39: a tree that is not UTF-8 (here Latin-1 "café") is refused with the line of the byte.
+TEST(BoundedFiles, NonUtf8TreeIsRefusedWithItsLine) {
+  const fs::path file = fs::temp_directory_path() / ("visnav_sec_latin1_" + std::to_string(::getpid()) + ".xml");
+  std::ofstream(file, std::ios::binary | std::ios::trunc)
+      << "<root BTCPP_format=\"4\">\n<BehaviorTree ID=\"Main\">\n<AlwaysSuccess name=\"caf\xE9\"/>\n"
+         "</BehaviorTree>\n</root>\n";
+  visnav::bt::NodeRegistry registry;
+  ASSERT_TRUE(visnav::bt::register_builtin_nodes(registry).ok());
+  auto r = visnav::bt::load_tree_file(file, registry);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(contains(r.error().message, ":3: not UTF-8: byte 0xE9")) << r.error().message;
+  // The same text in UTF-8 loads.
+  std::ofstream(file, std::ios::binary | std::ios::trunc)
+      << "<root BTCPP_format=\"4\">\n<BehaviorTree ID=\"Main\">\n<AlwaysSuccess name=\"caf\xC3\xA9\"/>\n"
+         "</BehaviorTree>\n</root>\n";
+  auto fine = visnav::bt::load_tree_file(file, registry);
+  EXPECT_TRUE(fine.ok()) << fine.error().message;
+  fs::remove(file);
+}
+
+TEST(BoundedFiles, Utf8CheckFollowsTheUnicodeTable) {
+  using visnav::first_invalid_utf8;
+  constexpr auto npos = std::string_view::npos;
+  EXPECT_EQ(first_invalid_utf8("plain ascii"), npos);
+  EXPECT_EQ(first_invalid_utf8("\xC3\xA9\xE2\x82\xAC\xF0\x9F\x98\x80"), npos);  // é € 😀
+  EXPECT_EQ(first_invalid_utf8("ab\xC0\xAF"), 2u);         // overlong '/'
+  EXPECT_EQ(first_invalid_utf8("a\xED\xA0\x80"), 1u);     // a UTF-16 surrogate
+  EXPECT_EQ(first_invalid_utf8("\xF4\x90\x80\x80"), 0u);  // above U+10FFFF
+  EXPECT_EQ(first_invalid_utf8("ok\xE2\x82"), 2u);         // truncated at the end
+  EXPECT_EQ(first_invalid_utf8("\x80"), 0u);                // a lone continuation byte
+}
 
 // --- Odometry plausibility ----------------------------------------------------------------------
 

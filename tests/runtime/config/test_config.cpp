@@ -260,3 +260,27 @@ TEST(SameConfig, IgnoresLocationsButSeesChanges) {
   EXPECT_TRUE(visnav::same_config(*a, *b));
   EXPECT_FALSE(visnav::same_config(*a, *c));
 }
+
+// Issue 39: `dds: {security: DIR/<identity>}` is the one key of a keystore made by
+// `visnav security init DIR`: the identity's files in its folder, CA and governance one up;
+// relative to the config file like the long form.
+TEST(RunConfig, DdsSecurityIdentityFolderIsOneKey) {
+  auto root = visnav::parse_yaml_string(
+      "robot: {type: sim}\ncamera: {type: sim}\ndds: {security: keys/r1-mission}\n", "/robots/r1/run.yaml");
+  ASSERT_TRUE(root.ok()) << root.error().message;
+  auto config = visnav::parse_run_config(*root, "/robots/r1/run.yaml");
+  ASSERT_TRUE(config.ok()) << config.error().message;
+  ASSERT_TRUE(config->dds.security.has_value());
+  const auto& files = *config->dds.security;
+  EXPECT_EQ(files.ca, "/robots/r1/keys/ca.pem");
+  EXPECT_EQ(files.governance, "/robots/r1/keys/governance.p7s");
+  EXPECT_EQ(files.identity_cert, "/robots/r1/keys/r1-mission/cert.pem");
+  EXPECT_EQ(files.private_key, "/robots/r1/keys/r1-mission/key.pem");
+  EXPECT_EQ(files.permissions, "/robots/r1/keys/r1-mission/permissions.p7s");
+  // A sequence is neither form: the error names the key and both forms.
+  auto bad_root = visnav::parse_yaml_string("robot: {type: sim}\ncamera: {type: sim}\ndds: {security: [a, b]}\n", "x.yaml");
+  ASSERT_TRUE(bad_root.ok());
+  auto bad = visnav::parse_run_config(*bad_root, "x.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("identity folder of a keystore"), std::string::npos) << bad.error().message;
+}

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "visnav/file_io.hpp"
+
 namespace visnav::recorded {
 
 namespace {
@@ -77,12 +79,8 @@ Result<CsvTable> parse_csv(std::string_view text, const std::string& file_label)
 }
 
 Result<CsvTable> read_csv(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(ErrorCode::not_found, {path}, "cannot open (missing or unreadable)");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) return fail(ErrorCode::io, {path}, "read error");
-  return parse_csv(ss.str(), path);
+  VISNAV_ASSIGN(const std::string text, read_text_file(path, kMaxTableFileBytes, "CSV"));
+  return parse_csv(text, path);
 }
 
 Result<double> csv_number(const std::string& text, const ErrorLocation& where, std::string_view column) {

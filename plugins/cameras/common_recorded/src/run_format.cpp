@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "visnav/file_io.hpp"
 #include "visnav/config_node.hpp"
 #include "visnav/recorded/csv.hpp"
 
@@ -199,6 +200,7 @@ Result<FrameList> list_image_folder(const std::string& folder, const std::string
     return list;
   }
   // Text: one time per line, or "name time".
+  VISNAV_TRY(check_input_file(ts, kMaxTableFileBytes, "timestamps"));
   std::ifstream in(ts);
   if (!in) return fail(ErrorCode::not_found, {ts}, "cannot open (missing or unreadable)");
   std::string line;

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "payload_check.hpp"
 #include "visnav/feature_replay/experience.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #include "visnav/feature_replay/local_map.hpp"
@@ -282,6 +283,12 @@ class FeatureReplayer final : public EdgeReplayer {
     };
     VISNAV_TRY(add_body(start.payload, 0));
     for (std::size_t k = 0; k < experiences_.learned.size(); ++k) VISNAV_TRY(add_body(experiences_.learned[k].body, k + 1));
+    // Where the taught evidence ends (any experience): past it a frame without a match is
+    // counted as blind, so a replay beyond the last landmark stops within max_blind_m instead of
+    // driving on an edge the map cannot back (issue 39: a crafted 500 m edge drove for 1,663 s).
+    evidence_end_m_ = 0.0;
+    for (const auto& seg : segments_) evidence_end_m_ = std::max(evidence_end_m_, evidence_end_m(seg.map()));
+    for (const auto& lm : localmaps_) evidence_end_m_ = std::max(evidence_end_m_, evidence_end_m(lm.path()));
     const int count = static_cast<int>(experience_numbers_.size());
     selector_ = ExperienceSelector(count, params_.experience_recheck_below);
     segment_out_.assign(segments_.size(), SegmentReplayOutput{});
@@ -366,7 +373,7 @@ class FeatureReplayer final : public EdgeReplayer {
       estimate = r.estimate;
       out.saturated = state == ReplayState::steering &&
                       std::abs(out.command.angular_radps) >= params_.segment.max_angular_radps - 1e-9;
-      out.informative = r.expected_landmarks >= params_.min_expected_features;
+      out.informative = r.expected_landmarks >= params_.min_expected_features || r.distance_m > evidence_end_m_;
       note_along(r, segments_[static_cast<std::size_t>(k)].map().length_m);
     } else {
       const int k = selector_.select([&](int i) {
@@ -387,7 +394,8 @@ class FeatureReplayer final : public EdgeReplayer {
       const auto& maps = replayer.path().maps;
       out.informative = r.map_index < 0 || r.map_index >= static_cast<int>(maps.size()) ||
                         static_cast<int>(maps[static_cast<std::size_t>(r.map_index)].positions_px.size()) >=
-                            params_.min_expected_features;
+                            params_.min_expected_features ||
+                        r.distance_m > evidence_end_m_;
       out.lap = r.lap;
       // Laps are counted by the experience driving; one that was not stepped catches up when it is.
       if (r.lap > lap_seen_) {
@@ -528,6 +536,7 @@ class FeatureReplayer final : public EdgeReplayer {
   std::vector<std::uint32_t> experience_numbers_;
   ExperienceSelector selector_;
   int lap_seen_ = 0;
+  double evidence_end_m_ = 0.0;  ///< farthest taught landmark / local map over the experiences
   // Learning (learn_experiences).
   bool learning_ = false;
   ViewRegistrar registrar_;

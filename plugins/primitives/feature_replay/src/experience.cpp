@@ -16,6 +16,7 @@
 
 #include "visnav/byte_io.hpp"
 #include "visnav/feature_replay/local_map.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/feature_replay/segment_map.hpp"
 #include "visnav/map.hpp"
 
@@ -128,13 +129,8 @@ std::string experience_path(const std::string& map_dir, const std::string& edge_
 }
 
 Result<ExperienceSet> read_experience_file(const std::string& path, const std::string& edge_id) {
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec) return fail(ErrorCode::io, ErrorLocation(path), "cannot read: " + ec.message());
-  if (size > kMaxFileBytes) return fail(ErrorCode::parse_error, ErrorLocation(path), "implausibly large (" + std::to_string(size) + " bytes)");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(ErrorCode::io, ErrorLocation(path), "cannot open");
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  VISNAV_ASSIGN(const std::string text, read_text_file(path, kMaxFileBytes, "experiences"));
+  const std::vector<std::uint8_t> bytes(text.begin(), text.end());
   auto view = map_format::parse_payload(bytes, path);
   if (!view) return Error{view.error().message, ErrorCode::parse_error, ErrorLocation(path)};
   if (view->kind != kExperienceKind)

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "visnav/edge_evidence.hpp"
 #include "visnav/map.hpp"
 #include "visnav/path_payload.hpp"
 #include "visnav/primitive.hpp"
@@ -42,10 +43,6 @@ std::vector<ColourModel> from_data(const path_payload::PathPayload& p) {
   return models;
 }
 
-Result<std::vector<ColourModel>> decode_models(std::span<const std::uint8_t> bytes) {
-  VISNAV_ASSIGN(path_payload::PathPayload p, path_payload::PathPayload::decode(bytes));
-  return from_data(p);
-}
 
 /// The follower's params as both nodes expose them (names predate the core's; declared once in
 /// PathFollowerParams::schema()). Replay port defaults differ from the core's where the trees
@@ -297,12 +294,21 @@ Status register_path_nodes(bt::NodeRegistry& registry, HostServices& host) {
                                        {kKind});
 }
 
-Status check_path_payload(std::span<const std::uint8_t> body, const EdgeRecord& /*edge*/) noexcept {
+Status check_path_payload(std::span<const std::uint8_t> body, const EdgeRecord& edge) noexcept {
   try {
-    auto models = decode_models(body);
-    if (!models) return std::move(models).error();
+    auto payload = path_payload::PathPayload::decode(body);
+    if (!payload) return std::move(payload).error();
+    if (edge.from == edge.to)
+      return fail(ErrorCode::inconsistent,
+                  "edge from node '" + edge.from + "' to itself: a path_following edge joins two places");
+    // The thumbnails and the offset profile say how far the teacher saw the path (VPF2/VPF3);
+    // a VPF1 body carries no position along the edge, so its length cannot be checked.
+    double evidence_end_m = -1.0;
+    if (!payload->thumbnails.empty()) evidence_end_m = payload->thumbnails.back().distance_m;
+    if (!payload->offsets.empty()) evidence_end_m = std::max(evidence_end_m, payload->offsets.back().distance_m);
+    if (evidence_end_m >= 0.0) return check_length_evidence(edge.length_m, evidence_end_m, "thumbnails");
     return ok();
-  } catch (...) {  // decode_models allocates; an allocation failure must not cross the ABI
+  } catch (...) {  // decoding allocates; an allocation failure must not cross the ABI
     return fail("path-following payload reader threw an exception");
   }
 }

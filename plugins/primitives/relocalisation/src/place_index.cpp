@@ -21,6 +21,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "visnav/feature_payloads.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav/path_payload.hpp"
 #include "visnav/visual_memory_payload.hpp"
 
@@ -902,9 +903,8 @@ Result<PlaceIndex> load_place_index(const std::string& map_dir) {
   std::error_code ec;
   if (!fs::exists(path, ec))
     return fail(ErrorCode::not_found, path + ": no place index (build it with `visnav reloc-index " + map_dir + "`)");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(ErrorCode::io, path + ": cannot open");
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  VISNAV_ASSIGN(const std::string text, read_text_file(path, kMaxTableFileBytes, "place index"));
+  const std::vector<std::uint8_t> bytes(text.begin(), text.end());
   return PlaceIndex::deserialize(bytes, path);
 }
 

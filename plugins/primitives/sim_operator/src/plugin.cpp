@@ -25,9 +25,7 @@ using bt::NodeStatus;
 /// check before `visnav run` open and parse a route_file written in the tree) and the node's
 /// start both read it through this.
 Result<sim::Route> read_waypoint_route(const std::string& file) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return Error{file + ": no such route file", ErrorCode::not_found};
-  auto route = sim::load_route(file);
+  auto route = sim::load_route(file);  // refuses a missing file, a device or an oversized file first
   if (!route) return route.error().with_default_code(ErrorCode::parse_error);
   if (route->waypoints.empty())
     return Error{file + ": ScriptedOperator needs a waypoint route", ErrorCode::invalid_value};

@@ -17,6 +17,7 @@
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/plugin.hpp"
+#include "visnav/file_io.hpp"
 #include "visnav_teleop/teleop_core.hpp"
 
 namespace visnav::teleop {
@@ -241,11 +242,9 @@ class RecordedOperator final : public bt::StatefulActionNode {
     auto file = get_input<std::string>("marks_file");
     auto end = get_input<double>("end_time_s");
     if (!file || !end) return failed(!file ? file.error().message : end.error().message);
-    std::ifstream in(*file);
-    if (!in) return failed("marks_file: cannot open '" + *file + "'");
-    std::stringstream text;
-    text << in.rdbuf();
-    auto marks = parse_marks(text.str(), *file);
+    auto text = read_text_file(*file, kMaxConfigFileBytes, "marks");
+    if (!text) return failed("marks_file: " + text.error().message);
+    auto marks = parse_marks(*text, *file);
     if (!marks) return failed(marks.error().message);
     marks_ = std::move(*marks);
     end_s_ = *end;

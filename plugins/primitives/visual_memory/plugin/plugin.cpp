@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 
+#include "visnav/edge_evidence.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/primitive.hpp"
 #include "visnav/visual_memory/follower.hpp"
@@ -115,11 +116,15 @@ Status register_nodes(bt::NodeRegistry& registry, HostServices& host) {
       "Drives a visual_memory edge by visual servoing on its reference images (seeds 003/004)", {kKind});
 }
 
-Status check_payload(std::span<const std::uint8_t> body, const EdgeRecord& /*edge*/) noexcept {
+Status check_payload(std::span<const std::uint8_t> body, const EdgeRecord& edge) noexcept {
   try {
     auto memory = VisualMemory::decode(body);
     if (!memory) return std::move(memory).error();
-    return ok();
+    if (edge.from == edge.to)
+      return fail(ErrorCode::inconsistent,
+                  "edge from node '" + edge.from + "' to itself: a visual_memory edge joins two places");
+    const double evidence_end_m = memory->references.empty() ? 0.0 : memory->references.back().distance_m;
+    return check_length_evidence(edge.length_m, evidence_end_m, "reference images");
   } catch (...) {  // decode allocates; nothing may cross the ABI
     return fail("visual-memory payload reader threw an exception");
   }

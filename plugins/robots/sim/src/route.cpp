@@ -9,6 +9,7 @@
 
 #include "visnav_sim/world.hpp"
 #include "yaml_util.hpp"
+#include "visnav/file_io.hpp"
 
 namespace visnav::sim {
 using namespace detail;
@@ -108,11 +109,8 @@ Result<Route> parse_route(std::string_view yaml_text, const std::string& file_la
 }
 
 Result<Route> load_route(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return fail(ErrorCode::not_found, {path}, "cannot open route file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_route(ss.str(), path);
+  VISNAV_ASSIGN(const std::string text, visnav::read_text_file(path, visnav::kMaxConfigFileBytes, "route"));
+  return parse_route(text, path);
 }
 
 RouteFollower::RouteFollower(Route route) : route_(std::move(route)) {

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "yaml_util.hpp"
+#include "visnav/file_io.hpp"
 
 namespace visnav::sim::detail {
 namespace {
@@ -273,6 +274,8 @@ Result<Texture> make_texture(const std::string& name, const ConfigNode& def, con
     std::error_code ec;
     if (!fs::is_regular_file(path, ec))
       return node_error(*image, "texture '" + name + "': image file '" + image->scalar() + "' not found (looked at " + path + ")");
+    if (auto checked = visnav::check_input_file(path, visnav::kMaxImageFileBytes, "texture image"); !checked)
+      return node_error(*image, "texture '" + name + "': " + checked.error().message);
     cv::Mat loaded = cv::imread(path, cv::IMREAD_UNCHANGED);
     if (loaded.empty()) return node_error(*image, "texture '" + name + "': cannot decode image '" + path + "'");
     if (loaded.depth() != CV_8U) loaded.convertTo(loaded, CV_8U, loaded.depth() == CV_16U ? 1.0 / 256 : 1.0);

@@ -16,6 +16,7 @@
 
 #include "textures.hpp"
 #include "yaml_util.hpp"
+#include "visnav/file_io.hpp"
 
 namespace visnav::sim {
 namespace fs = std::filesystem;
@@ -398,6 +399,14 @@ Result<std::string> resolve_data_path(const std::string& name_or_path, const std
   };
   if (name_or_path.empty()) return fail(ErrorCode::missing, "no " + folder.substr(0, folder.size() - 1) + " file given");
   if (try_path(name_or_path)) return name_or_path;
+  {
+    // A path that exists but is no regular file (/dev/zero, a folder) is named as such, not
+    // searched for elsewhere.
+    std::error_code ec;
+    if (fs::exists(name_or_path, ec))
+      return fail(ErrorCode::invalid_value, ErrorLocation{name_or_path},
+                  folder.substr(0, folder.size() - 1) + " file is not a regular file; refused before reading");
+  }
   if (!relative_to.empty() && fs::path(name_or_path).is_relative()) {
     std::error_code ec;
     fs::path base = fs::is_directory(relative_to, ec) ? fs::path(relative_to) : fs::path(relative_to).parent_path();
@@ -618,11 +627,8 @@ Result<std::shared_ptr<const World>> parse_world(std::string_view yaml_text, con
 }
 
 Result<std::shared_ptr<const World>> load_world(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return fail(ErrorCode::not_found, {path}, "cannot open world file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_world(ss.str(), path, fs::path(path).parent_path().string());
+  VISNAV_ASSIGN(const std::string text, visnav::read_text_file(path, visnav::kMaxConfigFileBytes, "world"));
+  return parse_world(text, path, fs::path(path).parent_path().string());
 }
 
 Result<std::shared_ptr<const World>> load_world_cached(const std::string& path) {

@@ -158,13 +158,16 @@ class FeatureNodes : public ::testing::Test {
     return id ? *id : std::string();
   }
 
-  std::string add_edge(const std::string& kind, const std::vector<std::uint8_t>& body, double length_m = 5.0) {
+  /// An edge between two new nodes (a segment joins two places; the body checks refuse a segment
+  /// onto its own node), or, with `closed_loop`, from a new node back to itself.
+  std::string add_edge(const std::string& kind, const std::vector<std::uint8_t>& body, double length_m = 5.0,
+                       bool closed_loop = false) {
     NodeRecord n;
-    n.name = "a";
     const std::string a = *map_->add_node(n);
+    const std::string b = closed_loop ? a : *map_->add_node(n);
     EdgeRecord e;
     e.from = a;
-    e.to = a;
+    e.to = b;
     e.kind = kind;
     e.length_m = length_m;
     e.statistics["image_width_px"] = 320;  // as TeachFeatureEdge records them
@@ -174,7 +177,7 @@ class FeatureNodes : public ::testing::Test {
     return *id;
   }
 
-  /// A 3 m feature_localmaps edge: the scene at every 0.5 m, `command` recorded from 0 m, a
+  /// A 3 m feature_localmaps edge from a node back to itself: the scene at every 0.5 m, `command` recorded from 0 m, a
   /// stop at 3 m.
   std::string add_scene_localmaps_edge(const Twist& command) {
     fr::LocalMapPath path;
@@ -188,7 +191,7 @@ class FeatureNodes : public ::testing::Test {
     }
     path.commands.push_back({0.0, command});
     path.commands.push_back({3.0, Twist{}});
-    return add_edge("feature_localmaps", path.serialize(), 3.0);
+    return add_edge("feature_localmaps", path.serialize(), 3.0, /*closed_loop=*/true);
   }
 
   fs::path dir_;
@@ -243,6 +246,41 @@ TEST_F(FeatureNodes, TeachSegmentWritesAParsableEdgeWithTheProtocolFields) {
   EXPECT_EQ(telemetry_.statuses.back().status, "steering");
   EXPECT_GT(telemetry_.statuses.back().inliers, 50);
   EXPECT_EQ(telemetry_.statuses.back().edge, id);
+}
+
+// Issue 39: beyond the last taught landmark a frame without a match counts as blind, so a replay
+// past the edge's evidence stops with a reason within max_blind_m. Here the landmarks cover 0-3 m
+// of a 6 m edge (within the map check's slack) and the camera sees nothing known after 3 m:
+// before, such frames were "uninformative" (the map expects nothing there), the blind count
+// paused and the robot drove the whole edge on odometry.
+TEST_F(FeatureNodes, ReplayPastTheLastLandmarkStopsWithinMaxBlind) {
+  fr::SegmentMap seg;
+  seg.length_m = 6.0;
+  seg.descriptors = scene_.descriptors.clone();
+  for (const cv::Point2f& p : scene_.positions) {
+    fr::Landmark l;
+    l.count = 10;
+    l.first_px = p;
+    l.last_px = p;
+    l.first_distance_m = 0.0f;
+    l.last_distance_m = 3.0f;
+    seg.landmarks.push_back(l);
+  }
+  seg.max_span_m = 3.0;
+  const std::string id = add_edge("feature_segment", seg.serialize(), 6.0);
+  auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id +
+                   "\" speed_mps=\"0.5\" slow_after_m=\"0.5\" max_blind_m=\"1.5\"/>");
+  const Scene elsewhere(200, 99);  // what the camera sees past the taught landmarks
+  NodeStatus s = NodeStatus::running;
+  for (int i = 0; i < 300 && s == NodeStatus::running; ++i)
+    s = tick(tree, robot_.odom_.distance_m < 3.0 ? scene_.view(0.f) : elsewhere.view(0.f));
+  EXPECT_EQ(s, NodeStatus::failure) << logger_.text();
+  EXPECT_NE(logger_.text().find("lost"), std::string::npos) << logger_.text();
+  EXPECT_GT(robot_.odom_.distance_m, 3.0);
+  // max_blind_m after the last confident frame; the 5-frame confidence window (0.05 m per frame)
+  // lets the last confident frame lie up to ~0.25 m past the landmarks.
+  EXPECT_LT(robot_.odom_.distance_m, 3.0 + 1.5 + 0.35) << "stopped later than max_blind_m past the last landmark";
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
 }
 
 TEST_F(FeatureNodes, TeachLocalMapsRecordsTheOperatorsCommands) {

@@ -248,7 +248,7 @@ class Loader {
       std::string msg = text.error().message;
       if (msg.starts_with(path + ": ")) msg.erase(0, path.size() + 2);
       if (includer != nullptr)
-        add(text.error().code, includer, include_line, {}, "included file '" + pf.display + "': " + msg);
+        add(text.error().code, includer, include_line, {}, "cannot read included file '" + pf.display + "': " + msg);
       else
         add(text.error().code, &pf, 0, {}, msg);
       return false;

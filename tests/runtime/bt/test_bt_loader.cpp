@@ -164,7 +164,9 @@ TEST_F(Loader, IncludeErrorsNameTheIncludedFile) {
 </root>)");
   const auto d = visnav::bt::validate_tree_file(main, registry, options);
   ASSERT_EQ(d.size(), 2u) << all(d);
-  EXPECT_EQ(d[0].str(), main.string() + ":3: cannot read included file '" + (dir.path() / "missing.xml").string() + "'");
+  EXPECT_EQ(d[0].str(), main.string() + ":3: cannot read included file '" + (dir.path() / "missing.xml").string() +
+                           "': no such tree file");
+  EXPECT_EQ(d[0].code, ErrorCode::not_found);
   EXPECT_EQ(d[1].str(), (dir.path() / "bad.xml").string() + ":3: Bad/Nope[0]: unknown node ID 'Nope'");
 }
 
@@ -181,7 +183,7 @@ TEST_F(Loader, CyclicIncludeIsAnError) {
 
 TEST_F(Loader, MissingFileIsAnError) {
   auto tree = visnav::bt::load_tree_file("/nonexistent/mission.xml", registry, options);
-  EXPECT_TRUE(fails_with(tree, ErrorCode::io, At{"/nonexistent/mission.xml"}));
+  EXPECT_TRUE(fails_with(tree, ErrorCode::not_found, At{"/nonexistent/mission.xml"}));
 }
 
 TEST_F(Loader, TreeNodesModelAndGenericActionElementAreAccepted) {

@@ -6,9 +6,11 @@
 //    what goes wrong when a file, node, port or parameter is renamed.
 //  * other commands: `visnav <command> --help` succeeds and knows every --option the example uses.
 // Usage lines (with [optional] parts, A|B, or PLACEHOLDER arguments) are checked as commands
-// only. Every config/*.yaml run config validates on its own.
+// only. Every config/*.yaml run config validates on its own, and gives a simulated robot a body.
+// A `visnav run` example whose tree teaches passes --map and --create.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +20,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "visnav/config.hpp"
 
 namespace fs = std::filesystem;
 
@@ -192,6 +196,25 @@ TEST(Examples, AreFoundInEveryPlaceTheyAreWritten) {
   EXPECT_GE(runs, 12);
 }
 
+// Issue 38: every edge kind a hybrid map holds has a patrol tree that drives it; maps with
+// visual_memory edges patrol with trees/patrol_loop_visual_memory.xml (its example validates in
+// RunExamplesValidateAsWritten).
+TEST(Examples, EveryReplayPrimitiveHasAPatrolTree) {
+  std::set<std::string> patrolled;
+  for (const auto& f : fs::directory_iterator(kSource / "trees")) {
+    const std::string name = f.path().filename().string();
+    if (name.rfind("patrol_loop", 0) != 0) continue;
+    const std::string text = tree_text(f.path());
+    if (text.find("<Repeat") == std::string::npos) continue;
+    for (const char* node : {"ReplayFeatureEdge", "FollowPathEdge", "ReplayVisualMemoryEdge"})
+      if (text.find(std::string("<") + node) != std::string::npos ||
+          (text.find("TraverseRoute") != std::string::npos && std::string(node) != "ReplayVisualMemoryEdge"))
+        patrolled.insert(node);
+  }
+  for (const char* node : {"ReplayFeatureEdge", "FollowPathEdge", "ReplayVisualMemoryEdge"})
+    EXPECT_EQ(patrolled.count(node), 1u) << "no trees/patrol_loop*.xml drives " << node;
+}
+
 TEST(Examples, RunExamplesValidateAsWritten) {
   for (const auto& e : all_examples()) {
     if (e.usage || e.args[0] != "run") continue;
@@ -210,8 +233,9 @@ TEST(Examples, RunExamplesValidateAsWritten) {
         validate.push_back(bb.back());
       } else if ((a == "--map" || a == "--trace" || a == "--log-level" || a == "--view") && has_value) {
         ++i;
-      } else if (a == "--resume") {
-        // Reads the map's progress checkpoint at run time; validate checks the tree and config.
+      } else if (a == "--resume" || a == "--create") {
+        // --create: `visnav run` makes the missing --map folder; validate is not given --map.
+        // --resume reads the map's progress checkpoint at run time; validate checks the tree and config.
       } else {
         ADD_FAILURE() << "unknown option of visnav run: " << a;
       }
@@ -254,6 +278,63 @@ TEST(Examples, OtherCommandsExistAndKnowTheirOptions) {
         EXPECT_NE(out.find(option), std::string::npos) << "visnav " << e.args[0] << " --help does not mention " << option;
       }
   }
+}
+
+// Issue 38: a teach example makes a new map, which `visnav run` does only with --create (a
+// missing --map folder is an error otherwise), so every `visnav run` example whose tree (or an
+// included one) teaches an edge names --map and --create; --create stands only with --map.
+TEST(Examples, TeachExamplesCreateTheirMap) {
+  static const std::regex teaches("<Teach[A-Z][A-Za-z]*[\\s/>]");
+  int teach_examples = 0;
+  for (const auto& e : all_examples()) {
+    if (e.usage || e.args[0] != "run") continue;
+    SCOPED_TRACE(e.where);
+    const auto has = [&](const std::string& option) {
+      return std::find(e.args.begin(), e.args.end(), option) != e.args.end();
+    };
+    if (has("--create")) {
+      EXPECT_TRUE(has("--map")) << "--create without --map";
+    }
+    const std::string tree = option_value(e.args, "--tree");
+    if (tree.empty() || !fs::exists(kSource / tree)) continue;  // RunExamplesValidateAsWritten reports it
+    if (!std::regex_search(tree_text(kSource / tree), teaches)) continue;
+    ++teach_examples;
+    EXPECT_TRUE(has("--map")) << tree << " teaches into a map: the example needs --map";
+    EXPECT_TRUE(has("--create")) << tree << " teaches a new map: the example needs --create (visnav run --help)";
+  }
+  // The teach trees' own examples, config/sim_campus.yaml's and docs/real_robot.md's at least.
+  EXPECT_GE(teach_examples, 8);
+}
+
+// Issue 38: the simulated robot collides only with a body (body_radius_m 0 = none), so every
+// shipped config that drives it gives it one; without, a replay through a wall "succeeds".
+TEST(Examples, EverySimulatedRobotConfigHasABody) {
+  int sim_configs = 0;
+  for (const auto& f : fs::directory_iterator(kSource / "config")) {
+    if (f.path().extension() != ".yaml") continue;
+    const std::string text = read_file(f.path());
+    if (text.find("\nrobot:") == std::string::npos && text.rfind("robot:", 0) != 0) continue;
+    SCOPED_TRACE(f.path().string());
+    auto config = visnav::load_run_config(f.path().string());
+    if (!config) {
+      ADD_FAILURE() << config.error().message;
+      continue;
+    }
+    if (config->robot.type != "sim") continue;
+    ++sim_configs;
+    const visnav::ConfigNode* radius = config->robot.params.find("body_radius_m");
+    if (radius == nullptr || !radius->is_scalar()) {
+      ADD_FAILURE() << "robot.params has no body_radius_m: the simulated robot never collides";
+      continue;
+    }
+    double r = 0.0;
+    try {
+      r = std::stod(radius->scalar());
+    } catch (...) {
+    }
+    EXPECT_GT(r, 0.0) << "robot.params.body_radius_m: " << radius->scalar();
+  }
+  EXPECT_GE(sim_configs, 5);
 }
 
 TEST(Examples, EveryShippedRunConfigValidates) {

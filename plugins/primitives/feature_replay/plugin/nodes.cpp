@@ -249,6 +249,13 @@ class FeatureReplayer final : public EdgeReplayer {
     logger_ = &start.logger;
     who_ = std::string(start.node_path);
     edge_id_ = start.edge.id;
+    // Laps drive a closed one-edge loop again from its start; on an open edge the next lap would
+    // start where the edge ends and drive its first stretch again somewhere else (issue 38).
+    if (params_.localmaps.laps > 1 && start.edge.from != start.edge.to)
+      return fail(ErrorCode::inconsistent,
+                  "laps=" + std::to_string(params_.localmaps.laps) + " on edge " + edge_id_ + ", which runs from node '" +
+                      start.edge.from + "' to node '" + start.edge.to +
+                      "': laps > 1 drives only a closed one-edge loop (from == to); give laps=1");
     MapStore* map = host_ != nullptr ? host_->map() : nullptr;
     map_dir_ = map != nullptr ? map->dir() : std::string();
     experiences_ = ExperienceSet{};

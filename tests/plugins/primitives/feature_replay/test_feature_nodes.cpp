@@ -177,9 +177,9 @@ class FeatureNodes : public ::testing::Test {
     return *id;
   }
 
-  /// A 3 m feature_localmaps edge from a node back to itself: the scene at every 0.5 m, `command` recorded from 0 m, a
-  /// stop at 3 m.
-  std::string add_scene_localmaps_edge(const Twist& command) {
+  /// A 3 m feature_localmaps edge from a node back to itself (or, `closed_loop` false, between two
+  /// nodes): the scene at every 0.5 m, `command` recorded from 0 m, a stop at 3 m.
+  std::string add_scene_localmaps_edge(const Twist& command, bool closed_loop = true) {
     fr::LocalMapPath path;
     path.length_m = 3.0;
     for (int i = 0; i <= 6; ++i) {
@@ -191,7 +191,7 @@ class FeatureNodes : public ::testing::Test {
     }
     path.commands.push_back({0.0, command});
     path.commands.push_back({3.0, Twist{}});
-    return add_edge("feature_localmaps", path.serialize(), 3.0, /*closed_loop=*/true);
+    return add_edge("feature_localmaps", path.serialize(), 3.0, closed_loop);
   }
 
   fs::path dir_;
@@ -356,6 +356,39 @@ TEST_F(FeatureNodes, BadInputsKeepTheRecordedCommand) {
   EXPECT_EQ(s, NodeStatus::success);
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
   EXPECT_NEAR(robot_.odom_.distance_m, 3.0, 0.15);
+}
+
+// Issue 38: laps > 1 drives a closed one-edge loop (from == to) again from its start. On an open
+// edge the node fails before the robot moves, naming the edge, the laps value and both nodes
+// (before, it drove the edge again and again until the lost policy stopped it); laps=1 on the
+// same edge and laps=2 on a loop run as before.
+TEST_F(FeatureNodes, LapsOnAnOpenEdgeFailBeforeMovingNamingTheEdgeAndItsNodes) {
+  const std::string open = add_scene_localmaps_edge(Twist{1.0, 0.0}, /*closed_loop=*/false);
+  const EdgeRecord* e = map_->find_edge(open);
+  ASSERT_NE(e, nullptr);
+  ASSERT_NE(e->from, e->to);
+  auto drive = [&](const std::string& id, int laps) {
+    robot_.odom_ = Odometry{};
+    robot_.command_ = Twist{};
+    robot_.publish();
+    auto tree = load("<ReplayFeatureEdge scan_deg=\"0\" edge=\"" + id + "\" laps=\"" + std::to_string(laps) + "\"/>");
+    NodeStatus s = NodeStatus::running;
+    for (int i = 0; i < 200 && s == NodeStatus::running; ++i) s = tick(tree, scene_.view(0.f));
+    return s;
+  };
+  EXPECT_EQ(drive(open, 2), NodeStatus::failure);
+  const std::string expected = "laps=2 on edge " + open + ", which runs from node '" + e->from + "' to node '" + e->to +
+                               "': laps > 1 drives only a closed one-edge loop";
+  EXPECT_NE(logger_.text().find(expected), std::string::npos) << logger_.text();
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_EQ(robot_.odom_.distance_m, 0.0) << "the robot moved before the laps check";
+
+  EXPECT_EQ(drive(open, 1), NodeStatus::success) << logger_.text();
+  EXPECT_NEAR(robot_.odom_.distance_m, 3.0, 0.15);
+
+  const std::string loop = add_scene_localmaps_edge(Twist{1.0, 0.0}, /*closed_loop=*/true);
+  EXPECT_EQ(drive(loop, 2), NodeStatus::success) << logger_.text();
+  EXPECT_NEAR(robot_.odom_.distance_m, 6.0, 0.25);
 }
 
 }  // namespace

@@ -82,39 +82,7 @@ struct ExpandedStats {
 };
 
 // RFC 3629: no overlongs, no surrogates, nothing above U+10FFFF.
-bool valid_utf8(std::string_view text) {
-  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
-  const auto* end = p + text.size();
-  while (p < end) {
-    const unsigned c = *p;
-    if (c < 0x80) {
-      ++p;
-      continue;
-    }
-    int n = 0;
-    unsigned lo = 0x80, hi = 0xBF;
-    if (c >= 0xC2 && c <= 0xDF) {
-      n = 1;
-    } else if (c >= 0xE0 && c <= 0xEF) {
-      n = 2;
-      if (c == 0xE0) lo = 0xA0;
-      if (c == 0xED) hi = 0x9F;
-    } else if (c >= 0xF0 && c <= 0xF4) {
-      n = 3;
-      if (c == 0xF0) lo = 0x90;
-      if (c == 0xF4) hi = 0x8F;
-    } else {
-      return false;
-    }
-    if (end - p <= n) return false;
-    for (int i = 1; i <= n; ++i) {
-      const unsigned b = p[i];
-      if (b < (i == 1 ? lo : 0x80u) || b > (i == 1 ? hi : 0xBFu)) return false;
-    }
-    p += n + 1;
-  }
-  return true;
-}
+bool valid_utf8(std::string_view text) { return first_invalid_utf8(text) == std::string_view::npos; }
 
 // Editor metadata written by Groot2 and BehaviorTree.CPP: accepted and ignored.
 bool is_metadata_attribute(std::string_view name) {

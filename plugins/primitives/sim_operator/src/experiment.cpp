@@ -254,9 +254,11 @@ cv::Point2d components(const cv::Point2d& d, double heading_rad) {
 /// Combined progress of all runs on one line (thread-safe).
 class RunProgress {
  public:
-  RunProgress(int runs, double work_per_run_m, bool enabled)
-      : done_m_(static_cast<std::size_t>(runs), 0.0), work_per_run_m_(work_per_run_m), enabled_(enabled), line_(24) {}
+  RunProgress(int runs, double work_per_run_m, bool enabled, std::function<void(double, double)> hook = {})
+      : done_m_(static_cast<std::size_t>(runs), 0.0), work_per_run_m_(work_per_run_m), enabled_(enabled), line_(24),
+        hook_(std::move(hook)) {}
   void update(int run, double done_m) {
+    if (hook_) hook_(std::min(done_m, work_per_run_m_), work_per_run_m_);
     if (!enabled_) return;
     std::lock_guard lock(mutex_);
     done_m_[static_cast<std::size_t>(run)] = std::min(done_m, work_per_run_m_);
@@ -286,6 +288,7 @@ class RunProgress {
   bool enabled_;
   int finished_ = 0;
   ProgressLine line_{30};
+  std::function<void(double, double)> hook_;
 };
 
 /// The run's log: warnings and errors (or from --log-level up) go to run.log; the first
@@ -991,6 +994,17 @@ std::string summary_json(const ExperimentOptions& o, const std::vector<Experimen
 }
 
 }  // namespace
+
+Result<ExperimentRun> run_experiment_job(const ExperimentOptions& o, const std::string& style, int seed, const std::string& dir,
+                                         const std::function<void(double, double)>& progress) {
+  VISNAV_ASSIGN(const std::string world_path, sim::resolve_world_path(o.world));
+  VISNAV_ASSIGN(const std::string route_path, sim::resolve_route_path(o.route));
+  VISNAV_ASSIGN(auto world, sim::load_world_cached(world_path));
+  VISNAV_ASSIGN(auto route, sim::load_route(route_path));
+  if (route.waypoints.empty() || !route.closed) return fail(route_path + ": the experiment needs a closed waypoint route");
+  RunProgress silent(1, route.waypoint_length_m() * (o.loops + 1), false, progress);
+  return run_one(o, style, seed, *world, route, route_path, dir, silent, 0);
+}
 
 std::string experiment_table(const ExperimentOptions& o, const std::vector<ExperimentRun>& runs) {
   std::ostringstream t;

@@ -138,6 +138,15 @@ struct ExperimentRun {
 /// Error: bad world/route/config (nothing was run).
 [[nodiscard]] Result<std::vector<ExperimentRun>> run_experiment(const ExperimentOptions& options);
 
+/// One teach + replay run of `style` with `seed` on options.world/options.route, its files in
+/// `dir` (run.log, loops.csv, edges.csv, trajectories.png); `progress(done_m, total_m)` is called
+/// from the run's thread after every replay tick (may be empty). What run_experiment runs per job
+/// (the benchmark runs these across generated worlds). Thread-safe for distinct `dir`s.
+/// Error: bad world/route (nothing was run); a run that fails later reports it in setup_error.
+[[nodiscard]] Result<ExperimentRun> run_experiment_job(const ExperimentOptions& options, const std::string& style, int seed,
+                                                       const std::string& dir,
+                                                       const std::function<void(double, double)>& progress = {});
+
 /// The results table (markdown) of run_experiment's outcomes.
 [[nodiscard]] std::string experiment_table(const ExperimentOptions& options, const std::vector<ExperimentRun>& runs);
 

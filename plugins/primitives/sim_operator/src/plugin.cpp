@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "convergence.hpp"
+#include "benchmark.hpp"
 #include "experiment.hpp"
 #include "operator_core.hpp"
 #include "visnav/bt/node.hpp"
@@ -152,6 +153,8 @@ Status register_sim_operator_nodes(bt::NodeRegistry& registry, HostServices& hos
 const CommandEntry kCommands[] = {
     {"experiment", "teach a route in the simulator, displace, replay N loops, report accuracy (seed 000 eq. 18)",
      &guarded_command<&experiment_command>},
+    {"benchmark", "teach + replay loops on generated worlds (held-out seeds), every error model on: the results table",
+     &guarded_command<&benchmark_command>},
     {"convergence", "straight segment from 0.5 m off: fit y = a*exp(-kx) per primitive (seed 000 Fig. 3)",
      &guarded_command<&convergence_command>}};
 

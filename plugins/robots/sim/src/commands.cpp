@@ -18,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "visnav_sim/camera.hpp"
+#include "visnav_sim/generate.hpp"
 #include "visnav_sim/render.hpp"
 #include "visnav_sim/world.hpp"
 
@@ -32,6 +33,7 @@ const char* kUsage =
     "  topview   draw a world from above (with a route) to a PNG\n"
     "  drive     drive a route script, write ground-truth + odometry CSV\n"
     "  teleop    drive a robot in a world with the keyboard\n"
+    "  generate  write generated worlds with closed teach routes (and obstacle files)\n"
     "Run 'visnav sim <command> --help' for the options.\n";
 
 const char* kSnapshotUsage =
@@ -60,6 +62,14 @@ const char* kDriveUsage =
     "  --rate HZ             control rate (default 20)\n"
     "  --max-time S          give up after this much simulated time (default 3600)\n"
     "  --robot-param k=v     set a `sim` robot parameter (repeatable), e.g. odom_scale_error_pct=2\n";
+
+const char* kGenerateUsage =
+    "usage: visnav sim generate --seed N [--count M] [--kind any|indoor|outdoor|mixed]\n"
+    "                           [--obstacles auto|yes|no] -o DIR\n"
+    "  writes, per seed N .. N+M-1, DIR/gen_NNNN.yaml (world), DIR/gen_NNNN_route.yaml (closed\n"
+    "  waypoint route, feature and path legs), DIR/gen_NNNN_obstacles.yaml (obstacles on the route\n"
+    "  for the replays: with --obstacles auto every third seed) and DIR/gen_NNNN_top.png.\n"
+    "  The seed alone decides the world (docs/benchmark.md). --kind any (default) draws the kind.\n";
 
 const char* kTeleopUsage =
     "usage: visnav sim teleop --world W [-o traj.csv] [--record route.yaml] [--view view.png]\n"
@@ -276,6 +286,31 @@ class RawTerminal {
   bool active_ = false;
 };
 
+int cmd_generate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  auto a = parse_args(args, 1, {"--seed", "--count", "--kind", "--obstacles", "-o"});
+  if (!a) { err << "visnav sim generate: " << a.error().message << "\n" << kGenerateUsage; return 2; }
+  if (a->help) { out << kGenerateUsage; return 0; }
+  if (!a->get("-o") || !a->get("--seed")) { err << kGenerateUsage; return 2; }
+  auto run = [&]() -> Status {
+    VISNAV_ASSIGN(const double seed, number(*a, "--seed", 1));
+    VISNAV_ASSIGN(const double count, number(*a, "--count", 1));
+    if (seed < 0 || seed != std::floor(seed) || seed > 1e8) return fail("option --seed: expected an integer in [0, 1e8]");
+    if (count < 1 || count != std::floor(count) || count > 10000) return fail("option --count: expected an integer in [1, 10000]");
+    for (int k = 0; k < static_cast<int>(count); ++k) {
+      GenerateParams gp;
+      gp.seed = static_cast<int>(seed) + k;
+      gp.kind = a->get("--kind").value_or("any");
+      gp.obstacles = a->get("--obstacles").value_or("auto");
+      VISNAV_ASSIGN(const GeneratedWorld g, generate_world(gp));
+      VISNAV_ASSIGN(const auto files, write_generated_world(g, *a->get("-o")));
+      out << g.summary << "\n";
+      for (const auto& f : files) out << "  wrote " << f << "\n";
+    }
+    return ok();
+  };
+  return report(run(), err);
+}
+
 int cmd_teleop(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   auto a = parse_args(args, 1, {"--world", "-o", "--record", "--view", "--rate", "--robot-param"});
   if (!a) { err << "visnav sim teleop: " << a.error().message << "\n" << kTeleopUsage; return 2; }
@@ -484,6 +519,7 @@ int sim_main(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (cmd == "topview") return cmd_topview(args, out, err);
   if (cmd == "drive") return cmd_drive(args, out, err);
   if (cmd == "teleop") return cmd_teleop(args, out, err);
+  if (cmd == "generate") return cmd_generate(args, out, err);
   err << "visnav sim: unknown command '" << cmd << "'\n" << kUsage;
   return 2;
 }

@@ -28,7 +28,7 @@ fs::path tmp(const std::string& name) {
 }  // namespace
 
 TEST(SimCommands, HelpForEverySubcommand) {
-  for (const char* c : {"snapshot", "topview", "drive", "teleop"}) {
+  for (const char* c : {"snapshot", "topview", "drive", "teleop", "generate"}) {
     std::string out;
     EXPECT_EQ(run({c, "--help"}, &out), 0) << c;
     EXPECT_NE(out.find("usage: visnav sim"), std::string::npos) << c;

@@ -55,7 +55,7 @@ struct BenchmarkRun {
   double route_length_m = 0.0;
   std::string setup_error;
   std::vector<LoopOutcome> loops;
-  int collisions = 0;
+  int collisions = 0;  ///< 1 when the replay touched something (a contact ends it), else 0
   int lost_stops = 0;
   std::string stop_reason;
   AccuracyRepeatability metrics;  ///< over the finished loops

@@ -469,7 +469,8 @@ bt::PortsList ReplayAvoiding::provided_ports() {
       "ekf_heading", "false",
       "lane detour: steer by the heading of the thesis's robocentric EKF whose landmarks are the IPT pairs' GROUND "
       "features (ground_odometry.hpp; corrects the odometry's heading drift in the blind pass past an obstacle); "
-      "false = the raw odometry"));
+      "false = the raw odometry. Not for an odometry whose heading noise per 5 cm reaches about 0.03 rad: the "
+      "pipeline drops the pairs it turned and the filter then loses to dead reckoning (docs/obstacles.md)"));
   ports.push_back(bt::input_port<bool>(
       "backoff_compact", "true",
       "back-off only after a stop whose changed pixels (moving_stop_m's frame difference) came in solid pieces "

@@ -63,12 +63,21 @@ Status GroundOdometry::add_pair(const Pose2D& odom_first, const Pose2D& odom_sec
   first_.clear();
   second_.clear();
   int ground = 0;
-  for (const auto& f : features) ground += f.label == FeatureClass::ground ? 1 : 0;
+  // Every track whose D was computed (below the guard band, within range), not only the GROUND
+  // labels: D ≤ β is computed with the odometry's increment, so at odometry noise per pair of the
+  // order of β (2.1 cm) the label keeps just the tracks that agree with the wrong odometry and the
+  // filter lost to dead reckoning (issue 38). The median gate below, which does not depend on the
+  // odometry's error, picks the ground.
+  auto usable = [](const ClassifiedFeature& f) {
+    return f.reason == ClassReason::d_ground || f.reason == ClassReason::d_band || f.reason == ClassReason::d_obstacle ||
+           f.reason == ClassReason::d_below_ground;
+  };
+  for (const auto& f : features) ground += usable(f) ? 1 : 0;
   // Spread the cap over the list (the tracker's corners are ordered by strength, not place).
   const int stride = std::max(1, (ground + params_.max_observations - 1) / params_.max_observations);
   int index = 0;
   for (const auto& f : features) {
-    if (f.label != FeatureClass::ground) continue;
+    if (!usable(f)) continue;
     if (index++ % stride != 0) continue;
     auto a = ground_observation(camera_, f.pixel_previous, params_.pixel_sd_px, next_id_);
     auto b = ground_observation(camera_, f.pixel, params_.pixel_sd_px, next_id_);

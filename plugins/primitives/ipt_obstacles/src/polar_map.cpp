@@ -48,7 +48,6 @@ const char* to_string(Situation s) {
     case Situation::gap: return "gap";
     case Situation::gap_end_behind: return "gap_end_behind";
     case Situation::no_candidate: return "no_candidate";
-    case Situation::roam: return "roam";
     case Situation::blocked: return "blocked";
   }
   return "?";
@@ -71,7 +70,6 @@ const ParamSchema<PolarMapParams>& PolarMapParams::schema() {
           .field("security_distance_m", &P::security_distance_m, "S_dist: closer points switch to the potential field")
           .range(0.05, 10.0)
           .field("gap_width_m", &P::gap_width_m, "narrower gaps are forbidden (thesis experiments 0.95 m)").range(0.05, 20.0)
-          .field("roi_radius_m", &P::roi_radius_m, "Ch. 4 roaming: semicircle radius").range(0.1, 50.0)
           .field("goal_tolerance_m", &P::goal_tolerance_m, "goal reached within this distance").range(0.01, 10.0)
           .field("step_m", &P::step_m, "travel per cycle, for candidate validation").range(0.0, 5.0)
           .field("repulsion_gain", &P::repulsion_gain, "potential field repulsion gain").range(0.0, 1e6)
@@ -81,46 +79,6 @@ const ParamSchema<PolarMapParams>& PolarMapParams::schema() {
           .field("merge_cell_m", &P::merge_cell_m, "one stored point per square cell of this side (0 = keep every point)")
           .range(0.0, 1.0);
   return s;
-}
-
-Decision roam_decision(std::span<const cv::Point2d> points_robot, const PolarMapParams& params) {
-  const int n = static_cast<int>(std::lround(180.0 / params.sector_width_deg));
-  const double width = params.sector_width_deg * kDeg;
-  std::vector<int> count(static_cast<std::size_t>(n), 0);
-  for (const auto& p : points_robot) {
-    const double r = std::hypot(p.x, p.y), a = std::atan2(p.y, p.x);
-    if (r > params.roi_radius_m || !in_front(a)) continue;  // outside the semicircle
-    const int k = std::clamp(static_cast<int>(std::floor((a + kPi / 2) / width)), 0, n - 1);
-    ++count[static_cast<std::size_t>(k)];
-  }
-  int best_start = -1, best_len = 0;
-  for (int k = 0; k < n;) {
-    if (count[static_cast<std::size_t>(k)] != 0) {
-      ++k;
-      continue;
-    }
-    int j = k;
-    while (j < n && count[static_cast<std::size_t>(j)] == 0) ++j;
-    const int len = j - k;
-    const double chord = 2.0 * params.roi_radius_m * std::sin(0.5 * len * width);
-    if (chord >= params.gap_width_m && len > best_len) {
-      best_len = len;
-      best_start = k;
-    }
-    k = j;
-  }
-  Decision d;
-  if (best_start < 0) {
-    d.situation = Situation::blocked;
-    d.reason = "no free run ahead is " + std::to_string(params.gap_width_m) + " m wide within " +
-               std::to_string(params.roi_radius_m) + " m";
-    return d;
-  }
-  d.situation = Situation::roam;
-  d.translate = true;
-  d.heading_rad = -kPi / 2 + (best_start + 0.5 * best_len) * width;
-  d.reason = "widest free run: " + std::to_string(best_len) + " sectors";
-  return d;
 }
 
 int NavigationFilter::sector_count() const { return static_cast<int>(std::lround(360.0 / params_.sector_width_deg)); }

@@ -16,26 +16,6 @@ cv::Point2d at(double range_m, double bearing_deg, const Pose2D& robot = {}) {
   return {robot.x_m + range_m * std::cos(a), robot.y_m + range_m * std::sin(a)};
 }
 
-TEST(PolarRoaming, ForbiddenSectorsWidestRunAndStop) {
-  const PolarMapParams p;
-  ASSERT_TRUE(p.validate().ok());
-  // points ahead-left at 1 m: the widest free run is on the right
-  std::vector<cv::Point2d> pts{at(1.0, 5), at(1.0, 20), at(1.0, 40), at(1.0, 60), at(1.0, 80)};
-  Decision d = roam_decision(pts, p);
-  EXPECT_EQ(d.situation, Situation::roam);
-  EXPECT_NEAR(d.heading_rad, (-90.0 + 0.5 * 7 * 12) * kDeg, 1e-9);  // sectors 0..6 free (−90°..−6°)
-  // points outside the 1.5 m semicircle are ignored
-  EXPECT_EQ(roam_decision(std::vector<cv::Point2d>{at(1.6, 0)}, p).situation, Situation::roam);
-  EXPECT_NEAR(roam_decision(std::vector<cv::Point2d>{at(1.6, 0)}, p).heading_rad, 0.0, 1e-9);
-  // a wall of points every 10°: no run wide enough
-  std::vector<cv::Point2d> wall;
-  for (int b = -85; b <= 85; b += 10) wall.push_back(at(1.2, b));
-  d = roam_decision(wall, p);
-  EXPECT_EQ(d.situation, Situation::blocked);
-  EXPECT_FALSE(d.translate);
-  EXPECT_FALSE(d.reason.empty());
-}
-
 TEST(NavigationFilterBookkeeping, SectorsFollowTheRobotAndPointsBeyondTheGoalDoNotCount) {
   NavigationFilter f{PolarMapParams{}};
   EXPECT_EQ(f.sector_count(), 30);

@@ -10,8 +10,14 @@
 // across a pair (a wheel-size asymmetry turns the robot's belief, spec §11 item 23) is corrected
 // by where the ground points moved in the image.
 //
-// Only features labelled GROUND are used, at most `max_observations` per pair (spread over the
-// pair's list), and only those that moved like the pair's other ground points (gate_sd). Odometry increments get the covariance diag((σ_t·d)², (σ_t·d)², (σ_θ·d)²) for a
+// The tracks used are those whose discrepancy D was computed (below the guard band, within the
+// classifier's range: labelled GROUND, in a band, OBSTACLE by D), at most `max_observations` per
+// pair (spread over the pair's list), and only those that moved like the pair's other points
+// (gate_sd). Not only the GROUND labels: D uses the odometry, so those labels select the tracks
+// that agree with the odometry's error (issue 38; docs/obstacles.md). Must not be used where the
+// odometry's heading noise per pair approaches the pipeline's max_pair_rotation_rad (0.05 rad):
+// the pipeline then restarts the pairs the noise turned and those steps are dead reckoning
+// (the thesis's level 5, σθ = 0.032 rad per 5 cm: the filter lost to dead reckoning). Odometry increments get the covariance diag((σ_t·d)², (σ_t·d)², (σ_θ·d)²) for a
 // travel of d metres, plus a floor that keeps it positive definite at d = 0.
 //
 // Frames: the odom frame (x, y, heading; metres, radians). The pose is anchored where reset() or

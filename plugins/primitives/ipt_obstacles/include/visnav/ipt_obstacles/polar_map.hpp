@@ -1,10 +1,8 @@
 // visnav IPT obstacles — the local polar map and the navigation decisions (thesis Ch. 4 and
 // Ch. 6; spec §5, §7).
 //
-//  * roam_decision(): the Ch. 4 VFH-like histogram. Contact points inside a semicircle of
-//    roi_radius_m ahead count; sectors of sector_width_deg from −90° to +90°; a sector with a
-//    point is forbidden; free runs whose chord 2·R·sin(Δα/2) is below gap_width_m are dropped;
-//    steer to the centre of the widest run, or stop when none is left.
+//  * The thesis's Ch. 4 goal-less roaming histogram is not implemented: no mission roams without a
+//    goal (teach and repeat always has the edge's line), so the code had no node and no tree.
 //  * NavigationFilter: the Ch. 6 goal-directed strategy. Contact points are stored in the
 //    ground frame and re-expressed around the robot every cycle (30 sectors of 12°, sector k
 //    covers bearings [−180° + 12k, −180° + 12(k+1))); only points closer than the goal count
@@ -55,7 +53,6 @@ struct PolarMapParams {
   double sector_width_deg = 12.0;     ///< γ, thesis Ch. 6 (30 sectors)
   double security_distance_m = 0.95;  ///< S_dist, thesis Ch. 6
   double gap_width_m = 0.95;          ///< W_gap (the thesis experiments; 2·S_dist = 1.90 m by its rule text)
-  double roi_radius_m = 1.5;          ///< Ch. 4 roaming semicircle (Ch. 5 figures)
   double goal_tolerance_m = 0.15;     ///< [spec I]
   double step_m = 0.02;               ///< travel per cycle, for candidate validation [spec I]
   double repulsion_gain = 1.0;        ///< potential field [spec I]: Σ gain·(1/d − 1/S_dist)/d² away from points
@@ -77,7 +74,6 @@ enum class Situation : std::uint8_t {
   gap,            ///< S5/S6 GO through a gap between two points
   gap_end_behind, ///< S7 GO, one end behind the robot
   no_candidate,   ///< GO found nothing: rotate in place
-  roam,           ///< S10 Ch. 4 roaming
   blocked,        ///< S10: no free run wide enough: stop
 };
 [[nodiscard]] const char* to_string(Situation situation);
@@ -89,9 +85,6 @@ struct Decision {
   bool reset = false;         ///< the filter and tenacity were reset this cycle
   std::string reason;         ///< one line for logs
 };
-
-/// Ch. 4 roaming over contact points given in the robot frame (x forward, y left, metres).
-[[nodiscard]] Decision roam_decision(std::span<const cv::Point2d> points_robot, const PolarMapParams& params);
 
 /// Ch. 6 navigation filter with tenacity. Not thread-safe; one per controller.
 class NavigationFilter {

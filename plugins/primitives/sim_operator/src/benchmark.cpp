@@ -89,21 +89,11 @@ Result<BenchmarkOptions> parse(int argc, char** argv) {
     }
     else if (arg == "--displace") {
       VISNAV_ASSIGN(std::string v, in.value());
-      const auto comma = v.find(',');
-      VISNAV_ASSIGN(o.displace_m, parse_number(v.substr(0, comma), -5.0, 5.0, "--displace (metres)"));
-      if (comma != std::string::npos) {
-        VISNAV_ASSIGN(o.displace_heading_deg, parse_number(v.substr(comma + 1), -90.0, 90.0, "--displace (degrees)"));
-      }
+      VISNAV_TRY(parse_displacement(v, o.displace_m, o.displace_heading_deg));
     }
     else if (arg == "--maps") {
       VISNAV_ASSIGN(std::string v, in.value());
-      o.maps.clear();
-      std::stringstream ss(v);
-      for (std::string m; std::getline(ss, m, ',');) {
-        if (m != "hybrid" && m != "feature" && m != "path") return fail("--maps: '" + m + "' is not hybrid, feature or path");
-        o.maps.push_back(m);
-      }
-      if (o.maps.empty()) return fail("--maps needs at least one map kind");
+      VISNAV_ASSIGN(o.maps, parse_map_kinds(v));
     } else {
       return fail("unknown option '" + arg + "'");
     }

@@ -171,6 +171,30 @@ constexpr const char* kUsage =
     "Exit status: 0 every loop of every run completed, 1 some loop failed or a run could not be\n"
     "set up, 2 usage error.\n";
 
+}  // namespace
+
+Result<std::vector<std::string>> parse_map_kinds(const std::string& text) {
+  std::vector<std::string> maps;
+  std::stringstream ss(text);
+  for (std::string m; std::getline(ss, m, ',');) {
+    if (m != "hybrid" && m != "feature" && m != "path") return fail("--maps: '" + m + "' is not hybrid, feature or path");
+    maps.push_back(m);
+  }
+  if (maps.empty()) return fail("--maps needs at least one map kind");
+  return maps;
+}
+
+Status parse_displacement(const std::string& text, double& lateral_m, double& heading_deg) {
+  const auto comma = text.find(',');
+  VISNAV_ASSIGN(lateral_m, parse_number(text.substr(0, comma), -5.0, 5.0, "--displace (metres)"));
+  if (comma != std::string::npos) {
+    VISNAV_ASSIGN(heading_deg, parse_number(text.substr(comma + 1), -90.0, 90.0, "--displace (degrees)"));
+  }
+  return ok();
+}
+
+namespace {
+
 Result<ExperimentOptions> parse(int argc, char** argv) {
   ExperimentOptions o;
   for (OptionReader in(argc, argv); in.next();) {
@@ -179,11 +203,7 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     else if (arg == "--route") { VISNAV_ASSIGN(o.route, in.value()); }
     else if (arg == "--displace") {
       VISNAV_ASSIGN(std::string v, in.value());
-      const auto comma = v.find(',');
-      VISNAV_ASSIGN(o.displace_m, parse_number(v.substr(0, comma), -5.0, 5.0, "--displace (metres)"));
-      if (comma != std::string::npos) {
-        VISNAV_ASSIGN(o.displace_heading_deg, parse_number(v.substr(comma + 1), -90.0, 90.0, "--displace (degrees)"));
-      }
+      VISNAV_TRY(parse_displacement(v, o.displace_m, o.displace_heading_deg));
     }
     else if (arg == "--loops") { VISNAV_ASSIGN(double n, in.number(1, 100)); o.loops = static_cast<int>(n); }
     else if (arg == "--seeds") { VISNAV_ASSIGN(double n, in.number(1, 1000)); o.seeds = static_cast<int>(n); }
@@ -228,14 +248,7 @@ Result<ExperimentOptions> parse(int argc, char** argv) {
     }
     else if (arg == "--maps") {
       VISNAV_ASSIGN(std::string v, in.value());
-      o.maps.clear();
-      std::stringstream ss(v);
-      for (std::string m; std::getline(ss, m, ',');) {
-        if (m != "hybrid" && m != "feature" && m != "path")
-          return fail("--maps: '" + m + "' is not hybrid, feature or path");
-        o.maps.push_back(m);
-      }
-      if (o.maps.empty()) return fail("--maps needs at least one style");
+      VISNAV_ASSIGN(o.maps, parse_map_kinds(v));
     } else {
       return fail("unknown option '" + arg + "'");
     }

@@ -90,6 +90,11 @@ struct ExperimentOptions {
   std::function<void(SimulationControl& sim, Robot& robot, double replay_distance_m)> replay_hook;
 };
 
+/// `--maps` text: comma-separated map kinds, each hybrid, feature or path. Error names the bad one.
+[[nodiscard]] Result<std::vector<std::string>> parse_map_kinds(const std::string& text);
+/// `--displace M[,DEG]`: metres to the left in [-5, 5], degrees in [-90, 90] (unchanged when absent).
+[[nodiscard]] Status parse_displacement(const std::string& text, double& lateral_m, double& heading_deg);
+
 /// Overrides of a named appearance (camera params): same, winter, autumn, dusk, low_sun,
 /// overcast. Error: unknown name (lists the known ones).
 [[nodiscard]] Result<std::vector<std::string>> appearance_overrides(const std::string& name);

@@ -26,7 +26,8 @@ void StartViewSearch::begin(const StartViewSearchParams& params, double started_
   scan_rad_ = params.scan_rad;
   if (params.max_heading_deviation_rad > 0.0)
     scan_rad_ = std::min(scan_rad_, params.max_heading_deviation_rad - StartViewSearchParams::kHeadingMarginRad);
-  phase_ = scan_rad_ > 0.0 && started_m < 0.3 ? Phase::probe : Phase::driving;
+  phase_ = started_m >= 0.3 ? Phase::driving : scan_rad_ > 0.0 ? Phase::probe : Phase::watch;
+  sample_count_ = 0;
   look_frames_ = 0;
   look_confidence_sum_ = 0.0;
   look_offset_sum_ = 0.0;
@@ -50,6 +51,49 @@ bool StartViewSearch::look(double confidence, double offset_fraction, bool& seen
   return true;
 }
 
+double StartViewSearch::prior(double turn_rad) const {
+  if (params_.prior_sd_rad <= 0.0) return 1.0;
+  const double t = turn_rad / params_.prior_sd_rad;
+  return std::exp(-0.5 * t * t);
+}
+
+bool StartViewSearch::is_peak(std::size_t i) const {
+  const ScanSample& s = samples_[i];
+  if (s.score <= 0.0F) return false;
+  for (std::size_t k = 0; k < sample_count_; ++k)
+    if (std::abs(samples_[k].turn_rad - s.turn_rad) <= kPeakWindowRad && samples_[k].score > s.score) return false;
+  return true;
+}
+
+void StartViewSearch::choose_best(double& runner_up_score, double& runner_up_turn_rad) {
+  // The peak (a heading that matched best within kPeakWindowRad) that is the likeliest start
+  // view: its score weighted by the prior. The whole sweep is in the samples (scan_right passes
+  // the range once), so every peak is seen; the best raw score is tracked for the rest.
+  runner_up_score = -1.0;
+  runner_up_turn_rad = 0.0;
+  if (sample_count_ == 0) return;
+  double best_weighted = -1.0;
+  std::size_t best = sample_count_;
+  for (std::size_t i = 0; i < sample_count_; ++i) {
+    if (!is_peak(i)) continue;
+    const double w = samples_[i].score * prior(samples_[i].turn_rad);
+    if (w > best_weighted) {
+      best_weighted = w;
+      best = i;
+    }
+  }
+  if (best == sample_count_) return;
+  best_turn_rad_ = samples_[best].turn_rad;
+  best_score_ = samples_[best].score;
+  best_confidence_ = confidences_[best];
+  for (std::size_t i = 0; i < sample_count_; ++i)
+    if (std::abs(samples_[i].turn_rad - best_turn_rad_) >= StartViewSearchParams::kAmbiguitySeparationRad &&
+        samples_[i].score > runner_up_score) {
+      runner_up_score = samples_[i].score;
+      runner_up_turn_rad = samples_[i].turn_rad;
+    }
+}
+
 void StartViewSearch::unwrap(double heading_rad) {
   scan_turned_rad_ += wrap_angle_rad(heading_rad - scan_last_rad_);
   scan_last_rad_ = heading_rad;
@@ -58,11 +102,15 @@ void StartViewSearch::unwrap(double heading_rad) {
 std::optional<Twist> StartViewSearch::update(double heading_rad, double confidence, double offset_fraction,
                                              bool informative, Logger& logger, const std::string& who,
                                              const std::string& edge_id) {
-  if (phase_ == Phase::probe && !informative) phase_ = Phase::driving;
+  if ((phase_ == Phase::probe || phase_ == Phase::watch) && !informative) phase_ = Phase::driving;
   auto turn = [](double w) { return std::optional<Twist>(Twist{0.0, w}); };
   auto track = [&]() {
     unwrap(heading_rad);
     const double score = confidence * std::max(0.0, 1.0 - 2.0 * offset_fraction);
+    if (sample_count_ < samples_.size()) {
+      confidences_[sample_count_] = static_cast<float>(confidence);
+      samples_[sample_count_++] = ScanSample{static_cast<float>(scan_turned_rad_), static_cast<float>(score)};
+    }
     if (score > best_score_) {
       best_score_ = score;
       best_confidence_ = confidence;
@@ -83,6 +131,17 @@ std::optional<Twist> StartViewSearch::update(double heading_rad, double confiden
   double mean_confidence = 0.0;
   double mean_offset = 0.0;
   switch (phase_) {
+    case Phase::watch: {
+      // Scan off: look at the first frames while driving, and only say what was seen.
+      if (!look(confidence, offset_fraction, seen, mean_confidence, mean_offset)) return std::nullopt;
+      if (!seen)
+        logger.warn(who, "edge " + edge_id + ": start view not seen at the start (confidence " +
+                             format_double(mean_confidence) + ", offset " + format_double(mean_offset) +
+                             " of the width): the robot may have started away from the taught start; driving on "
+                             "(the start-view scan is off)");
+      phase_ = Phase::driving;
+      return std::nullopt;
+    }
     case Phase::probe: {
       // Three frames standing at the start: is the taught start view there?
       if (!look(confidence, offset_fraction, seen, mean_confidence, mean_offset)) return turn(0.0);
@@ -94,6 +153,7 @@ std::optional<Twist> StartViewSearch::update(double heading_rad, double confiden
                            ", offset " + format_double(mean_offset) + " of the width); searching by turning +-" +
                            degrees(scan_rad_) + " deg");
       phase_ = Phase::scan_left;
+      sample_count_ = 0;
       scan_last_rad_ = heading_rad;
       scan_turned_rad_ = 0.0;
       best_confidence_ = -1.0;
@@ -106,19 +166,29 @@ std::optional<Twist> StartViewSearch::update(double heading_rad, double confiden
       if (scan_turned_rad_ < scan_rad_) return turn(params_.scan_speed_radps);
       phase_ = Phase::scan_right;
       return turn(-params_.scan_speed_radps);
-    case Phase::scan_right:
+    case Phase::scan_right: {
       track();
       if (scan_turned_rad_ > -scan_rad_) return turn(-params_.scan_speed_radps);
+      double second_score = -1.0;
+      double second_turn_rad = 0.0;
+      choose_best(second_score, second_turn_rad);
       if (best_confidence_ < params_.min_confidence) {
         // Nothing matched anywhere: start on the odometric heading and leave it to the lost
         // policy (a stretch that was hard to see when taught may still be driven on odometry).
         logger.warn(who, "edge " + edge_id + ": start view not found within +-" + degrees(scan_rad_) +
                              " deg; starting on the odometric heading");
         phase_ = Phase::turn_back;
+      } else if (second_score >= StartViewSearchParams::kAmbiguityRatio * best_score_) {
+        logger.warn(who, "edge " + edge_id + ": the scan is ambiguous: the likeliest match, " + degrees(best_turn_rad_) +
+                             " deg from the odometric heading (score " + format_double(best_score_) + "), and one " +
+                             degrees(second_turn_rad) + " deg from it (score " + format_double(second_score) +
+                             ") match alike (a repeating scene); starting on the odometric heading");
+        phase_ = Phase::turn_back;
       } else {
         phase_ = Phase::turn_to_best;
       }
       return turn(params_.scan_speed_radps);
+    }
     case Phase::turn_to_best: {
       std::optional<Twist> command;
       if (!turned_to(best_turn_rad_, command)) return command;

@@ -29,6 +29,8 @@ class KinematicRobot final : public Robot {
  public:
   explicit KinematicRobot(FrameBus& bus) : bus_(bus) { publish(); }
   Status send_command(const Twist& c) override {
+    if (refuse_commands_ && (c.linear_mps != 0.0 || c.angular_radps != 0.0))
+      return fail(ErrorCode::io, "the motor driver is not responding");
     command_ = c;
     ++commands_;
     return ok();
@@ -47,6 +49,7 @@ class KinematicRobot final : public Robot {
   Odometry odom_;
   Twist command_;
   int commands_ = 0;
+  bool refuse_commands_ = false;  ///< true: every moving command fails (a stop is still taken)
 
  private:
   FrameBus& bus_;

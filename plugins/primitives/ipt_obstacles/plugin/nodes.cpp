@@ -14,8 +14,17 @@ using bt::NodeStatus;
 
 namespace {
 
-void send(HostServices& host, double v_mps, double w_radps) {
-  if (Robot* robot = host.robot()) (void)robot->send_command(Twist{v_mps, w_radps});
+/// Sends a velocity command; a command the robot refuses stops it and fails the node (a robot
+/// that cannot be commanded must not be left on its last command).
+NodeStatus send(HostServices& host, const bt::TreeNode& node, double v_mps, double w_radps) {
+  Robot* robot = host.robot();
+  if (robot == nullptr) return NodeStatus::running;
+  if (auto st = robot->send_command(Twist{v_mps, w_radps}); !st) {
+    (void)robot->stop();
+    host.logger().error(node.path(), "stopped: the robot refused the velocity command: " + st.error().message);
+    return NodeStatus::failure;
+  }
+  return NodeStatus::running;
 }
 
 /// Debug log of a pair's points (odom frame) for diagnosing detours.
@@ -337,8 +346,7 @@ NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, Pipe
   }
   const double w = std::clamp(gain_per_s_ * d.heading_rad, -max_angular_radps_, max_angular_radps_);
   const double v = d.translate ? speed_mps_ * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
-  send(host, v, d.translate ? w : std::copysign(max_angular_radps_, d.heading_rad));
-  return NodeStatus::running;
+  return send(host, node, v, d.translate ? w : std::copysign(max_angular_radps_, d.heading_rad));
 }
 
 // ----------------------------------------------------------------------------- AvoidObstacles
@@ -665,8 +673,7 @@ NodeStatus ReplayAvoiding::tick() {
       host_.logger().error(path(), "stopped: " + probe_reason_ + "; nothing found ahead while probing on");
       return NodeStatus::failure;
     }
-    send(host_, s.command.linear_mps, s.command.angular_radps);
-    return NodeStatus::running;
+    return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
   }
   const NodeStatus st = child()->execute_tick();
   child_ran_ = true;
@@ -1041,8 +1048,7 @@ void ReplayAvoiding::begin_crossing(const Odometry& odom, double way_ahead_m, co
 NodeStatus ReplayAvoiding::cross_step(const Odometry& odom) {
   const HiddenPathProbe::Step s = crossing_drive_->step(odom.pose, odom.distance_m);
   if (!s.exhausted) {
-    send(host_, s.command.linear_mps, s.command.angular_radps);
-    return NodeStatus::running;
+    return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
   }
   crossing_drive_.reset();
   // The person it crossed walks away beside the lane: no stop for it right after.
@@ -1178,8 +1184,7 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
       stop(host_);
       return NodeStatus::failure;
     }
-    send(host_, -*speed, std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps));
-    return NodeStatus::running;
+    return send(host_, *this, -*speed, std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps));
   }
   if (was_reversing) lane_best_s_m_ = d.s_m;  // progress counts again from where the reversing ended
   if (d.s_m > lane_best_s_m_ + 0.1) {
@@ -1195,8 +1200,7 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
   // hold_forward: a known point in the body's way straight ahead: turn in place (lane_detour.hpp).
   const double v = d.hold_forward || std::fabs(d.heading_rad) > 1.0 ? 0.0
                                                                      : lim.speed_mps * std::max(0.0, std::cos(d.heading_rad));
-  send(host_, v, w);
-  return NodeStatus::running;
+  return send(host_, *this, v, w);
 }
 
 void ReplayAvoiding::halt() {
@@ -1261,8 +1265,7 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
   if (!near_grey_.empty()) backoff_trail_.add(near_grey_, odom.pose, -odom.distance_m);
   const BackOffLook::Step s = backoff_->step(odom.pose, odom.distance_m);
   if (!s.done) {
-    send(host_, s.command.linear_mps, s.command.angular_radps);
-    return NodeStatus::running;
+    return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
   }
   stop(host_);
   backing_ = false;

@@ -56,13 +56,16 @@
 #include <string_view>
 #include <vector>
 
-#include "visnav/bt/registry.hpp"
 #include "visnav/devices.hpp"
 #include "visnav/host.hpp"
 #include "visnav/map.hpp"
 #include "visnav/nav_health.hpp"
 #include "visnav/params.hpp"
 #include "visnav/result.hpp"
+
+namespace visnav::bt {
+class NodeRegistry;  // visnav/bt/registry.hpp: only the registration functions below take one
+}  // namespace visnav::bt
 
 namespace visnav {
 

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "visnav/bt/node.hpp"
+#include "visnav/bt/registry.hpp"
 #include "visnav/primitive.hpp"
 
 namespace visnav {

@@ -59,7 +59,8 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 ///    `kind`); VISNAV_PLUGIN takes a PluginInfo with named fields (issue 14).
 /// 5: NavStatus and ReplayStep gained the live-view overlay (NavOverlay, issue 18).
 /// 6: EdgeReplayer gained succeeded() (multi-experience learning, issue 13).
-inline constexpr std::uint32_t kPluginAbiVersion = 6;
+/// 7: NodeManifest gained check_literals, PrimitiveType check_params (validate = run, issue 37).
+inline constexpr std::uint32_t kPluginAbiVersion = 7;
 
 /// What a plugin contributes. A library may contribute several kinds at once.
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };

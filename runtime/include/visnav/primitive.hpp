@@ -191,6 +191,9 @@ struct PrimitiveType {
   std::vector<ParamDoc> params;       ///< one port each, default = the Params struct's default
   /// Type and constraint of one value of param `key` (the port check).
   std::function<Status(std::string_view key, const ConfigNode& value)> check_param;
+  /// Parses all params (a map, one entry per port) with the schema and validate(), nothing else:
+  /// the tree check of literal ports (so validate refuses what the node's start would).
+  std::function<Status(const ConfigNode& params)> check_params;
   /// Parses all params (a map, one entry per port) with the schema and validate(), then makes the object.
   std::function<Result<std::unique_ptr<EdgeReplayer>>(const ConfigNode& params)> make_replayer;
   std::function<Result<std::unique_ptr<EdgeTeacher>>(const ConfigNode& params)> make_teacher;
@@ -211,6 +214,11 @@ PrimitiveType primitive_type(std::string node_id, std::string description, std::
   t.uses_detector = C::kUsesDetector;
   t.params = Params::schema().docs();
   t.check_param = [](std::string_view key, const ConfigNode& value) { return Params::schema().check_field(key, value); };
+  t.check_params = [](const ConfigNode& params) -> Status {
+    auto parsed = Params::schema().parse(params);
+    if (!parsed) return parsed.error();
+    return ok();
+  };
   auto make = [](const ConfigNode& params) noexcept -> Result<std::unique_ptr<Base>> {
     try {
       VISNAV_ASSIGN(Params p, Params::schema().parse(params));

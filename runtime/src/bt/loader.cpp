@@ -491,6 +491,7 @@ class Loader {
     if (m == nullptr) {
       add(ErrorCode::not_found, def.file, line, path, "unknown node ID '" + id + "'");
     } else {
+      const std::size_t diags_before = diags_.size();
       for (const tinyxml2::XMLAttribute* a = el->FirstAttribute(); a != nullptr; a = a->Next()) {
         const std::string_view name = a->Name();
         if (name == "name") continue;
@@ -516,6 +517,21 @@ class Loader {
         } else if (p.default_value) {
           validate_port_value(def, line, path, p, *p.default_value, true);
         }
+      }
+      // The cross-port rules assume every port parsed: after a port's own problem, not again.
+      if (m->check_literals && diags_.size() == diags_before) {
+        LiteralPorts literal;
+        for (const PortInfo& p : m->ports) {
+          if (p.direction == PortDirection::output) continue;
+          const char* given = el->Attribute(p.name.c_str());
+          if (given == nullptr && !p.default_value) continue;
+          const std::string text = given != nullptr ? std::string(given) : *p.default_value;
+          const std::string_view t = detail::trim(text);
+          if (!t.empty() && t.front() == '{' && t.back() == '}') literal.bound.push_back(p.name);
+          else literal.values.emplace(p.name, text);
+        }
+        if (auto st = m->check_literals(literal); !st)
+          add(st.error().with_default_code(ErrorCode::inconsistent).code, def.file, line, path, st.error().message);
       }
       const int n = static_cast<int>(n_children);
       if (n < m->min_children || (m->max_children >= 0 && n > m->max_children)) {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <numbers>
 #include <optional>
+#include <type_traits>
 #include <sstream>
 #include <utility>
 
@@ -245,10 +246,10 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
         bt::input_port<double>("carried_m", "{edge_carried_m}",
                                "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
                                "unset counts as 0)"),
-        bt::input_port<double>("distance_scale", "{edge_distance_scale}",
+        bt::with_range(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
                                "odometric metres per taught metre (FollowRoute's estimate of this replay's odometry "
                                "scale against the teach run's): the primitive sees the edge's distance divided by it, "
-                               "so the edge ends where it ended when taught; unset counts as 1, else in [0.5, 2]"),
+                               "so the edge ends where it ended when taught; unset counts as 1, else in [0.5, 2]"), 0.5, 2.0),
         bt::output_port<int>("lap", "{lap}", "0-based lap being driven (closed paths driven several times)"),
         bt::output_port<std::string>("failure", "{edge_failure}",
                                      "the reason of the node's last FAILURE (empty while it runs or after a success): "
@@ -628,6 +629,34 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
   int height_px_ = 0;
 };
 
+/// The literal values of `docs`' ports as the params map the schema parses; nullopt when one of
+/// them is bound to the blackboard (its value is known only when the node runs).
+std::optional<ConfigNode> literal_params(const bt::LiteralPorts& literal, const std::vector<ParamDoc>& docs) {
+  ConfigNode map = ConfigNode::make_map();
+  for (const ParamDoc& d : docs) {
+    if (literal.is_bound(d.name)) return std::nullopt;
+    auto it = literal.values.find(d.name);
+    if (it == literal.values.end()) return std::nullopt;
+    map.set(d.name, ConfigNode::make_scalar(it->second));
+  }
+  return map;
+}
+
+/// The checks a node's start makes on its params and lost policy (schema, ranges, validate()),
+/// run on a tree's literal ports: `visnav validate` refuses what `run` would refuse when the node
+/// starts (slow_after_m above max_blind_m, a primitive's cross-field rules).
+Status check_literal_params(const PrimitiveType& type, bool replayer, const bt::LiteralPorts& literal) {
+  if (type.check_params)
+    if (auto params = literal_params(literal, type.params))
+      if (auto st = type.check_params(*params); !st) return st.error().with_default_code(ErrorCode::inconsistent);
+  if (replayer)
+    if (auto lost = literal_params(literal, LostPolicyPorts::schema().docs())) {
+      auto parsed = LostPolicyPorts::schema().parse(*lost);
+      if (!parsed) return parsed.error().with_default_code(ErrorCode::inconsistent);
+    }
+  return ok();
+}
+
 template <typename Node>
 Status register_type(bt::NodeRegistry& registry, HostServices& host, PrimitiveType type) {
   auto shared = std::make_shared<const PrimitiveType>(std::move(type));
@@ -635,6 +664,9 @@ Status register_type(bt::NodeRegistry& registry, HostServices& host, PrimitiveTy
   m.id = shared->node_id;
   m.kind = bt::NodeKind::action;
   VISNAV_ASSIGN(m.ports, Node::ports(shared));
+  m.check_literals = [shared](const bt::LiteralPorts& literal) {
+    return check_literal_params(*shared, std::is_same_v<Node, ReplayEdgeNode>, literal);
+  };
   m.description = shared->description;
   m.min_children = 0;
   m.max_children = 0;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -151,6 +152,61 @@ TEST_F(ValidateTest, CorruptWorldFileIsAParseError) {
   ASSERT_EQ(problems.size(), 1u) << dump(problems);
   EXPECT_EQ(problems[0].code, ErrorCode::parse_error);
   EXPECT_EQ(problems[0].where, (ErrorLocation{c, 3, "robot.params.world"}));
+}
+
+// Rules across ports and the ranges a node checks when it starts are checked on literals too, and
+// `visnav run` refuses the very same trees before its first tick (issue 37: validate = run).
+// Before, each of these passed validate and failed only when the robot reached the node.
+TEST_F(ValidateTest, CrossPortRulesAndStartChecksRefuseTheSameTreesAsRun) {
+  std::string c = config();
+  {
+    std::ifstream in(c);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string from = "nodes: [feature_replay, navigation, sim_operator]";
+    text.replace(text.find(from), from.size(), "nodes: [feature_replay, navigation, sim_operator, ipt_obstacles]");
+    c = write("config.yaml", text);
+  }
+  struct Case {
+    std::string leaf;
+    ErrorCode code;
+    std::string says;
+  };
+  const std::vector<Case> bad = {
+      {"<ReplayFeatureEdge edge=\"e1\" slow_after_m=\"9\" max_blind_m=\"5\"/>", ErrorCode::inconsistent, "slow_after_m"},
+      {"<ReplayFeatureEdge edge=\"e1\" distance_scale=\"3\"/>", ErrorCode::out_of_range, "distance_scale"},
+      {"<ReplayAvoiding crossing_kerb_m=\"9\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
+       "crossing_kerb_m"},
+      {"<ReplayAvoiding distance_scale=\"3\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
+       "distance_scale"},
+      {"<ReplayAvoiding look_frames=\"-1\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
+       "look_frames"},
+  };
+  for (const Case& k : bad) {
+    const std::string t = tree(k.leaf);
+    const auto problems = check(c, t);
+    ASSERT_EQ(problems.size(), 1u) << k.leaf << "\n" << dump(problems);
+    EXPECT_EQ(problems[0].code, k.code) << k.leaf << "\n" << dump(problems);
+    EXPECT_EQ(problems[0].where.line, 3) << k.leaf;
+    EXPECT_NE(problems[0].message.find(k.says), std::string::npos) << problems[0].message;
+    visnav::MissionOptions m;
+    m.config_file = c;
+    m.tree_file = t;
+    const visnav::RunReport r = visnav::run_mission(m);
+    EXPECT_EQ(r.outcome, visnav::RunOutcome::error) << k.leaf;
+    EXPECT_EQ(r.ticks, 0u) << k.leaf;
+    EXPECT_NE(r.reason.find(problems[0].message), std::string::npos) << r.reason;
+  }
+  // The same values where they are allowed pass; a rule over a bound port is the node's to check.
+  const std::vector<std::string> good = {
+      "<ReplayFeatureEdge edge=\"e1\" slow_after_m=\"2\" max_blind_m=\"5\"/>",
+      "<ReplayFeatureEdge edge=\"e1\" slow_after_m=\"9\" max_blind_m=\"{blind}\"/>",
+      "<ReplayFeatureEdge edge=\"e1\" distance_scale=\"1.02\"/>",
+      "<ReplayAvoiding crossing_kerb_m=\"1.2\" look_frames=\"0\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
+  };
+  for (const std::string& leaf : good) {
+    const auto problems = check(c, tree(leaf));
+    EXPECT_TRUE(problems.empty()) << leaf << "\n" << dump(problems);
+  }
 }
 
 // All problems are listed, not just the first; and `visnav run` (run_mission) stops on the very

@@ -27,12 +27,12 @@ bt::PortsList crossing_ports() {
           bt::input_port<double>("crossing_band_m", "4",
                                  "crossing policy: half width of the band watched for the person (frame difference "
                                  "0.3-8 m ahead), m"),
-          bt::input_port<double>("crossing_kerb_m", "0.7",
+          bt::with_range(bt::input_port<double>("crossing_kerb_m", "0.7",
                                  "crossing policy: a person seen crossing ahead while driving stops the robot when its "
-                                 "way is this far ahead of the robot centre, to watch it pass, m"),
-          bt::input_port<double>("crossing_wait_s", "15",
+                                 "way is this far ahead of the robot centre, to watch it pass, m"), 0.0, 5.0),
+          bt::with_range(bt::input_port<double>("crossing_wait_s", "15",
                                  "crossing policy: at such a stop, seconds of waiting for the person to pass before the "
-                                 "robot goes on")};
+                                 "robot goes on"), 0.0, 600.0)};
 }
 
 Result<std::optional<CrossingWatch>> CrossingWatch::from_ports(const bt::TreeNode& node, const IptCamera& camera) {

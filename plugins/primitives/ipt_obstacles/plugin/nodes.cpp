@@ -162,10 +162,10 @@ bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confir
   return {bt::input_port<double>("lookahead_m", lookahead_default_m, "contact points up to this far ahead count"),
           bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"),
           bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"),
-          bt::input_port<double>("confirm_baseline_m", confirm_baseline_default_m,
+          bt::with_range(bt::input_port<double>("confirm_baseline_m", confirm_baseline_default_m,
                                  "a contact counts only when seen again at the same ground point (within half the "
                                  "travel, at most confirm_radius_m) from a robot position this far away: rejects "
-                                 "contacts that move with the robot (sliding tracks on paver joints); 0 = every contact"),
+                                 "contacts that move with the robot (sliding tracks on paver joints); 0 = every contact"), 0.0, 1e6),
           bt::input_port<double>("confirm_radius_m", "0.3", "largest distance between two sightings of one contact"),
           bt::input_port<int>("confirm_views", "3",
                               "... and a contact must have been found at that ground point by this many pairs "
@@ -413,9 +413,9 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
                                          "edge distance already covered when the child starts, taught m (FollowRoute "
                                          "writes it; rewritten after a detour)"));
-  ports.push_back(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
+  ports.push_back(bt::with_range(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
                                          "odometric metres per taught metre (FollowRoute's estimate, as the replay "
-                                         "child's port): the rewritten carried_m is in taught metres; unset counts as 1"));
+                                         "child's port): the rewritten carried_m is in taught metres; unset counts as 1"), 0.5, 2.0));
   ports.push_back(bt::input_port<double>(
       "child_shift_m", "{edge_shift_m}",
       "the child's visual along-track correction so far (the replay nodes' output 'shift_m', taught m): every restart "
@@ -435,9 +435,9 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                          "odometer when a detour ends: the detour was driven on the IPT, not blind"));
   ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
                                          "the replay's frozen-image count, restarted likewise after a detour"));
-  ports.push_back(bt::input_port<int>("look_frames", "8",
+  ports.push_back(bt::with_range(bt::input_port<int>("look_frames", "8",
                                       "moving obstacles: frames the stopped robot watches the corridor before a detour "
-                                      "(motion: wait instead); 0 = detour at once"));
+                                      "(motion: wait instead); 0 = detour at once"), 0, 1000000));
   ports.push_back(bt::input_port<int>("clear_frames", "15", "moving obstacles: still frames before the replay resumes"));
   ports.push_back(bt::input_port<int>("max_wait_frames", "600",
                                       "moving obstacles: frames of waiting for the corridor to clear before failing"));
@@ -540,8 +540,13 @@ NodeStatus ReplayAvoiding::tick() {
     resumed_ = false;
     child_ran_ = false;
     // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
-    auto scale = get_input<double>("distance_scale");
-    scale_ = scale && *scale >= 0.5 && *scale <= 2.0 ? *scale : 1.0;
+    auto scale = get_input<double>("distance_scale");  // unset counts as 1; a set value must be in range
+    if (scale && !(*scale >= 0.5 && *scale <= 2.0)) {
+      host_.logger().error(path(), "port 'distance_scale': value " + std::to_string(*scale) + " is not in [0.5, 2]");
+      stop(host_);
+      return NodeStatus::failure;
+    }
+    scale_ = scale ? *scale : 1.0;
     replay_origin_m_ = odom->distance_m - scale_ * carried_m;
     child_started_ = true;
     if (drive_watch_) drive_watch_->reset();

@@ -45,16 +45,16 @@ bt::PortsList standing_ports() {
           bt::input_port<double>("standing_min_range_m", "0",
                                  "standing watch: a face found nearer than this is left to the other watches (the "
                                  "frame difference, back-off), m; 0 = any"),
-          bt::input_port<double>("standing_extent_m", "0",
+          bt::with_range(bt::input_port<double>("standing_extent_m", "0",
                                  "standing watch: when it fires, the face's full width from the image (a plane sweep at "
                                  "its distance against the frame this far back, face_extent.hpp) is added to the lane "
-                                 "detour's points, m; 0 = off (only the triangulated points)"),
-          bt::input_port<double>(
+                                 "detour's points, m; 0 = off (only the triangulated points)"), 0.0, 1.0),
+          bt::with_range(bt::input_port<double>(
               "standing_min_face_share", "0",
               "standing watch with standing_extent_m > 0: when the plane sweep judges less than this share of the "
               "image columns to be a face (face_extent.hpp, FaceExtent::face_share), the firing is dropped and the "
               "child resumes: the triangulated corners were not a standing face (campus: false firings 0.07-0.10, "
-              "the van 0.57-0.89); 0 = off")};
+              "the van 0.57-0.89); 0 = off"), 0.0, 1.0)};
 }
 
 Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNode& node) {

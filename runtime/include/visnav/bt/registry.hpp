@@ -36,6 +36,20 @@
 
 namespace visnav::bt {
 
+/// The input ports of one node element as a tree gives them, for a node type's own cross-port
+/// rules at validation (NodeManifest::check_literals): every literal value (written or the
+/// port's default, as text) and the names of the ports bound to blackboard entries, whose values
+/// are known only when the node runs.
+struct LiteralPorts {
+  std::map<std::string, std::string, std::less<>> values;
+  std::vector<std::string> bound;
+  [[nodiscard]] bool is_bound(std::string_view name) const noexcept {
+    for (const std::string& b : bound)
+      if (b == name) return true;
+    return false;
+  }
+};
+
 /// Description of a registered node type.
 struct NodeManifest {
   std::string id;
@@ -45,6 +59,10 @@ struct NodeManifest {
   int min_children = 0;   ///< validated at load time
   int max_children = 0;   ///< -1 = unbounded
   bool builtin = false;   ///< registered by register_builtin_nodes()
+  /// Rules across ports (e.g. a params struct's validate()) checked on the literal values when a
+  /// tree is validated or loaded, so `visnav validate` and `visnav run` refuse the same tree
+  /// before the first tick. Must skip what depends on bound ports. Empty: none.
+  std::function<Status(const LiteralPorts&)> check_literals;
 
   [[nodiscard]] const PortInfo* find_port(std::string_view name) const noexcept {
     for (const PortInfo& p : ports)

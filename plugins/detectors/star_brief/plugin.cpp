@@ -1,6 +1,7 @@
 // Detector plugin: star_brief — the CenSurE/STAR detector and BRIEF-256 descriptor of this
 // project (plugins/detectors/common), with adaptive threshold and upright option — and grief,
-// the same with comparison pairs loaded from a file (trained by `visnav train-descriptor`).
+// the same with trained comparison pairs (`pairs:` seasonal = the pattern that ships, built in;
+// or a file from `visnav train-descriptor`; brief = BRIEF's).
 #include "visnav/detectors/detector_types.hpp"
 #include "visnav/plugin.hpp"
 
@@ -10,7 +11,8 @@ const visnav::TypeEntry kTypes[] = {
     visnav::make_type<visnav::detectors::StarBriefDetector>(
         "star_brief", "CenSurE/STAR keypoints + 256-bit BRIEF (upright by default), adaptive threshold"),
     visnav::make_type<visnav::detectors::GriefDetector>(
-        "grief", "CenSurE/STAR keypoints + 256-bit GRIEF (BRIEF with comparison pairs from a file, `pairs:`)"),
+        "grief", "CenSurE/STAR keypoints + 256-bit GRIEF (BRIEF with trained comparison pairs, `pairs:`; default: the shipped "
+        "seasonal pattern)"),
 };
 
 }  // namespace

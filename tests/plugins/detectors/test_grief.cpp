@@ -1,5 +1,6 @@
 // grief: pairs files (load, validation with file:line, crash-safe write) and the detector type
-// (default = star_brief's BRIEF, a loaded pattern changes the descriptor, bad file → error).
+// (default = the shipped trained pattern, brief = star_brief's BRIEF, a loaded pattern changes the
+// descriptor, bad file → error).
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -106,12 +107,73 @@ TEST(GriefPairs, BadFilesNameFileLineAndPair) {
   EXPECT_TRUE(fails_with(missing, ErrorCode::not_found, At{"nope.yaml"}));
 }
 
-TEST(GriefDetector, DefaultIsStarBriefAndAPairsFileChangesTheDescriptor) {
+// The file that ships (config/detectors/grief_seasonal.yaml) parses, and the library's built-in
+// copy is that file as it is now (a retrained file that was not rebuilt fails here).
+TEST(GriefPairs, TheShippedPatternParsesAndIsBuiltIn) {
+  const std::string path = std::string(VISNAV_TEST_SOURCE_DIR) + "/config/detectors/grief_seasonal.yaml";
+  auto file = d::read_pairs_file(path);
+  ASSERT_TRUE(file.ok()) << file.error().message;
+  EXPECT_EQ(file->patch_size_px, 48);
+  ASSERT_EQ(file->pairs.size(), 256u);
+  EXPECT_TRUE(file->training.is_map());  // trained, with its record
+
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(std::string(d::seasonal_pairs_yaml()), text);
+
+  auto built_in = d::seasonal_pairs();
+  ASSERT_TRUE(built_in.ok()) << built_in.error().message;
+  ASSERT_EQ(built_in->pairs.size(), 256u);
+  int differs_from_brief = 0;
+  const auto brief = d::BriefExtractor::make_pattern(48);
+  for (std::size_t i = 0; i < 256; ++i) {
+    const d::BriefTest& a = built_in->pairs[i];
+    const d::BriefTest& b = brief[i];
+    EXPECT_EQ(a.x1, file->pairs[i].x1);
+    EXPECT_EQ(a.y2, file->pairs[i].y2);
+    if (a.x1 != b.x1 || a.y1 != b.y1 || a.x2 != b.x2 || a.y2 != b.y2) ++differs_from_brief;
+  }
+  EXPECT_GT(differs_from_brief, 12);  // more than one generation's replacements
+}
+
+TEST(GriefPairs, TextErrorsNameTheLabelAndLine) {
+  auto r = d::parse_pairs_text(pairs_text(12, "[30, 0, 1, 1]"), "mem.yaml");
+  EXPECT_TRUE(fails_with(r, ErrorCode::out_of_range, At{"mem.yaml", 15}));
+}
+
+// grief without `pairs` uses the shipped pattern, from any working directory: its descriptors
+// are the built-in file's, not BRIEF's; `pairs: brief` is exactly star_brief.
+TEST(GriefDetector, DefaultIsTheShippedPatternFromAnyDirectory) {
+  const cv::Mat img = d::testing::motorcycle_window(40, 10);
+  if (img.empty()) GTEST_SKIP() << "python3-skimage photos not installed";
+  Tmp tmp;
+  const auto cwd = std::filesystem::current_path();
+  std::filesystem::current_path(tmp.dir);  // nothing of the project here
+  auto grief = d::create_detector("grief", d::make_params({{"target_keypoints", "300"}}));
+  std::filesystem::current_path(cwd);
+  ASSERT_TRUE(grief.ok()) << grief.error().message;
+  const std::string path = std::string(VISNAV_TEST_SOURCE_DIR) + "/config/detectors/grief_seasonal.yaml";
+  auto from_file = d::create_detector("grief", d::make_params({{"target_keypoints", "300"}, {"pairs", path}}));
+  auto star = d::create_detector("star_brief", d::make_params({{"target_keypoints", "300"}}));
+  ASSERT_TRUE(from_file.ok() && star.ok());
+  visnav::Features fg, ff, fs;
+  ASSERT_TRUE((*grief)->detect(img, fg).ok());
+  ASSERT_TRUE((*from_file)->detect(img, ff).ok());
+  ASSERT_TRUE((*star)->detect(img, fs).ok());
+  ASSERT_GT(fs.keypoints.size(), 100u);
+  ASSERT_EQ(fg.keypoints.size(), fs.keypoints.size());
+  ASSERT_EQ(ff.keypoints.size(), fs.keypoints.size());
+  EXPECT_EQ(cv::norm(fg.descriptors, ff.descriptors, cv::NORM_HAMMING), 0.0);
+  // The trained comparisons differ from BRIEF's, so do their bits (about half of a changed test's).
+  EXPECT_GT(cv::norm(fg.descriptors, fs.descriptors, cv::NORM_HAMMING), 2.0 * static_cast<double>(fs.keypoints.size()));
+}
+
+TEST(GriefDetector, BriefIsStarBriefAndAPairsFileChangesTheDescriptor) {
   const cv::Mat img = d::testing::motorcycle_window(40, 10);
   if (img.empty()) GTEST_SKIP() << "python3-skimage photos not installed";
   Tmp tmp;
   auto star = d::create_detector("star_brief", d::make_params({{"target_keypoints", "300"}}));
-  auto grief = d::create_detector("grief", d::make_params({{"target_keypoints", "300"}}));
+  auto grief = d::create_detector("grief", d::make_params({{"target_keypoints", "300"}, {"pairs", "brief"}}));
   ASSERT_TRUE(star.ok() && grief.ok());
   visnav::Features fs, fg;
   ASSERT_TRUE((*star)->detect(img, fs).ok());
@@ -145,6 +207,9 @@ TEST(GriefDetector, BadPairsFileIsAnErrorOnCreateAndOnReload) {
 
   // The file's patch size must match the detector's.
   const auto good = tmp.write("good.yaml", pairs_text());
+  auto shipped_mismatch = d::create_detector("grief", d::make_params({{"patch_size_px", "32"}}));
+  EXPECT_TRUE(fails_with(shipped_mismatch, ErrorCode::inconsistent));
+  EXPECT_TRUE(d::create_detector("grief", d::make_params({{"patch_size_px", "32"}, {"pairs", "brief"}})).ok());
   auto mismatch = d::create_detector("grief", d::make_params({{"pairs", good}, {"patch_size_px", "32"}}));
   ASSERT_FALSE(mismatch.ok());
   EXPECT_NE(mismatch.error().message.find("patch_size_px 48"), std::string::npos) << mismatch.error().message;

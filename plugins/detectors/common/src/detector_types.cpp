@@ -176,7 +176,8 @@ const ParamSchema<GriefParams>& GriefParams::schema() {
     ParamSchema<GriefParams> sc;
     add_star_fields(sc);
     sc.field("pairs", &GriefParams::pairs,
-             "comparison pairs file (YAML, e.g. from `visnav train-descriptor`); brief: the BRIEF pattern");
+             "comparison pairs: seasonal = the trained pattern that ships (built in); brief = the BRIEF pattern; "
+             "else a pairs file (YAML, e.g. from `visnav train-descriptor`)");
     return sc;
   }();
   return s;
@@ -185,10 +186,11 @@ const ParamSchema<GriefParams>& GriefParams::schema() {
 Status GriefDetector::setup(const GriefParams& p) {
   std::vector<BriefTest> pattern;  // empty: BRIEF's
   if (!p.pairs.empty() && p.pairs != "brief") {
-    VISNAV_ASSIGN(PairsFile file, read_pairs_file(p.pairs));
+    VISNAV_ASSIGN(PairsFile file, p.pairs == kSeasonalPairsName ? seasonal_pairs() : read_pairs_file(p.pairs));
     if (file.patch_size_px != p.patch_size_px)
       return fail(ErrorCode::inconsistent, p.pairs + ": the pairs were made for patch_size_px " + std::to_string(file.patch_size_px) +
-                  " but the detector has patch_size_px " + std::to_string(p.patch_size_px) + " (set it to match)");
+                  " but the detector has patch_size_px " + std::to_string(p.patch_size_px) +
+                  " (set it to match, or pairs: brief for the BRIEF pattern of any patch size)");
     pattern = std::move(file.pairs);
   }
   VISNAV_TRY(brief_.set_params(brief_params(p)));

@@ -30,8 +30,10 @@ Result<int> integer(const ConfigNode& node, const std::string& what) {
 
 }  // namespace
 
-Result<PairsFile> read_pairs_file(const std::string& path) {
-  VISNAV_ASSIGN(const ConfigNode root, parse_yaml_file(path));
+namespace {
+
+/// The checks of a parsed pairs file; `path` labels the errors without a node.
+Result<PairsFile> pairs_from(const ConfigNode& root, const std::string& path) {
   if (!root.is_map()) return at(root, "a pairs file is a map with keys patch_size_px, pairs");
   PairsFile out;
   const ConfigNode* pairs = nullptr;
@@ -75,6 +77,23 @@ Result<PairsFile> read_pairs_file(const std::string& path) {
     }
   }
   return out;
+}
+
+}  // namespace
+
+Result<PairsFile> read_pairs_file(const std::string& path) {
+  VISNAV_ASSIGN(const ConfigNode root, parse_yaml_file(path));
+  return pairs_from(root, path);
+}
+
+Result<PairsFile> parse_pairs_text(std::string_view yaml, const std::string& file_label) {
+  VISNAV_ASSIGN(const ConfigNode root, parse_yaml_string(yaml, file_label));
+  return pairs_from(root, file_label);
+}
+
+Result<PairsFile> seasonal_pairs() {
+  static const Result<PairsFile> parsed = parse_pairs_text(seasonal_pairs_yaml(), "grief_seasonal.yaml (built in)");
+  return parsed;
 }
 
 Status write_pairs_file(const std::string& path, const PairsFile& file,

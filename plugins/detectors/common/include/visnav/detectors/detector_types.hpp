@@ -218,7 +218,9 @@ class StarBriefDetector final : public DetectorType<StarBriefDetector, StarBrief
 // grief: star_brief whose 256 comparison pairs come from a file (visnav/detectors/grief.hpp)
 
 struct GriefParams : StarBriefParams {
-  std::string pairs = "brief";  ///< pairs file; "brief" (or empty) = the BRIEF pattern (then identical to star_brief)
+  /// "seasonal" = the trained pattern that ships (kSeasonalPairsName, built in); "brief" (or
+  /// empty) = the BRIEF pattern (then identical to star_brief); anything else = a pairs file path.
+  std::string pairs = "seasonal";
   [[nodiscard]] Status validate() const;
   static const ParamSchema<GriefParams>& schema();
 };

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -35,6 +36,22 @@ struct PairsFile {
 
 /// Reads and validates a pairs file (BriefExtractor::validate_pattern for its patch_size_px).
 [[nodiscard]] Result<PairsFile> read_pairs_file(const std::string& path);
+
+/// Parses and validates pairs-file text; errors name `file_label`:line as read_pairs_file does.
+[[nodiscard]] Result<PairsFile> parse_pairs_text(std::string_view yaml, const std::string& file_label);
+
+/// The `pairs` name of the pattern that ships with the project (the default of `grief`): the
+/// pairs trained by `visnav train-descriptor` on the project's appearance-change pair sets
+/// (config/detectors/grief_seasonal.yaml, embedded into this library when it is built, so it is
+/// found from any working directory and needs no installed data file).
+inline constexpr std::string_view kSeasonalPairsName = "seasonal";
+
+/// The text of config/detectors/grief_seasonal.yaml as it was when this library was built.
+[[nodiscard]] std::string_view seasonal_pairs_yaml();
+
+/// The shipped pattern, parsed from seasonal_pairs_yaml() (errors are labelled
+/// "grief_seasonal.yaml (built in)"; a bad shipped file is caught by the tests). Thread-safe.
+[[nodiscard]] Result<PairsFile> seasonal_pairs();
 
 /// Writes `file` (pairs validated first). `training` entries are written in order under
 /// `training:` as `key: value` (values are written verbatim; pass YAML scalars).

@@ -36,7 +36,8 @@ const char* const kAlignUsage =
     "  --set K=V          matching/histogram parameter (repeatable): ratio, cross_check,\n"
     "                     max_descriptor_distance, max_vertical_px, bin_width_px, bin_count,\n"
     "                     refine_window_px, min_inliers, full_confidence_inliers, min_confidence,\n"
-    "                     horizontal_fov_deg\n"
+    "                     horizontal_fov_deg (min_confidence default 0.075, align's\n"
+    "                     calibrated gate; docs/feature_replay.md section 7)\n"
     "  --draw out.png     write the matches and the histogram (single-pair mode)\n"
     "  --pairs FILE       lines 'IMG_A IMG_B [SHIFT_PX]' ('#' comments and blank lines skipped;\n"
     "                     relative paths are tried as given, then relative to FILE's folder);\n"
@@ -255,8 +256,9 @@ bool print_usage_if_help(int argc, char** argv, const char* usage) {
   return false;
 }
 
-std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, const char* command) {
-  auto heading = HeadingParams::schema().parse(sets.is_null() ? ConfigNode{} : sets);
+std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, const char* command,
+                                                     const HeadingParams& base) {
+  auto heading = HeadingParams::schema().parse(sets.is_null() ? ConfigNode{} : sets, base);
   if (!heading) {
     std::fprintf(stderr, "visnav %s: --set: %s\n", command, heading.error().message.c_str());
     return std::nullopt;
@@ -271,7 +273,7 @@ int run_align(int argc, char** argv, HostServices& host) {
     std::fprintf(stderr, "visnav align: %s\n%s", opts.error().message.c_str(), kAlignUsage);
     return 2;
   }
-  const auto heading = heading_params_or_report(opts->heading_params, "align");
+  const auto heading = heading_params_or_report(opts->heading_params, "align", calibrated_heading_params());
   if (!heading) return 2;
   Aligner al{&host, opts->detector, opts->detector_params, HeadingEstimator(*heading), {}, {}, {}, {}};
   // Default keypoint density (issue 13): the target follows the image area, unless the user set

@@ -31,8 +31,10 @@ std::string resolve_pair_path(const std::string& path, const std::filesystem::pa
 /// in argv[1..] (then `usage` was printed on stdout).
 bool print_usage_if_help(int argc, char** argv, const char* usage);
 
-/// HeadingParams from the commands' `--set` values (null = defaults); on error prints
+/// HeadingParams from the commands' `--set` values over `base` (null = `base`: `align` passes
+/// calibrated_heading_params(), `train-descriptor` the SDK's HeadingParams{}); on error prints
 /// "visnav <command>: --set: <reason>" on stderr and returns nullopt (exit status 2).
-std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, const char* command);
+std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, const char* command,
+                                                     const HeadingParams& base);
 
 }  // namespace visnav::feature_replay

@@ -203,7 +203,7 @@ int run_train_descriptor(int argc, char** argv, HostServices& host) {
     std::fprintf(stderr, "visnav train-descriptor: %s\n%s", opts.error().message.c_str(), kTrainDescriptorUsage);
     return 2;
   }
-  const auto heading = heading_params_or_report(opts->heading_params, "train-descriptor");
+  const auto heading = heading_params_or_report(opts->heading_params, "train-descriptor", HeadingParams{});
   if (!heading) return 2;
   opts->training.heading = *heading;
   auto fail_with = [](const std::string& m) {

@@ -400,7 +400,8 @@ TEST_F(AlignFixture, PairsFileReportsTheThreeRatesOfTheGriefProtocol) {
 }
 
 // Issue 36: the gate curve. 21 thresholds 0..1; coverage never grows with the gate; the point at
-// a gate is what `--set min_confidence=` gives at that gate (here 0.25, the default, and 0.5).
+// a gate is what `--set min_confidence=` gives at that gate (here 0.25 and 0.5), and align's
+// default is the calibrated gate 0.075 (docs/feature_replay.md section 7), not the SDK's 0.25.
 TEST_F(AlignFixture, GateCurveSweepsTheConfidenceThreshold) {
   const cv::Mat img = textured_picture(36);
   std::ofstream pairs(dir / "labelled.txt");
@@ -444,10 +445,18 @@ TEST_F(AlignFixture, GateCurveSweepsTheConfidenceThreshold) {
     const auto at = text.find("# pairs 4 valid ");
     return at == std::string::npos ? -1 : std::stoi(text.substr(at + 16));
   };
-  EXPECT_EQ(summary_answered(out), std::stoi(rows[6][2])) << out;  // row 6: gate 0.25
+  ASSERT_EQ(rows[6][0], "0.2500");
+  call({"--pairs", file, "--detector", "orb", "--set", "min_confidence=0.25"}, &out);
+  EXPECT_EQ(summary_answered(out), std::stoi(rows[6][2])) << out;
   ASSERT_EQ(rows[11][0], "0.5000");
   call({"--pairs", file, "--detector", "orb", "--set", "min_confidence=0.5"}, &out);
   EXPECT_EQ(summary_answered(out), std::stoi(rows[11][2])) << out;
+  // The default gate: the 0.075 point of a 40-step curve.
+  call({"--pairs", file, "--detector", "orb", "--gate-curve", curve.string(), "--gate-steps", "40"}, &out);
+  const auto fine = read_csv(curve);
+  ASSERT_EQ(fine.size(), 42u);
+  ASSERT_EQ(fine[4][0], "0.0750");
+  EXPECT_EQ(summary_answered(out), std::stoi(fine[4][2])) << out;
   // Bad flag values are usage errors; an unwritable curve fails before any pair is aligned.
   EXPECT_EQ(call({"--pairs", file, "--gate-steps", "0"}), 2);
   EXPECT_EQ(call({"--pairs", file, "--detector", "orb", "--gate-curve", (dir / "no" / "such" / "c.csv").string()}), 2);

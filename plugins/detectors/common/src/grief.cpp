@@ -103,7 +103,7 @@ Status write_pairs_file(const std::string& path, const PairsFile& file,
   {
     std::ofstream out(tmp, std::ios::trunc);
     if (!out) return fail("cannot write '" + tmp + "'");
-    out << "# visnav GRIEF comparison pairs: 256 tests [I(x1, y1) < I(x2, y2)], px relative to the keypoint\n";
+    out << "# GRIEF comparison pairs: 256 tests [I(x1, y1) < I(x2, y2)], px relative to the keypoint\n";
     if (!comment.empty()) out << "# " << comment << "\n";
     out << "patch_size_px: " << file.patch_size_px << "\npairs:\n";
     for (const BriefTest& t : file.pairs)

@@ -68,7 +68,7 @@ bool StartViewSearch::is_peak(std::size_t i) const {
 void StartViewSearch::choose_best(double& runner_up_score, double& runner_up_turn_rad) {
   // The peak (a heading that matched best within kPeakWindowRad) that is the likeliest start
   // view: its score weighted by the prior. The whole sweep is in the samples (scan_right passes
-  // the range once), so every peak is seen; the best raw score is tracked for the rest.
+  // the range once), so every peak is seen.
   runner_up_score = -1.0;
   runner_up_turn_rad = 0.0;
   if (sample_count_ == 0) return;
@@ -85,7 +85,7 @@ void StartViewSearch::choose_best(double& runner_up_score, double& runner_up_tur
   if (best == sample_count_) return;
   best_turn_rad_ = samples_[best].turn_rad;
   best_score_ = samples_[best].score;
-  best_confidence_ = confidences_[best];
+  best_confidence_ = samples_[best].confidence;
   for (std::size_t i = 0; i < sample_count_; ++i)
     if (std::abs(samples_[i].turn_rad - best_turn_rad_) >= StartViewSearchParams::kAmbiguitySeparationRad &&
         samples_[i].score > runner_up_score) {
@@ -107,15 +107,9 @@ std::optional<Twist> StartViewSearch::update(double heading_rad, double confiden
   auto track = [&]() {
     unwrap(heading_rad);
     const double score = confidence * std::max(0.0, 1.0 - 2.0 * offset_fraction);
-    if (sample_count_ < samples_.size()) {
-      confidences_[sample_count_] = static_cast<float>(confidence);
-      samples_[sample_count_++] = ScanSample{static_cast<float>(scan_turned_rad_), static_cast<float>(score)};
-    }
-    if (score > best_score_) {
-      best_score_ = score;
-      best_confidence_ = confidence;
-      best_turn_rad_ = scan_turned_rad_;
-    }
+    if (sample_count_ < samples_.size())
+      samples_[sample_count_++] = ScanSample{static_cast<float>(scan_turned_rad_), static_cast<float>(score),
+                                             static_cast<float>(confidence)};
   };
   // Turning in place to `target` (turned angle since the scan started); true once there.
   auto turned_to = [&](double target, std::optional<Twist>& command) {

@@ -46,6 +46,11 @@ Seen view_at(double heading_rad, double view_rad, double c) {
   return {c, off / (2.0 * kHalfFovRad)};
 }
 
+/// What the camera reports where two views overlap: the one that scores better (as the search scores).
+Seen better_of(const Seen& a, const Seen& b) {
+  return a.confidence * (1.0 - 2.0 * a.offset_fraction) >= b.confidence * (1.0 - 2.0 * b.offset_fraction) ? a : b;
+}
+
 struct Outcome {
   double heading_rad = 0.0;      ///< where the robot starts the edge
   double most_left_rad = 0.0;    ///< farthest turned left while searching
@@ -143,8 +148,7 @@ TEST(StartViewSearch, NothingAnywhereStartsOnTheOdometricHeading) {
 TEST(StartViewSearch, ARepeatingSceneIsAmbiguousAndKeepsTheOdometricHeading) {
   // A tiled wall: the same match 50 deg right and 40 deg left, nothing ahead.
   auto camera = [](double h, int) {
-    const Seen a = view_at(h, -50.0 * kDeg, 0.7), b = view_at(h, 40.0 * kDeg, 0.68);
-    return a.confidence * (1.0 - 2.0 * a.offset_fraction) >= b.confidence * (1.0 - 2.0 * b.offset_fraction) ? a : b;
+    return better_of(view_at(h, -50.0 * kDeg, 0.7), view_at(h, 40.0 * kDeg, 0.68));
   };
   Log log;
   const Outcome o = run(params(0.0), camera, log);
@@ -155,8 +159,7 @@ TEST(StartViewSearch, ARepeatingSceneIsAmbiguousAndKeepsTheOdometricHeading) {
 
 TEST(StartViewSearch, AWeakerSecondMatchDoesNotMakeTheScanAmbiguous) {
   auto camera = [](double h, int) {
-    const Seen a = view_at(h, -30.0 * kDeg, 0.7), b = view_at(h, 40.0 * kDeg, 0.3);
-    return a.confidence * (1.0 - 2.0 * a.offset_fraction) >= b.confidence * (1.0 - 2.0 * b.offset_fraction) ? a : b;
+    return better_of(view_at(h, -30.0 * kDeg, 0.7), view_at(h, 40.0 * kDeg, 0.3));
   };
   Log log;
   const Outcome o = run(params(0.0), camera, log);
@@ -169,8 +172,7 @@ TEST(StartViewSearch, OfTwoAlikeViewsTheOneNearerTheOdometricHeadingIsTheLikelie
   // The prior picks the nearer of two peaks; a far one matching better makes the scan ambiguous
   // (measured: a tiled hall confirmed a view 51 deg off and the robot drove into the wall).
   auto camera = [](double h, int) {
-    const Seen a = view_at(h, -51.0 * kDeg, 0.25), b = view_at(h, 12.0 * kDeg, 0.22);
-    return a.confidence * (1.0 - 2.0 * a.offset_fraction) >= b.confidence * (1.0 - 2.0 * b.offset_fraction) ? a : b;
+    return better_of(view_at(h, -51.0 * kDeg, 0.25), view_at(h, 12.0 * kDeg, 0.22));
   };
   Log log;
   const Outcome o = run(params(0.0), camera, log);

@@ -82,10 +82,11 @@ class StartViewSearch {
 
  private:
   enum class Phase : std::uint8_t { watch, probe, scan_left, scan_right, turn_to_best, confirm, turn_back, driving };
-  /// One frame of the scan: the turn it was seen at and its score.
+  /// One frame of the scan: the turn it was seen at, its score and its match confidence.
   struct ScanSample {
     float turn_rad = 0.0F;
     float score = 0.0F;
+    float confidence = 0.0F;
   };
   static constexpr double kPeakWindowRad = 10.0 * std::numbers::pi / 180.0;  ///< a peak is the best within this
   [[nodiscard]] double prior(double turn_rad) const;
@@ -109,9 +110,8 @@ class StartViewSearch {
   double look_confidence_sum_ = 0.0;
   double look_offset_sum_ = 0.0;    // sum of |offset| / width (1 for a frame without a match)
   // The scan's frames (fixed storage: a +-75 deg scan at 0.4 rad/s is about 100 frames at 10 Hz;
-  // frames beyond the capacity are not recorded, the best is still tracked).
+  // frames beyond the capacity are not recorded).
   std::array<ScanSample, 1024> samples_{};
-  std::array<float, 1024> confidences_{};
   std::size_t sample_count_ = 0;
 };
 

@@ -29,6 +29,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "visnav/feature_replay/experience.hpp"
+#include "visnav/feature_replay/heading_filter.hpp"
 #include "visnav/feature_replay/heading.hpp"
 #ifdef VISNAV_HAVE_DETECTOR_CORE
 #include "visnav/detectors/detector_types.hpp"
@@ -237,6 +238,48 @@ void BM_ours_detector(benchmark::State& state, std::string type) {
   if (cycle_ms().count("plain") != 0) state.counters["plain_over_ours"] = cycle_ms()["plain"] / cycle_ms()["ours_" + type];
 }
 
+// The temporal filter of the vote histograms (issue 36, SegmentReplayParams::temporal_decay):
+// star_brief + estimate + HeadingHistogramFilter::update per frame (decay 0.7, a small odometric
+// shift each frame). filter_over_single = this cycle / ours_star_brief.
+void BM_ours_filtered(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const auto& f = frames();
+  auto made = visnav::detectors::create_detector("star_brief", visnav::detectors::make_params({{"target_keypoints", "500"}}));
+  if (!made) {
+    state.SkipWithError(made.error().message.c_str());
+    return;
+  }
+  auto& det = *made;
+  visnav::Features map, cur;
+  for (int i = 0; i < 8; ++i) (void)det->detect(f.reference, map);
+  if (!det->detect(f.reference, map)) {
+    state.SkipWithError("detect failed");
+    return;
+  }
+  fr::HeadingEstimator est;
+  fr::HeadingFilterParams fp;
+  fp.decay = 0.7;
+  fr::HeadingHistogramFilter filter(fp, est.params().bin_width_px, est.params().bin_count);
+  fr::FilteredHeading filtered;
+  double shift_px = 0.5;
+  timed_loop(state, "ours_star_brief_filtered", [&] {
+    (void)det->detect(f.current, cur);
+    auto r = est.estimate(map, cur, 640.0);
+    if (r.ok()) {
+      auto u = filter.update(est.last_histogram(), shift_px);
+      if (u.ok()) filtered = *u;
+    }
+    shift_px = -shift_px;
+    benchmark::DoNotOptimize(filtered);
+  });
+  state.counters["offset_px"] = filtered.offset_px;
+  state.counters["votes"] = filtered.votes;
+  if (cycle_ms().count("ours_star_brief") != 0)
+    state.counters["filter_over_single"] = cycle_ms()["ours_star_brief_filtered"] / cycle_ms()["ours_star_brief"];
+  if (cycle_ms().count("plain") != 0)
+    state.counters["plain_over_ours"] = cycle_ms()["plain"] / cycle_ms()["ours_star_brief_filtered"];
+}
+
 // Multi-experience maps (issue 13 part 3): star_brief + ExperienceSelector over 3 experiences of
 // the place: the matching reference and two of other appearance (the photo blurred and darkened,
 // and mirrored). `recheck_below` 0.5 (the default): the last winner is confident, one experience
@@ -305,6 +348,7 @@ int main(int argc, char** argv) {
 #ifdef VISNAV_HAVE_DETECTOR_CORE
   for (const auto& type : visnav::detectors::detector_type_names())
     benchmark::RegisterBenchmark(("ours/" + type).c_str(), BM_ours_detector, type)->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("ours/star_brief_temporal_filter_0.7", BM_ours_filtered)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("experiences/star_brief_3_recheck_0.5", BM_experiences, 0.5)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("experiences/star_brief_3_all_every_frame", BM_experiences, 1.0)
       ->Unit(benchmark::kMillisecond);

@@ -191,7 +191,8 @@ struct FeatureReplayParams {
                       {"max_along_correction_m", "max_along_correction_m"},
                       {"along_end_window_m", "along_end_window_m"},
                       {"along_min_frames", "along_min_frames"},
-                      {"along_max_sd_m", "along_max_sd_m"}})
+                      {"along_max_sd_m", "along_max_sd_m"},
+                      {"temporal_decay", "temporal_decay"}})
             .include(&P::localmaps, LocalMapReplayParams::schema(),
                      {{"gain_radps_per_px", "correction_gain_radps_per_px"},
                       {"max_correction_radps", "max_correction_radps"},
@@ -368,7 +369,8 @@ class FeatureReplayer final : public EdgeReplayer {
         SegmentReplayOutput& r = segment_out_[static_cast<std::size_t>(i)];
         // Horizontal axis only: a camera pitched down has its focus of expansion above the image
         // centre, where the core's vertical model puts it (suspected bias, docs/feature_replay.md).
-        r = segments_[static_cast<std::size_t>(i)].step(in.odometry.distance_m, *in.features, width_px, 0.0);
+        r = segments_[static_cast<std::size_t>(i)].step(in.odometry.distance_m, *in.features, width_px, 0.0,
+                                                         in.odometry.pose.heading_rad);
         return ExperienceSelector::Score{r.estimate.confidence, r.estimate.inliers};
       });
       const SegmentReplayOutput& r = segment_out_[static_cast<std::size_t>(k)];

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <numbers>
 #include <numeric>
 #include <string>
 
@@ -87,7 +88,11 @@ const ParamSchema<SegmentReplayParams>& SegmentReplayParams::schema() {
           .range(1, 100000)
           .field("along_max_sd_m", &SegmentReplayParams::along_max_sd_m,
                  "along-track correction, end window: estimates with a larger standard deviation give no correction, m")
-          .range(0.0, 100.0);
+          .range(0.0, 100.0)
+          .field("temporal_decay", &SegmentReplayParams::temporal_decay,
+                 "temporal filter: weight kept per frame from the earlier frames' votes, shifted by the odometric "
+                 "rotation since (0 = off: each frame on its own)")
+          .range(0.0, 0.99);
   return s;
 }
 
@@ -253,6 +258,7 @@ Result<SegmentMap> SegmentTeacher::finish(double length_m) {
 SegmentReplayer::SegmentReplayer(std::shared_ptr<const SegmentMap> map, const SegmentReplayParams& params,
                                  const HeadingParams& heading)
     : map_(std::move(map)), params_(params), estimator_(heading) {
+  make_filter();
   if (!map_) {
     map_ = std::make_shared<const SegmentMap>();
     map_valid_ = false;
@@ -266,6 +272,42 @@ SegmentReplayer::SegmentReplayer(std::shared_ptr<const SegmentMap> map, const Se
 void SegmentReplayer::set_params(const SegmentReplayParams& params, const HeadingParams& heading) {
   params_ = params;
   estimator_.set_params(heading);
+  make_filter();
+}
+
+void SegmentReplayer::make_filter() {
+  filter_.reset();
+  last_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
+  if (!(params_.temporal_decay > 0.0)) return;
+  const HeadingParams& h = estimator_.params();
+  HeadingFilterParams f;
+  f.decay = params_.temporal_decay;
+  f.min_votes = h.min_inliers;
+  f.full_confidence_votes = std::max<double>(h.full_confidence_inliers, h.min_inliers);
+  f.min_confidence = h.min_confidence;
+  filter_.emplace(f, h.bin_width_px, h.bin_count);
+}
+
+bool SegmentReplayer::apply_filter(HeadingEstimate& est, double image_width_px, double odometry_heading_rad) {
+  double shift_px = 0.0;
+  if (std::isfinite(odometry_heading_rad) && std::isfinite(last_heading_rad_))
+    shift_px = shift_px_for_rotation(std::remainder(odometry_heading_rad - last_heading_rad_, 2.0 * std::numbers::pi),
+                                     image_width_px, estimator_.params().horizontal_fov_deg);
+  if (std::isfinite(odometry_heading_rad)) last_heading_rad_ = odometry_heading_rad;
+  auto filtered = filter_->update(estimator_.last_histogram(), shift_px);
+  if (!filtered || !filtered->valid) return false;
+  const double bin_px = estimator_.params().bin_width_px;
+  if (est.valid && std::abs(est.offset_px - filtered->offset_px) <= bin_px) {
+    est.confidence = std::max(est.confidence, filtered->confidence);  // the frame agrees: keep its refined offset
+    return false;
+  }
+  est.offset_px = filtered->offset_px;
+  const double focal_px = shift_px_for_rotation(1.0, image_width_px, estimator_.params().horizontal_fov_deg);
+  est.heading_correction_rad = focal_px > 0.0 ? -std::atan(est.offset_px / focal_px) : 0.0;
+  est.confidence = filtered->confidence;
+  est.ambiguity = filtered->ambiguity;
+  est.valid = true;
+  return true;
 }
 
 double SegmentReplayer::overshoot_m(double odometry_distance_m) const {
@@ -384,7 +426,7 @@ double SegmentReplayer::estimate_along_m() {
 }
 
 SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Features& current, double image_width_px,
-                                          double image_height_px) {
+                                          double image_height_px, double odometry_heading_rad) {
   SegmentReplayOutput out;
   if (!map_valid_) {
     out.state = ReplayState::bad_input;  // zero command: an inconsistent map is not replayed
@@ -446,13 +488,15 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
     return out;
   }
   out.estimate = *est;
-  if (!est->valid) {
+  if (filter_) out.filtered = apply_filter(out.estimate, image_width_px, odometry_heading_rad);
+  if (!out.estimate.valid) {
     out.state = est->matches == 0 ? ReplayState::no_features : ReplayState::low_confidence;
     return out;
   }
-  out.command.angular_radps =
-      std::clamp(-params_.gain_radps_per_px * est->offset_px, -params_.max_angular_radps, params_.max_angular_radps);
+  out.command.angular_radps = std::clamp(-params_.gain_radps_per_px * out.estimate.offset_px,
+                                         -params_.max_angular_radps, params_.max_angular_radps);
   out.state = ReplayState::steering;
+  if (out.filtered) return out;  // the along-track fit needs this frame's own peak
   out.along_error_m = estimate_along_m();
   // Only a robot that faces the taught view updates it: a heading error moves landmarks at the
   // image borders more than those near the centre, which a one-sided scene reads as distance.

@@ -5,7 +5,9 @@
 
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <memory>
+#include <numbers>
 #include <random>
 
 #include "test_support.hpp"
@@ -444,4 +446,147 @@ TEST(SegmentParams, ValidateEnforcesTheSchemaRanges) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("key 'gain_radps_per_px': value 2 is out of range [0, 1]"), std::string::npos)
       << r.error().message;
+}
+
+// ---- temporal filter (temporal_decay > 0, issue 36) ----
+namespace {
+
+constexpr double kFilterDecay = 0.7;
+
+/// The synthetic camera's field of view (focal 500 px, 640 px wide), so that the replayer's
+/// odometric shift of the votes matches the scene's projection.
+fr::HeadingParams scene_heading_params() {
+  fr::HeadingParams h;
+  h.horizontal_fov_deg = 2.0 * std::atan(320.0 / 500.0) * 180.0 / std::numbers::pi;
+  return h;
+}
+
+fr::SegmentReplayParams filter_params(double decay) {
+  fr::SegmentReplayParams p;
+  p.temporal_decay = decay;
+  return p;
+}
+
+/// `keep` of the features of `full` that are inliers of a full-frame estimate at `distance_m`
+/// (so each one votes for the true offset), plus 150 features with random descriptors.
+Features weak_frame(const Features& full, double distance_m, int keep, std::mt19937& rng) {
+  fr::SegmentReplayer probe(taught().map);
+  probe.begin(0.0);
+  const auto ref = probe.step(distance_m, full, 640.0);
+  EXPECT_EQ(ref.state, fr::ReplayState::steering);
+  Features weak;
+  weak.descriptors.create(0, 32, CV_8UC1);
+  for (const fr::FeatureMatch& m : probe.estimator().last_matches()) {
+    if (!m.inlier || static_cast<int>(weak.keypoints.size()) >= keep) continue;
+    weak.keypoints.push_back(full.keypoints[static_cast<std::size_t>(m.current_index)]);
+    weak.descriptors.push_back(full.descriptors.row(m.current_index));
+  }
+  EXPECT_EQ(static_cast<int>(weak.keypoints.size()), keep);
+  std::uniform_real_distribution<float> ux(0, 640), uy(0, 480);
+  cv::Mat row(1, 32, CV_8UC1);
+  for (int i = 0; i < 150; ++i) {
+    cv::randu(row, 0, 256);
+    weak.keypoints.emplace_back(ux(rng), uy(rng), 7.0f);
+    weak.descriptors.push_back(row);
+  }
+  return weak;
+}
+
+}  // namespace
+
+TEST(SegmentReplayer, TemporalFilterSteersOnFramesTooWeakOnTheirOwn) {
+  // Four correct votes per frame are below min_inliers (6): each frame alone gives no heading.
+  // Accumulated (decay 0.7) they pass the gates within a few frames and steer the right way.
+  const double heading_rad = 0.06;  // turned left: scene right, f * tan(0.06) ~ 30 px
+  fr::SegmentReplayer plain(taught().map, filter_params(0.0), scene_heading_params());
+  fr::SegmentReplayer filtered(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  plain.begin(0.0);
+  filtered.begin(0.0);
+  std::mt19937 rng(11);
+  int plain_steering = 0, filtered_steering = 0;
+  fr::SegmentReplayOutput last;
+  for (int k = 0; k < 8; ++k) {
+    const double d = 4.0 + 0.05 * k;
+    const Features weak = weak_frame(taught().scene.observe({d, 0.0, heading_rad}, rng), d, 4, rng);
+    const auto a = plain.step(d, weak, 640.0, 0.0, heading_rad);
+    last = filtered.step(d, weak, 640.0, 0.0, heading_rad);
+    plain_steering += a.state == fr::ReplayState::steering;
+    filtered_steering += last.state == fr::ReplayState::steering;
+  }
+  EXPECT_EQ(plain_steering, 0);
+  EXPECT_GE(filtered_steering, 4);
+  ASSERT_EQ(last.state, fr::ReplayState::steering);
+  EXPECT_TRUE(last.filtered);
+  EXPECT_EQ(last.estimate.inliers, 4);  // this frame's own count stays reported
+  EXPECT_NEAR(last.estimate.offset_px, 500.0 * std::tan(heading_rad), 12.0);
+  EXPECT_LT(last.command.angular_radps, 0.0);
+}
+
+TEST(SegmentReplayer, TemporalFilterOutvotesAStrayPeak) {
+  // Four good frames, then one whose only matches are displaced 200 px: on its own that frame
+  // steers hard the wrong way; the filter keeps the heading the earlier frames agreed on.
+  fr::SegmentReplayer plain(taught().map, filter_params(0.0), scene_heading_params());
+  fr::SegmentReplayer filtered(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  plain.begin(0.0);
+  filtered.begin(0.0);
+  std::mt19937 rng(12);
+  for (int k = 0; k < 4; ++k) {
+    const double d = 4.0 + 0.05 * k;
+    const Features f = taught().scene.observe({d, 0.0, 0.0}, rng);
+    const auto out = filtered.step(d, f, 640.0, 0.0, 0.0);
+    ASSERT_EQ(out.state, fr::ReplayState::steering);
+    EXPECT_FALSE(out.filtered);  // good frames keep their own refined offset
+    EXPECT_NEAR(out.estimate.offset_px, 0.0, 3.0);
+  }
+  const double d = 4.2;
+  Features stray = weak_frame(taught().scene.observe({d, 0.0, 0.0}, rng), d, 14, rng);
+  for (std::size_t i = 0; i < 14; ++i) stray.keypoints[i].pt.x += 200.0f;
+  const auto alone = plain.step(d, stray, 640.0, 0.0, 0.0);
+  ASSERT_EQ(alone.state, fr::ReplayState::steering);
+  EXPECT_GT(alone.estimate.offset_px, 150.0);
+  const auto out = filtered.step(d, stray, 640.0, 0.0, 0.0);
+  ASSERT_EQ(out.state, fr::ReplayState::steering);
+  EXPECT_TRUE(out.filtered);
+  EXPECT_NEAR(out.estimate.offset_px, 0.0, 12.0);
+  EXPECT_LT(std::abs(out.command.angular_radps), 0.05);
+}
+
+TEST(SegmentReplayer, TemporalFilterShiftsEarlierVotesByTheOdometricRotation) {
+  // The robot turns 0.05 rad per frame (25 px of offset per frame) with weak frames. Shifted by
+  // the odometric rotation, the accumulated peak sits on this frame's offset; without the
+  // rotation (heading NaN) the earlier frames' votes stay where they were, smeared over bins.
+  fr::SegmentReplayer with_rotation(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  fr::SegmentReplayer without(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  with_rotation.begin(0.0);
+  without.begin(0.0);
+  std::mt19937 rng(13);
+  fr::SegmentReplayOutput a, b;
+  double truth_px = 0.0;
+  for (int k = 0; k < 6; ++k) {
+    const double d = 4.0 + 0.05 * k, heading = -0.1 + 0.05 * k;
+    const Features weak = weak_frame(taught().scene.observe({d, 0.0, heading}, rng), d, 5, rng);
+    a = with_rotation.step(d, weak, 640.0, 0.0, heading);
+    b = without.step(d, weak, 640.0, 0.0, std::numeric_limits<double>::quiet_NaN());
+    truth_px = 500.0 * std::tan(heading);
+  }
+  ASSERT_EQ(a.state, fr::ReplayState::steering);
+  EXPECT_NEAR(a.estimate.offset_px, truth_px, 12.0);
+  // Shifted, the frames' votes pile into one peak; unshifted they spread over five bins.
+  EXPECT_GT(a.estimate.confidence, b.estimate.confidence + 0.1);
+}
+
+TEST(SegmentReplayer, TemporalFilterStartsAfreshOnEachSegment) {
+  // begin() forgets the votes: a weak first frame of the next segment is not steered on the
+  // previous segment's evidence.
+  fr::SegmentReplayer rep(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  rep.begin(0.0);
+  std::mt19937 rng(14);
+  for (int k = 0; k < 5; ++k) {
+    const double d = 4.0 + 0.05 * k;
+    ASSERT_EQ(rep.step(d, taught().scene.observe({d, 0.0, 0.0}, rng), 640.0, 0.0, 0.0).state,
+              fr::ReplayState::steering);
+  }
+  rep.begin(0.0);
+  const Features weak = weak_frame(taught().scene.observe({4.3, 0.0, 0.0}, rng), 4.3, 4, rng);
+  EXPECT_EQ(rep.step(4.3, weak, 640.0, 0.0, 0.0).state, fr::ReplayState::low_confidence);
 }

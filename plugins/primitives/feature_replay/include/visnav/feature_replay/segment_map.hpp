@@ -41,6 +41,16 @@
 // along_end_window_m metres (facing the view) count; their mean becomes the correction once enough
 // of them agree (count and spread gates), and nothing is corrected otherwise.
 //
+// Temporal filter (temporal_decay > 0, an addition to Algorithm 2, issue 36): a segment is
+// straight, so its taught heading is one azimuth and the offset between two frames changes only by
+// the robot's own rotation. Each frame's vote histogram is folded into a HeadingHistogramFilter
+// with the odometric rotation since the previous frame as the predicted shift. When the filtered
+// estimate is valid it decides: if this frame's own estimate is valid and within one bin of it,
+// the frame's refined offset is kept (with the larger of the two confidences); otherwise the
+// filtered offset steers (a weak frame still gets a heading; a stray single-frame peak is
+// outvoted). When it is not valid the frame's own estimate stands. The along-track fit uses this
+// frame's matches, so it runs only on frames whose own offset steers.
+//
 // Distances: the replayer is given odometric distance (Odometry::distance_m) and subtracts the
 // value given to begin(); the teacher is given distance from the segment start (>= 0,
 // non-decreasing; a smaller value is treated as the previous one).
@@ -53,6 +63,7 @@
 #include <limits>
 #include <utility>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -61,6 +72,7 @@
 #include "visnav/devices.hpp"
 #include "visnav/feature_payloads.hpp"
 #include "visnav/feature_replay/heading.hpp"
+#include "visnav/feature_replay/heading_filter.hpp"
 #include "visnav/feature_replay/replay_common.hpp"
 #include "visnav/params.hpp"
 #include "visnav/result.hpp"
@@ -147,6 +159,11 @@ struct SegmentReplayParams {
   double along_end_window_m = 0.0;
   int along_min_frames = 8;            ///< end window: fewer estimates give no correction
   double along_max_sd_m = 0.08;        ///< end window: estimates spread more than this give no correction, m
+  /// Temporal filter of the vote histograms (heading_filter.hpp; see SegmentReplayer): the weight
+  /// kept per frame from the votes of earlier frames, shifted by the odometric rotation since;
+  /// 0 = off (each frame on its own, Algorithm 2). Its vote and confidence gates are the
+  /// HeadingParams' (min_inliers, full_confidence_inliers, min_confidence).
+  double temporal_decay = 0.0;
 
   /// The schema's ranges (declared once there).
   [[nodiscard]] Status validate() const { return schema().check(*this); }
@@ -161,7 +178,11 @@ struct SegmentReplayOutput {
   double along_error_m = std::numeric_limits<double>::quiet_NaN();
   double along_correction_m = 0.0;  ///< correction accumulated since begin(), m (positive: ahead)
   int expected_landmarks = 0;    ///< |T|: landmarks visible at this distance during teach
+  /// The estimate steered on: this frame's own, or with the temporal filter on the filtered one
+  /// (offset, heading, confidence, ambiguity and valid from the accumulated histogram; matches and
+  /// inliers stay this frame's).
   HeadingEstimate estimate;
+  bool filtered = false;         ///< the temporal filter's offset replaced this frame's own
   ReplayState state = ReplayState::no_features;
   bool finished = false;         ///< distance >= segment length
 };
@@ -174,19 +195,24 @@ class SegmentReplayer {
   SegmentReplayer(std::shared_ptr<const SegmentMap> map, const SegmentReplayParams& params = {},
                   const HeadingParams& heading = {});
 
-  /// Sets the odometric distance at which the segment starts (Odometry::distance_m).
+  /// Sets the odometric distance at which the segment starts (Odometry::distance_m) and forgets
+  /// the temporal filter's accumulation.
   void begin(double odometry_distance_m) {
     origin_m_ = odometry_distance_m;
     correction_m_ = 0.0;
     window_n_ = 0;
     window_sum_m_ = window_sum_sq_m2_ = 0.0;
+    if (filter_) filter_->reset();
+    last_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
   }
   /// One frame: `odometry_distance_m` is the current Odometry::distance_m; `image_width_px` the
   /// width of the image the features come from (for the heading in the estimate); the principal
   /// point is taken at the image centre for the along-track estimate (`image_height_px` 0: the
-  /// vertical axis does not take part).
+  /// vertical axis does not take part). `odometry_heading_rad` (Odometry pose heading, CCW) lets
+  /// the temporal filter shift earlier votes by the rotation since; NaN: no shift.
   SegmentReplayOutput step(double odometry_distance_m, const Features& current, double image_width_px,
-                           double image_height_px = 0.0);
+                           double image_height_px = 0.0,
+                           double odometry_heading_rad = std::numeric_limits<double>::quiet_NaN());
   /// Distance travelled beyond the segment end (>= 0), to carry into the next edge (counted with
   /// the along-track correction).
   [[nodiscard]] double overshoot_m(double odometry_distance_m) const;
@@ -222,6 +248,13 @@ class SegmentReplayer {
   };
   static AlongModel along_model(const Landmark& l, double d, double cx, double cy);
   double estimate_along_m();  // from the last estimate's matches; NaN when uninformative
+  void make_filter();
+  // Folds this frame's histogram into the filter; returns true when the filtered offset replaced
+  // the frame's own in `est`.
+  bool apply_filter(HeadingEstimate& est, double image_width_px, double odometry_heading_rad);
+
+  std::optional<HeadingHistogramFilter> filter_;  // temporal_decay > 0
+  double last_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
 
   double origin_m_ = 0.0;
   double correction_m_ = 0.0;

@@ -6,10 +6,10 @@
 #include <numbers>
 #include <optional>
 #include <type_traits>
-#include <sstream>
 #include <utility>
 
 #include "visnav/bt/node.hpp"
+#include "visnav/bt/param_ports.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/primitive.hpp"
 
@@ -17,89 +17,12 @@ namespace visnav {
 namespace {
 
 using bt::NodeStatus;
+using bt::ParamPorts;
 
 std::string format_double(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.3f", v);
   return buf;
-}
-
-std::string render_exact(double v) {
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
-template <typename T>
-std::string join(const std::vector<T>& items) {
-  std::string out;
-  for (std::size_t i = 0; i < items.size(); ++i) {
-    if (i != 0) out += ';';
-    if constexpr (std::is_same_v<T, double>) out += render_exact(items[i]);
-    else out += items[i];
-  }
-  return out;
-}
-
-/// A set of parameter ports: the docs of a ParamSchema and its one-field check.
-struct ParamPorts {
-  std::vector<ParamDoc> docs;
-  std::function<Status(std::string_view key, const ConfigNode& value)> check;
-};
-
-/// One port per parameter: type from the schema's type name, default = the Params default,
-/// the schema's constraint checked on literals (before the first tick).
-Status append_param_ports(bt::PortsList& ports, const ParamPorts& params) {
-  for (const ParamDoc& d : params.docs) {
-    bt::PortInfo p;
-    if (d.type == "int") p = bt::input_port<int>(d.name, d.default_value, d.description);
-    else if (d.type == "double") p = bt::input_port<double>(d.name, d.default_value, d.description);
-    else if (d.type == "bool") p = bt::input_port<bool>(d.name, d.default_value, d.description);
-    else if (d.type == "string") p = bt::input_port<std::string>(d.name, d.default_value, d.description);
-    else if (d.type == "list<double>") p = bt::input_port<std::vector<double>>(d.name, d.default_value, d.description);
-    else if (d.type == "list<string>") p = bt::input_port<std::vector<std::string>>(d.name, d.default_value, d.description);
-    else return fail("parameter '" + d.name + "' has unsupported type " + d.type);
-    if (!d.constraint.empty()) p.description += " " + d.constraint;
-    p.constraint = d.constraint;
-    p.check = [check = params.check, name = d.name](std::string_view text) {
-      return check(name, ConfigNode::make_scalar(std::string(text)));
-    };
-    ports.push_back(std::move(p));
-  }
-  return ok();
-}
-
-/// The parameter ports' current values (literals as written, blackboard entries rendered) as the
-/// `params` map the schema parses; errors name the node's file:line and the port.
-Result<ConfigNode> read_param_ports(const bt::TreeNode& node, const std::vector<ParamDoc>& docs) {
-  ConfigNode map = ConfigNode::make_map(node.where());
-  for (const ParamDoc& d : docs) {
-    const bt::PortBinding* b = node.port(d.name);
-    std::string text;
-    if (b != nullptr && b->source == bt::PortBinding::Source::literal) {
-      text = b->text;
-    } else if (d.type == "int") {
-      VISNAV_ASSIGN(int v, node.get_input<int>(d.name));
-      text = std::to_string(v);
-    } else if (d.type == "double") {
-      VISNAV_ASSIGN(double v, node.get_input<double>(d.name));
-      text = render_exact(v);
-    } else if (d.type == "bool") {
-      VISNAV_ASSIGN(bool v, node.get_input<bool>(d.name));
-      text = v ? "true" : "false";
-    } else if (d.type == "list<double>") {
-      VISNAV_ASSIGN(auto v, node.get_input<std::vector<double>>(d.name));
-      text = join(v);
-    } else if (d.type == "list<string>") {
-      VISNAV_ASSIGN(auto v, node.get_input<std::vector<std::string>>(d.name));
-      text = join(v);
-    } else {
-      VISNAV_ASSIGN(text, node.get_input<std::string>(d.name));
-    }
-    map.set(d.name, ConfigNode::make_scalar(std::move(text), node.where()));
-  }
-  return map;
 }
 
 ParamPorts primitive_ports(const std::shared_ptr<const PrimitiveType>& type) {
@@ -154,14 +77,10 @@ struct LostPolicyPorts {
             .range(0.0, 180.0);
     return s;
   }
-  static ParamPorts ports() {
-    return {schema().docs(), [](std::string_view key, const ConfigNode& v) { return schema().check_field(key, v); }};
-  }
 };
 
 Result<LostPolicy> read_lost_policy(const bt::TreeNode& node) {
-  VISNAV_ASSIGN(ConfigNode params, read_param_ports(node, LostPolicyPorts::schema().docs()));
-  VISNAV_ASSIGN(LostPolicyPorts p, LostPolicyPorts::schema().parse(params));
+  VISNAV_ASSIGN(LostPolicyPorts p, bt::parse_param_ports(node, LostPolicyPorts::schema()));
   return p.policy();
 }
 
@@ -264,8 +183,8 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
                                 "for odometry alone); a decorator that halts and restarts the node mid-edge "
                                 "(ReplayAvoiding) carries it into the restart"),
     };
-    VISNAV_TRY(append_param_ports(p, primitive_ports(type)));
-    VISNAV_TRY(append_param_ports(p, LostPolicyPorts::ports()));
+    VISNAV_TRY(bt::append_param_ports(p, primitive_ports(type)));
+    bt::append_param_ports(p, LostPolicyPorts::schema());
     p.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
                                        "odometric distance at which the route was last seen (carried between edges; "
                                        "unset: count from the edge start)"));
@@ -371,7 +290,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
 
     VISNAV_ASSIGN(LostPolicy policy, read_lost_policy(*this));
     health_ = NavHealthMonitor(policy);
-    VISNAV_ASSIGN(ConfigNode params, read_param_ports(*this, type_->params));
+    VISNAV_ASSIGN(ConfigNode params, bt::read_param_ports(*this, type_->params));
     VISNAV_ASSIGN(replayer_, type_->make_replayer(params));
     // The payload is read and verified once, here, before the robot moves (never per frame).
     auto body = map->read_payload(edge_id_);
@@ -500,7 +419,7 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
         bt::input_port<bool>("finish", "{finish_edge}", "true: store the edge and succeed (unset counts as false)"),
         bt::output_port<std::string>("edge", "{taught_edge}", "id of the stored edge"),
     };
-    VISNAV_TRY(append_param_ports(p, primitive_ports(type)));
+    VISNAV_TRY(bt::append_param_ports(p, primitive_ports(type)));
     return p;
   }
 
@@ -512,7 +431,7 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
       return failed(id + " needs a detector (config section 'detector')");
     auto odom = host_.frame_bus()->latest_odometry();
     if (!odom) return failed("no odometry yet");
-    auto params = read_param_ports(*this, type_->params);
+    auto params = bt::read_param_ports(*this, type_->params);
     if (!params) return failed(params.error().message);
     auto made = type_->make_teacher(*params);
     if (!made) return failed(made.error().message);

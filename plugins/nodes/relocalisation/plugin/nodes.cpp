@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "visnav/bt/node.hpp"
+#include "visnav/bt/param_ports.hpp"
 #include "visnav/map.hpp"
 #include "visnav/relocalisation/place_index.hpp"
 #include "visnav/relocalisation/relocaliser.hpp"
@@ -94,38 +95,6 @@ struct RelocaliseNodeParams {
   }
 };
 
-/// Ports from the schema (declared once: defaults are the struct's, ranges checked on literals).
-void append_schema_ports(bt::PortsList& ports) {
-  for (const ParamDoc& d : RelocaliseNodeParams::schema().docs()) {
-    bt::PortInfo p = d.type == "int" ? bt::input_port<int>(d.name, d.default_value, d.description)
-                                     : bt::input_port<double>(d.name, d.default_value, d.description);
-    if (!d.constraint.empty()) p.description += " " + d.constraint;
-    p.constraint = d.constraint;
-    p.check = [name = d.name](std::string_view text) {
-      return RelocaliseNodeParams::schema().check_field(name, ConfigNode::make_scalar(std::string(text)));
-    };
-    ports.push_back(std::move(p));
-  }
-}
-
-Result<RelocaliseNodeParams> read_params(const bt::TreeNode& node) {
-  ConfigNode map = ConfigNode::make_map(node.where());
-  for (const ParamDoc& d : RelocaliseNodeParams::schema().docs()) {
-    std::string text;
-    if (d.type == "int") {
-      VISNAV_ASSIGN(int v, node.get_input<int>(d.name));
-      text = std::to_string(v);
-    } else {
-      VISNAV_ASSIGN(double v, node.get_input<double>(d.name));
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%.17g", v);
-      text = buf;
-    }
-    map.set(d.name, ConfigNode::make_scalar(std::move(text), node.where()));
-  }
-  return RelocaliseNodeParams::schema().parse(map);
-}
-
 /// The map's place index: loaded and checked against the map, or built (and saved) when the map
 /// has none yet. A damaged or stale index is an error (rebuilt by `visnav reloc-index M`).
 Result<std::shared_ptr<const PlaceIndex>> index_for(const MapStore& map, Detector* detector, Logger& logger,
@@ -187,7 +156,7 @@ class Relocalise final : public bt::StatefulActionNode {
                                      "is of a kind the index does not cover, e.g. path_following)"),
         bt::output_port<std::string>("reason", "{reloc_reason}", "one line: why this answer"),
     };
-    append_schema_ports(p);
+    bt::append_param_ports(p, RelocaliseNodeParams::schema());  // ranges checked on literals
     return p;
   }
 
@@ -284,7 +253,7 @@ class Relocalise final : public bt::StatefulActionNode {
     if (map == nullptr) return fail(ErrorCode::missing, "Relocalise needs a map (visnav run --map M)");
     if (host_.frame_bus() == nullptr || host_.robot() == nullptr)
       return fail(ErrorCode::missing, "Relocalise needs a running robot and camera");
-    VISNAV_ASSIGN(params_, read_params(*this));
+    VISNAV_ASSIGN(params_, bt::parse_param_ports(*this, RelocaliseNodeParams::schema()));
     // One index per map folder for the node's life (a tree relocalising several times reloads nothing).
     if (!index_ || index_dir_ != map->dir()) {
       VISNAV_ASSIGN(index_, index_for(*map, host_.active_detector(), host_.logger(), path()));

@@ -266,6 +266,223 @@ std::optional<HeadingParams> heading_params_or_report(const ConfigNode& sets, co
   return *heading;
 }
 
+namespace {
+
+/// Creates the detector `visnav align` uses (the align keypoint density unless the user set one;
+/// orb when the default detector is not available). False, after printing why, when none can be made.
+bool prepare_detector(Options& opts, Aligner& al, HostServices& host) {
+  // Default keypoint density (issue 13): the target follows the image area, unless the user set
+  // it. A detector type without the key (a third-party plugin) gets the params as given.
+  if (opts.detector_params.find("target_keypoints") == nullptr &&
+      opts.detector_params.find("keypoints_per_mpx") == nullptr) {
+    ConfigNode with = opts.detector_params.is_null() ? ConfigNode::make_map() : opts.detector_params;
+    with.set("keypoints_per_mpx", ConfigNode::make_scalar(std::to_string(kAlignKeypointsPerMpx), {"align default", 0}));
+    if (host.create_detector(opts.detector, with)) {
+      opts.detector_params = with;
+      al.detector_params = with;
+    }
+  }
+  auto det = host.create_detector(opts.detector, opts.detector_params);
+  if (!det && !opts.detector_given) {
+    std::fprintf(stderr, "visnav align: detector '%s' is not available (%s); falling back to orb\n",
+                 opts.detector.c_str(), det.error().message.c_str());
+    al.detector_type = "orb";
+    det = host.create_detector("orb", opts.detector_params);
+  }
+  if (!det) {
+    std::fprintf(stderr, "visnav align: cannot create detector: %s\n", det.error().message.c_str());
+    return false;
+  }
+  return true;
+}
+
+/// `visnav align A B [--draw F]`: one estimate printed; exit 0 when it is valid.
+int align_single(const Options& opts, Aligner& al) {
+  auto est = al.align(opts.a, opts.b);
+  if (!est) {
+    std::fprintf(stderr, "visnav align: %s\n", est.error().message.c_str());
+    return 1;
+  }
+  if (est->valid)
+    std::printf("offset_px %.2f inliers %d matches %d confidence %.3f ambiguity %.3f\n", est->offset_px, est->inliers,
+                est->matches, est->confidence, est->ambiguity);
+  else
+    std::printf("offset_px none inliers %d matches %d confidence %.3f ambiguity %.3f reason: %s\n", est->inliers,
+                est->matches, est->confidence, est->ambiguity, invalid_reason(*est, al.estimator.params()).c_str());
+  std::fflush(stdout);
+  if (!opts.draw.empty()) {
+    const cv::Mat picture = render_alignment(al.ia, al.ib, al.fa, al.fb, al.estimator.last_matches(),
+                                             al.estimator.last_histogram(), *est, al.estimator.params());
+    bool written = false;
+    try {
+      written = cv::imwrite(opts.draw, picture);
+    } catch (const cv::Exception& e) {
+      std::fprintf(stderr, "visnav align: %s\n", e.what());
+    }
+    if (!written) {
+      std::fprintf(stderr, "visnav align: cannot write '%s'\n", opts.draw.c_str());
+      return 1;
+    }
+  }
+  return est->valid ? 0 : 1;
+}
+
+/// One line of a pairs file: IMG_A IMG_B [SHIFT_PX], '#' starts a comment.
+struct PairLine {
+  std::string a, b;
+  bool has_shift = false;
+  double shift_px = 0.0;
+};
+enum class PairLineKind { blank, pair, malformed };
+
+/// Parses `line` (line `line_no` of `file`); a malformed line is reported on stderr.
+PairLineKind parse_pair_line(std::string line, const std::string& file, int line_no, PairLine& out) {
+  const auto hash = line.find('#');
+  if (hash != std::string::npos) line.resize(hash);
+  std::istringstream ls(line);
+  std::string shift_text, extra;
+  out = PairLine{};
+  if (!(ls >> out.a)) return PairLineKind::blank;
+  if (!(ls >> out.b) || ((ls >> shift_text) && (ls >> extra))) {
+    std::fprintf(stderr, "visnav align: %s:%d: expected 'IMG_A IMG_B [SHIFT_PX]'\n", file.c_str(), line_no);
+    return PairLineKind::malformed;
+  }
+  if (!shift_text.empty()) {
+    char* end = nullptr;
+    out.shift_px = std::strtod(shift_text.c_str(), &end);
+    if (end == shift_text.c_str() || *end != '\0' || !std::isfinite(out.shift_px)) {
+      std::fprintf(stderr, "visnav align: %s:%d: SHIFT_PX '%s' is not a number\n", file.c_str(), line_no,
+                   shift_text.c_str());
+      return PairLineKind::malformed;
+    }
+    out.has_shift = true;
+  }
+  return PairLineKind::pair;
+}
+
+/// One --csv row: the pair, its estimate (or the error), the error against the label, the reason.
+void write_csv_row(std::ofstream& csv, const PairLine& pair, const Result<HeadingEstimate>& est, double error_px,
+                   double tolerance_px, const std::string& reason) {
+  const bool valid = est && est->valid;
+  char buf[256];
+  csv << csv_field(pair.a) << ',' << csv_field(pair.b) << ',';
+  if (pair.has_shift) csv << format_number(pair.shift_px);
+  csv << ',';
+  if (est) {
+    std::snprintf(buf, sizeof buf, "%s,%d,%d,%.4f,%.4f,%d", est->matches > 0 ? format_number(est->offset_px).c_str() : "",
+                  est->inliers, est->matches, est->confidence, est->ambiguity, est->valid ? 1 : 0);
+    csv << buf;
+  } else {
+    csv << ",0,0,0,1,0";
+  }
+  csv << ',';
+  if (pair.has_shift && valid) csv << format_number(error_px);
+  csv << ',';
+  if (pair.has_shift) csv << ((valid && std::abs(error_px) <= tolerance_px) ? 1 : 0);
+  csv << ',' << csv_field(reason) << '\n';
+}
+
+/// The --gate-curve file: the pairs' score for each gate value.
+void write_gate_curve(std::ofstream& curve, const std::vector<PairOutcome>& outcomes, int steps, double tolerance_px) {
+  curve << "min_confidence,pairs,answered,coverage,correct,precision,wrong,error_rate,refusal_rate,"
+           "answered_error_rate\n";
+  for (const AlignScore& pt : gate_curve(outcomes, steps, tolerance_px)) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%.4f,%d,%d,%.4f,%d,%s,%d,%.4f,%.4f,%s\n", pt.min_confidence, pt.pairs,
+                  pt.answered, pt.coverage, pt.answered - pt.wrong_answered, fraction_or_empty(pt.precision).c_str(),
+                  pt.wrong, pt.error_rate, pt.refusal_rate, fraction_or_empty(pt.answered_error_rate).c_str());
+    curve << buf;
+  }
+}
+
+/// Opens `path` for writing (nothing when empty); false, after printing, when it cannot be.
+bool open_output(std::ofstream& file, const std::string& path, const char* option) {
+  if (path.empty()) return true;
+  file.open(path);
+  if (!file) {
+    std::fprintf(stderr, "visnav align: %s: cannot write '%s'\n", option, path.c_str());
+    return false;
+  }
+  return true;
+}
+
+/// `visnav align --pairs FILE`: every pair estimated and printed, the GRIEF-protocol score of the
+/// labelled ones, --csv rows and the --gate-curve. Exit 0 when every pair got a valid estimate.
+int align_pairs(const Options& opts, Aligner& al) {
+  std::ifstream in(opts.pairs);
+  if (!in) {
+    std::fprintf(stderr, "visnav align: cannot open pairs file '%s'\n", opts.pairs.c_str());
+    return 2;
+  }
+  // Output files are opened before the first pair, so a bad path fails at once.
+  std::ofstream csv, curve;
+  if (!open_output(csv, opts.csv, "--csv")) return 2;
+  if (csv.is_open()) csv << "a,b,shift_px,offset_px,inliers,matches,confidence,ambiguity,valid,error_px,correct,reason\n";
+  if (!open_output(curve, opts.gate_curve, "--gate-curve")) return 2;
+  const auto base = std::filesystem::path(opts.pairs).parent_path();
+  const HeadingParams& hp = al.estimator.params();
+  int status = 0;
+  std::vector<PairOutcome> outcomes;
+  std::string line;
+  int line_no = 0;
+  PairLine pair;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const PairLineKind kind = parse_pair_line(line, opts.pairs, line_no, pair);
+    if (kind == PairLineKind::blank) continue;
+    if (kind == PairLineKind::malformed) {
+      status = 1;
+      continue;
+    }
+    auto est = al.align(resolve_pair_path(pair.a, base), resolve_pair_path(pair.b, base));
+    PairOutcome outcome;
+    outcome.shift_px = pair.shift_px;
+    std::string reason;
+    if (!est) {
+      std::fprintf(stderr, "visnav align: %s:%d: %s\n", opts.pairs.c_str(), line_no, est.error().message.c_str());
+      reason = est.error().message;
+    } else {
+      outcome.estimated = est->matches > 0;
+      outcome.offset_px = est->offset_px;
+      outcome.confidence = est->confidence;
+      if (!est->valid) reason = invalid_reason(*est, hp);
+    }
+    const bool valid = est && est->valid;
+    const double error_px = valid ? est->offset_px - pair.shift_px : 0.0;
+    if (pair.has_shift) outcomes.push_back(outcome);
+    if (!valid) {
+      std::printf("%s %s none reason: %s\n", pair.a.c_str(), pair.b.c_str(), reason.c_str());
+      status = 1;
+    } else {
+      std::printf("%s %s %.2f %d %.3f %.3f", pair.a.c_str(), pair.b.c_str(), est->offset_px, est->inliers,
+                  est->confidence, est->ambiguity);
+      if (pair.has_shift) std::printf(" %.2f", error_px);
+      std::printf("\n");
+    }
+    if (csv.is_open()) write_csv_row(csv, pair, est, error_px, opts.tolerance_px, reason);
+  }
+  if (!outcomes.empty()) {
+    const AlignScore sc = score_pairs(outcomes, hp.min_confidence, opts.tolerance_px);
+    std::printf("# pairs %d valid %d wrong %d error_rate_pct %.1f tolerance_px %.1f refused %d refusal_rate_pct %.1f "
+                "answered_wrong %d answered_error_rate_pct %s\n",
+                sc.pairs, sc.answered, sc.wrong, 100.0 * sc.error_rate, opts.tolerance_px, sc.refused,
+                100.0 * sc.refusal_rate, sc.wrong_answered, percent_or_nan(sc.answered_error_rate).c_str());
+  }
+  if (curve.is_open()) write_gate_curve(curve, outcomes, opts.gate_steps, opts.tolerance_px);
+  std::fflush(stdout);
+  for (auto* f : {&csv, &curve}) {
+    if (!f->is_open()) continue;
+    f->flush();
+    if (!*f) {
+      std::fprintf(stderr, "visnav align: cannot write '%s'\n", (f == &csv ? opts.csv : opts.gate_curve).c_str());
+      status = 1;
+    }
+  }
+  return status;
+}
+
+}  // namespace
+
 int run_align(int argc, char** argv, HostServices& host) {
   if (print_usage_if_help(argc, argv, kAlignUsage)) return 0;
   auto opts = parse(argc, argv);
@@ -276,184 +493,8 @@ int run_align(int argc, char** argv, HostServices& host) {
   const auto heading = heading_params_or_report(opts->heading_params, "align", calibrated_heading_params());
   if (!heading) return 2;
   Aligner al{&host, opts->detector, opts->detector_params, HeadingEstimator(*heading), {}, {}, {}, {}};
-  // Default keypoint density (issue 13): the target follows the image area, unless the user set
-  // it. A detector type without the key (a third-party plugin) gets the params as given.
-  if (opts->detector_params.find("target_keypoints") == nullptr &&
-      opts->detector_params.find("keypoints_per_mpx") == nullptr) {
-    ConfigNode with = opts->detector_params.is_null() ? ConfigNode::make_map() : opts->detector_params;
-    with.set("keypoints_per_mpx", ConfigNode::make_scalar(std::to_string(kAlignKeypointsPerMpx), {"align default", 0}));
-    if (host.create_detector(opts->detector, with)) {
-      opts->detector_params = with;
-      al.detector_params = with;
-    }
-  }
-  auto det = host.create_detector(opts->detector, opts->detector_params);
-  if (!det && !opts->detector_given) {
-    std::fprintf(stderr, "visnav align: detector '%s' is not available (%s); falling back to orb\n",
-                 opts->detector.c_str(), det.error().message.c_str());
-    al.detector_type = "orb";
-    det = host.create_detector("orb", opts->detector_params);
-  }
-  if (!det) {
-    std::fprintf(stderr, "visnav align: cannot create detector: %s\n", det.error().message.c_str());
-    return 2;
-  }
-
-  if (opts->pairs.empty()) {
-    auto est = al.align(opts->a, opts->b);
-    if (!est) {
-      std::fprintf(stderr, "visnav align: %s\n", est.error().message.c_str());
-      return 1;
-    }
-    if (est->valid)
-      std::printf("offset_px %.2f inliers %d matches %d confidence %.3f ambiguity %.3f\n", est->offset_px, est->inliers,
-                  est->matches, est->confidence, est->ambiguity);
-    else
-      std::printf("offset_px none inliers %d matches %d confidence %.3f ambiguity %.3f reason: %s\n", est->inliers,
-                  est->matches, est->confidence, est->ambiguity, invalid_reason(*est, al.estimator.params()).c_str());
-    std::fflush(stdout);
-    if (!opts->draw.empty()) {
-      const cv::Mat picture = render_alignment(al.ia, al.ib, al.fa, al.fb, al.estimator.last_matches(),
-                                               al.estimator.last_histogram(), *est, al.estimator.params());
-      bool written = false;
-      try {
-        written = cv::imwrite(opts->draw, picture);
-      } catch (const cv::Exception& e) {
-        std::fprintf(stderr, "visnav align: %s\n", e.what());
-      }
-      if (!written) {
-        std::fprintf(stderr, "visnav align: cannot write '%s'\n", opts->draw.c_str());
-        return 1;
-      }
-    }
-    return est->valid ? 0 : 1;
-  }
-
-  std::ifstream in(opts->pairs);
-  if (!in) {
-    std::fprintf(stderr, "visnav align: cannot open pairs file '%s'\n", opts->pairs.c_str());
-    return 2;
-  }
-  // Output files are opened before the first pair, so a bad path fails at once.
-  std::ofstream csv, curve;
-  if (!opts->csv.empty()) {
-    csv.open(opts->csv);
-    if (!csv) {
-      std::fprintf(stderr, "visnav align: --csv: cannot write '%s'\n", opts->csv.c_str());
-      return 2;
-    }
-    csv << "a,b,shift_px,offset_px,inliers,matches,confidence,ambiguity,valid,error_px,correct,reason\n";
-  }
-  if (!opts->gate_curve.empty()) {
-    curve.open(opts->gate_curve);
-    if (!curve) {
-      std::fprintf(stderr, "visnav align: --gate-curve: cannot write '%s'\n", opts->gate_curve.c_str());
-      return 2;
-    }
-  }
-  const auto base = std::filesystem::path(opts->pairs).parent_path();
-  const HeadingParams& hp = al.estimator.params();
-  int status = 0;
-  std::vector<PairOutcome> outcomes;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const auto hash = line.find('#');
-    if (hash != std::string::npos) line.resize(hash);
-    std::istringstream ls(line);
-    std::string a, b, shift_text, extra;
-    if (!(ls >> a)) continue;
-    if (!(ls >> b) || ((ls >> shift_text) && (ls >> extra))) {
-      std::fprintf(stderr, "visnav align: %s:%d: expected 'IMG_A IMG_B [SHIFT_PX]'\n", opts->pairs.c_str(), line_no);
-      status = 1;
-      continue;
-    }
-    bool has_shift = false;
-    double shift_px = 0.0;
-    if (!shift_text.empty()) {
-      char* end = nullptr;
-      shift_px = std::strtod(shift_text.c_str(), &end);
-      if (end == shift_text.c_str() || *end != '\0' || !std::isfinite(shift_px)) {
-        std::fprintf(stderr, "visnav align: %s:%d: SHIFT_PX '%s' is not a number\n", opts->pairs.c_str(), line_no,
-                     shift_text.c_str());
-        status = 1;
-        continue;
-      }
-      has_shift = true;
-    }
-    auto est = al.align(resolve_pair_path(a, base), resolve_pair_path(b, base));
-    PairOutcome outcome;
-    outcome.shift_px = shift_px;
-    std::string reason;
-    if (!est) {
-      std::fprintf(stderr, "visnav align: %s:%d: %s\n", opts->pairs.c_str(), line_no, est.error().message.c_str());
-      reason = est.error().message;
-    } else {
-      outcome.estimated = est->matches > 0;
-      outcome.offset_px = est->offset_px;
-      outcome.confidence = est->confidence;
-      if (!est->valid) reason = invalid_reason(*est, hp);
-    }
-    const bool valid = est && est->valid;
-    const double error_px = valid ? est->offset_px - shift_px : 0.0;
-    if (has_shift) outcomes.push_back(outcome);
-    if (!valid) {
-      std::printf("%s %s none reason: %s\n", a.c_str(), b.c_str(), reason.c_str());
-      status = 1;
-    } else {
-      std::printf("%s %s %.2f %d %.3f %.3f", a.c_str(), b.c_str(), est->offset_px, est->inliers, est->confidence,
-                  est->ambiguity);
-      if (has_shift) std::printf(" %.2f", error_px);
-      std::printf("\n");
-    }
-    if (csv.is_open()) {
-      char buf[256];
-      csv << csv_field(a) << ',' << csv_field(b) << ',';
-      if (has_shift) csv << format_number(shift_px);
-      csv << ',';
-      if (est) {
-        std::snprintf(buf, sizeof buf, "%s,%d,%d,%.4f,%.4f,%d", est->matches > 0 ? format_number(est->offset_px).c_str() : "",
-                      est->inliers, est->matches, est->confidence, est->ambiguity, est->valid ? 1 : 0);
-        csv << buf;
-      } else {
-        csv << ",0,0,0,1,0";
-      }
-      csv << ',';
-      if (has_shift && valid) csv << format_number(error_px);
-      csv << ',';
-      if (has_shift) csv << ((valid && std::abs(error_px) <= opts->tolerance_px) ? 1 : 0);
-      csv << ',' << csv_field(reason) << '\n';
-    }
-  }
-  if (!outcomes.empty()) {
-    const AlignScore sc = score_pairs(outcomes, hp.min_confidence, opts->tolerance_px);
-    std::printf("# pairs %d valid %d wrong %d error_rate_pct %.1f tolerance_px %.1f refused %d refusal_rate_pct %.1f "
-                "answered_wrong %d answered_error_rate_pct %s\n",
-                sc.pairs, sc.answered, sc.wrong, 100.0 * sc.error_rate, opts->tolerance_px, sc.refused,
-                100.0 * sc.refusal_rate, sc.wrong_answered, percent_or_nan(sc.answered_error_rate).c_str());
-  }
-  if (curve.is_open()) {
-    curve << "min_confidence,pairs,answered,coverage,correct,precision,wrong,error_rate,refusal_rate,"
-             "answered_error_rate\n";
-    for (const AlignScore& pt : gate_curve(outcomes, opts->gate_steps, opts->tolerance_px)) {
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "%.4f,%d,%d,%.4f,%d,%s,%d,%.4f,%.4f,%s\n", pt.min_confidence, pt.pairs,
-                    pt.answered, pt.coverage, pt.answered - pt.wrong_answered, fraction_or_empty(pt.precision).c_str(),
-                    pt.wrong, pt.error_rate, pt.refusal_rate, fraction_or_empty(pt.answered_error_rate).c_str());
-      curve << buf;
-    }
-  }
-  std::fflush(stdout);
-  for (auto* f : {&csv, &curve}) {
-    if (!f->is_open()) continue;
-    f->flush();
-    if (!*f) {
-      std::fprintf(stderr, "visnav align: cannot write '%s'\n", (f == &csv ? opts->csv : opts->gate_curve).c_str());
-      status = 1;
-    }
-  }
-  return status;
+  if (!prepare_detector(*opts, al, host)) return 2;
+  return opts->pairs.empty() ? align_single(*opts, al) : align_pairs(*opts, al);
 }
 
 }  // namespace visnav::feature_replay

@@ -278,6 +278,7 @@ void SegmentReplayer::set_params(const SegmentReplayParams& params, const Headin
 void SegmentReplayer::make_filter() {
   filter_.reset();
   last_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
+  anchor_px_ = std::numeric_limits<double>::quiet_NaN();
   if (!(params_.temporal_decay > 0.0)) return;
   const HeadingParams& h = estimator_.params();
   HeadingFilterParams f;
@@ -288,19 +289,27 @@ void SegmentReplayer::make_filter() {
   filter_.emplace(f, h.bin_width_px, h.bin_count);
 }
 
-bool SegmentReplayer::apply_filter(HeadingEstimate& est, double image_width_px, double odometry_heading_rad) {
+bool SegmentReplayer::apply_filter(HeadingEstimate& est, double d_m, double image_width_px,
+                                   double odometry_heading_rad) {
   double shift_px = 0.0;
   if (std::isfinite(odometry_heading_rad) && std::isfinite(last_heading_rad_))
     shift_px = shift_px_for_rotation(std::remainder(odometry_heading_rad - last_heading_rad_, 2.0 * std::numbers::pi),
                                      image_width_px, estimator_.params().horizontal_fov_deg);
   if (std::isfinite(odometry_heading_rad)) last_heading_rad_ = odometry_heading_rad;
+  if (std::isfinite(anchor_px_)) anchor_px_ += shift_px;
   auto filtered = filter_->update(estimator_.last_histogram(), shift_px);
-  if (!filtered || !filtered->valid) return false;
   const double bin_px = estimator_.params().bin_width_px;
-  if (est.valid && std::abs(est.offset_px - filtered->offset_px) <= bin_px) {
-    est.confidence = std::max(est.confidence, filtered->confidence);  // the frame agrees: keep its refined offset
+  const bool own_valid = est.valid;
+  const bool agree = filtered && filtered->valid && own_valid && std::abs(est.offset_px - filtered->offset_px) <= bin_px;
+  const bool on_track = filtered && filtered->valid && std::isfinite(anchor_px_) && d_m - anchor_d_m_ <= kFilterHoldM &&
+                        std::abs(filtered->offset_px - anchor_px_) <= kFilterGateBins * bin_px;
+  if (agree) est.confidence = std::max(est.confidence, filtered->confidence);  // keep the refined offset
+  if (agree || (own_valid && !on_track)) {
+    anchor_px_ = est.offset_px;
+    anchor_d_m_ = d_m;
     return false;
   }
+  if (!on_track) return false;  // the frame's own (not valid) estimate stands
   est.offset_px = filtered->offset_px;
   const double focal_px = shift_px_for_rotation(1.0, image_width_px, estimator_.params().horizontal_fov_deg);
   est.heading_correction_rad = focal_px > 0.0 ? -std::atan(est.offset_px / focal_px) : 0.0;
@@ -488,7 +497,7 @@ SegmentReplayOutput SegmentReplayer::step(double odometry_distance_m, const Feat
     return out;
   }
   out.estimate = *est;
-  if (filter_) out.filtered = apply_filter(out.estimate, image_width_px, odometry_heading_rad);
+  if (filter_) out.filtered = apply_filter(out.estimate, d, image_width_px, odometry_heading_rad);
   if (!out.estimate.valid) {
     out.state = est->matches == 0 ? ReplayState::no_features : ReplayState::low_confidence;
     return out;

@@ -495,14 +495,21 @@ Features weak_frame(const Features& full, double distance_m, int keep, std::mt19
 }  // namespace
 
 TEST(SegmentReplayer, TemporalFilterSteersOnFramesTooWeakOnTheirOwn) {
-  // Four correct votes per frame are below min_inliers (6): each frame alone gives no heading.
-  // Accumulated (decay 0.7) they pass the gates within a few frames and steer the right way.
+  // Two confident frames, then frames with four correct votes each, below min_inliers (6): alone
+  // they give no heading. Accumulated (decay 0.7) on the track the confident frames started, they
+  // steer the right way until the track is kFilterHoldM old.
   const double heading_rad = 0.06;  // turned left: scene right, f * tan(0.06) ~ 30 px
   fr::SegmentReplayer plain(taught().map, filter_params(0.0), scene_heading_params());
   fr::SegmentReplayer filtered(taught().map, filter_params(kFilterDecay), scene_heading_params());
   plain.begin(0.0);
   filtered.begin(0.0);
   std::mt19937 rng(11);
+  for (int k = 0; k < 2; ++k) {
+    const double d = 3.9 + 0.05 * k;
+    const Features full = taught().scene.observe({d, 0.0, heading_rad}, rng);
+    ASSERT_EQ(plain.step(d, full, 640.0, 0.0, heading_rad).state, fr::ReplayState::steering);
+    ASSERT_EQ(filtered.step(d, full, 640.0, 0.0, heading_rad).state, fr::ReplayState::steering);
+  }
   int plain_steering = 0, filtered_steering = 0;
   fr::SegmentReplayOutput last;
   for (int k = 0; k < 8; ++k) {
@@ -512,14 +519,32 @@ TEST(SegmentReplayer, TemporalFilterSteersOnFramesTooWeakOnTheirOwn) {
     last = filtered.step(d, weak, 640.0, 0.0, heading_rad);
     plain_steering += a.state == fr::ReplayState::steering;
     filtered_steering += last.state == fr::ReplayState::steering;
+    if (last.state == fr::ReplayState::steering) {
+      EXPECT_TRUE(last.filtered);
+      EXPECT_LT(last.estimate.inliers, 6);  // this frame's own count stays reported (4 + chance matches)
+      EXPECT_NEAR(last.estimate.offset_px, 500.0 * std::tan(heading_rad), 12.0);
+      EXPECT_LT(last.command.angular_radps, 0.0);
+    }
   }
   EXPECT_EQ(plain_steering, 0);
-  EXPECT_GE(filtered_steering, 4);
-  ASSERT_EQ(last.state, fr::ReplayState::steering);
-  EXPECT_TRUE(last.filtered);
-  EXPECT_EQ(last.estimate.inliers, 4);  // this frame's own count stays reported
-  EXPECT_NEAR(last.estimate.offset_px, 500.0 * std::tan(heading_rad), 12.0);
-  EXPECT_LT(last.command.angular_radps, 0.0);
+  EXPECT_EQ(filtered_steering, 8);
+  // Past the hold distance without a confident frame of its own, the track ends.
+  const double late_d = 3.95 + fr::kFilterHoldM + 0.1;
+  const Features weak = weak_frame(taught().scene.observe({late_d, 0.0, heading_rad}, rng), late_d, 4, rng);
+  EXPECT_EQ(filtered.step(late_d, weak, 640.0, 0.0, heading_rad).state, fr::ReplayState::low_confidence);
+}
+
+TEST(SegmentReplayer, TemporalFilterNeverStartsATrackOnWeakEvidence) {
+  // Weak frames that agree with each other but follow no confident frame: the accumulated peak
+  // is valid, yet it never steers (in winter such a peak is as often a repeated structure).
+  fr::SegmentReplayer filtered(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  filtered.begin(0.0);
+  std::mt19937 rng(15);
+  for (int k = 0; k < 10; ++k) {
+    const double d = 4.0 + 0.05 * k;
+    const Features weak = weak_frame(taught().scene.observe({d, 0.0, 0.06}, rng), d, 5, rng);
+    EXPECT_EQ(filtered.step(d, weak, 640.0, 0.0, 0.06).state, fr::ReplayState::low_confidence) << "frame " << k;
+  }
 }
 
 TEST(SegmentReplayer, TemporalFilterOutvotesAStrayPeak) {
@@ -552,9 +577,8 @@ TEST(SegmentReplayer, TemporalFilterOutvotesAStrayPeak) {
 }
 
 TEST(SegmentReplayer, TemporalFilterShiftsEarlierVotesByTheOdometricRotation) {
-  // The robot turns 0.05 rad per frame (25 px of offset per frame) with weak frames. Shifted by
-  // the odometric rotation, the accumulated peak sits on this frame's offset; without the
-  // rotation (heading NaN) the earlier frames' votes stay where they were, smeared over bins.
+  // The robot turns 0.05 rad per frame (25 px of offset per frame), two confident frames and then
+  // weak ones. Shifted by the odometric rotation, the accumulated peak sits on this frame's offset.
   fr::SegmentReplayer with_rotation(taught().map, filter_params(kFilterDecay), scene_heading_params());
   fr::SegmentReplayer without(taught().map, filter_params(kFilterDecay), scene_heading_params());
   with_rotation.begin(0.0);
@@ -562,6 +586,13 @@ TEST(SegmentReplayer, TemporalFilterShiftsEarlierVotesByTheOdometricRotation) {
   std::mt19937 rng(13);
   fr::SegmentReplayOutput a, b;
   double truth_px = 0.0;
+  for (int k = 0; k < 2; ++k) {  // confident frames start the track
+    const double d = 3.9 + 0.05 * k, heading = -0.2 + 0.05 * k;
+    const Features full = taught().scene.observe({d, 0.0, heading}, rng);
+    ASSERT_EQ(with_rotation.step(d, full, 640.0, 0.0, heading).state, fr::ReplayState::steering);
+    ASSERT_EQ(without.step(d, full, 640.0, 0.0, std::numeric_limits<double>::quiet_NaN()).state,
+              fr::ReplayState::steering);
+  }
   for (int k = 0; k < 6; ++k) {
     const double d = 4.0 + 0.05 * k, heading = -0.1 + 0.05 * k;
     const Features weak = weak_frame(taught().scene.observe({d, 0.0, heading}, rng), d, 5, rng);
@@ -571,8 +602,11 @@ TEST(SegmentReplayer, TemporalFilterShiftsEarlierVotesByTheOdometricRotation) {
   }
   ASSERT_EQ(a.state, fr::ReplayState::steering);
   EXPECT_NEAR(a.estimate.offset_px, truth_px, 12.0);
-  // Shifted, the frames' votes pile into one peak; unshifted they spread over five bins.
-  EXPECT_GT(a.estimate.confidence, b.estimate.confidence + 0.1);
+  // Shifted, the frames' votes pile into one peak on the track. Unshifted, the confident first
+  // frames' votes stay where they were: that filter steers on a stale offset (or not at all).
+  EXPECT_TRUE(a.filtered);
+  EXPECT_TRUE(b.state != fr::ReplayState::steering || std::abs(b.estimate.offset_px - truth_px) > 40.0)
+      << "unshifted filter offset " << b.estimate.offset_px << ", truth " << truth_px;
 }
 
 TEST(SegmentReplayer, TemporalFilterStartsAfreshOnEachSegment) {

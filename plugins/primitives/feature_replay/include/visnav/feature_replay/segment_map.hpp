@@ -44,12 +44,16 @@
 // Temporal filter (temporal_decay > 0, an addition to Algorithm 2, issue 36): a segment is
 // straight, so its taught heading is one azimuth and the offset between two frames changes only by
 // the robot's own rotation. Each frame's vote histogram is folded into a HeadingHistogramFilter
-// with the odometric rotation since the previous frame as the predicted shift. When the filtered
-// estimate is valid it decides: if this frame's own estimate is valid and within one bin of it,
-// the frame's refined offset is kept (with the larger of the two confidences); otherwise the
-// filtered offset steers (a weak frame still gets a heading; a stray single-frame peak is
-// outvoted). When it is not valid the frame's own estimate stands. The along-track fit uses this
-// frame's matches, so it runs only on frames whose own offset steers.
+// with the odometric rotation since the previous frame as the predicted shift. The filter only
+// continues a track that a frame's own valid estimate started: the anchor is the last own-valid
+// offset steered on, moved by the odometric rotation since. When the filtered estimate is valid:
+// if this frame's own estimate is valid and within one bin of it, the frame's refined offset is
+// kept (with the larger of the two confidences); otherwise the filtered offset steers if it lies
+// within kFilterGateBins bins of the anchor and the anchor is at most kFilterHoldM old (a weak
+// frame still gets a heading; a stray single-frame peak is outvoted). In every other case the
+// frame's own estimate stands: weak evidence that piles up somewhere no confident frame has been
+// (a repeated structure in winter, seen frame after frame) never steers. The along-track fit uses
+// this frame's matches, so it runs only on frames whose own offset steers.
 //
 // Distances: the replayer is given odometric distance (Odometry::distance_m) and subtracts the
 // value given to begin(); the teacher is given distance from the segment start (>= 0,
@@ -137,6 +141,12 @@ class SegmentTeacher {
   std::vector<char> used_;
 };
 
+/// Temporal filter (SegmentReplayParams::temporal_decay): the filtered offset steers only within
+/// this many histogram bins of the last own-valid offset (moved by the odometric rotation since)...
+inline constexpr double kFilterGateBins = 2.0;
+/// ...and only while that offset was taken at most this far back along the segment, m.
+inline constexpr double kFilterHoldM = 1.0;
+
 struct SegmentReplayParams {
   double speed_mps = 0.3;              ///< constant forward speed v0
   double gain_radps_per_px = 0.003;    ///< omega = -gain * offset_px
@@ -204,6 +214,7 @@ class SegmentReplayer {
     window_sum_m_ = window_sum_sq_m2_ = 0.0;
     if (filter_) filter_->reset();
     last_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
+    anchor_px_ = std::numeric_limits<double>::quiet_NaN();
   }
   /// One frame: `odometry_distance_m` is the current Odometry::distance_m; `image_width_px` the
   /// width of the image the features come from (for the heading in the estimate); the principal
@@ -251,10 +262,12 @@ class SegmentReplayer {
   void make_filter();
   // Folds this frame's histogram into the filter; returns true when the filtered offset replaced
   // the frame's own in `est`.
-  bool apply_filter(HeadingEstimate& est, double image_width_px, double odometry_heading_rad);
+  bool apply_filter(HeadingEstimate& est, double d_m, double image_width_px, double odometry_heading_rad);
 
   std::optional<HeadingHistogramFilter> filter_;  // temporal_decay > 0
   double last_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
+  double anchor_px_ = std::numeric_limits<double>::quiet_NaN();  // last own-valid offset, moved by the rotation since
+  double anchor_d_m_ = 0.0;                                      // segment distance where it was taken
 
   double origin_m_ = 0.0;
   double correction_m_ = 0.0;

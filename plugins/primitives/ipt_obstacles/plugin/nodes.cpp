@@ -499,6 +499,36 @@ bt::PortsList ReplayAvoiding::provided_ports() {
   return ports;
 }
 
+// ReplayAvoiding::tick(): a state machine held in flags, tested in this order every tick (one
+// phase runs per tick):
+//  * detouring_ (detour_step(); lane_ set: the lane detour, lane_step(); else the thesis detour,
+//    DetourDriver): RUNNING until it ends; its failure fails the node, its success resumes the
+//    child ("detour done") -> replaying.
+//  * looking_ (look_step()): stopped, watching the corridor with the frame difference (and the
+//    crossing policy) once the odometry says still:
+//      - nothing moved for look_frames frames (look_still()): at a person's way, first
+//        crossing_wait_s; then a contact in the corridor -> detouring (begin_detour), or, on a
+//        way seen crossing, looking again at that way (at_kerb_); no contact -> backing_
+//        (begin_backoff) or replaying ("nothing moves ahead");
+//      - motion seen (saw_motion_, look_wait()): waiting; the crossing policy's go ->
+//        crossing_drive_ (begin_crossing) or replaying (crossing_go()); clear_frames still frames
+//        (and at a way crossing_wait_s unseen) -> replaying; more than max_wait_frames -> FAILURE.
+//  * crossing_drive_ (cross_step()): drives across a person's way on the heading -> replaying.
+//  * backing_ (backoff_step()): reverses while triangulating; something stands -> detouring,
+//    else -> replaying.
+//  * replaying (none of the above): a run of the child starts when none has (replay_start(): a new
+//    edge unless resume_child() set carried_m). Then, in order, each able to stop the replay:
+//      - the IPT's contact in the corridor ahead (corridor_stop()) -> looking_ (detouring when
+//        look_frames = 0);
+//      - the drive watch: something moves close ahead (drive_watch_stop()) -> looking_;
+//      - the crossing watch: a person's way ahead (kerb_stop()) -> looking_ at the way (at_kerb_);
+//      - not probing: the standing watch fires (standing_stop()) -> detouring (lane);
+//      - probing_ (probe_step(); entered when the child failed with probe_on's reason): creeping on
+//        on the heading; probe_min_points corners ahead -> detouring; the budget used -> FAILURE;
+//      - else the child ticks (child_step()): RUNNING; SUCCESS -> the edge is done (edge_done(),
+//        the node's SUCCESS); FAILURE -> probing_ (child_failed()) or the node's FAILURE.
+// "-> replaying" is resume_child(): the child starts again at the along-track distance reached.
+// An error of a port, the camera or the pipeline stops the robot and fails the node.
 NodeStatus ReplayAvoiding::tick() {
   FrameBus* bus = host_.frame_bus();
   auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
@@ -506,199 +536,205 @@ NodeStatus ReplayAvoiding::tick() {
     host_.logger().error(path(), "no odometry");
     return NodeStatus::failure;
   }
-  if (detouring_) {
-    NodeStatus st = NodeStatus::failure;
-    if (lane_) {
-      st = lane_step(*odom);
-    } else {
-      st = detour_.step(*this, host_, runner_);
-      (void)set_output("situation", std::string(to_string(detour_.last_situation())));
-    }
-    if (st == NodeStatus::running) return NodeStatus::running;
-    detour_.end();
-    lane_.reset();
-    runner_.stop_correction();
-    detouring_ = false;
-    if (st == NodeStatus::failure) return NodeStatus::failure;
-    if (probe_) probe_->reset();  // past the obstacle: a later hidden path gets a new budget
-    resume_child(*odom, "detour done");
-    return NodeStatus::running;
-  }
+  if (detouring_) return detour_step(*odom);
   if (looking_) return look_step(*odom);
   if (crossing_drive_) return cross_step(*odom);
   if (backing_) return backoff_step(*odom);
-  if (!child_started_ && !probing_) {
-    auto carried = get_input<double>("carried_m");
-    const double carried_m = carried && std::isfinite(*carried) ? *carried : 0.0;
-    if (!resumed_) {
-      // A new edge: nothing carried over yet, nothing driven off it.
-      carried_shift_m_ = 0.0;
-      moved_off_line_ = false;
-      edge_start_odometer_m_ = odom->distance_m;
-      edge_start_carried_m_ = carried_m;
-    }
-    resumed_ = false;
-    child_ran_ = false;
-    // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
-    auto scale = get_input<double>("distance_scale");  // unset counts as 1; a set value must be in range
-    if (scale && !(*scale >= 0.5 && *scale <= 2.0)) {
-      host_.logger().error(path(), "port 'distance_scale': value " + std::to_string(*scale) + " is not in [0.5, 2]");
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    scale_ = scale ? *scale : 1.0;
-    replay_origin_m_ = odom->distance_m - scale_ * carried_m;
-    child_started_ = true;
-    if (drive_watch_) drive_watch_->reset();
-    drive_shimmer_.reset_hits();
-  }
-  auto fresh = runner_.step(*this, host_);
-  if (!fresh) {
-    host_.logger().error(path(), fresh.error().message);
-    halt_child();
-    stop(host_);
-    return NodeStatus::failure;
-  }
-  if (*fresh) {
-    log_points(host_, *this, odom->pose, **fresh);
-    corridor_.add(**fresh, *odom);
-  }
-  auto blocked = corridor_.blocked(*this, *odom);
-  if (!blocked) {
-    host_.logger().error(path(), blocked.error().message);
-    halt_child();
-    stop(host_);
-    return NodeStatus::failure;
-  }
-  if (*blocked) {
-    halt_child();
-    probing_ = false;
-    replay_done_m_ = odom->distance_m - replay_origin_m_;
-    detour_start_ = odom->pose;
-    auto look = get_input<int>("look_frames");
-    if (!look || *look < 0) {
-      host_.logger().error(path(), !look ? look.error().message : "port 'look_frames': must be >= 0");
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    if (*look == 0) return begin_detour(*odom);
-    begin_look(*odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge (robot at (" +
-                          std::to_string(odom->pose.x_m) + ", " + std::to_string(odom->pose.y_m) +
-                          "), contacts " + corridor_.blocking_points() + "): stop and look");
-    return NodeStatus::running;
-  }
-  auto near = moving_near(*odom);
-  if (!near) {
-    host_.logger().error(path(), near.error().message);
-    halt_child();
-    stop(host_);
-    return NodeStatus::failure;
-  }
-  stop_by_drive_watch_ = *near;
-  if (*near) {
-    halt_child();
-    probing_ = false;
-    replay_done_m_ = odom->distance_m - replay_origin_m_;
-    detour_start_ = odom->pose;
-    begin_look(*odom, "something moves close ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
-    return NodeStatus::running;
-  }
-  auto kerb = kerb_near(*odom);
-  if (!kerb) {
-    host_.logger().error(path(), kerb.error().message);
-    halt_child();
-    stop(host_);
-    return NodeStatus::failure;
-  }
-  if (*kerb) {
-    halt_child();
-    probing_ = false;
-    replay_done_m_ = odom->distance_m - replay_origin_m_;
-    detour_start_ = odom->pose;
-    begin_look(*odom, "a person was seen crossing ahead: stop before its way at " + std::to_string(replay_done_m_) +
-                          " m of the edge and watch it pass");
-    at_kerb_ = true;
-    kerb_since_s_ = odom->timestamp_s;
-    return NodeStatus::running;
-  }
+  if (!child_started_ && !probing_ && !replay_start(*odom)) return NodeStatus::failure;
+  if (auto st = corridor_stop(*odom)) return *st;
+  if (auto st = drive_watch_stop(*odom)) return *st;
+  if (auto st = kerb_stop(*odom)) return *st;
   if (!probing_) {
-    auto standing = standing_ahead(*odom);
-    if (!standing) {
-      host_.logger().error(path(), standing.error().message);
-      halt_child();
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    if (*standing) return **standing;
+    if (auto st = standing_stop(*odom)) return *st;
   }
-  if (probing_) {
-    auto near_points = triangulate_near(*odom);
-    if (!near_points) {
-      host_.logger().error(path(), near_points.error().message);
-      probing_ = false;
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    auto min_points = get_input<int>("probe_min_points");
-    auto lookahead = get_input<double>("lookahead_m");
-    auto half_width = get_input<double>("corridor_half_width_m");
-    if (!min_points || !lookahead || !half_width) {
-      host_.logger().error(path(), "ports 'probe_min_points', 'lookahead_m', 'corridor_half_width_m' must be numbers");
-      probing_ = false;
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    const Pose2D& r = odom->pose;
-    const double c = std::cos(r.heading_rad), sn = std::sin(r.heading_rad);
-    int ahead = 0;
-    for (const auto& p : *near_points) {
-      const double fwd = c * (p.x - r.x_m) + sn * (p.y - r.y_m), lat = -sn * (p.x - r.x_m) + c * (p.y - r.y_m);
-      if (fwd > 0.0 && fwd <= *lookahead + 1.0 && std::fabs(lat) <= *half_width) ++ahead;
-    }
-    if (!near_points->empty()) {
-      log_points(host_, *this, r, *near_points);
-      near_points_.insert(near_points_.end(), near_points->begin(), near_points->end());
-    }
-    if (ahead >= *min_points) {
-      probing_ = false;
-      stop(host_);
-      replay_done_m_ = odom->distance_m - replay_origin_m_;
-      detour_start_ = odom->pose;
-      host_.logger().info(path(), "probe: " + std::to_string(ahead) + " corners triangulated above the ground in the corridor ahead at " +
-                                      std::to_string(replay_done_m_) + " m of the edge");
-      const NodeStatus st = begin_detour(*odom);
-      if (lane_) lane_->add_points(near_points_);
-      return st;
-    }
-    const HiddenPathProbe::Step s = probe_->step(odom->pose, odom->distance_m);
-    if (s.exhausted) {
-      probing_ = false;
-      corridor_.clear();
-      stop(host_);
-      host_.logger().error(path(), "stopped: " + probe_reason_ + "; nothing found ahead while probing on");
-      return NodeStatus::failure;
-    }
-    return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
+  if (probing_) return probe_step(*odom);
+  return child_step(*odom);
+}
+
+NodeStatus ReplayAvoiding::detour_step(const Odometry& odom) {
+  NodeStatus st = NodeStatus::failure;
+  if (lane_) {
+    st = lane_step(odom);
+  } else {
+    st = detour_.step(*this, host_, runner_);
+    (void)set_output("situation", std::string(to_string(detour_.last_situation())));
   }
+  if (st == NodeStatus::running) return NodeStatus::running;
+  detour_.end();
+  lane_.reset();
+  runner_.stop_correction();
+  detouring_ = false;
+  if (st == NodeStatus::failure) return NodeStatus::failure;
+  if (probe_) probe_->reset();  // past the obstacle: a later hidden path gets a new budget
+  resume_child(odom, "detour done");
+  return NodeStatus::running;
+}
+
+bool ReplayAvoiding::replay_start(const Odometry& odom) {
+  auto carried = get_input<double>("carried_m");
+  const double carried_m = carried && std::isfinite(*carried) ? *carried : 0.0;
+  if (!resumed_) {
+    // A new edge: nothing carried over yet, nothing driven off it.
+    carried_shift_m_ = 0.0;
+    moved_off_line_ = false;
+    edge_start_odometer_m_ = odom.distance_m;
+    edge_start_carried_m_ = carried_m;
+  }
+  resumed_ = false;
+  child_ran_ = false;
+  // As the replay adapter: the edge counts in taught metres, odometry reads scale_ times them.
+  auto scale = get_input<double>("distance_scale");  // unset counts as 1; a set value must be in range
+  if (scale && !(*scale >= 0.5 && *scale <= 2.0)) {
+    host_.logger().error(path(), "port 'distance_scale': value " + std::to_string(*scale) + " is not in [0.5, 2]");
+    stop(host_);
+    return false;
+  }
+  scale_ = scale ? *scale : 1.0;
+  replay_origin_m_ = odom.distance_m - scale_ * carried_m;
+  child_started_ = true;
+  if (drive_watch_) drive_watch_->reset();
+  drive_shimmer_.reset_hits();
+  return true;
+}
+
+NodeStatus ReplayAvoiding::replay_failed(const std::string& message) {
+  host_.logger().error(path(), message);
+  halt_child();
+  stop(host_);
+  return NodeStatus::failure;
+}
+
+void ReplayAvoiding::interrupt_replay(const Odometry& odom) {
+  halt_child();
+  probing_ = false;
+  replay_done_m_ = odom.distance_m - replay_origin_m_;
+  detour_start_ = odom.pose;
+}
+
+std::optional<NodeStatus> ReplayAvoiding::corridor_stop(const Odometry& odom) {
+  auto fresh = runner_.step(*this, host_);
+  if (!fresh) return replay_failed(fresh.error().message);
+  if (*fresh) {
+    log_points(host_, *this, odom.pose, **fresh);
+    corridor_.add(**fresh, odom);
+  }
+  auto blocked = corridor_.blocked(*this, odom);
+  if (!blocked) return replay_failed(blocked.error().message);
+  if (!*blocked) return std::nullopt;
+  interrupt_replay(odom);
+  auto look = get_input<int>("look_frames");
+  if (!look || *look < 0) {
+    host_.logger().error(path(), !look ? look.error().message : "port 'look_frames': must be >= 0");
+    stop(host_);
+    return NodeStatus::failure;
+  }
+  if (*look == 0) return begin_detour(odom);
+  begin_look(odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge (robot at (" +
+                       std::to_string(odom.pose.x_m) + ", " + std::to_string(odom.pose.y_m) + "), contacts " +
+                       corridor_.blocking_points() + "): stop and look");
+  return NodeStatus::running;
+}
+
+std::optional<NodeStatus> ReplayAvoiding::drive_watch_stop(const Odometry& odom) {
+  auto near = moving_near(odom);
+  if (!near) return replay_failed(near.error().message);
+  stop_by_drive_watch_ = *near;
+  if (!*near) return std::nullopt;
+  interrupt_replay(odom);
+  begin_look(odom, "something moves close ahead at " + std::to_string(replay_done_m_) + " m of the edge: stop and look");
+  return NodeStatus::running;
+}
+
+std::optional<NodeStatus> ReplayAvoiding::kerb_stop(const Odometry& odom) {
+  auto kerb = kerb_near(odom);
+  if (!kerb) return replay_failed(kerb.error().message);
+  if (!*kerb) return std::nullopt;
+  interrupt_replay(odom);
+  begin_look(odom, "a person was seen crossing ahead: stop before its way at " + std::to_string(replay_done_m_) +
+                       " m of the edge and watch it pass");
+  at_kerb_ = true;
+  kerb_since_s_ = odom.timestamp_s;
+  return NodeStatus::running;
+}
+
+std::optional<NodeStatus> ReplayAvoiding::standing_stop(const Odometry& odom) {
+  auto standing = standing_ahead(odom);
+  if (!standing) return replay_failed(standing.error().message);
+  if (*standing) return **standing;
+  return std::nullopt;
+}
+
+NodeStatus ReplayAvoiding::probe_step(const Odometry& odom) {
+  auto probe_failed = [&](const std::string& message) {
+    host_.logger().error(path(), message);
+    probing_ = false;
+    stop(host_);
+    return NodeStatus::failure;
+  };
+  auto near_points = triangulate_near(odom);
+  if (!near_points) return probe_failed(near_points.error().message);
+  auto min_points = get_input<int>("probe_min_points");
+  auto lookahead = get_input<double>("lookahead_m");
+  auto half_width = get_input<double>("corridor_half_width_m");
+  if (!min_points || !lookahead || !half_width)
+    return probe_failed("ports 'probe_min_points', 'lookahead_m', 'corridor_half_width_m' must be numbers");
+  const Pose2D& r = odom.pose;
+  const double c = std::cos(r.heading_rad), sn = std::sin(r.heading_rad);
+  int ahead = 0;
+  for (const auto& p : *near_points) {
+    const double fwd = c * (p.x - r.x_m) + sn * (p.y - r.y_m), lat = -sn * (p.x - r.x_m) + c * (p.y - r.y_m);
+    if (fwd > 0.0 && fwd <= *lookahead + 1.0 && std::fabs(lat) <= *half_width) ++ahead;
+  }
+  if (!near_points->empty()) {
+    log_points(host_, *this, r, *near_points);
+    near_points_.insert(near_points_.end(), near_points->begin(), near_points->end());
+  }
+  if (ahead >= *min_points) {
+    probing_ = false;
+    stop(host_);
+    replay_done_m_ = odom.distance_m - replay_origin_m_;
+    detour_start_ = odom.pose;
+    host_.logger().info(path(), "probe: " + std::to_string(ahead) + " corners triangulated above the ground in the corridor ahead at " +
+                                    std::to_string(replay_done_m_) + " m of the edge");
+    const NodeStatus st = begin_detour(odom);
+    if (lane_) lane_->add_points(near_points_);
+    return st;
+  }
+  const HiddenPathProbe::Step s = probe_->step(odom.pose, odom.distance_m);
+  if (s.exhausted) {
+    probing_ = false;
+    corridor_.clear();
+    stop(host_);
+    host_.logger().error(path(), "stopped: " + probe_reason_ + "; nothing found ahead while probing on");
+    return NodeStatus::failure;
+  }
+  return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
+}
+
+NodeStatus ReplayAvoiding::child_step(const Odometry& odom) {
   const NodeStatus st = child()->execute_tick();
   child_ran_ = true;
   if (st == NodeStatus::running) return st;
   child_started_ = false;
-  if (st == NodeStatus::failure) return child_failed(*odom);
+  if (st == NodeStatus::failure) return child_failed(odom);
+  edge_done(odom);
+  return st;
+}
+
+void ReplayAvoiding::edge_done(const Odometry& odom) {
   {
     auto end_shift = get_input<double>("end_shift_m");
     const double child_end_m = end_shift && std::isfinite(*end_shift) ? *end_shift : 0.0;
     const double end_shift_m = child_end_m + carried_shift_m_;
     // FollowRoute takes the end node from end_shift_m: the child's last run saw only its own part.
     if (carried_shift_m_ != 0.0) (void)set_output("end_shift_m", end_shift_m);
-    if (moved_off_line_) report_extra_travel(*odom, end_shift_m);
+    if (moved_off_line_) report_extra_travel(odom, end_shift_m);
   }
   carried_shift_m_ = 0.0;
   moved_off_line_ = false;
   if (probe_) probe_->reset();
   if (crossing_) crossing_->forget_person();  // the next edge's person is another
   corridor_.clear();
-  return st;
 }
 
 NodeStatus ReplayAvoiding::child_failed(const Odometry& odom) {
@@ -901,6 +937,54 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
   return true;
 }
 
+NodeStatus ReplayAvoiding::look_failed(const std::string& message) {
+  host_.logger().error(path(), message);
+  looking_ = false;
+  stop(host_);
+  return NodeStatus::failure;
+}
+
+std::optional<NodeStatus> ReplayAvoiding::make_look_watch() {
+  if (watch_) return std::nullopt;
+  auto camera = read_camera(*this, watch_grey_);
+  if (!camera) return look_failed(camera.error().message);
+  MotionWatchParams params;
+  auto threshold = get_input<double>("motion_threshold");
+  auto min_px = get_input<int>("motion_min_px");
+  if (!threshold) return look_failed(threshold.error().message);
+  if (!min_px) return look_failed(min_px.error().message);
+  params.diff_threshold = *threshold;
+  params.min_changed_px = *min_px;
+  auto lookahead = get_input<double>("lookahead_m");
+  if (lookahead) params.far_m = std::max(params.near_m + 0.5, *lookahead + 1.0);
+  auto made = MotionWatch::create(*camera, params);
+  if (!made) return look_failed("port 'motion_threshold'/'motion_min_px': " + made.error().message);
+  watch_.emplace(std::move(*made));
+  return std::nullopt;
+}
+
+std::optional<NodeStatus> ReplayAvoiding::look_crossing(const Odometry& odom, double timestamp_s,
+                                                        std::optional<CrossingDecision>& crossing) {
+  if (!crossing_) return std::nullopt;
+  // Cautious (an unknown return holds the robot) at the edge of a person's way, and at any stop
+  // with such a way remembered close ahead (session 12, seed 3: a stop on an IPT contact 0.9 m
+  // before the way crossed on an unknown return and was hit by the person coming back).
+  const bool cautious = at_kerb_ || crossing_->way_ahead(odom.pose, timestamp_s, 2.5);
+  // The clear time counts from the tracked person's range (an upper bound when its feet are
+  // below the image), not from the remembered way: a way remembered from a sighting while
+  // driving was 1 m short on the campus (seeds 1, 2, 4) and the crossing ended in front of it.
+  auto d = crossing_->observe(watch_grey_, timestamp_s, cautious);
+  if (!d) return look_failed(d.error().message);
+  crossing = *d;
+  // Logged when the decision or the kind of its reason changes (the text before the figures).
+  const std::string head = d->reason.substr(0, d->reason.find_first_of("(0123456789"));
+  if (d->kind != crossing_kind_ || head != crossing_head_)
+    host_.logger().info(path(), std::string("crossing policy: ") + to_string(d->kind) + ", " + d->reason);
+  crossing_kind_ = d->kind;
+  crossing_head_ = head;
+  return std::nullopt;
+}
+
 NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   stop(host_);
   FrameBus* bus = host_.frame_bus();
@@ -910,29 +994,8 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   watch_sequence_ = frame->sequence;
   if (frame->image.channels() == 3) cv::cvtColor(frame->image, watch_grey_, cv::COLOR_BGR2GRAY);
   else watch_grey_ = frame->image;
-  auto fail_with = [&](const std::string& message) {
-    host_.logger().error(path(), message);
-    looking_ = false;
-    stop(host_);
-    return NodeStatus::failure;
-  };
-  if (!watch_) {
-    auto camera = read_camera(*this, watch_grey_);
-    if (!camera) return fail_with(camera.error().message);
-    MotionWatchParams params;
-    auto threshold = get_input<double>("motion_threshold");
-    auto min_px = get_input<int>("motion_min_px");
-    if (!threshold) return fail_with(threshold.error().message);
-    if (!min_px) return fail_with(min_px.error().message);
-    params.diff_threshold = *threshold;
-    params.min_changed_px = *min_px;
-    auto lookahead = get_input<double>("lookahead_m");
-    if (lookahead) params.far_m = std::max(params.near_m + 0.5, *lookahead + 1.0);
-    auto made = MotionWatch::create(*camera, params);
-    if (!made) return fail_with("port 'motion_threshold'/'motion_min_px': " + made.error().message);
-    watch_.emplace(std::move(*made));
-  }
-  if (auto st = read_crossing(watch_grey_); !st) return fail_with(st.error().message);
+  if (auto st = make_look_watch()) return *st;
+  if (auto st = read_crossing(watch_grey_); !st) return look_failed(st.error().message);
   // Compare only frames of a standing camera: wait until the odometry says stopped.
   if (std::abs(odom.twist.linear_mps) > 0.01 || std::abs(odom.twist.angular_radps) > 0.01 || settle_frames_++ < 2) {
     watch_->reset();
@@ -941,100 +1004,94 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
   }
   // The crossing policy (crossing_s > 0): where the person is and goes, over a wide band.
   std::optional<CrossingDecision> crossing;
-  if (crossing_) {
-    // Cautious (an unknown return holds the robot) at the edge of a person's way, and at any stop
-    // with such a way remembered close ahead (session 12, seed 3: a stop on an IPT contact 0.9 m
-    // before the way crossed on an unknown return and was hit by the person coming back).
-    const bool cautious = at_kerb_ || crossing_->way_ahead(odom.pose, frame->timestamp_s, 2.5);
-    // The clear time counts from the tracked person's range (an upper bound when its feet are
-    // below the image), not from the remembered way: a way remembered from a sighting while
-    // driving was 1 m short on the campus (seeds 1, 2, 4) and the crossing ended in front of it.
-    auto d = crossing_->observe(watch_grey_, frame->timestamp_s, cautious);
-    if (!d) return fail_with(d.error().message);
-    crossing = *d;
-    // Logged when the decision or the kind of its reason changes (the text before the figures).
-    const std::string head = d->reason.substr(0, d->reason.find_first_of("(0123456789"));
-    if (d->kind != crossing_kind_ || head != crossing_head_)
-      host_.logger().info(path(), std::string("crossing policy: ") + to_string(d->kind) + ", " + d->reason);
-    crossing_kind_ = d->kind;
-    crossing_head_ = head;
-  }
+  if (auto st = look_crossing(odom, frame->timestamp_s, crossing)) return *st;
   auto changed = watch_->observe(watch_grey_);
-  if (!changed) return fail_with(changed.error().message);
+  if (!changed) return look_failed(changed.error().message);
   if (!*changed) return NodeStatus::running;
   const bool moving = watch_->moving() || (crossing && crossing->kind == CrossingDecision::Kind::wait);
   auto look = get_input<int>("look_frames");
   auto clear = get_input<int>("clear_frames");
   auto max_wait = get_input<int>("max_wait_frames");
-  if (!look || !clear || !max_wait) return fail_with("ports 'look_frames', 'clear_frames', 'max_wait_frames' must be integers");
+  if (!look || !clear || !max_wait) return look_failed("ports 'look_frames', 'clear_frames', 'max_wait_frames' must be integers");
   if (!saw_motion_) {
     if (moving) {
       saw_motion_ = true;
       host_.logger().info(path(), "a moving obstacle in the corridor (" + std::to_string(**changed) +
                                       " changed pixels): wait until it is clear");
     } else if (++look_frames_ >= *look) {
-      // Before a person's way: watch for it to pass (crossing_wait_s) before going on.
-      if (at_kerb_ && crossing_ && frame->timestamp_s - kerb_since_s_ < crossing_->kerb_wait_s()) return NodeStatus::running;
-      if (at_kerb_ && crossing_) crossing_->clear_lanes();
-      looking_ = false;
-      auto blocked = corridor_.blocked(*this, odom);
-      if (!blocked) return fail_with(blocked.error().message);
-      // A contact where a person was seen crossing: likely that person, out of view now; wait
-      // at its way (crossing policy) rather than detour into it.
-      if (*blocked && crossing_ && !at_kerb_ && crossing_->way_ahead(odom.pose, frame->timestamp_s, 2.5)) {
-        looking_ = true;
-        at_kerb_ = true;
-        kerb_since_s_ = frame->timestamp_s;
-        host_.logger().info(path(), "the contact ahead lies on a person's way seen crossing: wait there for it to pass");
-        return NodeStatus::running;
-      }
-      if (*blocked) return begin_detour(odom);  // it stands: drive around it
-      // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
-      // parallax of something standing near (or a false alarm); back off and look (backoff_m),
-      // or go on and let the IPT judge.
-      drive_quiet_until_m_ = odom.distance_m + 0.5;
-      if (!at_kerb_) {
-        auto backing = begin_backoff(odom);
-        if (!backing) return fail_with(backing.error().message);
-        if (*backing) return NodeStatus::running;
-      }
-      resume_child(odom, "nothing moves ahead");
-      return NodeStatus::running;
+      return look_still(odom, frame->timestamp_s);
     }
     return NodeStatus::running;
   }
-  if (++wait_frames_ > *max_wait)
-    return fail_with("stopped: a moving obstacle stayed in the corridor ahead for " + std::to_string(wait_frames_) +
-                     " frames" + (crossing ? "; crossing policy: " + crossing->reason : std::string()));
+  return look_wait(odom, frame->timestamp_s, moving, crossing, *clear, *max_wait);
+}
+
+NodeStatus ReplayAvoiding::look_still(const Odometry& odom, double timestamp_s) {
+  // Before a person's way: watch for it to pass (crossing_wait_s) before going on.
+  if (at_kerb_ && crossing_ && timestamp_s - kerb_since_s_ < crossing_->kerb_wait_s()) return NodeStatus::running;
+  if (at_kerb_ && crossing_) crossing_->clear_lanes();
+  looking_ = false;
+  auto blocked = corridor_.blocked(*this, odom);
+  if (!blocked) return look_failed(blocked.error().message);
+  // A contact where a person was seen crossing: likely that person, out of view now; wait
+  // at its way (crossing policy) rather than detour into it.
+  if (*blocked && crossing_ && !at_kerb_ && crossing_->way_ahead(odom.pose, timestamp_s, 2.5)) {
+    looking_ = true;
+    at_kerb_ = true;
+    kerb_since_s_ = timestamp_s;
+    host_.logger().info(path(), "the contact ahead lies on a person's way seen crossing: wait there for it to pass");
+    return NodeStatus::running;
+  }
+  if (*blocked) return begin_detour(odom);  // it stands: drive around it
+  // Nothing moves and the IPT has no contact in the corridor: what stopped the robot was
+  // parallax of something standing near (or a false alarm); back off and look (backoff_m),
+  // or go on and let the IPT judge.
+  drive_quiet_until_m_ = odom.distance_m + 0.5;
+  if (!at_kerb_) {
+    auto backing = begin_backoff(odom);
+    if (!backing) return look_failed(backing.error().message);
+    if (*backing) return NodeStatus::running;
+  }
+  resume_child(odom, "nothing moves ahead");
+  return NodeStatus::running;
+}
+
+NodeStatus ReplayAvoiding::look_wait(const Odometry& odom, double timestamp_s, bool moving,
+                                     const std::optional<CrossingDecision>& crossing, int clear, int max_wait) {
+  if (++wait_frames_ > max_wait)
+    return look_failed("stopped: a moving obstacle stayed in the corridor ahead for " + std::to_string(wait_frames_) +
+                       " frames" + (crossing ? "; crossing policy: " + crossing->reason : std::string()));
   still_frames_ = moving ? 0 : still_frames_ + 1;
-  if (crossing && crossing->kind == CrossingDecision::Kind::go) {
-    looking_ = false;
-    if (crossing->range_m <= crossing_->kerb_m() + 0.3) {
-      crossing_->clear_lanes();  // it walked away just ahead: cross now
-      if (crossing_->crossing_speed_mps() > 0.0) {
-        begin_crossing(odom, crossing->way_ahead_m, "the crossing policy lets the robot go after " +
-                                                        std::to_string(wait_frames_) + " frames (" + crossing->reason + ")");
-        return NodeStatus::running;
-      }
-    } else {
-      // Too far from its way to cross before it could be back: drive up to the edge of the way
-      // (as now seen) and watch it pass there.
-      crossing_->clear_lanes();
-      crossing_->remember_way(odom.pose, crossing->range_m, frame->timestamp_s);
-      at_kerb_ = false;  // resume_child() keeps the way
-    }
-    // The person it saw walks away beside the lane: no stop for it until past its line.
-    drive_quiet_until_m_ = odom.distance_m + std::clamp(crossing->range_m + 0.5, 0.3, 3.0);
-    resume_child(odom, "the crossing policy lets the robot go after " + std::to_string(wait_frames_) + " frames (" +
-                           crossing->reason + ")");
-    return NodeStatus::running;
-  }
-  if (still_frames_ < *clear) return NodeStatus::running;
+  if (crossing && crossing->kind == CrossingDecision::Kind::go) return crossing_go(odom, timestamp_s, *crossing);
+  if (still_frames_ < clear) return NodeStatus::running;
   // At the edge of a person's way: only the policy, or crossing_wait_s without seeing it, ends the wait.
-  if (at_kerb_ && crossing_ && crossing_->unseen_s(frame->timestamp_s) < crossing_->kerb_wait_s()) return NodeStatus::running;
+  if (at_kerb_ && crossing_ && crossing_->unseen_s(timestamp_s) < crossing_->kerb_wait_s()) return NodeStatus::running;
   looking_ = false;
   drive_quiet_until_m_ = odom.distance_m + 0.3;  // let the IPT look again before the frame difference
   resume_child(odom, "the corridor is clear after " + std::to_string(wait_frames_) + " frames of waiting");
+  return NodeStatus::running;
+}
+
+NodeStatus ReplayAvoiding::crossing_go(const Odometry& odom, double timestamp_s, const CrossingDecision& crossing) {
+  looking_ = false;
+  if (crossing.range_m <= crossing_->kerb_m() + 0.3) {
+    crossing_->clear_lanes();  // it walked away just ahead: cross now
+    if (crossing_->crossing_speed_mps() > 0.0) {
+      begin_crossing(odom, crossing.way_ahead_m, "the crossing policy lets the robot go after " +
+                                                     std::to_string(wait_frames_) + " frames (" + crossing.reason + ")");
+      return NodeStatus::running;
+    }
+  } else {
+    // Too far from its way to cross before it could be back: drive up to the edge of the way
+    // (as now seen) and watch it pass there.
+    crossing_->clear_lanes();
+    crossing_->remember_way(odom.pose, crossing.range_m, timestamp_s);
+    at_kerb_ = false;  // resume_child() keeps the way
+  }
+  // The person it saw walks away beside the lane: no stop for it until past its line.
+  drive_quiet_until_m_ = odom.distance_m + std::clamp(crossing.range_m + 0.5, 0.3, 3.0);
+  resume_child(odom, "the crossing policy lets the robot go after " + std::to_string(wait_frames_) + " frames (" +
+                         crossing.reason + ")");
   return NodeStatus::running;
 }
 

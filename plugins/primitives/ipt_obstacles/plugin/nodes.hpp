@@ -202,8 +202,57 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus lane_step(const Odometry& odom);
   /// Starts the detour of the `detour` port from the current pose (robot already stopped).
   bt::NodeStatus begin_detour(const Odometry& odom);
+  // The phases and decisions of tick() (its comment in nodes.cpp lists the states).
+  /// The detouring phase: one cycle of the lane or thesis detour; when it ends, failure or the
+  /// child's resumption.
+  bt::NodeStatus detour_step(const Odometry& odom);
+  /// A run of the child starts (a new edge unless resume_child() set carried_m): the edge's
+  /// origin on the odometry. False on a bad distance_scale (logged, robot stopped).
+  bool replay_start(const Odometry& odom);
+  /// Logs `message`, halts the child, stops the robot: FAILURE.
+  bt::NodeStatus replay_failed(const std::string& message);
+  /// Halts the child (and the probe) where the replay stopped: the edge distance done and the
+  /// detour's line start.
+  void interrupt_replay(const Odometry& odom);
+  // While replaying, in this order: a status ends the tick (the replay stopped or failed),
+  // nullopt lets the replay go on.
+  /// The IPT's new pair and the corridor ahead: a contact stops the replay to look (or to detour
+  /// at once with look_frames = 0).
+  std::optional<bt::NodeStatus> corridor_stop(const Odometry& odom);
+  /// The drive watch (moving_near()): something moving close ahead stops the replay to look.
+  std::optional<bt::NodeStatus> drive_watch_stop(const Odometry& odom);
+  /// The crossing watch (kerb_near()): a person's way ahead stops the replay before it.
+  std::optional<bt::NodeStatus> kerb_stop(const Odometry& odom);
+  /// The standing watch (standing_ahead()): a face ahead starts the lane detour.
+  std::optional<bt::NodeStatus> standing_stop(const Odometry& odom);
+  /// The probing phase: one cycle of creeping on after the child gave up (probe_on): enough
+  /// corners ahead start the detour; the budget used fails.
+  bt::NodeStatus probe_step(const Odometry& odom);
+  /// The child's tick while replaying: its end ends the edge (edge_done()) or, failed, goes to
+  /// child_failed().
+  bt::NodeStatus child_step(const Odometry& odom);
+  /// The child finished the edge: the whole edge's end shift and extra travel written, the
+  /// per-edge state cleared.
+  void edge_done(const Odometry& odom);
   /// One cycle of the stop-and-look phase (see the class comment).
   bt::NodeStatus look_step(const Odometry& odom);
+  // The steps of look_step().
+  /// Logs `message`, ends the look, stops the robot: FAILURE.
+  bt::NodeStatus look_failed(const std::string& message);
+  /// Creates watch_ from the ports on the first look frame; a status on failure.
+  std::optional<bt::NodeStatus> make_look_watch();
+  /// The crossing policy's decision on the look frame (crossing_s > 0) into `crossing`, logged
+  /// when it changes; a status on failure.
+  std::optional<bt::NodeStatus> look_crossing(const Odometry& odom, double timestamp_s,
+                                              std::optional<CrossingDecision>& crossing);
+  /// Nothing moved for look_frames frames: detour round a contact, wait at a person's way, back
+  /// off, or resume the child.
+  bt::NodeStatus look_still(const Odometry& odom, double timestamp_s);
+  /// Motion was seen: one frame of waiting for the corridor to clear (or the crossing policy's go).
+  bt::NodeStatus look_wait(const Odometry& odom, double timestamp_s, bool moving,
+                           const std::optional<CrossingDecision>& crossing, int clear, int max_wait);
+  /// The crossing policy's go while waiting: cross the person's way, or drive on to it.
+  bt::NodeStatus crossing_go(const Odometry& odom, double timestamp_s, const CrossingDecision& crossing);
   /// The replay child starts again at the along-track distance reached (after a detour or a wait).
   void resume_child(const Odometry& odom, const std::string& why);
   /// The child ended the edge after the node drove off its line: writes extra_travel_m, the

@@ -171,79 +171,9 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     d.reason = "at the line's end";
     return d;
   }
-  if (reversing_) {
-    if (clear_to_cross(r.x)) {
-      // Far enough before every point: the other side, with every point known, for good.
-      reversing_ = false;
-      side_ = -side_;
-      side_locked_ = true;
-      lane_m_ = 0.0;
-    } else if (reverse_from_s_m_ - r.x >= params_.max_reverse_m) {
-      d.kind = LaneDecision::Kind::blocked;
-      d.reason = "reversed " + std::to_string(reverse_from_s_m_ - r.x) + " m along the line and an obstacle point is still within " +
-                 std::to_string(params_.recover_clear_m) + " m ahead (" + std::to_string(points_.size()) + " obstacle points)";
-      return d;
-    } else {
-      d.kind = LaneDecision::Kind::reverse;
-      d.lane_m = came_at(r.x - params_.aim_ahead_m);
-      d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
-      d.reason = "reversing along the line until the obstacle is " + std::to_string(params_.recover_clear_m) +
-                 " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
-      return d;
-    }
-  }
+  if (reversing_ && reverse_decided(r, heading_on_line, d)) return d;
   std::optional<double> lane;
-  // Back to the line only when the band the body sweeps on the way there is free too: a point
-  // released by its hold on the line may still hold a lane in between.
-  if (lane_free(0.0, r.x) && (side_ == 0 || sweep_free(r.y, 0.0, r.x))) {
-    lane = 0.0;
-  } else if (side_ != 0 && lane_m_ != 0.0 && lane_free(lane_m_, r.x)) {
-    lane = lane_m_;  // keep a free target: re-choosing every cycle would swing
-  } else {
-    // The free lane nearest the line, on the chosen side first.
-    // The drift margin widens a lane but does not close a side: without a lane with the margins,
-    // the lane free of body radius + clearance nearest the robot's offset (the least move).
-    auto search = [&](int side) -> std::optional<double> {
-      for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
-        if (lane_free(side * l, r.x)) return side * l;
-      std::optional<double> best;
-      for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
-        if (lane_free(side * l, r.x, false) && (!best || std::fabs(side * l - r.y) < std::fabs(*best - r.y))) best = side * l;
-      return best;
-    };
-    std::optional<double> left = search(1), right = search(-1);
-    const bool own_closed = side_ != 0 && !(side_ > 0 ? left : right);
-    const bool other_open = side_ != 0 && (side_ > 0 ? right : left).has_value();
-    if (own_closed && side_locked_) {
-      // The side taken after a recovery closes too: no third try.
-      d.kind = LaneDecision::Kind::blocked;
-      d.reason = closes_reason(side_) + "; both sides closed, the other one after " + std::to_string(recoveries_) +
-                 " recovery(ies) by reversing";
-      return d;
-    }
-    if (own_closed && near_obstacle(r.x)) {
-      if (other_open && recoveries_ < params_.max_recoveries) {
-        ++recoveries_;
-        reversing_ = true;
-        reverse_from_s_m_ = r.x;
-        d.kind = LaneDecision::Kind::reverse;
-        d.lane_m = came_at(r.x - params_.aim_ahead_m);
-        d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
-        d.reason = closes_reason(side_) + ": reversing along the line until the obstacle is " +
-                   std::to_string(params_.recover_clear_m) + " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
-        return d;
-      }
-      d.kind = LaneDecision::Kind::blocked;
-      d.reason = closes_reason(side_) + (other_open ? "; recovery by reversing tried " + std::to_string(recoveries_) + " time(s)"
-                                                    : "; the other side closes too");
-      return d;
-    }
-    if (side_ > 0 && left) lane = left;
-    else if (side_ < 0 && right) lane = right;
-    else if (left && right) lane = std::fabs(*left) <= std::fabs(*right) ? left : right;
-    else lane = left ? left : right;
-    if (lane) side_ = *lane > 0 ? 1 : -1;
-  }
+  if (choose_lane(r, heading_on_line, lane, d)) return d;
   if (!lane) {
     d.kind = LaneDecision::Kind::blocked;
     d.reason = "no free lane within " + std::to_string(params_.max_offset_m) + " m of the line on either side (" +
@@ -259,38 +189,131 @@ LaneDecision LaneDetour::decide(const Pose2D& robot) {
     return d;
   }
   track_.emplace_back(r.x, r.y);
-  double aim_line = std::atan2(*lane - r.y, params_.aim_ahead_m);  // relative to the line
+  steer_to_lane(r, heading_on_line, *lane, d);
+  return d;
+}
+
+bool LaneDetour::reverse_decided(const cv::Point2d& r, double heading_on_line, LaneDecision& d) {
+  if (clear_to_cross(r.x)) {
+    // Far enough before every point: the other side, with every point known, for good.
+    reversing_ = false;
+    side_ = -side_;
+    side_locked_ = true;
+    lane_m_ = 0.0;
+    return false;
+  }
+  if (reverse_from_s_m_ - r.x >= params_.max_reverse_m) {
+    d.kind = LaneDecision::Kind::blocked;
+    d.reason = "reversed " + std::to_string(reverse_from_s_m_ - r.x) + " m along the line and an obstacle point is still within " +
+               std::to_string(params_.recover_clear_m) + " m ahead (" + std::to_string(points_.size()) + " obstacle points)";
+    return true;
+  }
+  d.kind = LaneDecision::Kind::reverse;
+  d.lane_m = came_at(r.x - params_.aim_ahead_m);
+  d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
+  d.reason = "reversing along the line until the obstacle is " + std::to_string(params_.recover_clear_m) +
+             " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
+  return true;
+}
+
+bool LaneDetour::choose_lane(const cv::Point2d& r, double heading_on_line, std::optional<double>& lane, LaneDecision& d) {
+  // Back to the line only when the band the body sweeps on the way there is free too: a point
+  // released by its hold on the line may still hold a lane in between.
+  if (lane_free(0.0, r.x) && (side_ == 0 || sweep_free(r.y, 0.0, r.x))) {
+    lane = 0.0;
+  } else if (side_ != 0 && lane_m_ != 0.0 && lane_free(lane_m_, r.x)) {
+    lane = lane_m_;  // keep a free target: re-choosing every cycle would swing
+  } else {
+    return choose_side_lane(r, heading_on_line, lane, d);
+  }
+  return false;
+}
+
+std::optional<double> LaneDetour::nearest_free_lane(int side, const cv::Point2d& r) const {
+  // The drift margin widens a lane but does not close a side: without a lane with the margins,
+  // the lane free of body radius + clearance nearest the robot's offset (the least move).
+  for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
+    if (lane_free(side * l, r.x)) return side * l;
+  std::optional<double> best;
+  for (double l = params_.offset_step_m; l <= params_.max_offset_m + 1e-9; l += params_.offset_step_m)
+    if (lane_free(side * l, r.x, false) && (!best || std::fabs(side * l - r.y) < std::fabs(*best - r.y))) best = side * l;
+  return best;
+}
+
+bool LaneDetour::choose_side_lane(const cv::Point2d& r, double heading_on_line, std::optional<double>& lane,
+                                  LaneDecision& d) {
+  // The free lane nearest the line, on the chosen side first.
+  std::optional<double> left = nearest_free_lane(1, r), right = nearest_free_lane(-1, r);
+  const bool own_closed = side_ != 0 && !(side_ > 0 ? left : right);
+  const bool other_open = side_ != 0 && (side_ > 0 ? right : left).has_value();
+  if (own_closed && side_locked_) {
+    // The side taken after a recovery closes too: no third try.
+    d.kind = LaneDecision::Kind::blocked;
+    d.reason = closes_reason(side_) + "; both sides closed, the other one after " + std::to_string(recoveries_) +
+               " recovery(ies) by reversing";
+    return true;
+  }
+  if (own_closed && near_obstacle(r.x)) {
+    if (other_open && recoveries_ < params_.max_recoveries) {
+      ++recoveries_;
+      reversing_ = true;
+      reverse_from_s_m_ = r.x;
+      d.kind = LaneDecision::Kind::reverse;
+      d.lane_m = came_at(r.x - params_.aim_ahead_m);
+      d.heading_rad = reverse_turn(r.y, heading_on_line, d.lane_m, params_.aim_ahead_m);
+      d.reason = closes_reason(side_) + ": reversing along the line until the obstacle is " +
+                 std::to_string(params_.recover_clear_m) + " m ahead, then the " + (side_ > 0 ? "right" : "left") + " side";
+      return true;
+    }
+    d.kind = LaneDecision::Kind::blocked;
+    d.reason = closes_reason(side_) + (other_open ? "; recovery by reversing tried " + std::to_string(recoveries_) + " time(s)"
+                                                  : "; the other side closes too");
+    return true;
+  }
+  if (side_ > 0 && left) lane = left;
+  else if (side_ < 0 && right) lane = right;
+  else if (left && right) lane = std::fabs(*left) <= std::fabs(*right) ? left : right;
+  else lane = left ? left : right;
+  if (lane) side_ = *lane > 0 ? 1 : -1;
+  return false;
+}
+
+void LaneDetour::steer_to_lane(const cv::Point2d& r, double heading_on_line, double lane, LaneDecision& d) const {
+  double aim_line = std::atan2(lane - r.y, params_.aim_ahead_m);  // relative to the line
   d.kind = LaneDecision::Kind::drive;
-  d.reason = *lane == 0.0 ? std::string("returning to the line")
-                          : "lane " + std::to_string(*lane) + " m " + (*lane > 0 ? "left" : "right") + " of the line";
+  d.reason = lane == 0.0 ? std::string("returning to the line")
+                         : "lane " + std::to_string(lane) + " m " + (lane > 0 ? "left" : "right") + " of the line";
   if (way_blocked(r.x, r.y, aim_line)) {
     // The pursuit's direction runs into a known point: the nearest free direction, towards the
     // target lane first (its side of the line), then the other way.
-    const double toward = *lane - r.y >= 0.0 ? 1.0 : -1.0;
-    std::optional<double> free_dir;
-    const double step = 0.05;
-    for (double k = step; k <= 2.0 * params_.guard_max_turn_rad + 1e-9 && !free_dir; k += step)
-      for (const double sign : {toward, -toward}) {
-        const double dir = aim_line + sign * k;
-        if (std::fabs(dir) > params_.guard_max_turn_rad) continue;
-        if (!way_blocked(r.x, r.y, dir)) {
-          free_dir = dir;
-          break;
-        }
-      }
+    const std::optional<double> free_dir = free_direction(r, aim_line, lane - r.y >= 0.0 ? 1.0 : -1.0);
     if (!free_dir) {
       d.kind = LaneDecision::Kind::blocked;
       d.reason = "a known obstacle point lies in the body's way within " + std::to_string(params_.guard_reach_m) +
                  " m in every direction within " + std::to_string(params_.guard_max_turn_rad) + " rad of the line (" +
                  std::to_string(points_.size()) + " obstacle points)";
-      return d;
+      return;
     }
     aim_line = *free_dir;
     d.reason += " (steering round a point in the way)";
   }
   d.heading_rad = std::remainder(aim_line - heading_on_line, 2.0 * CV_PI);
   d.hold_forward = way_blocked(r.x, r.y, heading_on_line);
-  return d;
+}
+
+std::optional<double> LaneDetour::free_direction(const cv::Point2d& r, double aim_line, double toward) const {
+  std::optional<double> free_dir;
+  const double step = 0.05;
+  for (double k = step; k <= 2.0 * params_.guard_max_turn_rad + 1e-9 && !free_dir; k += step)
+    for (const double sign : {toward, -toward}) {
+      const double dir = aim_line + sign * k;
+      if (std::fabs(dir) > params_.guard_max_turn_rad) continue;
+      if (!way_blocked(r.x, r.y, dir)) {
+        free_dir = dir;
+        break;
+      }
+    }
+  return free_dir;
 }
 
 }  // namespace visnav::ipt

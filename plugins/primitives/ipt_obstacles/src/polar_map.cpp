@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <utility>
 
 namespace visnav::ipt {
 
@@ -131,188 +132,163 @@ void NavigationFilter::reset() {
   rotate_side_ = 0;
 }
 
-Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m) {
-  Decision d;
-  const Polar goal = polar_of(robot, goal_m);
-  // S0
-  if (goal.range_m < params_.goal_tolerance_m) {
-    reset();
-    d.situation = Situation::goal_reached;
-    d.reset = true;
-    d.reason = "goal reached";
-    return d;
-  }
-  // The filter: only points between the robot and the goal (R_nf = |goal − robot|).
+namespace {
+
+// The steps of NavigationFilter::decide(); `pts` are the stored points nearer than the goal,
+// `nearest` each sector's nearest of them (index into pts, −1 for an empty sector).
+
+/// The filter: only points between the robot and the goal (R_nf = |goal − robot|).
+std::vector<Polar> points_nearer_than_goal(const std::vector<cv::Point2d>& points, const Pose2D& robot, double goal_range_m) {
   std::vector<Polar> pts;
-  for (const auto& p : points_) {
+  for (const auto& p : points) {
     const Polar q = polar_of(robot, p);
-    if (q.range_m <= goal.range_m) pts.push_back(q);
+    if (q.range_m <= goal_range_m) pts.push_back(q);
   }
-  const double S = params_.security_distance_m;
-  // Each sector's representative: its nearest point (spec §7.3).
-  const int n = sector_count();
+  return pts;
+}
+
+/// Each sector's representative: its nearest point (spec §7.3).
+std::vector<int> nearest_per_sector(const NavigationFilter& filter, const std::vector<Polar>& pts) {
+  const int n = filter.sector_count();
   std::vector<int> nearest(static_cast<std::size_t>(n), -1);
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    int& k = nearest[static_cast<std::size_t>(sector_of(pts[i].bearing_rad))];
+    int& k = nearest[static_cast<std::size_t>(filter.sector_of(pts[i].bearing_rad))];
     if (k < 0 || pts[i].range_m < pts[static_cast<std::size_t>(k)].range_m) k = static_cast<int>(i);
   }
-  // S1: the potential field.
-  const bool high_risk = std::any_of(pts.begin(), pts.end(), [&](const Polar& q) { return q.range_m < S; });
-  if (high_risk) {
-    // Attracted by the goal, or, while an obstacle is being bypassed (tenacity), by the
-    // direction of the last gap taken: pulled towards the goal beside a wall end, the robot
-    // turned back into the U it was leaving (spec §11 item 19 (c)).
-    double attract_rad = tenacity_on_ ? wrap(tenacity_heading_world_rad_ - robot.heading_rad) : goal.bearing_rad;
-    // [ours] Through a gap wider than W_gap but narrower than 2·S_dist both edges are inside
-    // S_dist: attracted by the goal beyond the gap's edge, the field held the robot in front of
-    // it (a corridor with 1 m gaps, spec §11 item 19 (e)). The gap ahead whose middle is nearest
-    // the attraction's direction attracts instead, and the edges' repulsion centres the robot.
-    bool through_gap = false;
-    {
-      std::vector<const Polar*> ahead;
-      for (const auto& q : pts)
-        if (in_front(q.bearing_rad)) ahead.push_back(&q);
-      std::sort(ahead.begin(), ahead.end(), [](const Polar* a, const Polar* b) { return a->bearing_rad < b->bearing_rad; });
-      double best = std::numeric_limits<double>::infinity();
-      std::optional<double> gap_rad;
-      for (std::size_t i = 1; i < ahead.size(); ++i) {
-        const Polar& r = *ahead[i - 1];
-        const Polar& l = *ahead[i];
-        if (cv::norm(l.p - r.p) <= params_.gap_width_m) continue;
-        const cv::Point2d mid = 0.5 * (l.p + r.p);
-        const double mid_rad = polar_of(robot, mid).bearing_rad;
-        const double off = std::fabs(wrap(mid_rad - attract_rad));
-        const bool towards_goal = std::fabs(wrap(mid_rad - goal.bearing_rad)) < kPi / 2;
-        if (off < best && towards_goal && std::min(l.range_m, r.range_m) < S + params_.gap_width_m) {
-          best = off;
-          gap_rad = mid_rad;
-        }
-      }
-      if (gap_rad) attract_rad = *gap_rad;
-      through_gap = gap_rad.has_value();
-    }
-    // Repelled by each sector's representative, not every stored point: summed over all of them
-    // a wall's push grew with how often it had been seen.
-    double rx = 0.0, ry = 0.0;
-    for (const int k : nearest) {
-      if (k < 0) continue;
-      const Polar& q = pts[static_cast<std::size_t>(k)];
-      if (q.range_m >= S || q.range_m <= 1e-6) continue;
-      const double mag = params_.repulsion_gain * (1.0 / q.range_m - 1.0 / S) / (q.range_m * q.range_m);
-      rx -= mag * std::cos(q.bearing_rad);
-      ry -= mag * std::sin(q.bearing_rad);
-    }
-    const double ax = std::cos(attract_rad), ay = std::sin(attract_rad);
-    if (through_gap) {
-      // Into a gap only the repulsion across it acts (it centres the robot); along it, the
-      // edges' push would hold the robot in front of any gap narrower than 2·S_dist.
-      const double along = rx * ax + ry * ay;
-      if (along < 0.0) {
-        rx -= along * ax;
-        ry -= along * ay;
-      }
-    }
-    const double fx = params_.attraction_gain * ax + rx, fy = params_.attraction_gain * ay + ry;
-    d.situation = Situation::high_risk;
-    d.heading_rad = std::atan2(fy, fx);
-    // A field pointing nearly straight back flips between ±180° with the noise, and the robot
-    // turning towards it alternately left and right never turns: keep the side of the turn
-    // while the field points behind the robot.
-    if (std::fabs(d.heading_rad) > kPi / 2 && field_side_ != 0) d.heading_rad = field_side_ * std::fabs(d.heading_rad);
-    field_side_ = std::fabs(d.heading_rad) > kPi / 2 ? (d.heading_rad > 0 ? 1 : -1) : 0;
-    d.translate = true;
-    d.reason = "obstacle within the security distance: potential field";
-    return d;
-  }
-  const int goal_sector = sector_of(goal.bearing_rad);
-  auto eps_of = [&](double range_m) { return std::asin(std::min(1.0, S / range_m)); };
+  return nearest;
+}
 
-  // GF: goal sector free.
-  if (nearest[static_cast<std::size_t>(goal_sector)] < 0) {
-    std::optional<Polar> left, right;
-    for (int s = 1; s <= n / 2 && !left; ++s)
-      if (int k = nearest[static_cast<std::size_t>((goal_sector + s) % n)]; k >= 0) left = pts[static_cast<std::size_t>(k)];
-    for (int s = 1; s <= n / 2 && !right; ++s)
-      if (int k = nearest[static_cast<std::size_t>((goal_sector - s + n) % n)]; k >= 0) right = pts[static_cast<std::size_t>(k)];
-    const bool forbidden = left && right && cv::norm(left->p - right->p) < params_.gap_width_m;
-    if (!forbidden) {
-      d.translate = true;
-      d.heading_rad = goal.bearing_rad;
-      d.situation = Situation::goal_free;
-      d.reason = "goal sector free";
-      const Polar* px = nullptr;
-      bool px_is_right = false;
-      if (left && right) {
-        const bool lf = in_front(left->bearing_rad), rf = in_front(right->bearing_rad);
-        if (lf != rf) px_is_right = rf;
-        else px_is_right = right->range_m < left->range_m;
-        px = px_is_right ? &*right : &*left;
-      } else if (left || right) {
-        px_is_right = static_cast<bool>(right);
-        px = right ? &*right : &*left;
-      }
-      if (px != nullptr) {
-        const double eps = eps_of(px->range_m);
-        if (std::fabs(wrap(goal.bearing_rad - px->bearing_rad)) <= eps) {  // (6.3) violated
-          d.heading_rad = wrap(px_is_right ? px->bearing_rad + eps : px->bearing_rad - eps);
-          d.situation = Situation::goal_grazing;
-          d.reason = std::string("goal sector free, passing the ") + (px_is_right ? "right" : "left") + " point at " +
-                     std::to_string(px->range_m) + " m";
-        }
-      }
-      reset(robot);
-      d.reset = true;
-      return d;
+/// S1 [ours]: through a gap wider than W_gap but narrower than 2·S_dist both edges are inside
+/// S_dist: attracted by the goal beyond the gap's edge, the field held the robot in front of it
+/// (a corridor with 1 m gaps, spec §11 item 19 (e)). The bearing of the middle of the gap ahead
+/// nearest the attraction's direction (it attracts instead; the edges' repulsion centres the
+/// robot); nullopt when there is none.
+std::optional<double> gap_ahead_rad(const Pose2D& robot, const std::vector<Polar>& pts, double attract_rad,
+                                    double goal_bearing_rad, const PolarMapParams& params) {
+  const double S = params.security_distance_m;
+  std::vector<const Polar*> ahead;
+  for (const auto& q : pts)
+    if (in_front(q.bearing_rad)) ahead.push_back(&q);
+  std::sort(ahead.begin(), ahead.end(), [](const Polar* a, const Polar* b) { return a->bearing_rad < b->bearing_rad; });
+  double best = std::numeric_limits<double>::infinity();
+  std::optional<double> gap_rad;
+  for (std::size_t i = 1; i < ahead.size(); ++i) {
+    const Polar& r = *ahead[i - 1];
+    const Polar& l = *ahead[i];
+    if (cv::norm(l.p - r.p) <= params.gap_width_m) continue;
+    const cv::Point2d mid = 0.5 * (l.p + r.p);
+    const double mid_rad = polar_of(robot, mid).bearing_rad;
+    const double off = std::fabs(wrap(mid_rad - attract_rad));
+    const bool towards_goal = std::fabs(wrap(mid_rad - goal_bearing_rad)) < kPi / 2;
+    if (off < best && towards_goal && std::min(l.range_m, r.range_m) < S + params.gap_width_m) {
+      best = off;
+      gap_rad = mid_rad;
     }
   }
+  return gap_rad;
+}
 
-  // GO: searches over angularly consecutive points from the goal direction.
-  std::vector<Polar> sorted = pts;
-  std::sort(sorted.begin(), sorted.end(), [](const Polar& a, const Polar& b) { return a.bearing_rad < b.bearing_rad; });
-  auto validate = [&](double heading_rad) {
-    const int k = sector_of(heading_rad);
-    return std::none_of(pts.begin(), pts.end(), [&](const Polar& q) {
-      return sector_of(q.bearing_rad) == k && q.range_m < S + params_.step_m;
-    });
-  };
-  // Gap between angularly consecutive points r (right) and l (left: CCW of r), reached by the
-  // search going CCW (side +1) or CW (side −1). Every gap must be wider than W_gap [spec I for
-  // Case 3]. When the free arc from r to l passes behind the robot, or one end is behind
-  // (Case 3), only the end the search came along matters: pass it on the free side.
-  auto gap_candidate = [&](const Polar& r, const Polar& l, int side) -> std::optional<Candidate> {
-    const bool rf = in_front(r.bearing_rad), lf = in_front(l.bearing_rad);
-    if (!rf && !lf) return std::nullopt;
-    double arc = l.bearing_rad - r.bearing_rad;
-    if (arc <= 0) arc += 2 * kPi;
-    const bool through_back = r.bearing_rad + arc > kPi;
-    // Both ends ahead and the free arc between them passing behind the robot: the ends are the
-    // two sides of one obstacle with nothing else stored (a lone box), and the gap is everything
-    // behind the robot, not the chord between them (session 13, spec §11 item 19 (b)).
-    const bool lone_obstacle = rf && lf && through_back;
-    if (!lone_obstacle && cv::norm(l.p - r.p) <= params_.gap_width_m) return std::nullopt;
-    if (rf != lf || through_back) {
-      const Polar& x = rf != lf ? (rf ? r : l) : (side > 0 ? r : l);
-      const bool x_is_right = &x == &r;
-      const double eps = eps_of(x.range_m);
-      if (x.range_m <= S) return std::nullopt;
-      const double h = wrap(x_is_right ? x.bearing_rad + eps : x.bearing_rad - eps);
-      if (!validate(h)) return std::nullopt;
-      return Candidate{h, Situation::gap_end_behind, std::string("passing the obstacle's ") + (x_is_right ? "left" : "right") + " end"};
+/// S1: the potential field's decision. Attracted by `attract_rad` (the goal, or the tenacity
+/// direction) or the gap ahead nearest it; repelled by each sector's representative, not every
+/// stored point: summed over all of them a wall's push grew with how often it had been seen.
+/// `field_side`: the side of the previous turn towards a direction behind the robot (updated).
+Decision potential_field(const Pose2D& robot, double goal_bearing_rad, double attract_rad, const std::vector<Polar>& pts,
+                         const std::vector<int>& nearest, const PolarMapParams& params, int& field_side) {
+  const double S = params.security_distance_m;
+  const std::optional<double> gap_rad = gap_ahead_rad(robot, pts, attract_rad, goal_bearing_rad, params);
+  if (gap_rad) attract_rad = *gap_rad;
+  const bool through_gap = gap_rad.has_value();
+  double rx = 0.0, ry = 0.0;
+  for (const int k : nearest) {
+    if (k < 0) continue;
+    const Polar& q = pts[static_cast<std::size_t>(k)];
+    if (q.range_m >= S || q.range_m <= 1e-6) continue;
+    const double mag = params.repulsion_gain * (1.0 / q.range_m - 1.0 / S) / (q.range_m * q.range_m);
+    rx -= mag * std::cos(q.bearing_rad);
+    ry -= mag * std::sin(q.bearing_rad);
+  }
+  const double ax = std::cos(attract_rad), ay = std::sin(attract_rad);
+  if (through_gap) {
+    // Into a gap only the repulsion across it acts (it centres the robot); along it, the
+    // edges' push would hold the robot in front of any gap narrower than 2·S_dist.
+    const double along = rx * ax + ry * ay;
+    if (along < 0.0) {
+      rx -= along * ax;
+      ry -= along * ay;
     }
-    const bool x_is_right = r.range_m <= l.range_m;
-    const Polar& x = x_is_right ? r : l;
-    if (x.range_m <= S) return std::nullopt;
-    const double eps = eps_of(x.range_m);
-    const double h = wrap(x_is_right ? x.bearing_rad + eps : x.bearing_rad - eps);
-    if (!validate(h)) return std::nullopt;
-    return Candidate{h, Situation::gap, "gap of " + std::to_string(cv::norm(l.p - r.p)) + " m"};
-  };
-  std::optional<Candidate> ccw, cw;
-  const std::size_t m = sorted.size();
-  if (m >= 1) {
+  }
+  const double fx = params.attraction_gain * ax + rx, fy = params.attraction_gain * ay + ry;
+  Decision d;
+  d.situation = Situation::high_risk;
+  d.heading_rad = std::atan2(fy, fx);
+  // A field pointing nearly straight back flips between ±180° with the noise, and the robot
+  // turning towards it alternately left and right never turns: keep the side of the turn
+  // while the field points behind the robot.
+  if (std::fabs(d.heading_rad) > kPi / 2 && field_side != 0) d.heading_rad = field_side * std::fabs(d.heading_rad);
+  field_side = std::fabs(d.heading_rad) > kPi / 2 ? (d.heading_rad > 0 ? 1 : -1) : 0;
+  d.translate = true;
+  d.reason = "obstacle within the security distance: potential field";
+  return d;
+}
+
+/// ε = asin(S_dist / d): the angle by which a point at range d is passed.
+double eps_of(double S, double range_m) { return std::asin(std::min(1.0, S / range_m)); }
+
+/// GF: the goal sector is free. The decision (without the reset that follows it) when the gap
+/// between the first occupied sectors left and right is not forbidden; nullopt otherwise (GO).
+std::optional<Decision> goal_sector_free(const std::vector<Polar>& pts, const std::vector<int>& nearest, const Polar& goal,
+                                         int goal_sector, const PolarMapParams& params) {
+  const int n = static_cast<int>(nearest.size());
+  std::optional<Polar> left, right;
+  for (int s = 1; s <= n / 2 && !left; ++s)
+    if (int k = nearest[static_cast<std::size_t>((goal_sector + s) % n)]; k >= 0) left = pts[static_cast<std::size_t>(k)];
+  for (int s = 1; s <= n / 2 && !right; ++s)
+    if (int k = nearest[static_cast<std::size_t>((goal_sector - s + n) % n)]; k >= 0) right = pts[static_cast<std::size_t>(k)];
+  const bool forbidden = left && right && cv::norm(left->p - right->p) < params.gap_width_m;
+  if (forbidden) return std::nullopt;
+  Decision d;
+  d.translate = true;
+  d.heading_rad = goal.bearing_rad;
+  d.situation = Situation::goal_free;
+  d.reason = "goal sector free";
+  const Polar* px = nullptr;
+  bool px_is_right = false;
+  if (left && right) {
+    const bool lf = in_front(left->bearing_rad), rf = in_front(right->bearing_rad);
+    if (lf != rf) px_is_right = rf;
+    else px_is_right = right->range_m < left->range_m;
+    px = px_is_right ? &*right : &*left;
+  } else if (left || right) {
+    px_is_right = static_cast<bool>(right);
+    px = right ? &*right : &*left;
+  }
+  if (px != nullptr) {
+    const double eps = eps_of(params.security_distance_m, px->range_m);
+    if (std::fabs(wrap(goal.bearing_rad - px->bearing_rad)) <= eps) {  // (6.3) violated
+      d.heading_rad = wrap(px_is_right ? px->bearing_rad + eps : px->bearing_rad - eps);
+      d.situation = Situation::goal_grazing;
+      d.reason = std::string("goal sector free, passing the ") + (px_is_right ? "right" : "left") + " point at " +
+                 std::to_string(px->range_m) + " m";
+    }
+  }
+  return d;
+}
+
+/// GO: the searches over angularly consecutive points from the goal direction.
+class GapSearch {
+ public:
+  GapSearch(const NavigationFilter& filter, const PolarMapParams& params, const std::vector<Polar>& pts)
+      : filter_(filter), params_(params), pts_(pts), S_(params.security_distance_m) {}
+
+  /// The counter-clockwise (`ccw`) and clockwise (`cw`) candidates from the goal's bearing.
+  void search(double goal_bearing_rad, std::optional<Candidate>& ccw, std::optional<Candidate>& cw) const {
+    std::vector<Polar> sorted = pts_;
+    std::sort(sorted.begin(), sorted.end(), [](const Polar& a, const Polar& b) { return a.bearing_rad < b.bearing_rad; });
+    const std::size_t m = sorted.size();
+    if (m < 1) return;
     // index of the first point CCW of the goal (bearing relative to the goal in (0, 2π])
     auto rel = [&](const Polar& q) {
-      double a = wrap(q.bearing_rad - goal.bearing_rad);
+      double a = wrap(q.bearing_rad - goal_bearing_rad);
       return a <= 0 ? a + 2 * kPi : a;
     };
     std::vector<std::size_t> order(m);
@@ -333,25 +309,120 @@ Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m
     }
     if (m == 1) {  // one point: pass it on the side nearer the goal
       const Polar& x = sorted[0];
-      const double eps = eps_of(x.range_m);
+      const double eps = eps_of(S_, x.range_m);
       const double hl = wrap(x.bearing_rad + eps), hr = wrap(x.bearing_rad - eps);
       if (validate(hl)) ccw = Candidate{hl, Situation::gap_end_behind, "single point, passing it on its left"};
       if (validate(hr)) cw = Candidate{hr, Situation::gap_end_behind, "single point, passing it on its right"};
     }
   }
+
+ private:
+  /// A candidate whose sector holds a point nearer than S_dist + step_m is rejected.
+  [[nodiscard]] bool validate(double heading_rad) const {
+    const int k = filter_.sector_of(heading_rad);
+    return std::none_of(pts_.begin(), pts_.end(), [&](const Polar& q) {
+      return filter_.sector_of(q.bearing_rad) == k && q.range_m < S_ + params_.step_m;
+    });
+  }
+
+  // Gap between angularly consecutive points r (right) and l (left: CCW of r), reached by the
+  // search going CCW (side +1) or CW (side −1). Every gap must be wider than W_gap [spec I for
+  // Case 3]. When the free arc from r to l passes behind the robot, or one end is behind
+  // (Case 3), only the end the search came along matters: pass it on the free side.
+  [[nodiscard]] std::optional<Candidate> gap_candidate(const Polar& r, const Polar& l, int side) const {
+    const bool rf = in_front(r.bearing_rad), lf = in_front(l.bearing_rad);
+    if (!rf && !lf) return std::nullopt;
+    double arc = l.bearing_rad - r.bearing_rad;
+    if (arc <= 0) arc += 2 * kPi;
+    const bool through_back = r.bearing_rad + arc > kPi;
+    // Both ends ahead and the free arc between them passing behind the robot: the ends are the
+    // two sides of one obstacle with nothing else stored (a lone box), and the gap is everything
+    // behind the robot, not the chord between them (session 13, spec §11 item 19 (b)).
+    const bool lone_obstacle = rf && lf && through_back;
+    if (!lone_obstacle && cv::norm(l.p - r.p) <= params_.gap_width_m) return std::nullopt;
+    if (rf != lf || through_back) {
+      const Polar& x = rf != lf ? (rf ? r : l) : (side > 0 ? r : l);
+      const bool x_is_right = &x == &r;
+      const double eps = eps_of(S_, x.range_m);
+      if (x.range_m <= S_) return std::nullopt;
+      const double h = wrap(x_is_right ? x.bearing_rad + eps : x.bearing_rad - eps);
+      if (!validate(h)) return std::nullopt;
+      return Candidate{h, Situation::gap_end_behind, std::string("passing the obstacle's ") + (x_is_right ? "left" : "right") + " end"};
+    }
+    const bool x_is_right = r.range_m <= l.range_m;
+    const Polar& x = x_is_right ? r : l;
+    if (x.range_m <= S_) return std::nullopt;
+    const double eps = eps_of(S_, x.range_m);
+    const double h = wrap(x_is_right ? x.bearing_rad + eps : x.bearing_rad - eps);
+    if (!validate(h)) return std::nullopt;
+    return Candidate{h, Situation::gap, "gap of " + std::to_string(cv::norm(l.p - r.p)) + " m"};
+  }
+
+  const NavigationFilter& filter_;
+  const PolarMapParams& params_;
+  const std::vector<Polar>& pts_;
+  double S_;
+};
+
+/// GO's side: the tenacity side once chosen, else the smaller deviation from the goal (which
+/// then sets `tenacity_side`).
+std::optional<Candidate> choose_candidate(const std::optional<Candidate>& ccw, const std::optional<Candidate>& cw,
+                                          bool tenacity_on, int& tenacity_side, double goal_bearing_rad) {
   std::optional<Candidate> chosen;
   if (ccw && cw) {
-    if (tenacity_on_) {
-      chosen = tenacity_side_ > 0 ? ccw : cw;
+    if (tenacity_on) {
+      chosen = tenacity_side > 0 ? ccw : cw;
     } else {
-      const bool left_smaller = std::fabs(wrap(ccw->heading_rad - goal.bearing_rad)) <= std::fabs(wrap(cw->heading_rad - goal.bearing_rad));
+      const bool left_smaller = std::fabs(wrap(ccw->heading_rad - goal_bearing_rad)) <= std::fabs(wrap(cw->heading_rad - goal_bearing_rad));
       chosen = left_smaller ? ccw : cw;
-      tenacity_side_ = left_smaller ? 1 : -1;
+      tenacity_side = left_smaller ? 1 : -1;
     }
   } else if (ccw || cw) {
     chosen = ccw ? ccw : cw;
-    if (!tenacity_on_) tenacity_side_ = ccw ? 1 : -1;
+    if (!tenacity_on) tenacity_side = ccw ? 1 : -1;
   }
+  return chosen;
+}
+
+}  // namespace
+
+Decision NavigationFilter::decide(const Pose2D& robot, const cv::Point2d& goal_m) {
+  Decision d;
+  const Polar goal = polar_of(robot, goal_m);
+  // S0
+  if (goal.range_m < params_.goal_tolerance_m) {
+    reset();
+    d.situation = Situation::goal_reached;
+    d.reset = true;
+    d.reason = "goal reached";
+    return d;
+  }
+  const std::vector<Polar> pts = points_nearer_than_goal(points_, robot, goal.range_m);
+  const double S = params_.security_distance_m;
+  const std::vector<int> nearest = nearest_per_sector(*this, pts);
+  // S1: the potential field.
+  const bool high_risk = std::any_of(pts.begin(), pts.end(), [&](const Polar& q) { return q.range_m < S; });
+  if (high_risk) {
+    // Attracted by the goal, or, while an obstacle is being bypassed (tenacity), by the
+    // direction of the last gap taken: pulled towards the goal beside a wall end, the robot
+    // turned back into the U it was leaving (spec §11 item 19 (c)).
+    const double attract_rad = tenacity_on_ ? wrap(tenacity_heading_world_rad_ - robot.heading_rad) : goal.bearing_rad;
+    return potential_field(robot, goal.bearing_rad, attract_rad, pts, nearest, params_, field_side_);
+  }
+  const int goal_sector = sector_of(goal.bearing_rad);
+  // GF: goal sector free.
+  if (nearest[static_cast<std::size_t>(goal_sector)] < 0) {
+    if (std::optional<Decision> gf = goal_sector_free(pts, nearest, goal, goal_sector, params_)) {
+      d = std::move(*gf);
+      reset(robot);
+      d.reset = true;
+      return d;
+    }
+  }
+  // GO: searches over angularly consecutive points from the goal direction.
+  std::optional<Candidate> ccw, cw;
+  GapSearch(*this, params_, pts).search(goal.bearing_rad, ccw, cw);
+  const std::optional<Candidate> chosen = choose_candidate(ccw, cw, tenacity_on_, tenacity_side_, goal.bearing_rad);
   if (!chosen) {
     d.situation = Situation::no_candidate;
     d.translate = false;

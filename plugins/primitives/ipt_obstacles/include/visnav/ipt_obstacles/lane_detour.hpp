@@ -55,6 +55,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -145,6 +146,30 @@ class LaneDetour {
   /// A point in the body's band up to guard_reach_m beyond its front, driving from (s_m, l_m) in
   /// direction `dir_on_line_rad` (relative to the line).
   [[nodiscard]] bool way_blocked(double s_m, double l_m, double dir_on_line_rad) const;
+
+  // The steps of decide(); `r` is the robot in the line's frame (s, l), `heading_on_line` its
+  // heading relative to the line. A step returning true has made the decision `d` final.
+  /// While reversing (a recovery): far enough before every point, switch to the other side for
+  /// good and return false (the lane is chosen as usual); else reverse on, or blocked after
+  /// max_reverse_m.
+  [[nodiscard]] bool reverse_decided(const cv::Point2d& r, double heading_on_line, LaneDecision& d);
+  /// The target lane: the line when it and the sweep back to it are free, else the kept free
+  /// target, else choose_side_lane(). `lane` stays empty when no lane is free.
+  [[nodiscard]] bool choose_lane(const cv::Point2d& r, double heading_on_line, std::optional<double>& lane,
+                                 LaneDecision& d);
+  /// The free lane nearest the line on `side` (+1 left, −1 right), with the drift margin; without
+  /// one, the lane free of body radius + clearance nearest the robot's offset.
+  [[nodiscard]] std::optional<double> nearest_free_lane(int side, const cv::Point2d& r) const;
+  /// Both sides searched: the chosen side's lane first; a closed side near the obstacle starts a
+  /// recovery (reverse) or blocks the detour.
+  [[nodiscard]] bool choose_side_lane(const cv::Point2d& r, double heading_on_line, std::optional<double>& lane,
+                                      LaneDecision& d);
+  /// The drive decision towards `lane`, with the guard (a free direction round a known point in
+  /// the way, else blocked).
+  void steer_to_lane(const cv::Point2d& r, double heading_on_line, double lane, LaneDecision& d) const;
+  /// The direction nearest `aim_line` (relative to the line) within guard_max_turn_rad of the
+  /// line's that no known point blocks, `toward` (+1/−1) first; none: nullopt.
+  [[nodiscard]] std::optional<double> free_direction(const cv::Point2d& r, double aim_line, double toward) const;
 
   LaneDetourParams params_;
   Pose2D start_;

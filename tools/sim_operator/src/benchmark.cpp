@@ -405,32 +405,32 @@ std::string benchmark_table(const BenchmarkOptions& o, const std::vector<Benchma
   return t.str();
 }
 
-Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
-  VISNAV_TRY(load_run_config(project_file(o.config), o.overrides));  // a bad config fails before any run
-  std::error_code ec;
-  fs::create_directories(fs::path(o.out) / "worlds", ec);
-  if (ec) return fail("cannot create " + o.out + ": " + ec.message());
+namespace {
 
+/// The generated worlds of the benchmark, in seed order.
+Result<std::vector<WorldFiles>> prepare_worlds(const BenchmarkOptions& o) {
   std::vector<WorldFiles> worlds;
-  {
-    ProgressLine line(14);
-    for (int k = 0; k < o.worlds; ++k) {
-      VISNAV_ASSIGN(WorldFiles w, prepare_world(o, o.first_world + k));
-      worlds.push_back(std::move(w));
-      if (o.progress) line.show("worlds", k + 1, o.worlds, "worlds");
-    }
-    if (o.progress) line.end();
+  ProgressLine line(14);
+  for (int k = 0; k < o.worlds; ++k) {
+    VISNAV_ASSIGN(WorldFiles w, prepare_world(o, o.first_world + k));
+    worlds.push_back(std::move(w));
+    if (o.progress) line.show("worlds", k + 1, o.worlds, "worlds");
   }
+  if (o.progress) line.end();
+  return worlds;
+}
 
-  struct Job {
-    std::size_t world;
-    std::string map;
-    int seed;
-    fs::path dir;
-  };
-  std::vector<Job> jobs;
-  std::vector<BenchmarkRun> runs;
-  std::vector<double> work;
+/// One (world, map kind, run seed) of the benchmark and its folder.
+struct BenchmarkJob {
+  std::size_t world;
+  std::string map;
+  int seed;
+  fs::path dir;
+};
+
+/// Every job, its result row (named, not yet run) and its work in metres, in one order.
+void plan_jobs(const BenchmarkOptions& o, const std::vector<WorldFiles>& worlds, std::vector<BenchmarkJob>& jobs,
+               std::vector<BenchmarkRun>& runs, std::vector<double>& work) {
   for (std::size_t w = 0; w < worlds.size(); ++w)
     for (const auto& map : o.maps)
       for (int s = 0; s < o.seeds; ++s) {
@@ -447,6 +447,12 @@ Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
         runs.push_back(std::move(r));
         work.push_back(worlds[w].generated.route_length_m * (o.loops + 1));
       }
+}
+
+/// Takes the result files of earlier runs made with the same options (unless --fresh); returns
+/// the indices of the jobs still to run.
+std::vector<std::size_t> resume_runs(const BenchmarkOptions& o, const std::vector<BenchmarkJob>& jobs,
+                                     std::vector<BenchmarkRun>& runs) {
   std::vector<std::size_t> todo;
   int resumed = 0;
   for (std::size_t i = 0; i < jobs.size(); ++i) {
@@ -467,17 +473,20 @@ Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
   if (o.progress && resumed > 0)
     std::cerr << "visnav benchmark: " << resumed << " of " << jobs.size() << " runs already done (" << o.out
               << "/runs; --fresh runs them again)\n";
+  return todo;
+}
 
-  BenchProgress progress(work, o.progress);
-  for (std::size_t i = 0; i < jobs.size(); ++i)
-    if (std::find(todo.begin(), todo.end(), i) == todo.end()) progress.finished(i);
+/// Runs the jobs of `todo` on --jobs threads, each writing its result file; returns the last
+/// write error (empty when every file was written).
+std::string run_jobs(const BenchmarkOptions& o, const std::vector<WorldFiles>& worlds, const std::vector<BenchmarkJob>& jobs,
+                     const std::vector<std::size_t>& todo, std::vector<BenchmarkRun>& runs, BenchProgress& progress) {
   std::atomic<std::size_t> next{0};
   std::mutex error_mutex;
   std::string write_error;
   auto worker = [&]() {
     for (std::size_t k = next++; k < todo.size(); k = next++) {
       const std::size_t i = todo[k];
-      const Job& job = jobs[i];
+      const BenchmarkJob& job = jobs[i];
       const WorldFiles& w = worlds[job.world];
       const auto start = std::chrono::steady_clock::now();
       BenchmarkRun& r = runs[i];
@@ -507,10 +516,11 @@ Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
   for (int k = 1; k < threads; ++k) pool.emplace_back(worker);
   worker();
   for (auto& th : pool) th.join();
-  progress.end();
-  if (!write_error.empty()) return fail(write_error);
+  return write_error;
+}
 
-  // --- files
+/// runs.csv: one row per run.
+void write_runs_csv(const BenchmarkOptions& o, const std::vector<BenchmarkRun>& runs) {
   std::ofstream csv(fs::path(o.out) / "runs.csv");
   csv << "world,world_seed,world_kind,map,seed,obstacles,route_length_m,loops_completed,loops,accuracy_m,repeatability_m,"
          "collisions,encounters,lost_stops,wall_s,stop\n";
@@ -524,7 +534,10 @@ Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
         << fixed(r.metrics.repeatability_m, 4) << "," << r.collisions << "," << r.encounters() << "," << r.lost_stops << ","
         << fixed(r.wall_s, 1) << ",\"" << stop << "\"\n";
   }
-  cv::imwrite((fs::path(o.out) / "benchmark.png").string(), draw_benchmark(o, runs));
+}
+
+/// report.md: the options, the tables, the worlds and one row per run.
+void write_report(const BenchmarkOptions& o, const std::vector<WorldFiles>& worlds, const std::vector<BenchmarkRun>& runs) {
   double wall = 0.0;
   for (const auto& r : runs) wall += r.wall_s;
   std::ofstream md(fs::path(o.out) / "report.md");
@@ -551,6 +564,34 @@ Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
        << " |\n";
   }
   md << "\n`*` obstacles on the route, `!` finished outside the radius, `×` not finished.\n";
+}
+
+}  // namespace
+
+Result<std::vector<BenchmarkRun>> run_benchmark(const BenchmarkOptions& o) {
+  VISNAV_TRY(load_run_config(project_file(o.config), o.overrides));  // a bad config fails before any run
+  std::error_code ec;
+  fs::create_directories(fs::path(o.out) / "worlds", ec);
+  if (ec) return fail("cannot create " + o.out + ": " + ec.message());
+
+  VISNAV_ASSIGN(const std::vector<WorldFiles> worlds, prepare_worlds(o));
+  std::vector<BenchmarkJob> jobs;
+  std::vector<BenchmarkRun> runs;
+  std::vector<double> work;
+  plan_jobs(o, worlds, jobs, runs, work);
+  const std::vector<std::size_t> todo = resume_runs(o, jobs, runs);
+
+  BenchProgress progress(work, o.progress);
+  for (std::size_t i = 0; i < jobs.size(); ++i)
+    if (std::find(todo.begin(), todo.end(), i) == todo.end()) progress.finished(i);
+  const std::string write_error = run_jobs(o, worlds, jobs, todo, runs, progress);
+  progress.end();
+  if (!write_error.empty()) return fail(write_error);
+
+  // --- files
+  write_runs_csv(o, runs);
+  cv::imwrite((fs::path(o.out) / "benchmark.png").string(), draw_benchmark(o, runs));
+  write_report(o, worlds, runs);
   return runs;
 }
 

@@ -409,32 +409,102 @@ cv::Mat draw_trajectories(const sim::World& world, const sim::Route& route, cons
   return img;
 }
 
-/// Teaches and replays one (style, seed); never throws; errors end up in setup_error.
-ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int seed, const sim::World& world,
-                   const sim::Route& route, const std::string& route_file, const fs::path& dir, RunProgress& progress,
-                   int run_index) {
-  ExperimentRun r;
-  r.style = style;
-  r.seed = seed;
-  r.route_length_m = route.waypoint_length_m();
-  RunTrace t;
-  const auto wall_start = std::chrono::steady_clock::now();
-  auto done = [&]() -> ExperimentRun {
-    r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-    return std::move(r);
-  };
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  const LogLevel min_level = o.log_level == "debug" ? LogLevel::debug
-                             : o.log_level == "info" ? LogLevel::info
-                             : o.log_level == "error" ? LogLevel::error
-                                                      : LogLevel::warn;
-  RunLogger logger(dir / "run.log", min_level);
+/// The phases of one run (run_one's steps); a phase that fails sets r.setup_error and returns
+/// false. Members are declared in the order run_one made them, so they go away in the same order.
+class RunPhases {
+ public:
+  RunPhases(const ExperimentOptions& options, const std::string& map_style, int run_seed, const sim::Route& taught_route,
+            const std::string& route_path, const fs::path& run_dir, RunProgress& run_progress, int index,
+            ExperimentRun& run, RunTrace& trace, RunLogger& run_logger)
+      : o(options), style(map_style), seed(run_seed), route(taught_route), route_file(route_path), dir(run_dir),
+        progress(run_progress), run_index(index), r(run), t(trace), logger(run_logger) {}
 
-  // Overrides: placement, then the ideal switch, then the user's; per phase the seeds (one draw
-  // of every error model per run) and the appearance. Parallel jobs need no robot names: each
-  // session's camera rides on that session's robot.
-  std::vector<std::string> base = {"robot.params.world=" + o.world};
+  bool load_configs();
+  bool open_session();
+  bool teach_route();
+  void finish_teach();
+  bool experience_drive();
+  bool reconfigure_for_replay();
+  bool learning_loops();
+  bool displace();
+  bool replay();
+  void score_loops();
+  void write_files(const sim::World& world);
+
+ private:
+  std::vector<std::string> phase_overrides(int phase, const std::string& appearance,
+                                           const std::vector<std::string>& extra) const;
+  std::vector<std::string> teach_values() const;
+  void log_tick(const TickInfo& tick, const char* phase, int lap);
+  double odom_distance();
+  void finish_replay(const RunReport& report, double d0, std::size_t collisions_before);
+
+  const ExperimentOptions& o;
+  const std::string& style;
+  int seed;
+  const sim::Route& route;
+  const std::string& route_file;
+  const fs::path& dir;
+  RunProgress& progress;
+  int run_index;
+  ExperimentRun& r;
+  RunTrace& t;
+  RunLogger& logger;
+  std::error_code ec;
+
+  std::vector<std::string> base;
+  std::vector<bt::PortOverride> replay_ports;
+  std::string config_file;
+  std::optional<RunConfig> teach_config;
+  std::optional<RunConfig> replay_config;
+  double turning_radius_m = 0.0;
+  std::vector<bt::PortOverride> teach_ports;
+  fs::path map_dir;
+  std::unique_ptr<Session> session;
+  SimulationControl* sim = nullptr;
+  std::ofstream trajectory;
+  Pose2D teach_start;
+  std::vector<cv::Point2d> lap_ends;
+  std::string stop_reason;
+};
+
+std::vector<std::string> RunPhases::phase_overrides(int phase, const std::string& appearance,
+                                                    const std::vector<std::string>& extra) const {
+  std::vector<std::string> v = base;
+  v.push_back("robot.params.seed=" + std::to_string(seed * 100 + phase));
+  v.push_back("camera.params.seed=" + std::to_string(seed * 100 + 10 + phase));
+  if (auto a = appearance_overrides(appearance)) v.insert(v.end(), a->begin(), a->end());
+  v.insert(v.end(), extra.begin(), extra.end());
+  return v;
+}
+
+/// The teach tree's blackboard (the taught run and the experience drive alike).
+std::vector<std::string> RunPhases::teach_values() const {
+  return {"route_file=" + route_file,
+          std::string("force_kind=") + (style == "feature" ? "feature_segment"
+                                        : style == "path"  ? "path_following"
+                                                           : ""),
+          std::string("close_loop=") + (route.closed ? "true" : "false")};
+}
+
+void RunPhases::log_tick(const TickInfo& tick, const char* phase, int lap) {
+  const Pose2D gt = sim->ground_truth_pose();
+  const auto odom = session->robot().latest_odometry();
+  const Odometry od = odom ? *odom : Odometry{};
+  trajectory << tick.t_s << ',' << phase << ',' << lap << ',' << gt.x_m << ',' << gt.y_m << ',' << gt.heading_rad << ','
+             << od.pose.x_m << ',' << od.pose.y_m << ',' << od.pose.heading_rad << ',' << od.distance_m << '\n';
+}
+
+double RunPhases::odom_distance() {
+  const auto od = session->robot().latest_odometry();
+  return od ? od->distance_m : 0.0;
+}
+
+/// Overrides: placement, then the ideal switch, then the user's; per phase the seeds (one draw
+/// of every error model per run) and the appearance. Parallel jobs need no robot names: each
+/// session's camera rides on that session's robot.
+bool RunPhases::load_configs() {
+  base = {"robot.params.world=" + o.world};
   if (route.start) {
     std::ostringstream start;
     start << std::setprecision(17) << route.start->x_m << ";" << route.start->y_m << ";"
@@ -444,39 +514,30 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   if (o.ideal)
     for (auto& v : ideal_overrides()) base.push_back(v);
   for (const auto& v : o.overrides) base.push_back(v);
-  auto phase_overrides = [&](int phase, const std::string& appearance, const std::vector<std::string>& extra) {
-    std::vector<std::string> v = base;
-    v.push_back("robot.params.seed=" + std::to_string(seed * 100 + phase));
-    v.push_back("camera.params.seed=" + std::to_string(seed * 100 + 10 + phase));
-    if (auto a = appearance_overrides(appearance)) v.insert(v.end(), a->begin(), a->end());
-    v.insert(v.end(), extra.begin(), extra.end());
-    return v;
-  };
-  std::vector<bt::PortOverride> replay_ports;
   for (const auto& text : o.replay_ports) {
     auto port = bt::parse_port_override(text);
     if (!port) {  // parse() checked it already
       r.setup_error = port.error().message;
-      return done();
+      return false;
     }
     replay_ports.push_back(std::move(*port));
   }
-  const std::string config_file = project_file(o.config);
-  auto teach_config = load_run_config(config_file, phase_overrides(1, o.teach_appearance, o.teach_overrides));
-  auto replay_config = load_run_config(config_file, phase_overrides(2, o.replay_appearance, o.replay_overrides));
-  if (!teach_config || !replay_config) {
-    r.setup_error = (!teach_config ? teach_config.error() : replay_config.error()).message;
-    return done();
+  config_file = project_file(o.config);
+  auto teach_loaded = load_run_config(config_file, phase_overrides(1, o.teach_appearance, o.teach_overrides));
+  auto replay_loaded = load_run_config(config_file, phase_overrides(2, o.replay_appearance, o.replay_overrides));
+  if (!teach_loaded || !replay_loaded) {
+    r.setup_error = (!teach_loaded ? teach_loaded.error() : replay_loaded.error()).message;
+    return false;
   }
+  teach_config = std::move(*teach_loaded);
+  replay_config = std::move(*replay_loaded);
   r.teach_errors = run_errors_text(*teach_config);
   r.replay_errors = run_errors_text(*replay_config);
   // A robot that cannot turn on the spot (car_like): the operator drives corners as arcs of its
   // minimum turning radius and the replay's FollowRoute turns on arcs of it (docs/platforms.md).
   // Set before the user's --port, which may still override it; nothing is added otherwise.
-  double turning_radius_m = 0.0;
   if (auto rp = sim::RobotParams::schema().parse(teach_config->robot.params); rp && rp->kinematics == "car_like")
     turning_radius_m = rp->min_turning_radius_m;
-  std::vector<bt::PortOverride> teach_ports;
   if (turning_radius_m > 0.0) {
     std::ostringstream radius;
     radius << std::setprecision(17) << turning_radius_m;
@@ -485,7 +546,12 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     // ReplayFeatureEdge's start-view search turns on the spot to scan; a car would stand still.
     replay_ports.insert(replay_ports.begin(), bt::PortOverride{"ReplayFeatureEdge", "scan_deg", "0"});
   }
-  const fs::path map_dir = dir / "map";
+  return true;
+}
+
+/// The teach session on a fresh map, and the trajectory file every phase writes to.
+bool RunPhases::open_session() {
+  map_dir = dir / "map";
   fs::remove_all(map_dir, ec);
   SessionOptions so;
   so.map_path = map_dir.string();
@@ -493,75 +559,66 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   auto made = Session::create(*teach_config, so);
   if (!made) {
     r.setup_error = made.error().message;
-    return done();
+    return false;
   }
-  auto session = std::move(*made);
-  SimulationControl* sim = session->robot().simulation();
+  session = std::move(*made);
+  sim = session->robot().simulation();
   if (sim == nullptr) {
     r.setup_error = "the experiment needs the simulated robot (robot type sim)";
-    return done();
+    return false;
   }
-  std::ofstream trajectory(dir / "trajectory.csv");
+  trajectory.open(dir / "trajectory.csv");
   trajectory << "t_s,phase,lap,gt_x_m,gt_y_m,gt_heading_rad,odom_x_m,odom_y_m,odom_heading_rad,odom_distance_m\n";
-  auto log_tick = [&](const TickInfo& tick, const char* phase, int lap) {
-    const Pose2D gt = sim->ground_truth_pose();
-    const auto odom = session->robot().latest_odometry();
-    const Odometry od = odom ? *odom : Odometry{};
-    trajectory << tick.t_s << ',' << phase << ',' << lap << ',' << gt.x_m << ',' << gt.y_m << ',' << gt.heading_rad << ','
-               << od.pose.x_m << ',' << od.pose.y_m << ',' << od.pose.heading_rad << ',' << od.distance_m << '\n';
-  };
-  auto odom_distance = [&]() {
-    const auto od = session->robot().latest_odometry();
-    return od ? od->distance_m : 0.0;
-  };
-  const Pose2D teach_start = sim->ground_truth_pose();
+  teach_start = sim->ground_truth_pose();
+  return true;
+}
 
-  {  // --- teach
-    auto teach = session->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
-    if (!teach) {
-      r.setup_error = teach.error().message;
-      return done();
-    }
-    if (auto st = set_blackboard_values(*teach, {"route_file=" + route_file,
-                                                 std::string("force_kind=") + (style == "feature" ? "feature_segment"
-                                                                         : style == "path" ? "path_following"
-                                                                                           : ""),
-                                                 std::string("close_loop=") + (route.closed ? "true" : "false")});
-        !st) {
-      r.setup_error = st.error().message;
-      return done();
-    }
-    const double d0 = odom_distance();
-    teach->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-      if (to != bt::NodeStatus::success) return;
-      if (node.registration_id() != "TeachFeatureEdge" && node.registration_id() != "TeachPathEdge") return;
-      EdgeEnd e;
-      e.index = static_cast<int>(t.taught_edge_ends.size());
-      if (auto id = node.blackboard().get<std::string>("taught_edge")) e.edge = *id;
-      e.pose = sim->ground_truth_pose();
-      e.odom_distance_m = odom_distance();
-      t.taught_edge_ends.push_back(std::move(e));
-    });
-    const std::size_t collisions_before = sim->collisions().size();
-    RunOptions ro;
-    ro.after_tick = [&](const TickInfo& tick) {
-      log_tick(tick, "teach", 0);
-      if (tick.tick % 3 == 0) t.teach_path.push_back(xy(sim->ground_truth_pose()));
-      progress.update(run_index, odom_distance() - d0);
-      return sim->collisions().size() == collisions_before;  // the scripted operator hit something
-    };
-    RunReport report = run_tree(*session, *teach, ro);
-    if (sim->collisions().size() != collisions_before) {
-      const SimCollision& c = sim->collisions().back();
-      r.setup_error = "teaching collided with '" + c.obstacle + "' at (" + fixed(c.pose_world.x_m, 2) + ", " +
-                      fixed(c.pose_world.y_m, 2) + ")";
-      return done();
-    }
-    if (report.outcome != RunOutcome::success) {
-      r.setup_error = "teaching failed: " + report.reason;
-      return done();
-    }
+/// --- teach
+bool RunPhases::teach_route() {
+  auto teach = session->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
+  if (!teach) {
+    r.setup_error = teach.error().message;
+    return false;
   }
+  if (auto st = set_blackboard_values(*teach, teach_values()); !st) {
+    r.setup_error = st.error().message;
+    return false;
+  }
+  const double d0 = odom_distance();
+  teach->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+    if (to != bt::NodeStatus::success) return;
+    if (node.registration_id() != "TeachFeatureEdge" && node.registration_id() != "TeachPathEdge") return;
+    EdgeEnd e;
+    e.index = static_cast<int>(t.taught_edge_ends.size());
+    if (auto id = node.blackboard().get<std::string>("taught_edge")) e.edge = *id;
+    e.pose = sim->ground_truth_pose();
+    e.odom_distance_m = odom_distance();
+    t.taught_edge_ends.push_back(std::move(e));
+  });
+  const std::size_t collisions_before = sim->collisions().size();
+  RunOptions ro;
+  ro.after_tick = [&](const TickInfo& tick) {
+    log_tick(tick, "teach", 0);
+    if (tick.tick % 3 == 0) t.teach_path.push_back(xy(sim->ground_truth_pose()));
+    progress.update(run_index, odom_distance() - d0);
+    return sim->collisions().size() == collisions_before;  // the scripted operator hit something
+  };
+  RunReport report = run_tree(*session, *teach, ro);
+  if (sim->collisions().size() != collisions_before) {
+    const SimCollision& c = sim->collisions().back();
+    r.setup_error = "teaching collided with '" + c.obstacle + "' at (" + fixed(c.pose_world.x_m, 2) + ", " +
+                    fixed(c.pose_world.y_m, 2) + ")";
+    return false;
+  }
+  if (report.outcome != RunOutcome::success) {
+    r.setup_error = "teaching failed: " + report.reason;
+    return false;
+  }
+  return true;
+}
+
+/// Where teaching ended, the taught edges' kinds and the map's size.
+void RunPhases::finish_teach() {
   t.taught_end = xy(sim->ground_truth_pose());
   // Along/cross-track are split along the last edge's direction: the heading when that edge was
   // stored, not after the operator's closing turn to face the first edge.
@@ -576,111 +633,115 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     r.map_bytes += ks.payload_bytes;
     r.map_length_m += ks.length_m;
   }
+}
 
-  // --- supervised experience drive (multi-experience maps): the scripted operator drives the
-  // route again in its own session (phase 3: another draw of every error model, the drive's
-  // appearance) with the same teach tree into a scratch map, whose feature edges become
-  // experiences of the taught ones. The taught robot stays where teaching ended.
-  if (!o.experience_teach.empty()) {
-    auto drive_config = load_run_config(config_file, phase_overrides(3, o.experience_teach, o.teach_overrides));
-    if (!drive_config) {
-      r.setup_error = "experience drive: " + drive_config.error().message;
-      return done();
-    }
-    const fs::path drive_map = dir / "experience_drive" / "map";
-    fs::remove_all(drive_map, ec);
-    fs::create_directories(drive_map.parent_path(), ec);
-    SessionOptions dso;
-    dso.map_path = drive_map.string();
-    dso.logger = &logger;
-    auto drive_made = Session::create(*drive_config, dso);
-    if (!drive_made) {
-      r.setup_error = "experience drive: " + drive_made.error().message;
-      return done();
-    }
-    auto drive = std::move(*drive_made);
-    SimulationControl* drive_sim = drive->robot().simulation();
-    auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
-    if (!tree || drive_sim == nullptr) {
-      r.setup_error = "experience drive: " + (tree ? std::string("no simulated robot") : tree.error().message);
-      return done();
-    }
-    if (auto st = set_blackboard_values(*tree, {"route_file=" + route_file,
-                                                std::string("force_kind=") + (style == "feature" ? "feature_segment"
-                                                                        : style == "path" ? "path_following"
-                                                                                          : ""),
-                                                std::string("close_loop=") + (route.closed ? "true" : "false")});
-        !st) {
-      r.setup_error = "experience drive: " + st.error().message;
-      return done();
-    }
-    RunOptions ro;
-    ro.after_tick = [&](const TickInfo&) { return drive_sim->collisions().empty(); };
-    RunReport report = run_tree(*drive, *tree, ro);
-    if (!drive_sim->collisions().empty() || report.outcome != RunOutcome::success) {
-      r.setup_error = "experience drive failed: " +
-                      (drive_sim->collisions().empty() ? report.reason : "collided with " + drive_sim->collisions().back().obstacle);
-      return done();
-    }
-    drive.reset();
-    auto added = feature_replay::add_drive_experiences(map_dir.string(), drive_map.string(),
-                                                       "supervised drive in " + o.experience_teach, 4);
-    if (!added) {
-      r.setup_error = "experience drive: " + added.error().message;
-      return done();
-    }
-    for (const auto& a : *added) {
-      ++r.experience_edges;
-      if (a.added) ++r.experiences_added;
-      else logger.log(LogLevel::warn, "experiment", "experience drive: edge " + a.edge_id + ": " + a.note);
-    }
-    logger.log(LogLevel::info, "experiment",
-               "experience drive in " + o.experience_teach + ": " + std::to_string(r.experiences_added) + " of " +
-                   std::to_string(r.experience_edges) + " feature edges got an experience");
+/// --- supervised experience drive (multi-experience maps): the scripted operator drives the
+/// route again in its own session (phase 3: another draw of every error model, the drive's
+/// appearance) with the same teach tree into a scratch map, whose feature edges become
+/// experiences of the taught ones. The taught robot stays where teaching ended.
+bool RunPhases::experience_drive() {
+  auto drive_config = load_run_config(config_file, phase_overrides(3, o.experience_teach, o.teach_overrides));
+  if (!drive_config) {
+    r.setup_error = "experience drive: " + drive_config.error().message;
+    return false;
   }
+  const fs::path drive_map = dir / "experience_drive" / "map";
+  fs::remove_all(drive_map, ec);
+  fs::create_directories(drive_map.parent_path(), ec);
+  SessionOptions dso;
+  dso.map_path = drive_map.string();
+  dso.logger = &logger;
+  auto drive_made = Session::create(*drive_config, dso);
+  if (!drive_made) {
+    r.setup_error = "experience drive: " + drive_made.error().message;
+    return false;
+  }
+  auto drive = std::move(*drive_made);
+  SimulationControl* drive_sim = drive->robot().simulation();
+  auto tree = drive->load_tree(project_file("trees/teach_hybrid_route.xml"), teach_ports);
+  if (!tree || drive_sim == nullptr) {
+    r.setup_error = "experience drive: " + (tree ? std::string("no simulated robot") : tree.error().message);
+    return false;
+  }
+  if (auto st = set_blackboard_values(*tree, teach_values()); !st) {
+    r.setup_error = "experience drive: " + st.error().message;
+    return false;
+  }
+  RunOptions ro;
+  ro.after_tick = [&](const TickInfo&) { return drive_sim->collisions().empty(); };
+  RunReport report = run_tree(*drive, *tree, ro);
+  if (!drive_sim->collisions().empty() || report.outcome != RunOutcome::success) {
+    r.setup_error = "experience drive failed: " +
+                    (drive_sim->collisions().empty() ? report.reason : "collided with " + drive_sim->collisions().back().obstacle);
+    return false;
+  }
+  drive.reset();
+  auto added = feature_replay::add_drive_experiences(map_dir.string(), drive_map.string(),
+                                                     "supervised drive in " + o.experience_teach, 4);
+  if (!added) {
+    r.setup_error = "experience drive: " + added.error().message;
+    return false;
+  }
+  for (const auto& a : *added) {
+    ++r.experience_edges;
+    if (a.added) ++r.experiences_added;
+    else logger.log(LogLevel::warn, "experiment", "experience drive: edge " + a.edge_id + ": " + a.note);
+  }
+  logger.log(LogLevel::info, "experiment",
+             "experience drive in " + o.experience_teach + ": " + std::to_string(r.experiences_added) + " of " +
+                 std::to_string(r.experience_edges) + " feature edges got an experience");
+  return true;
+}
 
-  // --- the replay run: its own draw of every error model (and its appearance)
+/// --- the replay run: its own draw of every error model (and its appearance)
+bool RunPhases::reconfigure_for_replay() {
   if (auto st = session->robot().reconfigure(replay_config->robot.params); !st) {
     r.setup_error = "replay robot params: " + st.error().message;
-    return done();
+    return false;
   }
   if (auto st = session->camera().reconfigure(replay_config->camera.params); !st) {
     r.setup_error = "replay camera params: " + st.error().message;
-    return done();
+    return false;
   }
-  // --- learning loops (multi-experience maps): the replay conditions, learn_experiences on; the
-  // robot starts where teaching ended, as the measured replay does before its displacement.
-  if (o.learn_loops > 0) {
-    auto learn = session->load_tree(project_file("trees/patrol_loop_learning.xml"), replay_ports);
-    if (!learn) {
-      r.setup_error = learn.error().message;
-      return done();
-    }
-    const std::string hold_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "1";
-    const std::string blind_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "5";
-    if (auto st = set_blackboard_values(*learn, {"start=start", "loops=" + std::to_string(o.learn_loops),
-                                                 "learn_hold_m=" + hold_m, "learn_max_blind_m=" + blind_m});
-        !st) {
-      r.setup_error = st.error().message;
-      return done();
-    }
-    learn->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-      if (to == bt::NodeStatus::success && node.registration_id() == "FollowRoute") ++r.learn_loops_driven;
-    });
-    const std::size_t collisions_before = sim->collisions().size();
-    RunOptions ro;
-    ro.after_tick = [&](const TickInfo& tick) {
-      log_tick(tick, "learn", r.learn_loops_driven + 1);
-      return sim->collisions().size() == collisions_before;
-    };
-    RunReport report = run_tree(*session, *learn, ro);
-    if (report.outcome != RunOutcome::success)
-      logger.log(LogLevel::warn, "experiment", "learning loops ended early: " + report.reason);
-    logger.clear_stop_reason();  // a lost stop while learning is not the measured replay's
-  }
+  return true;
+}
 
-  // --- displace: carried to the left of the first edge (which starts where teaching started)
-  // and turned; odometry does not see it.
+/// --- learning loops (multi-experience maps): the replay conditions, learn_experiences on; the
+/// robot starts where teaching ended, as the measured replay does before its displacement.
+/// Returns false on a setup error (r.setup_error).
+bool RunPhases::learning_loops() {
+  auto learn = session->load_tree(project_file("trees/patrol_loop_learning.xml"), replay_ports);
+  if (!learn) {
+    r.setup_error = learn.error().message;
+    return false;
+  }
+  const std::string hold_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "1";
+  const std::string blind_m = o.learn_blind_m > 0.0 ? fixed(o.learn_blind_m, 2) : "5";
+  if (auto st = set_blackboard_values(*learn, {"start=start", "loops=" + std::to_string(o.learn_loops),
+                                               "learn_hold_m=" + hold_m, "learn_max_blind_m=" + blind_m});
+      !st) {
+    r.setup_error = st.error().message;
+    return false;
+  }
+  learn->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+    if (to == bt::NodeStatus::success && node.registration_id() == "FollowRoute") ++r.learn_loops_driven;
+  });
+  const std::size_t collisions_before = sim->collisions().size();
+  RunOptions ro;
+  ro.after_tick = [&](const TickInfo& tick) {
+    log_tick(tick, "learn", r.learn_loops_driven + 1);
+    return sim->collisions().size() == collisions_before;
+  };
+  RunReport report = run_tree(*session, *learn, ro);
+  if (report.outcome != RunOutcome::success)
+    logger.log(LogLevel::warn, "experiment", "learning loops ended early: " + report.reason);
+  logger.clear_stop_reason();  // a lost stop while learning is not the measured replay's
+  return true;
+}
+
+/// --- displace: carried to the left of the first edge (which starts where teaching started)
+/// and turned; odometry does not see it.
+bool RunPhases::displace() {
   const double h0 = teach_start.heading_rad;
   Pose2D displaced;
   displaced.x_m = t.taught_end.x - std::sin(h0) * o.displace_m;
@@ -688,96 +749,104 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
   displaced.heading_rad = h0 + o.displace_heading_deg * std::numbers::pi / 180.0;
   if (auto st = sim->set_ground_truth_pose(displaced); !st) {
     r.setup_error = st.error().message;
-    return done();
+    return false;
   }
   t.replay_start = xy(displaced);
+  return true;
+}
 
-  std::vector<cv::Point2d> lap_ends;
-  std::string stop_reason;
-  {  // --- replay the loop N times
-    const std::string tree_file = !o.replay_tree.empty() ? o.replay_tree
-                                  : o.obstacles         ? project_file("trees/patrol_loop_avoiding.xml")
-                                                        : project_file("trees/patrol_loop.xml");
-    auto patrol = session->load_tree(tree_file, replay_ports);
-    if (!patrol) {
-      r.setup_error = tree_file + ": " + patrol.error().message;
-      return done();
-    }
-    // The camera mount for trees that need it (the IPT obstacle nodes): the replay camera's
-    // params, else the sim camera's defaults (visnav_sim/camera.hpp).
-    auto camera_param = [&](const char* key, const char* fallback) {
-      const ConfigNode* v = replay_config->camera.params.find(key);
-      return std::string(v != nullptr && v->is_scalar() ? v->scalar() : fallback);
-    };
-    if (auto st = set_blackboard_values(*patrol, {"start=start", "loops=" + std::to_string(o.loops),
-                                                  "camera_height_m=" + camera_param("mount_height_m", "0.5"),
-                                                  "camera_pitch_down_deg=" + camera_param("mount_pitch_down_deg", "5"),
-                                                  "camera_hfov_deg=" + camera_param("hfov_deg", "60")});
-        !st) {
-      r.setup_error = st.error().message;
-      return done();
-    }
-    t.lap_paths.emplace_back();
-    int lap_edge = 0;
-    patrol->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
-      if (to == bt::NodeStatus::success &&
-          (node.registration_id() == "ReplayFeatureEdge" || node.registration_id() == "FollowPathEdge")) {
-        EdgeEnd e;
-        e.lap = static_cast<int>(lap_ends.size()) + 1;
-        e.index = lap_edge++;
-        if (auto id = node.get_input<std::string>("edge")) e.edge = *id;
-        if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
-        e.pose = sim->ground_truth_pose();
-        e.odom_distance_m = odom_distance();
-        t.replay_edge_ends.push_back(std::move(e));
-      }
-      if (to == bt::NodeStatus::success && node.registration_id() == "FollowRoute") {
-        lap_edge = 0;
-        const cv::Point2d end = xy(sim->ground_truth_pose());
-        lap_ends.push_back(end);
-        t.lap_paths.back().push_back(end);
-        t.lap_paths.emplace_back();
-      }
-    });
-    const double d0 = odom_distance();
-    const std::size_t collisions_before = sim->collisions().size();
-    RunOptions ro;
-    ro.after_tick = [&](const TickInfo& tick) {
-      log_tick(tick, "replay", static_cast<int>(lap_ends.size()) + 1);
-      if (tick.tick % 3 == 0) t.lap_paths.back().push_back(xy(sim->ground_truth_pose()));
-      progress.update(run_index, r.route_length_m + odom_distance() - d0);
-      if (o.replay_hook) o.replay_hook(*sim, session->robot(), odom_distance() - d0);
-      return sim->collisions().size() == collisions_before;  // a collision ends the replay
-    };
-    RunReport report = run_tree(*session, *patrol, ro);
-    r.replay_odometry_m = odom_distance() - d0;
-    {  // the robot was stopped: how far does it still roll (braking) in the next 2 s?
-      const Pose2D at_end = sim->ground_truth_pose();
-      for (int k = 0; k < 40; ++k) (void)sim->step(0.05);
-      r.coast_after_stop_m = cv::norm(xy(sim->ground_truth_pose()) - xy(at_end));
-    }
-    const auto collisions = sim->collisions();
-    r.collisions.assign(collisions.begin() + static_cast<std::ptrdiff_t>(collisions_before), collisions.end());
-    if (!r.collisions.empty()) {
-      const SimCollision& c = r.collisions.front();
-      stop_reason = "collision with '" + c.obstacle + "' at (" + fixed(c.pose_world.x_m, 2) + ", " +
-                    fixed(c.pose_world.y_m, 2) + ")";
-    } else if (report.outcome != RunOutcome::success) {
-      const std::string lost = logger.stop_reason();
-      if (!lost.empty()) {
-        ++r.lost_stops;
-        stop_reason = lost;
-      } else {
-        stop_reason = report.reason;
-      }
-    }
-    if (t.lap_paths.back().empty()) t.lap_paths.pop_back();
+/// --- replay the loop N times
+bool RunPhases::replay() {
+  const std::string tree_file = !o.replay_tree.empty() ? o.replay_tree
+                                : o.obstacles         ? project_file("trees/patrol_loop_avoiding.xml")
+                                                      : project_file("trees/patrol_loop.xml");
+  auto patrol = session->load_tree(tree_file, replay_ports);
+  if (!patrol) {
+    r.setup_error = tree_file + ": " + patrol.error().message;
+    return false;
   }
+  // The camera mount for trees that need it (the IPT obstacle nodes): the replay camera's
+  // params, else the sim camera's defaults (visnav_sim/camera.hpp).
+  auto camera_param = [&](const char* key, const char* fallback) {
+    const ConfigNode* v = replay_config->camera.params.find(key);
+    return std::string(v != nullptr && v->is_scalar() ? v->scalar() : fallback);
+  };
+  if (auto st = set_blackboard_values(*patrol, {"start=start", "loops=" + std::to_string(o.loops),
+                                                "camera_height_m=" + camera_param("mount_height_m", "0.5"),
+                                                "camera_pitch_down_deg=" + camera_param("mount_pitch_down_deg", "5"),
+                                                "camera_hfov_deg=" + camera_param("hfov_deg", "60")});
+      !st) {
+    r.setup_error = st.error().message;
+    return false;
+  }
+  t.lap_paths.emplace_back();
+  int lap_edge = 0;
+  patrol->add_observer([&](double, const bt::TreeNode& node, bt::NodeStatus, bt::NodeStatus to) {
+    if (to == bt::NodeStatus::success &&
+        (node.registration_id() == "ReplayFeatureEdge" || node.registration_id() == "FollowPathEdge")) {
+      EdgeEnd e;
+      e.lap = static_cast<int>(lap_ends.size()) + 1;
+      e.index = lap_edge++;
+      if (auto id = node.get_input<std::string>("edge")) e.edge = *id;
+      if (const EdgeRecord* rec = session->map()->find_edge(e.edge)) e.kind = rec->kind;
+      e.pose = sim->ground_truth_pose();
+      e.odom_distance_m = odom_distance();
+      t.replay_edge_ends.push_back(std::move(e));
+    }
+    if (to == bt::NodeStatus::success && node.registration_id() == "FollowRoute") {
+      lap_edge = 0;
+      const cv::Point2d end = xy(sim->ground_truth_pose());
+      lap_ends.push_back(end);
+      t.lap_paths.back().push_back(end);
+      t.lap_paths.emplace_back();
+    }
+  });
+  const double d0 = odom_distance();
+  const std::size_t collisions_before = sim->collisions().size();
+  RunOptions ro;
+  ro.after_tick = [&](const TickInfo& tick) {
+    log_tick(tick, "replay", static_cast<int>(lap_ends.size()) + 1);
+    if (tick.tick % 3 == 0) t.lap_paths.back().push_back(xy(sim->ground_truth_pose()));
+    progress.update(run_index, r.route_length_m + odom_distance() - d0);
+    if (o.replay_hook) o.replay_hook(*sim, session->robot(), odom_distance() - d0);
+    return sim->collisions().size() == collisions_before;  // a collision ends the replay
+  };
+  RunReport report = run_tree(*session, *patrol, ro);
+  finish_replay(report, d0, collisions_before);
+  return true;
+}
+
+/// After the replay tree (still loaded): odometry, coasting, collisions and why it stopped.
+void RunPhases::finish_replay(const RunReport& report, double d0, std::size_t collisions_before) {
+  r.replay_odometry_m = odom_distance() - d0;
+  {  // the robot was stopped: how far does it still roll (braking) in the next 2 s?
+    const Pose2D at_end = sim->ground_truth_pose();
+    for (int k = 0; k < 40; ++k) (void)sim->step(0.05);
+    r.coast_after_stop_m = cv::norm(xy(sim->ground_truth_pose()) - xy(at_end));
+  }
+  const auto collisions = sim->collisions();
+  r.collisions.assign(collisions.begin() + static_cast<std::ptrdiff_t>(collisions_before), collisions.end());
+  if (!r.collisions.empty()) {
+    const SimCollision& c = r.collisions.front();
+    stop_reason = "collision with '" + c.obstacle + "' at (" + fixed(c.pose_world.x_m, 2) + ", " +
+                  fixed(c.pose_world.y_m, 2) + ")";
+  } else if (report.outcome != RunOutcome::success) {
+    const std::string lost = logger.stop_reason();
+    if (!lost.empty()) {
+      ++r.lost_stops;
+      stop_reason = lost;
+    } else {
+      stop_reason = report.reason;
+    }
+  }
+  if (t.lap_paths.back().empty()) t.lap_paths.pop_back();
+}
+
+/// --- loops
+void RunPhases::score_loops() {
   r.stop_reason = stop_reason;
   r.replay_start = t.replay_start;
   r.taught_end = t.loop_end;
-
-  // --- loops
   std::vector<cv::Point2d> finished_ends;
   for (int i = 0; i < o.loops; ++i) {
     LoopOutcome l;
@@ -805,8 +874,10 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     r.loops.push_back(std::move(l));
   }
   r.metrics = accuracy_repeatability(finished_ends, t.loop_end);
+}
 
-  // --- files
+/// --- files
+void RunPhases::write_files(const sim::World& world) {
   std::ofstream csv(dir / "loops.csv");
   csv << "loop,finished,completed,end_x_m,end_y_m,error_m,along_m,cross_m,failure\n";
   for (const auto& l : r.loops)
@@ -832,6 +903,38 @@ ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int 
     edges << 0 << "," << e.index << "," << e.edge << "," << e.kind << "," << e.pose.x_m << "," << e.pose.y_m << ","
           << e.pose.heading_rad << "," << e.odom_distance_m << ",0,0,0,0\n";
   cv::imwrite((dir / "trajectories.png").string(), draw_trajectories(world, route, r, t));
+}
+
+/// Teaches and replays one (style, seed); never throws; errors end up in setup_error.
+ExperimentRun run_one(const ExperimentOptions& o, const std::string& style, int seed, const sim::World& world,
+                   const sim::Route& route, const std::string& route_file, const fs::path& dir, RunProgress& progress,
+                   int run_index) {
+  ExperimentRun r;
+  r.style = style;
+  r.seed = seed;
+  r.route_length_m = route.waypoint_length_m();
+  RunTrace t;
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto done = [&]() -> ExperimentRun {
+    r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    return std::move(r);
+  };
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  const LogLevel min_level = o.log_level == "debug" ? LogLevel::debug
+                             : o.log_level == "info" ? LogLevel::info
+                             : o.log_level == "error" ? LogLevel::error
+                                                      : LogLevel::warn;
+  RunLogger logger(dir / "run.log", min_level);
+  RunPhases run(o, style, seed, route, route_file, dir, progress, run_index, r, t, logger);
+  if (!run.load_configs() || !run.open_session() || !run.teach_route()) return done();
+  run.finish_teach();
+  if (!o.experience_teach.empty() && !run.experience_drive()) return done();
+  if (!run.reconfigure_for_replay()) return done();
+  if (o.learn_loops > 0 && !run.learning_loops()) return done();
+  if (!run.displace() || !run.replay()) return done();
+  run.score_loops();
+  run.write_files(world);
   return done();
 }
 

@@ -494,7 +494,12 @@ std::vector<std::uint8_t> PlaceIndex::serialize() const {
   return out;
 }
 
-Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, const std::string& name) {
+namespace {
+
+/// The body of an index file, after the header checks (magic, version, length, checksum);
+/// `version_out` is the file's format version.
+Result<std::span<const std::uint8_t>> checked_body(std::span<const std::uint8_t> file, const std::string& name,
+                                                   std::uint32_t& version_out) {
   constexpr std::size_t kHeader = 8 + 4 + 4 + 8;
   if (file.size() < kHeader)
     return index_error(name, "truncated header (" + std::to_string(file.size()) + " bytes)");
@@ -516,9 +521,12 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
     std::snprintf(buf, sizeof buf, "checksum mismatch (stored 0x%08x, computed 0x%08x)", *crc, computed);
     return index_error(name, buf);
   }
-  // The checksum matched: what follows fails only on a file written by a broken writer.
-  PayloadReader r(body);
-  PlaceIndex index;
+  version_out = *version;
+  return body;
+}
+
+/// Version 1: the parameters, the edge table, the vocabulary, the places and their codes.
+Status read_places(PayloadReader& r, PlaceIndex& index, std::uint32_t version, const std::string& name) {
   auto bad = [&](const std::string& what) { return index_error(name, what); };
   auto words = r.get<std::int32_t>();
   auto spacing = r.get<double>();
@@ -549,7 +557,7 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
   if (!place_count) return bad("place count");
   const std::size_t w = static_cast<std::size_t>(index.code_words());
   const std::size_t table = static_cast<std::size_t>(*place_count) * (8 + 8 * w);
-  if (*version == 1 ? table != r.remaining() : table > r.remaining()) return bad("place table size");
+  if (version == 1 ? table != r.remaining() : table > r.remaining()) return bad("place table size");
   index.places.resize(*place_count);
   for (auto& p : index.places) {
     auto e = r.get<std::uint32_t>();
@@ -563,7 +571,12 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
     if (!v) return bad("codes");
     c = *v;
   }
-  if (*version == 1) return index;
+  return ok();
+}
+
+/// Version 2: the detector and the thumbnail places; `thumb_count_out` is how many.
+Status read_thumbnails(PayloadReader& r, PlaceIndex& index, const std::string& name, std::uint32_t& thumb_count_out) {
+  auto bad = [&](const std::string& what) { return index_error(name, what); };
   auto det = r.get_string();
   auto tw = r.get<std::int32_t>();
   auto th = r.get<std::int32_t>();
@@ -586,35 +599,60 @@ Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, c
     std::memcpy(t.data, px->data(), px->size());
     index.thumbnails.push_back(std::move(t));
   }
-  if (*version >= 3) {
-    // The inverted file; a version-2 index has none: prepare_thumbnails trains it at load.
-    auto dims = r.get<std::uint32_t>();
-    auto cells = r.get<std::uint32_t>();
-    if (!dims || !cells) return bad("thumbnail cells header");
-    const bool none = *thumb_count == 0;
-    const std::size_t vectors = static_cast<std::size_t>(*thumb_count) * kStoredWindows;
-    if (none ? *cells != 0
-             : (*dims != static_cast<std::uint32_t>(signature_dims(*th)) || *cells == 0 || *cells > vectors))
-      return bad("thumbnail cells: " + std::to_string(*cells) + " cells of " + std::to_string(*dims) +
-                 " dimensions for " + std::to_string(*thumb_count) + " thumbnail places");
-    const std::size_t floats = static_cast<std::size_t>(*cells) * *dims;
-    if (floats * 4 + vectors * 4 != r.remaining()) return bad("thumbnail cells size");
-    index.thumbnail_centroids.resize(floats);
-    for (float& f : index.thumbnail_centroids) {
-      auto v = r.get<float>();
-      if (!v || !std::isfinite(*v)) return bad("thumbnail cell centroid");
-      f = *v;
-    }
-    if (!none) {
-      index.thumbnail_cell.resize(vectors);
-      for (std::uint32_t& c : index.thumbnail_cell) {
-        auto v = r.get<std::uint32_t>();
-        if (!v || *v >= *cells) return bad("thumbnail cell of a place");
-        c = *v;
-      }
+  thumb_count_out = *thumb_count;
+  return ok();
+}
+
+/// Version 3: the inverted file of the `thumb_count` thumbnail places (thumbnails of height th).
+Status read_thumbnail_cells(PayloadReader& r, PlaceIndex& index, const std::string& name, std::uint32_t thumb_count,
+                            std::int32_t th) {
+  auto bad = [&](const std::string& what) { return index_error(name, what); };
+  auto dims = r.get<std::uint32_t>();
+  auto cells = r.get<std::uint32_t>();
+  if (!dims || !cells) return bad("thumbnail cells header");
+  const bool none = thumb_count == 0;
+  const std::size_t vectors = static_cast<std::size_t>(thumb_count) * kStoredWindows;
+  if (none ? *cells != 0
+           : (*dims != static_cast<std::uint32_t>(signature_dims(th)) || *cells == 0 || *cells > vectors))
+    return bad("thumbnail cells: " + std::to_string(*cells) + " cells of " + std::to_string(*dims) +
+               " dimensions for " + std::to_string(thumb_count) + " thumbnail places");
+  const std::size_t floats = static_cast<std::size_t>(*cells) * *dims;
+  if (floats * 4 + vectors * 4 != r.remaining()) return bad("thumbnail cells size");
+  index.thumbnail_centroids.resize(floats);
+  for (float& f : index.thumbnail_centroids) {
+    auto v = r.get<float>();
+    if (!v || !std::isfinite(*v)) return bad("thumbnail cell centroid");
+    f = *v;
+  }
+  if (!none) {
+    index.thumbnail_cell.resize(vectors);
+    for (std::uint32_t& c : index.thumbnail_cell) {
+      auto v = r.get<std::uint32_t>();
+      if (!v || *v >= *cells) return bad("thumbnail cell of a place");
+      c = *v;
     }
   }
-  if (!r.at_end()) return bad("trailing bytes");
+  return ok();
+}
+
+}  // namespace
+
+Result<PlaceIndex> PlaceIndex::deserialize(std::span<const std::uint8_t> file, const std::string& name) {
+  std::uint32_t version = 0;
+  auto body = checked_body(file, name, version);
+  if (!body) return body.error();
+  // The checksum matched: what follows fails only on a file written by a broken writer.
+  PayloadReader r(*body);
+  PlaceIndex index;
+  if (auto st = read_places(r, index, version, name); !st) return st.error();
+  if (version == 1) return index;
+  std::uint32_t thumb_count = 0;
+  if (auto st = read_thumbnails(r, index, name, thumb_count); !st) return st.error();
+  if (version >= 3) {
+    // The inverted file; a version-2 index has none: prepare_thumbnails trains it at load.
+    if (auto st = read_thumbnail_cells(r, index, name, thumb_count, index.thumbnail_height_px); !st) return st.error();
+  }
+  if (!r.at_end()) return index_error(name, "trailing bytes");
   index.prepare_thumbnails();
   return index;
 }

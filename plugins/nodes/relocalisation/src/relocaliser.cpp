@@ -178,47 +178,58 @@ std::optional<double> Relocaliser::route_distance_m(std::uint32_t a, double da, 
   return best;
 }
 
-RelocAnswer Relocaliser::decide() const {
-  RelocAnswer answer;
-  const FrameVotes* newest = nullptr;
-  for (const auto& f : frames_) {
-    if (f.blank) {
-      ++answer.blank_frames;
-    } else {
-      ++answer.usable_frames;
-      newest = &f;
-    }
-  }
-  if (answer.usable_frames < params_.frames) {
-    if (answer.blank_frames >= params_.frames) {
-      answer.status = RelocStatus::camera_blocked;
-      answer.reason = "camera blocked: " + std::to_string(answer.blank_frames) + " of " +
-                      std::to_string(frames_.size()) +
-                      " frames were blank (too few features or a flat image: covered lens, darkness)";
-    }
-    return answer;
-  }
+namespace {
 
-  // Votes moved to the newest frame by the robot's own motion, strongest first.
-  struct Moved {
-    std::uint32_t edge;
-    double distance_m;
-    double heading_rad;
-    double confidence;
-    double score;
-    int frame;
-    double along_uncertainty_m;
-    double gap_before_m;
-    double gap_after_m;
-  };
+/// What the steps of Relocaliser::decide() read of the relocaliser.
+struct DecideContext {
+  const RelocaliseParams& params;
+  const std::vector<RouteEdge>& edges;
+  const Relocaliser& reloc;  ///< for route_distance_m
+  const std::optional<std::pair<std::uint32_t, double>>& prior;
+  bool held;
+};
+
+/// A vote moved to the newest frame by the robot's own motion.
+struct Moved {
+  std::uint32_t edge;
+  double distance_m;
+  double heading_rad;
+  double confidence;
+  double score;
+  int frame;
+  double along_uncertainty_m;
+  double gap_before_m;
+  double gap_after_m;
+};
+
+/// One place the votes name, and what every usable frame says of it.
+struct Hypothesis {
+  std::uint32_t edge;
+  double centre_m;       // on `edge`
+  double weight = 0.0;   // sum of vote confidences
+  double offset_sum = 0.0;
+  double sin_sum = 0.0, cos_sum = 0.0;
+  std::vector<double> best;        // per usable frame: best vote score
+  std::vector<double> confidence;  // per usable frame: best vote confidence
+  std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
+  std::vector<double> peak_uncertainty_m;  // per usable frame: its best vote's along_uncertainty_m
+  std::vector<std::pair<double, double>> peak_gaps_m;  // per usable frame: its best vote's gaps
+  double score = 0.0;
+  int support = 0;
+};
+
+/// Votes moved to the newest frame by the robot's own motion (in frame order); `usable` is the
+/// number of non-blank frames.
+std::vector<Moved> moved_votes(const std::vector<FrameVotes>& frames, const FrameVotes& newest, const DecideContext& c,
+                               int& usable) {
   std::vector<Moved> votes;
   int frame_index = 0;
-  for (const auto& f : frames_) {
+  for (const auto& f : frames) {
     if (f.blank) continue;
-    const double moved_m = newest->odom_distance_m - f.odom_distance_m;
-    const double turned_rad = wrap(newest->odom_heading_rad - f.odom_heading_rad);
+    const double moved_m = newest.odom_distance_m - f.odom_distance_m;
+    const double turned_rad = wrap(newest.odom_heading_rad - f.odom_heading_rad);
     for (const auto& v : f.votes)
-      if (v.edge < edges_.size() && v.confidence >= params_.min_confidence) {
+      if (v.edge < c.edges.size() && v.confidence >= c.params.min_confidence) {
         // Along the edge: the path travelled projected with the mean of the vote's heading offset
         // then and now (a robot creeping 30 deg off the taught heading advances 0.87 m per metre).
         const double along_m = moved_m * std::cos(v.heading_offset_rad + 0.5 * turned_rad);
@@ -228,29 +239,12 @@ RelocAnswer Relocaliser::decide() const {
       }
     ++frame_index;
   }
-  const int usable = frame_index;
-  if (votes.empty()) {
-    if (held_ && hold_unseen_) return answer;
-    answer.status = RelocStatus::not_on_map;
-    answer.reason = "not on the map: no place of the map was verified in " + std::to_string(usable) + " frames";
-    return answer;
-  }
-  std::stable_sort(votes.begin(), votes.end(), [](const Moved& x, const Moved& y) { return x.score > y.score; });
+  usable = frame_index;
+  return votes;
+}
 
-  struct Hypothesis {
-    std::uint32_t edge;
-    double centre_m;       // on `edge`
-    double weight = 0.0;   // sum of vote confidences
-    double offset_sum = 0.0;
-    double sin_sum = 0.0, cos_sum = 0.0;
-    std::vector<double> best;        // per usable frame: best vote score
-    std::vector<double> confidence;  // per usable frame: best vote confidence
-    std::vector<double> peak_m;      // per usable frame: position of its best vote (on `edge`)
-    std::vector<double> peak_uncertainty_m;  // per usable frame: its best vote's along_uncertainty_m
-    std::vector<std::pair<double, double>> peak_gaps_m;  // per usable frame: its best vote's gaps
-    double score = 0.0;
-    int support = 0;
-  };
+/// The votes (strongest first) gathered into places.
+std::vector<Hypothesis> cluster_votes(const std::vector<Moved>& votes, int usable, const DecideContext& c) {
   std::vector<Hypothesis> hyps;
   for (const Moved& v : votes) {
     Hypothesis* into = nullptr;
@@ -258,9 +252,9 @@ RelocAnswer Relocaliser::decide() const {
     // A place with known gaps (a visual_memory reference) is one of a row of places as far apart
     // as the gaps: its votes join a place within the larger gap (adjacent references are one
     // stretch, placed by the cells below), other votes within place_tolerance_m.
-    const double tolerance_m = std::max(params_.place_tolerance_m, std::max(v.gap_before_m, v.gap_after_m));
+    const double tolerance_m = std::max(c.params.place_tolerance_m, std::max(v.gap_before_m, v.gap_after_m));
     for (auto& h : hyps) {
-      auto d = route_distance_m(h.edge, h.centre_m, v.edge, v.distance_m);
+      auto d = c.reloc.route_distance_m(h.edge, h.centre_m, v.edge, v.distance_m);
       if (d && std::abs(*d) <= tolerance_m && (into == nullptr || std::abs(*d) < std::abs(into_delta))) {
         into = &h;
         into_delta = *d;
@@ -289,9 +283,14 @@ RelocAnswer Relocaliser::decide() const {
       into->peak_gaps_m[static_cast<std::size_t>(v.frame)] = {v.gap_before_m, v.gap_after_m};
     }
     b = std::max(b, v.score);
-    auto& c = into->confidence[static_cast<std::size_t>(v.frame)];
-    c = std::max(c, v.confidence);
+    auto& conf = into->confidence[static_cast<std::size_t>(v.frame)];
+    conf = std::max(conf, v.confidence);
   }
+  return hyps;
+}
+
+/// Each place's support (frames that see it) and score (their best votes, weighted by the prior).
+void score_hypotheses(std::vector<Hypothesis>& hyps, const DecideContext& c) {
   for (auto& h : hyps) {
     double sum = 0.0;
     for (double b : h.best)
@@ -300,71 +299,34 @@ RelocAnswer Relocaliser::decide() const {
         ++h.support;
       }
     double weight = 1.0;
-    if (prior_ && params_.prior_sigma_m > 0.0) {
-      auto d = route_distance_m(prior_->first, prior_->second, h.edge, h.centre_m);
-      weight = d ? std::exp(-0.5 * (*d / params_.prior_sigma_m) * (*d / params_.prior_sigma_m)) : 0.0;
+    if (c.prior && c.params.prior_sigma_m > 0.0) {
+      auto d = c.reloc.route_distance_m(c.prior->first, c.prior->second, h.edge, h.centre_m);
+      weight = d ? std::exp(-0.5 * (*d / c.params.prior_sigma_m) * (*d / c.params.prior_sigma_m)) : 0.0;
     }
     h.score = sum * weight;
   }
-  std::stable_sort(hyps.begin(), hyps.end(), [](const Hypothesis& x, const Hypothesis& y) { return x.score > y.score; });
-  const Hypothesis& best = hyps.front();
-  auto place_name = [&](const Hypothesis& h) {
-    return "edge " + edges_[h.edge].id + " at " + fmt(std::clamp(h.centre_m, 0.0, edges_[h.edge].length_m)) + " m";
-  };
-  if (!(best.score > 0.0)) {
-    answer.status = usable >= params_.max_frames && !held_ ? RelocStatus::not_on_map : RelocStatus::pending;
-    answer.reason = "not on the map: the places seen are outside the odometry prior (" +
-                    fmt(params_.prior_sigma_m) + " m)";
-    return answer;
-  }
-  // The strongest place that is not the same stretch of route as the best.
-  const Hypothesis* runner_up = nullptr;
-  for (std::size_t i = 1; i < hyps.size(); ++i) {
-    auto d = route_distance_m(best.edge, best.centre_m, hyps[i].edge, hyps[i].centre_m);
-    if (!d || std::abs(*d) > 2.0 * params_.place_tolerance_m) {
-      runner_up = &hyps[i];
-      break;
-    }
-  }
-  const double ratio = runner_up != nullptr ? runner_up->score / best.score : 0.0;
-  const bool final_frame = usable >= params_.max_frames;
-  answer.support = best.support;
-  // The best place so far (provisional while pending).
-  answer.has_best = true;
-  answer.edge = best.edge;
-  answer.distance_m = std::clamp(best.centre_m, 0.0, edges_[best.edge].length_m);
-  answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
-  if (held_) return answer;
-  if (ratio > params_.max_runner_up_ratio) {
-    if (!final_frame) return answer;
-    answer.status = RelocStatus::ambiguous;
-    answer.reason = "ambiguous: " + place_name(best) + " (score " + fmt(best.score) + ") and " + place_name(*runner_up) +
-                    " (score " + fmt(runner_up->score) + ") both match";
-    return answer;
-  }
-  const double needed = std::max<double>(params_.frames, params_.min_agreement * usable);
-  if (best.support < needed) {
-    if (!final_frame) return answer;
-    answer.status = RelocStatus::not_on_map;
-    answer.reason = "not on the map: the best place, " + place_name(best) + ", is supported by only " +
-                    std::to_string(best.support) + " of " + std::to_string(usable) + " frames";
-    return answer;
-  }
-  const double mean_confidence = [&] {
-    double s = 0.0;
-    for (double c : best.confidence) s += c;
-    return s / std::max(1, best.support);
-  }();
-  const double confidence =
-      std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);
-  if (confidence < params_.min_answer_confidence) {
-    if (!final_frame) return answer;
-    answer.status = RelocStatus::ambiguous;
-    answer.reason = "ambiguous: the best place, " + place_name(best) + ", is too weak (confidence " + fmt(confidence) +
-                    " < " + fmt(params_.min_answer_confidence) + ")";
-    return answer;
-  }
-  const RouteEdge& e = edges_[best.edge];
+}
+
+std::string place_name(const Hypothesis& h, const std::vector<RouteEdge>& edges) {
+  return "edge " + edges[h.edge].id + " at " + fmt(std::clamp(h.centre_m, 0.0, edges[h.edge].length_m)) + " m";
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+/// Where along the best place's edge, and how sure: centre_m, uncertainty_m, and the deepest
+/// overlap of the frames' nearest-place cells (of `cells` cells) when every vote has one.
+struct AlongEstimate {
+  double centre_m = 0.0;
+  double uncertainty_m = 0.0;
+  std::optional<Overlap> overlap;
+  std::size_t cells = 0;
+};
+
+AlongEstimate estimate_along(const Hypothesis& best) {
   // Along the edge: the median of the frames' best votes (the centre of all votes within the
   // tolerance leans towards the side with more, weaker neighbours).
   std::vector<double> peaks, spacing;
@@ -380,11 +342,6 @@ RelocAnswer Relocaliser::decide() const {
       if (before_m <= 0.0) all_cells = false;
       cells.emplace_back(best.peak_m[i] - kCellBehind * before_m, best.peak_m[i] + kCellAhead * after_m);
     }
-  auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
   double centre_m = peaks.empty() ? best.centre_m : median(peaks);
   // Places far apart (visual_memory references): the median of the votes lands where the
   // sequence's middle frame was, up to half the creep behind the robot, and off by up to half
@@ -403,41 +360,33 @@ RelocAnswer Relocaliser::decide() const {
   // spacing or the spread of the votes.
   const double uncertainty_m = overlap ? 0.5 * (overlap->hi_m - overlap->lo_m)
                                        : std::max(median(spacing), 1.4826 * median(deviation));
-  answer.along_uncertainty_m = uncertainty_m;
-  if (overlap) {
-    const double agreeing = static_cast<double>(overlap->depth) / static_cast<double>(cells.size());
-    std::string why;
-    if (agreeing < params_.min_cell_agreement)
-      why = "the frames disagree where along it (their nearest-place cells overlap in " + std::to_string(overlap->depth) +
-            " of " + std::to_string(cells.size()) + " frames)";
-    else if (uncertainty_m > params_.max_cell_uncertainty_m)
-      why = "the frames place it only within +-" + fmt(uncertainty_m) + " m (> " + fmt(params_.max_cell_uncertainty_m) +
-            " m: no change of the nearest place seen between places far apart)";
-    if (!why.empty()) {
-      if (!final_frame) return answer;
-      answer.status = RelocStatus::ambiguous;
-      answer.reason = "ambiguous: the best place, " + place_name(best) + ", but " + why;
-      return answer;
-    }
-  }
-  if (params_.max_along_uncertainty_m > 0.0 && uncertainty_m > params_.max_along_uncertainty_m) {
-    if (!final_frame) return answer;
-    answer.status = RelocStatus::ambiguous;
-    answer.reason = "ambiguous: the best place, " + place_name(best) + ", is uncertain along the route (+-" +
-                    fmt(uncertainty_m) + " m > " + fmt(params_.max_along_uncertainty_m) +
-                    " m: places too far apart or frames disagreeing where)";
-    return answer;
-  }
-  answer.status = RelocStatus::localised;
-  answer.edge = best.edge;
-  answer.distance_m = std::clamp(centre_m, 0.0, e.length_m);
-  // Votes moved past the end of the edge (the robot crept over its end node) or before its start:
-  // the answer is on the edge that continues there, when exactly one does (clamping would put it
-  // back on the node, as far off as the robot went past it).
+  return AlongEstimate{centre_m, uncertainty_m, overlap, cells.size()};
+}
+
+/// Why the frames' cells do not pin the place down (empty when they do).
+std::string cell_disagreement(const AlongEstimate& along, const RelocaliseParams& params) {
+  const Overlap& overlap = *along.overlap;
+  const double agreeing = static_cast<double>(overlap.depth) / static_cast<double>(along.cells);
+  std::string why;
+  if (agreeing < params.min_cell_agreement)
+    why = "the frames disagree where along it (their nearest-place cells overlap in " + std::to_string(overlap.depth) +
+          " of " + std::to_string(along.cells) + " frames)";
+  else if (along.uncertainty_m > params.max_cell_uncertainty_m)
+    why = "the frames place it only within +-" + fmt(along.uncertainty_m) + " m (> " + fmt(params.max_cell_uncertainty_m) +
+          " m: no change of the nearest place seen between places far apart)";
+  return why;
+}
+
+/// Votes moved past the end of the edge (the robot crept over its end node) or before its start:
+/// the answer is on the edge that continues there, when exactly one does (clamping would put it
+/// back on the node, as far off as the robot went past it).
+void continue_across_node(RelocAnswer& answer, std::uint32_t best_edge, double centre_m,
+                          const std::vector<RouteEdge>& edges) {
+  const RouteEdge& e = edges[best_edge];
   auto only = [&](auto&& pred) -> std::optional<std::uint32_t> {
     std::optional<std::uint32_t> found;
-    for (std::uint32_t i = 0; i < edges_.size(); ++i)
-      if (i != best.edge && pred(edges_[i])) {
+    for (std::uint32_t i = 0; i < edges.size(); ++i)
+      if (i != best_edge && pred(edges[i])) {
         if (found) return std::nullopt;
         found = i;
       }
@@ -446,21 +395,153 @@ RelocAnswer Relocaliser::decide() const {
   if (centre_m > e.length_m) {
     if (auto next = only([&](const RouteEdge& x) { return x.from == e.to; })) {
       answer.edge = *next;
-      answer.distance_m = std::clamp(centre_m - e.length_m, 0.0, edges_[*next].length_m);
+      answer.distance_m = std::clamp(centre_m - e.length_m, 0.0, edges[*next].length_m);
     }
   } else if (centre_m < 0.0) {
     if (auto prev = only([&](const RouteEdge& x) { return x.to == e.from; })) {
       answer.edge = *prev;
-      answer.distance_m = std::clamp(edges_[*prev].length_m + centre_m, 0.0, edges_[*prev].length_m);
+      answer.distance_m = std::clamp(edges[*prev].length_m + centre_m, 0.0, edges[*prev].length_m);
     }
   }
+}
+
+/// The best place, once the runner-up, support and confidence checks passed: where along its
+/// edge, or ambiguous when that is too uncertain.
+RelocAnswer localise(RelocAnswer answer, const Hypothesis& best, const Hypothesis* runner_up, double ratio,
+                     double confidence, int usable, bool final_frame, const DecideContext& c) {
+  const RouteEdge& e = c.edges[best.edge];
+  const AlongEstimate along = estimate_along(best);
+  const double centre_m = along.centre_m;
+  const double uncertainty_m = along.uncertainty_m;
+  answer.along_uncertainty_m = uncertainty_m;
+  if (along.overlap) {
+    const std::string why = cell_disagreement(along, c.params);
+    if (!why.empty()) {
+      if (!final_frame) return answer;
+      answer.status = RelocStatus::ambiguous;
+      answer.reason = "ambiguous: the best place, " + place_name(best, c.edges) + ", but " + why;
+      return answer;
+    }
+  }
+  if (c.params.max_along_uncertainty_m > 0.0 && uncertainty_m > c.params.max_along_uncertainty_m) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: the best place, " + place_name(best, c.edges) + ", is uncertain along the route (+-" +
+                    fmt(uncertainty_m) + " m > " + fmt(c.params.max_along_uncertainty_m) +
+                    " m: places too far apart or frames disagreeing where)";
+    return answer;
+  }
+  answer.status = RelocStatus::localised;
+  answer.edge = best.edge;
+  answer.distance_m = std::clamp(centre_m, 0.0, e.length_m);
+  continue_across_node(answer, best.edge, centre_m, c.edges);
   answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
   answer.confidence = confidence;
-  answer.reason = "localised: " + place_name(best) + ", " + std::to_string(best.support) + " of " +
+  answer.reason = "localised: " + place_name(best, c.edges) + ", " + std::to_string(best.support) + " of " +
                   std::to_string(usable) + " frames agree, +-" + fmt(uncertainty_m) + " m along" +
-                  (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up) + " at " + fmt(ratio) + " of the score"
+                  (runner_up != nullptr && ratio > 0.0 ? ", next place " + place_name(*runner_up, c.edges) + " at " + fmt(ratio) + " of the score"
                                         : std::string());
   return answer;
+}
+
+/// The answer from the places (strongest first): pending, not_on_map, ambiguous or localised.
+RelocAnswer judge_places(RelocAnswer answer, const std::vector<Hypothesis>& hyps, int usable, const DecideContext& c) {
+  const Hypothesis& best = hyps.front();
+  if (!(best.score > 0.0)) {
+    answer.status = usable >= c.params.max_frames && !c.held ? RelocStatus::not_on_map : RelocStatus::pending;
+    answer.reason = "not on the map: the places seen are outside the odometry prior (" +
+                    fmt(c.params.prior_sigma_m) + " m)";
+    return answer;
+  }
+  // The strongest place that is not the same stretch of route as the best.
+  const Hypothesis* runner_up = nullptr;
+  for (std::size_t i = 1; i < hyps.size(); ++i) {
+    auto d = c.reloc.route_distance_m(best.edge, best.centre_m, hyps[i].edge, hyps[i].centre_m);
+    if (!d || std::abs(*d) > 2.0 * c.params.place_tolerance_m) {
+      runner_up = &hyps[i];
+      break;
+    }
+  }
+  const double ratio = runner_up != nullptr ? runner_up->score / best.score : 0.0;
+  const bool final_frame = usable >= c.params.max_frames;
+  answer.support = best.support;
+  // The best place so far (provisional while pending).
+  answer.has_best = true;
+  answer.edge = best.edge;
+  answer.distance_m = std::clamp(best.centre_m, 0.0, c.edges[best.edge].length_m);
+  answer.heading_offset_rad = std::atan2(best.sin_sum, best.cos_sum);
+  if (c.held) return answer;
+  if (ratio > c.params.max_runner_up_ratio) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: " + place_name(best, c.edges) + " (score " + fmt(best.score) + ") and " +
+                    place_name(*runner_up, c.edges) + " (score " + fmt(runner_up->score) + ") both match";
+    return answer;
+  }
+  const double needed = std::max<double>(c.params.frames, c.params.min_agreement * usable);
+  if (best.support < needed) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::not_on_map;
+    answer.reason = "not on the map: the best place, " + place_name(best, c.edges) + ", is supported by only " +
+                    std::to_string(best.support) + " of " + std::to_string(usable) + " frames";
+    return answer;
+  }
+  const double mean_confidence = [&] {
+    double s = 0.0;
+    for (double conf : best.confidence) s += conf;
+    return s / std::max(1, best.support);
+  }();
+  const double confidence =
+      std::clamp(static_cast<double>(best.support) / usable * mean_confidence * (1.0 - ratio), 0.0, 1.0);
+  if (confidence < c.params.min_answer_confidence) {
+    if (!final_frame) return answer;
+    answer.status = RelocStatus::ambiguous;
+    answer.reason = "ambiguous: the best place, " + place_name(best, c.edges) + ", is too weak (confidence " +
+                    fmt(confidence) + " < " + fmt(c.params.min_answer_confidence) + ")";
+    return answer;
+  }
+  return localise(std::move(answer), best, runner_up, ratio, confidence, usable, final_frame, c);
+}
+
+}  // namespace
+
+RelocAnswer Relocaliser::decide() const {
+  RelocAnswer answer;
+  const FrameVotes* newest = nullptr;
+  for (const auto& f : frames_) {
+    if (f.blank) {
+      ++answer.blank_frames;
+    } else {
+      ++answer.usable_frames;
+      newest = &f;
+    }
+  }
+  if (answer.usable_frames < params_.frames) {
+    if (answer.blank_frames >= params_.frames) {
+      answer.status = RelocStatus::camera_blocked;
+      answer.reason = "camera blocked: " + std::to_string(answer.blank_frames) + " of " +
+                      std::to_string(frames_.size()) +
+                      " frames were blank (too few features or a flat image: covered lens, darkness)";
+    }
+    return answer;
+  }
+
+  const DecideContext c{params_, edges_, *this, prior_, held_};
+  // Votes moved to the newest frame by the robot's own motion, strongest first.
+  int usable = 0;
+  std::vector<Moved> votes = moved_votes(frames_, *newest, c, usable);
+  if (votes.empty()) {
+    if (held_ && hold_unseen_) return answer;
+    answer.status = RelocStatus::not_on_map;
+    answer.reason = "not on the map: no place of the map was verified in " + std::to_string(usable) + " frames";
+    return answer;
+  }
+  std::stable_sort(votes.begin(), votes.end(), [](const Moved& x, const Moved& y) { return x.score > y.score; });
+
+  std::vector<Hypothesis> hyps = cluster_votes(votes, usable, c);
+  score_hypotheses(hyps, c);
+  std::stable_sort(hyps.begin(), hyps.end(), [](const Hypothesis& x, const Hypothesis& y) { return x.score > y.score; });
+  return judge_places(std::move(answer), hyps, usable, c);
 }
 
 }  // namespace visnav::reloc

@@ -548,7 +548,9 @@ Result<PathEstimate> PathFollower::process(const cv::Mat& bgr) {
   return out;
 }
 
-Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
+namespace {
+
+Status check_image(const cv::Mat& bgr) {
   if (bgr.empty()) return fail(ErrorCode::invalid_value, "path follower: empty image");
   if (bgr.type() != CV_8UC3)
     return fail(ErrorCode::invalid_value, "path follower: expected an 8-bit 3-channel BGR image (CV_8UC3), got a " + describe_type(bgr) +
@@ -557,16 +559,12 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
     return fail(ErrorCode::out_of_range, "path follower: image " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
                 " is smaller than the minimum " + std::to_string(kMinImageWidthPx) + "x" +
                 std::to_string(kMinImageHeightPx));
-  ensure_buffers(bgr.size());
+  return ok();
+}
 
-  const int rows = bgr.rows;
-  const int width = bgr.cols;
-  out.horizon = detect_horizon(bgr, params_, row_means_);
-  const int top = std::min(out.horizon.row_px + params_.horizon_margin_px, rows - kMinGroundRowsPx);
-  const int ground_rows = rows - top;
-  const double ground_pixels = static_cast<double>(ground_rows) * width;
-  const cv::Mat ground = bgr.rowRange(top, rows);
+}  // namespace
 
+void PathFollower::begin_frame(PathEstimate& out, const cv::Mat& bgr, int top) {
   out.status = PathStatus::ok;
   out.ground_top_px = top;
   out.mask.create(bgr.size(), CV_8UC1);
@@ -590,21 +588,15 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   stages_.classified = cv::Mat();
   stages_.opened = cv::Mat();
   stages_.segment_is_reference.clear();
+}
 
-  const cv::Scalar mean_bgr = cv::mean(ground);
-  out.mean_intensity = (mean_bgr[0] + mean_bgr[1] + mean_bgr[2]) / 3.0;
-  if (out.mean_intensity < params_.dark_mean_intensity) {
-    out.status = PathStatus::dark_frame;
-    stages_.reference_models.clear();
-    return ok();
-  }
-
-  // Segmentation (Sec. 4.1). Buffers are views of the top rows of the full-size buffers so that a
-  // moving horizon never reallocates.
-  cv::Mat blurred = blurred_.rowRange(0, ground_rows);
+int PathFollower::segment_ground(const cv::Mat& ground, int ground_rows, cv::Mat& blurred, cv::Mat& labels) {
+  // Buffers are views of the top rows of the full-size buffers so that a moving horizon never
+  // reallocates.
+  blurred = blurred_.rowRange(0, ground_rows);
   if (params_.median_blur_px > 1) cv::medianBlur(ground, blurred, params_.median_blur_px);
   else ground.copyTo(blurred);
-  cv::Mat labels = labels_.rowRange(0, ground_rows);
+  labels = labels_.rowRange(0, ground_rows);
   if (params_.seg_scale < 1.0) {
     const int small_rows = std::clamp(static_cast<int>(std::lround(ground_rows * params_.seg_scale)), 1, small_.rows);
     // A header of its own (no parent extent): the segmenter smooths its input, and OpenCV's
@@ -619,32 +611,14 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   }
   double max_label = 0.0;
   cv::minMaxIdx(labels, nullptr, &max_label);
-  const int segments = static_cast<int>(max_label) + 1;
-  out.segments = segments;
-  stages_.blurred = blurred;
-  stages_.labels = labels;
+  return static_cast<int>(max_label) + 1;
+}
 
-  // Segment models and reference models (Sec. 4.2, steps 1-2).
-  cv::Mat hsv = hsv_.rowRange(0, ground_rows);
-  cv::cvtColor(blurred, hsv, cv::COLOR_BGR2HSV);
-  build_reference_roi(ground_rows, width);
-  const cv::Mat roi = roi_.rowRange(0, ground_rows);
-  stages_.reference_roi = roi;
-  accumulate_segment_statistics(hsv, labels, roi, segments);
-  const double roi_pixels = cv::countNonZero(roi);
-  out.reference_models = learn_reference_models(roi_pixels);
-  out.gated_models = gated_models_;
-  out.reference_source = reference_source_;
-  if (out.reference_models == 0) {
-    out.status = PathStatus::no_reference;
-    return ok();
-  }
-
-  // Classification (step 3), mask, opening and the connected region overlapping the reference
-  // region most (step 4). When the reference region straddles the path edge, the surroundings'
-  // model passes the coverage test too and the region swallows (nearly) the whole image; then
-  // the least covering models are dropped one by one while the region is larger than
-  // multi_model_max_share.
+int PathFollower::extract_path_region(int segments, const cv::Mat& labels, const cv::Mat& roi, double ground_pixels,
+                                      PathEstimate& out) {
+  // When the reference region straddles the path edge, the surroundings' model passes the
+  // coverage test too and the region swallows (nearly) the whole image; then the least covering
+  // models are dropped one by one while the region is larger than multi_model_max_share.
   int used = out.reference_models;
   int region_pixels = 0;
   for (;; --used) {
@@ -660,17 +634,10 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
       if (kept_clusters_[static_cast<std::size_t>(k)] >= 0 &&
           segment_cluster_[s] == kept_clusters_[static_cast<std::size_t>(k)])
         stages_.segment_is_reference[s] = 1;
-  stages_.classified = classified_.rowRange(0, ground_rows);
-  stages_.opened = opened_.rowRange(0, ground_rows);
-  if (region_pixels == 0) {
-    out.status = PathStatus::path_lost;
-    return ok();
-  }
-  const cv::Mat region = region_.rowRange(0, ground_rows);
-  region.copyTo(out.mask.rowRange(top, rows));
-  out.area_share = region_pixels / ground_pixels;
+  return region_pixels;
+}
 
-  // Contour and middle points (Sec. 4.3).
+void PathFollower::trace_path(const cv::Mat& region, int top, int width, int ground_rows, PathEstimate& out) {
   cv::findContours(region, contours_, hierarchy_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE, cv::Point(0, top));
   std::size_t largest = 0;
   double largest_area = -1.0;
@@ -697,6 +664,67 @@ Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
   if (out.area_share < params_.min_area_share) out.status = PathStatus::path_lost;
   else if (out.area_share > params_.fill_area_share) out.status = PathStatus::path_fills_image;
   if (out.status == PathStatus::ok) out.command = command;
+}
+
+Status PathFollower::process(const cv::Mat& bgr, PathEstimate& out) {
+  VISNAV_TRY(check_image(bgr));
+  ensure_buffers(bgr.size());
+
+  const int rows = bgr.rows;
+  const int width = bgr.cols;
+  out.horizon = detect_horizon(bgr, params_, row_means_);
+  const int top = std::min(out.horizon.row_px + params_.horizon_margin_px, rows - kMinGroundRowsPx);
+  const int ground_rows = rows - top;
+  const double ground_pixels = static_cast<double>(ground_rows) * width;
+  const cv::Mat ground = bgr.rowRange(top, rows);
+  begin_frame(out, bgr, top);
+
+  const cv::Scalar mean_bgr = cv::mean(ground);
+  out.mean_intensity = (mean_bgr[0] + mean_bgr[1] + mean_bgr[2]) / 3.0;
+  if (out.mean_intensity < params_.dark_mean_intensity) {
+    out.status = PathStatus::dark_frame;
+    stages_.reference_models.clear();
+    return ok();
+  }
+
+  // Segmentation (Sec. 4.1).
+  cv::Mat blurred, labels;
+  const int segments = segment_ground(ground, ground_rows, blurred, labels);
+  out.segments = segments;
+  stages_.blurred = blurred;
+  stages_.labels = labels;
+
+  // Segment models and reference models (Sec. 4.2, steps 1-2).
+  cv::Mat hsv = hsv_.rowRange(0, ground_rows);
+  cv::cvtColor(blurred, hsv, cv::COLOR_BGR2HSV);
+  build_reference_roi(ground_rows, width);
+  const cv::Mat roi = roi_.rowRange(0, ground_rows);
+  stages_.reference_roi = roi;
+  accumulate_segment_statistics(hsv, labels, roi, segments);
+  const double roi_pixels = cv::countNonZero(roi);
+  out.reference_models = learn_reference_models(roi_pixels);
+  out.gated_models = gated_models_;
+  out.reference_source = reference_source_;
+  if (out.reference_models == 0) {
+    out.status = PathStatus::no_reference;
+    return ok();
+  }
+
+  // Classification (step 3), mask, opening and the connected region overlapping the reference
+  // region most (step 4).
+  const int region_pixels = extract_path_region(segments, labels, roi, ground_pixels, out);
+  stages_.classified = classified_.rowRange(0, ground_rows);
+  stages_.opened = opened_.rowRange(0, ground_rows);
+  if (region_pixels == 0) {
+    out.status = PathStatus::path_lost;
+    return ok();
+  }
+  const cv::Mat region = region_.rowRange(0, ground_rows);
+  region.copyTo(out.mask.rowRange(top, rows));
+  out.area_share = region_pixels / ground_pixels;
+
+  // Contour and middle points (Sec. 4.3).
+  trace_path(region, top, width, ground_rows, out);
   return ok();
 }
 

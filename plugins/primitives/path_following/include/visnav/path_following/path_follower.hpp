@@ -269,6 +269,17 @@ class PathFollower {
  private:
   explicit PathFollower(const PathFollowerParams& params);
   void ensure_buffers(cv::Size size);
+  /// Clears `out` and the stages for a new frame whose ground starts at image row `top`.
+  void begin_frame(PathEstimate& out, const cv::Mat& bgr, int top);
+  /// Sec. 4.1: blurs the ground rows into blurred_, segments them into labels_ (at seg_scale);
+  /// returns the number of segments. `blurred`/`labels` are set to the views used.
+  int segment_ground(const cv::Mat& ground, int ground_rows, cv::Mat& blurred, cv::Mat& labels);
+  /// Sec. 4.2 step 4: the region of the first reference models, fewer while it is larger than
+  /// multi_model_max_share of the ground; records the models used. Returns the region's pixels.
+  int extract_path_region(int segments, const cv::Mat& labels, const cv::Mat& roi, double ground_pixels,
+                          PathEstimate& out);
+  /// Sec. 4.3: contour, middle points, offsets, status and command of the region at row `top`.
+  void trace_path(const cv::Mat& region, int top, int width, int ground_rows, PathEstimate& out);
   void build_reference_roi(int ground_rows, int width);
   void accumulate_segment_statistics(const cv::Mat& hsv, const cv::Mat& labels, const cv::Mat& roi, int segments);
   int learn_reference_models(double roi_pixels);

@@ -192,7 +192,8 @@ struct FeatureReplayParams {
                       {"along_end_window_m", "along_end_window_m"},
                       {"along_min_frames", "along_min_frames"},
                       {"along_max_sd_m", "along_max_sd_m"},
-                      {"temporal_decay", "temporal_decay"}})
+                      {"temporal_decay", "temporal_decay"},
+                      {"temporal_hold_m", "temporal_hold_m"}})
             .include(&P::localmaps, LocalMapReplayParams::schema(),
                      {{"gain_radps_per_px", "correction_gain_radps_per_px"},
                       {"max_correction_radps", "max_correction_radps"},

@@ -92,7 +92,11 @@ const ParamSchema<SegmentReplayParams>& SegmentReplayParams::schema() {
           .field("temporal_decay", &SegmentReplayParams::temporal_decay,
                  "temporal filter: weight kept per frame from the earlier frames' votes, shifted by the odometric "
                  "rotation since (0 = off: each frame on its own)")
-          .range(0.0, 0.99);
+          .range(0.0, 0.99)
+          .field("temporal_hold_m", &SegmentReplayParams::temporal_hold_m,
+                 "temporal filter: the filtered offset steers only within this distance after the last frame whose "
+                 "own estimate was confident, m")
+          .range(0.0, 1000.0);
   return s;
 }
 
@@ -301,7 +305,7 @@ bool SegmentReplayer::apply_filter(HeadingEstimate& est, double d_m, double imag
   const double bin_px = estimator_.params().bin_width_px;
   const bool own_valid = est.valid;
   const bool agree = filtered && filtered->valid && own_valid && std::abs(est.offset_px - filtered->offset_px) <= bin_px;
-  const bool on_track = filtered && filtered->valid && std::isfinite(anchor_px_) && d_m - anchor_d_m_ <= kFilterHoldM &&
+  const bool on_track = filtered && filtered->valid && std::isfinite(anchor_px_) && d_m - anchor_d_m_ <= params_.temporal_hold_m &&
                         std::abs(filtered->offset_px - anchor_px_) <= kFilterGateBins * bin_px;
   if (agree) est.confidence = std::max(est.confidence, filtered->confidence);  // keep the refined offset
   if (agree || (own_valid && !on_track)) {

@@ -497,7 +497,7 @@ Features weak_frame(const Features& full, double distance_m, int keep, std::mt19
 TEST(SegmentReplayer, TemporalFilterSteersOnFramesTooWeakOnTheirOwn) {
   // Two confident frames, then frames with four correct votes each, below min_inliers (6): alone
   // they give no heading. Accumulated (decay 0.7) on the track the confident frames started, they
-  // steer the right way until the track is kFilterHoldM old.
+  // steer the right way until the track is temporal_hold_m old.
   const double heading_rad = 0.06;  // turned left: scene right, f * tan(0.06) ~ 30 px
   fr::SegmentReplayer plain(taught().map, filter_params(0.0), scene_heading_params());
   fr::SegmentReplayer filtered(taught().map, filter_params(kFilterDecay), scene_heading_params());
@@ -529,7 +529,7 @@ TEST(SegmentReplayer, TemporalFilterSteersOnFramesTooWeakOnTheirOwn) {
   EXPECT_EQ(plain_steering, 0);
   EXPECT_EQ(filtered_steering, 8);
   // Past the hold distance without a confident frame of its own, the track ends.
-  const double late_d = 3.95 + fr::kFilterHoldM + 0.1;
+  const double late_d = 3.95 + fr::SegmentReplayParams{}.temporal_hold_m + 0.1;
   const Features weak = weak_frame(taught().scene.observe({late_d, 0.0, heading_rad}, rng), late_d, 4, rng);
   EXPECT_EQ(filtered.step(late_d, weak, 640.0, 0.0, heading_rad).state, fr::ReplayState::low_confidence);
 }

@@ -49,7 +49,7 @@
 // offset steered on, moved by the odometric rotation since. When the filtered estimate is valid:
 // if this frame's own estimate is valid and within one bin of it, the frame's refined offset is
 // kept (with the larger of the two confidences); otherwise the filtered offset steers if it lies
-// within kFilterGateBins bins of the anchor and the anchor is at most kFilterHoldM old (a weak
+// within kFilterGateBins bins of the anchor and the anchor is at most temporal_hold_m old (a weak
 // frame still gets a heading; a stray single-frame peak is outvoted). In every other case the
 // frame's own estimate stands: weak evidence that piles up somewhere no confident frame has been
 // (a repeated structure in winter, seen frame after frame) never steers. The along-track fit uses
@@ -142,10 +142,9 @@ class SegmentTeacher {
 };
 
 /// Temporal filter (SegmentReplayParams::temporal_decay): the filtered offset steers only within
-/// this many histogram bins of the last own-valid offset (moved by the odometric rotation since)...
+/// this many histogram bins of the last own-valid offset (moved by the odometric rotation since),
+/// and only while that offset was taken at most temporal_hold_m back along the segment.
 inline constexpr double kFilterGateBins = 2.0;
-/// ...and only while that offset was taken at most this far back along the segment, m.
-inline constexpr double kFilterHoldM = 1.0;
 
 struct SegmentReplayParams {
   double speed_mps = 0.3;              ///< constant forward speed v0
@@ -174,6 +173,9 @@ struct SegmentReplayParams {
   /// 0 = off (each frame on its own, Algorithm 2). Its vote and confidence gates are the
   /// HeadingParams' (min_inliers, full_confidence_inliers, min_confidence).
   double temporal_decay = 0.0;
+  /// Temporal filter: the filtered offset steers only while the last offset a frame's own valid
+  /// estimate steered on is at most this far back along the segment, m.
+  double temporal_hold_m = 1.0;
 
   /// The schema's ranges (declared once there).
   [[nodiscard]] Status validate() const { return schema().check(*this); }

@@ -225,78 +225,67 @@ vm::ReplayParams params_for(const std::string& controller, bool coarse, std::mt1
   return p;
 }
 
-}  // namespace
+/// The replayed controllers, in table order.
+const char* const kControllers[] = {"RH", "IJP", "IJPU", "IJC", "IJCU", "AIJCA", "centroid"};
 
-int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
-  if (argc > 2 && std::strcmp(argv[1], "--trace") == 0) {  // --trace CONTROLLER: one replay, every frame
-    g_trace = true;
-    g_width = 320;
-    g_height = 240;
-    auto w = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/curve20m.yaml");
-    if (!w.ok()) return 1;
-    std::mt19937 rng0(1);
-    const vm::ReplayParams traced = params_for(argv[2], argc > 6, rng0);
-    const Taught t = teach(*w, traced.camera);
-    for (std::size_t k = 0; k < t.reference_truth.size(); ++k)
-      std::printf("ref %zu at %.2f m: truth (%.2f, %.2f), %d 3D\n", k, t.memory.references[k].distance_m,
-                  t.reference_truth[k].x_m, t.reference_truth[k].y_m, t.memory.references[k].count_3d());
-    if (argc > 4) g_lambda = std::atof(argv[4]);
-    if (argc > 5) g_switch_rule = argv[5];
-    vm::ReplayParams p = traced;
-    p.lambda = p.centroid_gain_radps = g_lambda;
-    p.switch_rule = g_switch_rule;
-    const Metrics m = replay(*w, t, p, 21, std::atof(argv[3]));
-    std::printf("goal %d eps %.1f pos %.0f cm n %.0f end %.0f cm\n", m.goal, m.mean_error_px, m.mean_position_cm, m.mean_n,
-                100 * m.end_error_m);
-    return 0;
-  }
-  int domain_seeds = 0;  // --domain N [--quick]: only the convergence domain, over N replay seeds
-  for (int i = 1; i + 1 < argc; ++i)
-    if (std::strcmp(argv[i], "--domain") == 0) domain_seeds = std::clamp(std::atoi(argv[i + 1]), 1, 20);
-  if (quick || (argc > 3 && std::strcmp(argv[3], "--quick") == 0)) {
-    g_width = 320;
-    g_height = 240;
-  }
-  auto world = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/curve20m.yaml");
-  if (!world.ok()) {
-    std::fprintf(stderr, "%s\n", world.error().message.c_str());
-    return 1;
-  }
-  const Taught t = teach(*world);
-  std::printf("taught: %.2f m, %zu references, %dx%d\n\n", t.length_m, t.memory.references.size(), g_width, g_height);
-  const char* controllers[] = {"RH", "IJP", "IJPU", "IJC", "IJCU", "AIJCA", "centroid"};
-  if (domain_seeds > 0) {
-    // The convergence domain over several replay seeds (41, 42, ...): per seed the largest lateral
-    // start offset (0.2 m steps up to 1.6 m) from which the goal is still reached within 0.5 m.
-    std::printf("convergence domain over %d replay seeds (largest converging offset per seed, m)\n\n"
-                "| controller | per seed | mean | rho (mean) |\n|---|---|---|---|\n", domain_seeds);
-    for (const char* c : controllers) {
-      std::mt19937 unused(1);
-      const vm::ReplayParams p = params_for(c, false, unused);
-      std::string per_seed;
-      double sum_best = 0.0, sum_rho = 0.0;
-      for (int k = 0; k < domain_seeds; ++k) {
-        const int seed = 41 + k;
-        const Metrics ideal = replay(*world, t, p, seed, 0.0);
-        double best = 0.0, rho = 0.0;
-        for (double off = 0.2; off <= 1.6 + 1e-9; off += 0.2) {
-          const Metrics m = replay(*world, t, p, seed, off);
-          if (!m.goal || m.end_error_m > 0.5) break;
-          best = off;
-          rho = ideal.first_error_px > 0.0 ? m.first_error_px / ideal.first_error_px : 0.0;
-        }
-        char buf[32];
-        std::snprintf(buf, sizeof buf, "%s%.1f", per_seed.empty() ? "" : ", ", best);
-        per_seed += buf;
-        sum_best += best;
-        sum_rho += rho;
+/// --trace CONTROLLER OFFSET [LAMBDA [SWITCH_RULE [coarse]]]: one replay, every frame.
+int run_trace(int argc, char** argv) {
+  g_trace = true;
+  g_width = 320;
+  g_height = 240;
+  auto w = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/curve20m.yaml");
+  if (!w.ok()) return 1;
+  std::mt19937 rng0(1);
+  const vm::ReplayParams traced = params_for(argv[2], argc > 6, rng0);
+  const Taught t = teach(*w, traced.camera);
+  for (std::size_t k = 0; k < t.reference_truth.size(); ++k)
+    std::printf("ref %zu at %.2f m: truth (%.2f, %.2f), %d 3D\n", k, t.memory.references[k].distance_m,
+                t.reference_truth[k].x_m, t.reference_truth[k].y_m, t.memory.references[k].count_3d());
+  if (argc > 4) g_lambda = std::atof(argv[4]);
+  if (argc > 5) g_switch_rule = argv[5];
+  vm::ReplayParams p = traced;
+  p.lambda = p.centroid_gain_radps = g_lambda;
+  p.switch_rule = g_switch_rule;
+  const Metrics m = replay(*w, t, p, 21, std::atof(argv[3]));
+  std::printf("goal %d eps %.1f pos %.0f cm n %.0f end %.0f cm\n", m.goal, m.mean_error_px, m.mean_position_cm, m.mean_n,
+              100 * m.end_error_m);
+  return 0;
+}
+
+/// --domain N: the convergence domain over N replay seeds.
+void print_domain_over_seeds(const std::shared_ptr<const sim::World>& world, const Taught& t, int domain_seeds) {
+  // The convergence domain over several replay seeds (41, 42, ...): per seed the largest lateral
+  // start offset (0.2 m steps up to 1.6 m) from which the goal is still reached within 0.5 m.
+  std::printf("convergence domain over %d replay seeds (largest converging offset per seed, m)\n\n"
+              "| controller | per seed | mean | rho (mean) |\n|---|---|---|---|\n", domain_seeds);
+  for (const char* c : kControllers) {
+    std::mt19937 unused(1);
+    const vm::ReplayParams p = params_for(c, false, unused);
+    std::string per_seed;
+    double sum_best = 0.0, sum_rho = 0.0;
+    for (int k = 0; k < domain_seeds; ++k) {
+      const int seed = 41 + k;
+      const Metrics ideal = replay(world, t, p, seed, 0.0);
+      double best = 0.0, rho = 0.0;
+      for (double off = 0.2; off <= 1.6 + 1e-9; off += 0.2) {
+        const Metrics m = replay(world, t, p, seed, off);
+        if (!m.goal || m.end_error_m > 0.5) break;
+        best = off;
+        rho = ideal.first_error_px > 0.0 ? m.first_error_px / ideal.first_error_px : 0.0;
       }
-      std::printf("| %s | %s | %.2f | %.1f |\n", c, per_seed.c_str(), sum_best / domain_seeds, sum_rho / domain_seeds);
-      std::fflush(stdout);
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%s%.1f", per_seed.empty() ? "" : ", ", best);
+      per_seed += buf;
+      sum_best += best;
+      sum_rho += rho;
     }
-    return 0;
+    std::printf("| %s | %s | %.2f | %.1f |\n", c, per_seed.c_str(), sum_best / domain_seeds, sum_rho / domain_seeds);
+    std::fflush(stdout);
   }
+}
+
+/// The tables with correct and coarse calibration: mean ± sd over the replay seeds.
+void print_calibration_tables(const std::shared_ptr<const sim::World>& world, const Taught& t) {
   std::mt19937 rng(2009);
   // Table rows: mean ± sd over the replay seeds (each seed draws its own odometry and camera errors).
   const int seeds[] = {21, 22, 23};
@@ -312,13 +301,13 @@ int main(int argc, char** argv) {
                 "| controller | goals | avg eps_i (px) | avg position error (cm) | avg n | end error (cm) |\n"
                 "|---|---|---|---|---|---|\n",
                 coarse ? "coarse (±10 %)" : "correct", std::size(seeds));
-    for (const char* c : controllers) {
+    for (const char* c : kControllers) {
       const vm::ReplayParams p = params_for(c, coarse, rng);
-      const Taught taught_here = coarse ? teach(*world, p.camera) : Taught{};
+      const Taught taught_here = coarse ? teach(world, p.camera) : Taught{};
       std::vector<double> eps, pos, n, end;
       int goals = 0;
       for (int seed : seeds) {
-        const Metrics m = replay(*world, coarse ? taught_here : t, p, seed, 0.0);
+        const Metrics m = replay(world, coarse ? taught_here : t, p, seed, 0.0);
         goals += m.goal ? 1 : 0;
         eps.push_back(m.mean_error_px);
         pos.push_back(m.mean_position_cm);
@@ -335,16 +324,20 @@ int main(int argc, char** argv) {
     }
     std::printf("\n");
   }
+}
+
+/// The convergence domain of replay seed 41 (lateral start offsets up to 0.6 m quick, else 1.2 m).
+void print_convergence_domain(const std::shared_ptr<const sim::World>& world, const Taught& t, bool quick) {
   std::printf("convergence domain (lateral start offset, converged = goal within 0.5 m)\n\n"
               "| controller | largest offset (m) | rho |\n|---|---|---|\n");
   const double max_offset = quick ? 0.6 : 1.2;
-  for (const char* c : controllers) {
+  for (const char* c : kControllers) {
     std::mt19937 unused(1);
     const vm::ReplayParams p = params_for(c, false, unused);
-    const Metrics ideal = replay(*world, t, p, 41, 0.0);
+    const Metrics ideal = replay(world, t, p, 41, 0.0);
     double best = -1.0, rho = 0.0;
     for (double off = 0.2; off <= max_offset + 1e-9; off += 0.2) {
-      const Metrics m = replay(*world, t, p, 41, off);
+      const Metrics m = replay(world, t, p, 41, off);
       if (!m.goal || m.end_error_m > 0.5) break;
       best = off;
       rho = ideal.first_error_px > 0.0 ? m.first_error_px / ideal.first_error_px : 0.0;
@@ -353,5 +346,32 @@ int main(int argc, char** argv) {
     else std::printf("| %s | %.1f%s | %.1f |\n", c, best, best >= max_offset - 1e-9 ? " (all tried)" : "", rho);
     std::fflush(stdout);
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  if (argc > 2 && std::strcmp(argv[1], "--trace") == 0) return run_trace(argc, argv);
+  int domain_seeds = 0;  // --domain N [--quick]: only the convergence domain, over N replay seeds
+  for (int i = 1; i + 1 < argc; ++i)
+    if (std::strcmp(argv[i], "--domain") == 0) domain_seeds = std::clamp(std::atoi(argv[i + 1]), 1, 20);
+  if (quick || (argc > 3 && std::strcmp(argv[3], "--quick") == 0)) {
+    g_width = 320;
+    g_height = 240;
+  }
+  auto world = sim::load_world(std::string(VISNAV_TEST_SOURCE_DIR) + "/config/worlds/curve20m.yaml");
+  if (!world.ok()) {
+    std::fprintf(stderr, "%s\n", world.error().message.c_str());
+    return 1;
+  }
+  const Taught t = teach(*world);
+  std::printf("taught: %.2f m, %zu references, %dx%d\n\n", t.length_m, t.memory.references.size(), g_width, g_height);
+  if (domain_seeds > 0) {
+    print_domain_over_seeds(*world, t, domain_seeds);
+    return 0;
+  }
+  print_calibration_tables(*world, t);
+  print_convergence_domain(*world, t, quick);
   return 0;
 }

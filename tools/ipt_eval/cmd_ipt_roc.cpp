@@ -42,11 +42,36 @@ bool parse_double(const char* text, double& out) {
   return end != text && *end == '\0';
 }
 
-}  // namespace
+/// --run X,Y,DEG,LEN: the first replaces the obstacle course's runs, each adds one.
+bool parse_run(const char* text, RocOptions& options, bool& custom_runs) {
+  double x = 0.0, y = 0.0, deg = 0.0, len = 0.0;
+  char tail = 0;
+  if (std::sscanf(text, "%lf,%lf,%lf,%lf%c", &x, &y, &deg, &len, &tail) != 4 || !(len > 0.0)) {
+    std::fprintf(stderr, "visnav ipt-roc: --run needs X,Y,DEG,LEN with LEN > 0 (got '%s')\n%s", text,
+                 kIptRocUsage);
+    return false;
+  }
+  if (!custom_runs) options.runs.clear();
+  custom_runs = true;
+  options.runs.push_back({Pose2D{x, y, deg * CV_PI / 180.0}, len});
+  return true;
+}
 
-int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
-  RocOptions options;
-  std::string picture_path;
+/// --mount HEIGHT_M,PITCH_DOWN_DEG,HFOV_DEG.
+bool parse_mount(const char* text, RocOptions& options) {
+  char tail = 0;
+  if (std::sscanf(text, "%lf,%lf,%lf%c", &options.mount_height_m, &options.pitch_down_deg,
+                  &options.hfov_deg, &tail) != 3) {
+    std::fprintf(stderr, "visnav ipt-roc: --mount needs HEIGHT_M,PITCH_DOWN_DEG,HFOV_DEG (got '%s')\n%s",
+                 text, kIptRocUsage);
+    return false;
+  }
+  return true;
+}
+
+/// Parses the command line into `options` and `picture_path`. Returns -1 to go on, else the exit
+/// code: 0 after --help, 2 on a bad argument (with the usage on stderr).
+int parse_roc_args(int argc, char** argv, RocOptions& options, std::string& picture_path) {
   bool custom_runs = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -100,25 +125,10 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
     } else if (arg == "--odometry-epipolar-px") {
       if (!value(options.tracking.odometry_epipolar_px)) return 2;
     } else if (arg == "--run" && i + 1 < argc) {
-      double x = 0.0, y = 0.0, deg = 0.0, len = 0.0;
-      char tail = 0;
-      if (std::sscanf(argv[i + 1], "%lf,%lf,%lf,%lf%c", &x, &y, &deg, &len, &tail) != 4 || !(len > 0.0)) {
-        std::fprintf(stderr, "visnav ipt-roc: --run needs X,Y,DEG,LEN with LEN > 0 (got '%s')\n%s", argv[i + 1],
-                     kIptRocUsage);
-        return 2;
-      }
+      if (!parse_run(argv[i + 1], options, custom_runs)) return 2;
       ++i;
-      if (!custom_runs) options.runs.clear();
-      custom_runs = true;
-      options.runs.push_back({Pose2D{x, y, deg * CV_PI / 180.0}, len});
     } else if (arg == "--mount" && i + 1 < argc) {
-      char tail = 0;
-      if (std::sscanf(argv[i + 1], "%lf,%lf,%lf%c", &options.mount_height_m, &options.pitch_down_deg,
-                      &options.hfov_deg, &tail) != 3) {
-        std::fprintf(stderr, "visnav ipt-roc: --mount needs HEIGHT_M,PITCH_DOWN_DEG,HFOV_DEG (got '%s')\n%s",
-                     argv[i + 1], kIptRocUsage);
-        return 2;
-      }
+      if (!parse_mount(argv[i + 1], options)) return 2;
       ++i;
     } else if (arg == "--tracker" && i + 1 < argc) {
       options.tracker = argv[++i];
@@ -131,36 +141,50 @@ int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
       return 2;
     }
   }
+  return -1;
+}
+
+/// Prints the counts, rates, AUCs, best β, contact points and the tracker comparison line.
+void print_roc_report(const RocOptions& options, const RocReport& report) {
+  const Counts& c = report.at_operating_point;
+  std::printf("pairs %d  features %ld (left out at object borders %ld, RANSAC outliers %ld)\n", report.pairs,
+              report.features, c.border, c.ransac_outliers);
+  std::printf("operating point beta %.3f m: TP %ld FP %ld TN %ld FN %ld  unclassified: obstacle %ld ground %ld\n",
+              options.classifier.beta_m, c.tp, c.fp, c.tn, c.fn, c.unclassified_obstacle, c.unclassified_ground);
+  std::printf("precision %.3f  recall %.3f  recall counting unclassified as missed %.3f  fall-out %.3f\n",
+              c.precision(), c.recall(), c.recall_all(), c.fallout());
+  const Counts& b = report.below_horizon;
+  std::printf("below the horizon only (D decides): TP %ld FP %ld TN %ld FN %ld unclassified obstacle %ld ground %ld;"
+              " precision %.3f recall %.3f fall-out %.3f\n",
+              b.tp, b.fp, b.tn, b.fn, b.unclassified_obstacle, b.unclassified_ground, b.precision(), b.recall(),
+              b.fallout());
+  std::printf("ROC AUC %.4f without the D band, %.4f with it; beta minimising FP + 0.5 FN: %.3f m\n",
+              report.auc_without_band, report.auc_with_band, report.best_beta_m);
+  std::printf("contact points %ld, %ld within 3 px of an obstacle pixel\n", report.contact_points,
+              report.contact_points_on_obstacle_base);
+  const long classified = c.tp + c.fp + c.tn + c.fn;
+  std::printf("tracker %s: %.1f features per frame, %.1f matches per pair, inliers %.1f %%, misclassified %.1f %% "
+              "(FP + FN of the classified), %.2f ms per pair\n",
+              options.tracker.c_str(), report.pairs > 0 ? static_cast<double>(report.detected) / report.pairs : 0.0,
+              report.pairs > 0 ? static_cast<double>(report.matched) / report.pairs : 0.0,
+              report.matched > 0 ? 100.0 * static_cast<double>(report.inliers) / static_cast<double>(report.matched) : 0.0,
+              classified > 0 ? 100.0 * static_cast<double>(c.fp + c.fn) / static_cast<double>(classified) : 0.0,
+              report.pairs > 0 ? report.tracking_ms / report.pairs : 0.0);
+}
+
+}  // namespace
+
+int run_ipt_roc(int argc, char** argv, HostServices& /*host*/) {
+  RocOptions options;
+  std::string picture_path;
+  if (const int code = parse_roc_args(argc, argv, options, picture_path); code >= 0) return code;
   cv::Mat picture;
   auto report = evaluate_classifier(options, picture_path.empty() ? nullptr : &picture);
   if (!report) {
     std::fprintf(stderr, "visnav ipt-roc: %s\n", report.error().message.c_str());
     return 1;
   }
-  const Counts& c = report->at_operating_point;
-  std::printf("pairs %d  features %ld (left out at object borders %ld, RANSAC outliers %ld)\n", report->pairs,
-              report->features, c.border, c.ransac_outliers);
-  std::printf("operating point beta %.3f m: TP %ld FP %ld TN %ld FN %ld  unclassified: obstacle %ld ground %ld\n",
-              options.classifier.beta_m, c.tp, c.fp, c.tn, c.fn, c.unclassified_obstacle, c.unclassified_ground);
-  std::printf("precision %.3f  recall %.3f  recall counting unclassified as missed %.3f  fall-out %.3f\n",
-              c.precision(), c.recall(), c.recall_all(), c.fallout());
-  const Counts& b = report->below_horizon;
-  std::printf("below the horizon only (D decides): TP %ld FP %ld TN %ld FN %ld unclassified obstacle %ld ground %ld;"
-              " precision %.3f recall %.3f fall-out %.3f\n",
-              b.tp, b.fp, b.tn, b.fn, b.unclassified_obstacle, b.unclassified_ground, b.precision(), b.recall(),
-              b.fallout());
-  std::printf("ROC AUC %.4f without the D band, %.4f with it; beta minimising FP + 0.5 FN: %.3f m\n",
-              report->auc_without_band, report->auc_with_band, report->best_beta_m);
-  std::printf("contact points %ld, %ld within 3 px of an obstacle pixel\n", report->contact_points,
-              report->contact_points_on_obstacle_base);
-  const long classified = c.tp + c.fp + c.tn + c.fn;
-  std::printf("tracker %s: %.1f features per frame, %.1f matches per pair, inliers %.1f %%, misclassified %.1f %% "
-              "(FP + FN of the classified), %.2f ms per pair\n",
-              options.tracker.c_str(), report->pairs > 0 ? static_cast<double>(report->detected) / report->pairs : 0.0,
-              report->pairs > 0 ? static_cast<double>(report->matched) / report->pairs : 0.0,
-              report->matched > 0 ? 100.0 * static_cast<double>(report->inliers) / static_cast<double>(report->matched) : 0.0,
-              classified > 0 ? 100.0 * static_cast<double>(c.fp + c.fn) / static_cast<double>(classified) : 0.0,
-              report->pairs > 0 ? report->tracking_ms / report->pairs : 0.0);
+  print_roc_report(options, *report);
   if (!picture_path.empty()) {
     if (picture.empty() || !cv::imwrite(picture_path, picture)) {
       std::fprintf(stderr, "visnav ipt-roc: cannot write %s\n", picture_path.c_str());

@@ -214,9 +214,15 @@ long descriptor_matches(const cv::Mat& grey0, const cv::Mat& grey1, const RocOpt
   return static_cast<long>(k0.size());
 }
 
-}  // namespace
+/// evaluate_classifier's running totals: the report and the samples of the AUC and the β sweep.
+struct RocTally {
+  RocReport report;
+  std::vector<Sample> samples;
+  std::vector<double> d_ground, d_obstacle;  // D of features below the guard band, for the β sweep
+  long above_horizon_pos = 0, above_horizon_neg = 0;
+};
 
-Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* picture) {
+Status check_roc_options(const RocOptions& options) {
   VISNAV_TRY(options.classifier.validate());
   VISNAV_TRY(options.profiles.validate());
   VISNAV_TRY(options.tracking.validate());
@@ -224,6 +230,116 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
     return Error{"ipt-roc: step_m and pair_every_m must be > 0 and max_features >= 8", ErrorCode::out_of_range};
   if (options.tracker != "klt" && options.tracker != "sift" && options.tracker != "orb" && options.tracker != "fast")
     return Error{"ipt-roc: unknown tracker '" + options.tracker + "' (known: klt, sift, orb, fast)", ErrorCode::out_of_range};
+  return ok();
+}
+
+/// Tracks the pair with options.tracker (with the epipolar check of `motion`) into ia → ib;
+/// adds the features detected to the report. Returns the outliers dropped.
+int track_roc_pair(const cv::Mat& grey0, const cv::Mat& grey1, const RocOptions& options,
+                   const PipelineParams& tracking, const OdometryEpipolar& motion, std::vector<cv::Point2f>& ia,
+                   std::vector<cv::Point2f>& ib, TrackScratch& tracks, RocReport& report) {
+  int outliers = 0;
+  if (options.tracker == "klt") {
+    outliers = track_pair(grey0, grey1, tracking, ia, ib, tracks, &motion);
+    report.detected += static_cast<long>(tracks.corners.size());
+  } else {
+    report.detected += descriptor_matches(grey0, grey1, options, ia, ib);
+    outliers = reject_epipolar_outliers(ia, ib, tracking, tracks.inliers, &motion);
+  }
+  return outliers;
+}
+
+/// Scores the pair's classified features against the renderer's labels of its second frame.
+void tally_classified(const std::vector<ClassifiedFeature>& classified, const cv::Mat& labels1, RocTally& tally) {
+  RocReport& report = tally.report;
+  Counts& c = report.at_operating_point;
+  for (const auto& f : classified) {
+    const int truth = truth_at(labels1, cv::Point2f(static_cast<float>(f.pixel.x), static_cast<float>(f.pixel.y)));
+    if (truth < 0) {
+      ++c.border;
+      continue;
+    }
+    ++report.features;
+    const bool obstacle = truth == 1;
+    auto count = [&](Counts& k) {
+      switch (f.label) {
+        case FeatureClass::obstacle: (obstacle ? k.tp : k.fp)++; break;
+        case FeatureClass::ground: (obstacle ? k.fn : k.tn)++; break;
+        case FeatureClass::unclassified: (obstacle ? k.unclassified_obstacle : k.unclassified_ground)++; break;
+      }
+    };
+    count(c);
+    if (f.reason != ClassReason::above_horizon && f.reason != ClassReason::guard_band) count(report.below_horizon);
+    if (f.reason == ClassReason::above_horizon) {
+      tally.samples.push_back({truth, std::numeric_limits<double>::infinity()});
+      (obstacle ? tally.above_horizon_pos : tally.above_horizon_neg)++;
+    } else if (f.discrepancy_m >= 0.0 && f.reason != ClassReason::beyond_range) {
+      tally.samples.push_back({truth, f.discrepancy_m});
+      (obstacle ? tally.d_obstacle : tally.d_ground).push_back(f.discrepancy_m);
+    }
+  }
+}
+
+/// The contact points of the pair's second frame; counts them, and those within 3 px of an
+/// obstacle (not ground, not sky) pixel of the labels.
+std::vector<ContactPoint> tally_contacts(const cv::Mat& grey1, const cv::Mat& labels1,
+                                         const std::vector<ClassifiedFeature>& classified, const IptCamera& cam,
+                                         const Pose2D& p1_odo, const RocOptions& options, cv::Mat& edges,
+                                         EdgeScratch& scratch, RocReport& report) {
+  reduced_canny(grey1, options.profiles, edges, scratch);
+  auto contacts = contact_points(edges, classified, cam, p1_odo, options.profiles);
+  report.contact_points += static_cast<long>(contacts.size());
+  for (const auto& cp : contacts) {
+    const int u = static_cast<int>(cp.pixel.x), v = static_cast<int>(cp.pixel.y);
+    bool near_obstacle = false;
+    for (int dv = -3; dv <= 3 && !near_obstacle; ++dv)
+      for (int du = -3; du <= 3 && !near_obstacle; ++du) {
+        const int uu = u + du, vv = v + dv;
+        if (uu >= 0 && vv >= 0 && uu < labels1.cols && vv < labels1.rows &&
+            !is_ground_class(labels1.at<std::uint8_t>(vv, uu)) &&
+            static_cast<vs::LabelClass>(labels1.at<std::uint8_t>(vv, uu)) != vs::LabelClass::sky)
+          near_obstacle = true;
+      }
+    if (near_obstacle) ++report.contact_points_on_obstacle_base;
+  }
+  return contacts;
+}
+
+/// The AUCs without and with the D band, and the β minimising FP + 0.5·FN, from the samples.
+void finish_roc_report(const RocOptions& options, RocTally& tally) {
+  RocReport& report = tally.report;
+  const std::vector<Sample>& samples = tally.samples;
+  report.auc_without_band = auc(samples);
+  // With the band filter kept: features whose D falls in a stored band leave the set.
+  std::vector<Sample> kept;
+  for (const auto& s : samples) {
+    bool in_band = false;
+    const auto& bands = options.classifier.unclassified_bands_m;
+    for (std::size_t i = 0; i + 1 < bands.size(); i += 2) in_band |= s.score > bands[i] && s.score <= bands[i + 1];
+    if (!in_band) kept.push_back(s);
+  }
+  report.auc_with_band = auc(kept);
+  // β sweep, f(β) = FP + 0.5·FN (thesis §4.3), band off; above-horizon features are constant.
+  const std::vector<double>& d_ground = tally.d_ground;
+  const std::vector<double>& d_obstacle = tally.d_obstacle;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (int mm = 0; mm <= 300; ++mm) {
+    const double beta = mm * 1e-3;
+    const double fp = static_cast<double>(tally.above_horizon_neg +
+                                          std::count_if(d_ground.begin(), d_ground.end(), [&](double d) { return d > beta; }));
+    const double fn = static_cast<double>(std::count_if(d_obstacle.begin(), d_obstacle.end(), [&](double d) { return d <= beta; }));
+    const double cost = fp + 0.5 * fn;
+    if (cost < best_cost) {
+      best_cost = cost;
+      report.best_beta_m = beta;
+    }
+  }
+}
+
+}  // namespace
+
+Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* picture) {
+  VISNAV_TRY(check_roc_options(options));
   VISNAV_ASSIGN(const RenderedScene scene, rendered_scene(options.world, options.width_px, options.height_px,
                                                          options.hfov_deg, options.mount_height_m, options.pitch_down_deg));
   const auto& world = scene.world;
@@ -250,10 +366,8 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
     cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
   };
 
-  RocReport report;
-  std::vector<Sample> samples;
-  std::vector<double> d_ground, d_obstacle;  // D of features below the guard band, for the β sweep
-  long above_horizon_pos = 0, above_horizon_neg = 0;
+  RocTally tally;
+  RocReport& report = tally.report;
   int run_index = -1;
   for (const RocRun& run : options.runs) {
     ++run_index;
@@ -271,14 +385,7 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
       p1_odo.y_m += options.odom_position_sd_m * unit(odo_rng);
       p1_odo.heading_rad += options.odom_heading_sd_rad * unit(odo_rng);
       const OdometryEpipolar motion{cam, lens_pose(cam, p0), lens_pose(cam, p1_odo)};
-      int outliers = 0;
-      if (options.tracker == "klt") {
-        outliers = track_pair(grey0, grey1, tracking, ia, ib, tracks, &motion);
-        report.detected += static_cast<long>(tracks.corners.size());
-      } else {
-        report.detected += descriptor_matches(grey0, grey1, options, ia, ib);
-        outliers = reject_epipolar_outliers(ia, ib, tracking, tracks.inliers, &motion);
-      }
+      const int outliers = track_roc_pair(grey0, grey1, options, tracking, motion, ia, ib, tracks, report);
       report.tracking_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
       report.matched += static_cast<long>(ia.size()) + outliers;
       report.inliers += static_cast<long>(ia.size());
@@ -287,77 +394,15 @@ Result<RocReport> evaluate_classifier(const RocOptions& options, cv::Mat* pictur
       VISNAV_ASSIGN(auto classified, classify_features(cam, lens_pose(cam, p0), lens_pose(cam, p1_odo), ia, ib,
                                                        options.classifier));
       ++report.pairs;
-      Counts& c = report.at_operating_point;
-      for (const auto& f : classified) {
-        const int truth = truth_at(labels1, cv::Point2f(static_cast<float>(f.pixel.x), static_cast<float>(f.pixel.y)));
-        if (truth < 0) {
-          ++c.border;
-          continue;
-        }
-        ++report.features;
-        const bool obstacle = truth == 1;
-        auto count = [&](Counts& k) {
-          switch (f.label) {
-            case FeatureClass::obstacle: (obstacle ? k.tp : k.fp)++; break;
-            case FeatureClass::ground: (obstacle ? k.fn : k.tn)++; break;
-            case FeatureClass::unclassified: (obstacle ? k.unclassified_obstacle : k.unclassified_ground)++; break;
-          }
-        };
-        count(c);
-        if (f.reason != ClassReason::above_horizon && f.reason != ClassReason::guard_band) count(report.below_horizon);
-        if (f.reason == ClassReason::above_horizon) {
-          samples.push_back({truth, std::numeric_limits<double>::infinity()});
-          (obstacle ? above_horizon_pos : above_horizon_neg)++;
-        } else if (f.discrepancy_m >= 0.0 && f.reason != ClassReason::beyond_range) {
-          samples.push_back({truth, f.discrepancy_m});
-          (obstacle ? d_obstacle : d_ground).push_back(f.discrepancy_m);
-        }
-      }
-      reduced_canny(grey1, options.profiles, edges, scratch);
-      const auto contacts = contact_points(edges, classified, cam, p1_odo, options.profiles);
-      report.contact_points += static_cast<long>(contacts.size());
-      for (const auto& cp : contacts) {
-        const int u = static_cast<int>(cp.pixel.x), v = static_cast<int>(cp.pixel.y);
-        bool near_obstacle = false;
-        for (int dv = -3; dv <= 3 && !near_obstacle; ++dv)
-          for (int du = -3; du <= 3 && !near_obstacle; ++du) {
-            const int uu = u + du, vv = v + dv;
-            if (uu >= 0 && vv >= 0 && uu < labels1.cols && vv < labels1.rows &&
-                !is_ground_class(labels1.at<std::uint8_t>(vv, uu)) &&
-                static_cast<vs::LabelClass>(labels1.at<std::uint8_t>(vv, uu)) != vs::LabelClass::sky)
-              near_obstacle = true;
-          }
-        if (near_obstacle) ++report.contact_points_on_obstacle_base;
-      }
+      tally_classified(classified, labels1, tally);
+      const auto contacts = tally_contacts(grey1, labels1, classified, cam, p1_odo, options, edges, scratch, report);
       if (picture != nullptr && (options.picture_run < 0 || options.picture_run == run_index)) {
         *picture = bgr1.clone();
         draw_classification(*picture, classified, contacts);
       }
     }
   }
-  report.auc_without_band = auc(samples);
-  // With the band filter kept: features whose D falls in a stored band leave the set.
-  std::vector<Sample> kept;
-  for (const auto& s : samples) {
-    bool in_band = false;
-    const auto& bands = options.classifier.unclassified_bands_m;
-    for (std::size_t i = 0; i + 1 < bands.size(); i += 2) in_band |= s.score > bands[i] && s.score <= bands[i + 1];
-    if (!in_band) kept.push_back(s);
-  }
-  report.auc_with_band = auc(kept);
-  // β sweep, f(β) = FP + 0.5·FN (thesis §4.3), band off; above-horizon features are constant.
-  double best_cost = std::numeric_limits<double>::infinity();
-  for (int mm = 0; mm <= 300; ++mm) {
-    const double beta = mm * 1e-3;
-    const double fp = static_cast<double>(above_horizon_neg +
-                                          std::count_if(d_ground.begin(), d_ground.end(), [&](double d) { return d > beta; }));
-    const double fn = static_cast<double>(std::count_if(d_obstacle.begin(), d_obstacle.end(), [&](double d) { return d <= beta; }));
-    const double cost = fp + 0.5 * fn;
-    if (cost < best_cost) {
-      best_cost = cost;
-      report.best_beta_m = beta;
-    }
-  }
+  finish_roc_report(options, tally);
   return report;
 }
 

@@ -290,43 +290,16 @@ FollowStep MemoryFollower::step(const cv::Mat& image, double edge_distance_m) {
 
 FollowStep MemoryFollower::process(const cv::Mat& grey, double edge_distance_m) {
   FollowStep out;
-  const int count = static_cast<int>(memory_.references.size());
   if (edge_distance_m > edge_length_m_ + params_.goal_overshoot_m) {
     out.status = FollowStatus::goal_by_odometry;
     out.target = target_;
     return out;
   }
   bool relocalised = false;
-  if (initialised_) {
-    std::vector<cv::Point2f> moved = points_;
-    std::vector<std::uint8_t> ok;
-    std::vector<cv::Point2f> from;
-    std::vector<std::size_t> which;
-    for (std::size_t j = 0; j < tracked_.size(); ++j)
-      if (tracked_[j]) {
-        from.push_back(points_[j]);
-        which.push_back(j);
-      }
-    std::vector<cv::Point2f> to;
-    track_klt(previous_, grey, from, to, ok, klt_);
-    for (std::size_t k = 0; k < which.size(); ++k) {
-      tracked_[which[k]] = ok[k];
-      if (ok[k]) points_[which[k]] = to[k];
-    }
-  }
-  auto count_tracked = [&] { return static_cast<int>(std::count(tracked_.begin(), tracked_.end(), std::uint8_t{1})); };
+  if (initialised_) track_points(grey);
   if (!initialised_ || count_tracked() < params_.min_tracked) {
     if (!relocalise(grey)) {
-      initialised_ = false;
-      ++lost_frames_;
-      out.target = target_;
-      out.status = FollowStatus::lost;
-      out.detail = "tracking lost (fewer than " + std::to_string(params_.min_tracked) +
-                   " reference features) and no reference matched";
-      if (lost_frames_ > params_.max_lost_frames) {
-        out.status = FollowStatus::failed;
-        out.failure = "visual memory lost: no reference matched for " + std::to_string(lost_frames_) + " frames";
-      }
+      report_lost(out);
       return out;
     }
     initialised_ = true;
@@ -341,6 +314,61 @@ FollowStep MemoryFollower::process(const cv::Mat& grey, double edge_distance_m) 
   }
 
   // Switching / goal.
+  const SwitchDecision decision = decide_switch(pose, edge_distance_m);
+  if (decision.passed && decision.last) {
+    out.status = FollowStatus::goal;
+    out.detail = decision.how;
+    out.target = target_;
+    out.image_error_px = decision.error_px;
+    return out;
+  }
+  if (decision.passed) {
+    switch_to_next(out, pose, grey);
+    pose = pose_now();
+    out.detail = decision.how;
+  }
+
+  finish_step(out, pose, relocalised, decision.passed);
+  return out;
+}
+
+int MemoryFollower::count_tracked() const {
+  return static_cast<int>(std::count(tracked_.begin(), tracked_.end(), std::uint8_t{1}));
+}
+
+void MemoryFollower::track_points(const cv::Mat& grey) {
+  std::vector<cv::Point2f> moved = points_;
+  std::vector<std::uint8_t> ok;
+  std::vector<cv::Point2f> from;
+  std::vector<std::size_t> which;
+  for (std::size_t j = 0; j < tracked_.size(); ++j)
+    if (tracked_[j]) {
+      from.push_back(points_[j]);
+      which.push_back(j);
+    }
+  std::vector<cv::Point2f> to;
+  track_klt(previous_, grey, from, to, ok, klt_);
+  for (std::size_t k = 0; k < which.size(); ++k) {
+    tracked_[which[k]] = ok[k];
+    if (ok[k]) points_[which[k]] = to[k];
+  }
+}
+
+void MemoryFollower::report_lost(FollowStep& out) {
+  initialised_ = false;
+  ++lost_frames_;
+  out.target = target_;
+  out.status = FollowStatus::lost;
+  out.detail = "tracking lost (fewer than " + std::to_string(params_.min_tracked) +
+               " reference features) and no reference matched";
+  if (lost_frames_ > params_.max_lost_frames) {
+    out.status = FollowStatus::failed;
+    out.failure = "visual memory lost: no reference matched for " + std::to_string(lost_frames_) + " frames";
+  }
+}
+
+MemoryFollower::SwitchDecision MemoryFollower::decide_switch(const PoseEstimate& pose, double edge_distance_m) {
+  const int count = static_cast<int>(memory_.references.size());
   const Reference& ref = memory_.references[static_cast<std::size_t>(target_)];
   std::vector<cv::Point2f> cur_px, ref_px;
   for (std::size_t j = 0; j < tracked_.size(); ++j)
@@ -348,7 +376,9 @@ FollowStep MemoryFollower::process(const cv::Mat& grey, double edge_distance_m) 
       cur_px.push_back(points_[j]);
       ref_px.push_back(ref.points_px[j]);
     }
+  SwitchDecision decision;
   const double error_px = image_error_px(cur_px, ref_px);
+  decision.error_px = error_px;
   const bool image_rule = have_min_error_ && min_error_px_ < params_.switch_error_px &&
                           error_px > min_error_px_ + params_.rise_px;
   if (!have_min_error_ || error_px < min_error_px_) {
@@ -358,6 +388,7 @@ FollowStep MemoryFollower::process(const cv::Mat& grey, double edge_distance_m) 
   const bool pose_rule = pose.ok && pose.position_in_reference_m()[2] >= -params_.switch_margin_m;
   const bool by_odometry = edge_distance_m > ref.distance_m + params_.switch_odometry_margin_m;
   const bool last = target_ == count - 1;
+  decision.last = last;
   bool passed = false;
   std::string how;
   if (last) {
@@ -374,41 +405,39 @@ FollowStep MemoryFollower::process(const cv::Mat& grey, double edge_distance_m) 
     passed = true;
     how = "switched by odometry";
   }
-  if (passed && last) {
-    out.status = FollowStatus::goal;
-    out.detail = how;
-    out.target = target_;
-    out.image_error_px = error_px;
-    return out;
-  }
-  if (passed) {
-    const Reference& next = memory_.references[static_cast<std::size_t>(target_ + 1)];
-    std::vector<cv::Point2f> carried(next.points_px.size());
-    std::vector<std::uint8_t> carried_ok(next.points_px.size(), 0);
-    for (std::size_t j = 0; j < next.ids.size(); ++j) {
-      const int k = ref.find(next.ids[j]);
-      if (k >= 0 && tracked_[static_cast<std::size_t>(k)]) {
-        carried[j] = points_[static_cast<std::size_t>(k)];
-        carried_ok[j] = 1;
-      }
-    }
-    PoseEstimate composed;
-    if (pose.ok) {
-      composed.ok = true;
-      composed.R = pose.R * next.R_from_prev.t();
-      composed.t_m = pose.t_m - composed.R * next.t_from_prev_m;
-    }
-    set_target(target_ + 1);
-    for (std::size_t j = 0; j < carried.size(); ++j)
-      if (carried_ok[j]) {
-        points_[j] = carried[j];
-        tracked_[j] = 1;
-      }
-    if (composed.ok) out.resumed += resume_by_projection(composed, grey, &out.dropped);
-    pose = pose_now();
-    out.detail = how;
-  }
+  decision.passed = passed;
+  decision.how = std::move(how);
+  return decision;
+}
 
+void MemoryFollower::switch_to_next(FollowStep& out, const PoseEstimate& pose, const cv::Mat& grey) {
+  const Reference& ref = memory_.references[static_cast<std::size_t>(target_)];
+  const Reference& next = memory_.references[static_cast<std::size_t>(target_ + 1)];
+  std::vector<cv::Point2f> carried(next.points_px.size());
+  std::vector<std::uint8_t> carried_ok(next.points_px.size(), 0);
+  for (std::size_t j = 0; j < next.ids.size(); ++j) {
+    const int k = ref.find(next.ids[j]);
+    if (k >= 0 && tracked_[static_cast<std::size_t>(k)]) {
+      carried[j] = points_[static_cast<std::size_t>(k)];
+      carried_ok[j] = 1;
+    }
+  }
+  PoseEstimate composed;
+  if (pose.ok) {
+    composed.ok = true;
+    composed.R = pose.R * next.R_from_prev.t();
+    composed.t_m = pose.t_m - composed.R * next.t_from_prev_m;
+  }
+  set_target(target_ + 1);
+  for (std::size_t j = 0; j < carried.size(); ++j)
+    if (carried_ok[j]) {
+      points_[j] = carried[j];
+      tracked_[j] = 1;
+    }
+  if (composed.ok) out.resumed += resume_by_projection(composed, grey, &out.dropped);
+}
+
+void MemoryFollower::finish_step(FollowStep& out, const PoseEstimate& pose, bool relocalised, bool passed) {
   control(out, pose);
   out.target = target_;
   out.pose_ok = pose.ok;
@@ -426,7 +455,6 @@ FollowStep MemoryFollower::process(const cv::Mat& grey, double edge_distance_m) 
     out.command = Twist{};
     out.detail += (out.detail.empty() ? "" : "; ") + std::string("fewer than 5 correspondences: holding still");
   }
-  return out;
 }
 
 }  // namespace visnav::visual_memory

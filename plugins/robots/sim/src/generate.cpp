@@ -349,10 +349,12 @@ void make_waypoints(Layout& L, const std::vector<P>& poly, const std::vector<boo
   L.route.push_back(L.waypoints.front().at);
 }
 
-void build_outdoor(Layout& L, Draw& d, const std::vector<P>& poly, bool mixed, const GenerateParams& gp) {
+/// Outdoor step 1: which sides of the route polygon carry a path (and, for mixed, `hall_side`,
+/// the side that runs through a building; `poly.size()` if none).
+std::vector<bool> choose_path_sides(Draw& d, const std::vector<P>& poly, bool mixed, std::size_t& hall_side) {
   const std::size_t n = poly.size();
   std::vector<bool> path_side(n, false);
-  std::size_t hall_side = n;  // mixed: the side that runs through a building
+  hall_side = n;  // mixed: the side that runs through a building
   if (mixed) {
     std::vector<std::size_t> long_sides;
     for (std::size_t i = 1; i < n; ++i)
@@ -365,8 +367,14 @@ void build_outdoor(Layout& L, Draw& d, const std::vector<P>& poly, bool mixed, c
     paths += path_side[i] ? 1 : 0;
   }
   if (paths == 0) path_side[hall_side == 1 ? 2 : 1] = true;
-  make_waypoints(L, poly, path_side);
+  return path_side;
+}
 
+/// Outdoor step 2: the ground texture, the path regions on the path sides, squares under some
+/// feature sides and side paths leaving corners.
+void add_ground_regions(Layout& L, Draw& d, const std::vector<P>& poly, const std::vector<bool>& path_side,
+                        std::size_t hall_side) {
+  const std::size_t n = poly.size();
   const std::vector<std::string> ground = {"grass", "grass", "meadow"};
   L.default_ground = d.pick(ground);
   L.notes.push_back("ground " + L.default_ground);
@@ -414,40 +422,48 @@ void build_outdoor(Layout& L, Draw& d, const std::vector<P>& poly, bool mixed, c
     r.polyline = {c, c + dir * d.uniform(8, 16)};
     L.regions.push_back(std::move(r));
   }
-  if (hall_side < n) {  // mixed: the route runs through a building hall with a door at each end
-    const P a = poly[hall_side], b = poly[(hall_side + 1) % n];
-    const double len = cv::norm(b - a);
-    const P u = (b - a) / len, nn(-u.y, u.x);
-    const double t0 = 3.0, t1 = len - 3.0, hw = d.uniform(3.0, 5.0), door = gp.corridor_half_width_m, height = d.uniform(5, 9);
-    const std::string facade = "facade" + std::to_string(d.integer(0, 2));
-    RegionSpec floor;
-    floor.name = "hall_floor";
-    floor.texture = d.chance(0.7) ? "floor" : "floor_wood";
-    floor.label = "floor";
-    floor.polygon = {a + u * t0 - nn * hw, a + u * t1 - nn * hw, a + u * t1 + nn * hw, a + u * t0 + nn * hw};
-    L.regions.push_back(std::move(floor));
-    corridor(L, a, b, t0, t1, hw, "indoor", height - 1, "hall");
-    corridor(L, a, b, t0 - 0.3, t1 + 0.3, hw + 0.3, facade, height, "hall_facade");
-    for (double t : {t0, t1}) {
-      const double to = t == t0 ? t0 - 0.3 : t1 + 0.3;
-      for (int s : {-1, 1}) {
-        WallSpec inner{"hall_end_" + std::to_string(static_cast<int>(t)) + (s < 0 ? "_r" : "_l"), "indoor", "wall",
-                       {a + u * t + nn * (s * door), a + u * t + nn * (s * hw)}, false, height - 1, 0.0};
-        L.add_wall(std::move(inner));
-        WallSpec outer{"hall_facade_end_" + std::to_string(static_cast<int>(t)) + (s < 0 ? "_r" : "_l"), facade, "wall",
-                       {a + u * to + nn * (s * door), a + u * to + nn * (s * (hw + 0.3))}, false, height, 0.0};
-        L.add_wall(std::move(outer));
-        WallSpec jamb{"hall_jamb_" + std::to_string(static_cast<int>(t)) + (s < 0 ? "_r" : "_l"), "concrete", "wall",
-                      {a + u * t + nn * (s * door), a + u * to + nn * (s * door)}, false, 2.6, 0.0};
-        L.add_wall(std::move(jamb));
-      }
-      // the lintel above the door: passed under (body_height_m 0.6), not a solid segment
-      L.walls.push_back(WallSpec{"hall_lintel_" + std::to_string(static_cast<int>(t)), facade, "wall",
-                                 {a + u * to - nn * door, a + u * to + nn * door}, false, height - 2.6, 2.6});
+}
+
+/// Outdoor step 3 (mixed): the route runs through a building hall on `hall_side` with a door at
+/// each end.
+void add_hall(Layout& L, Draw& d, const std::vector<P>& poly, std::size_t hall_side, const GenerateParams& gp) {
+  const std::size_t n = poly.size();
+  const P a = poly[hall_side], b = poly[(hall_side + 1) % n];
+  const double len = cv::norm(b - a);
+  const P u = (b - a) / len, nn(-u.y, u.x);
+  const double t0 = 3.0, t1 = len - 3.0, hw = d.uniform(3.0, 5.0), door = gp.corridor_half_width_m, height = d.uniform(5, 9);
+  const std::string facade = "facade" + std::to_string(d.integer(0, 2));
+  RegionSpec floor;
+  floor.name = "hall_floor";
+  floor.texture = d.chance(0.7) ? "floor" : "floor_wood";
+  floor.label = "floor";
+  floor.polygon = {a + u * t0 - nn * hw, a + u * t1 - nn * hw, a + u * t1 + nn * hw, a + u * t0 + nn * hw};
+  L.regions.push_back(std::move(floor));
+  corridor(L, a, b, t0, t1, hw, "indoor", height - 1, "hall");
+  corridor(L, a, b, t0 - 0.3, t1 + 0.3, hw + 0.3, facade, height, "hall_facade");
+  for (double t : {t0, t1}) {
+    const double to = t == t0 ? t0 - 0.3 : t1 + 0.3;
+    for (int s : {-1, 1}) {
+      WallSpec inner{"hall_end_" + std::to_string(static_cast<int>(t)) + (s < 0 ? "_r" : "_l"), "indoor", "wall",
+                     {a + u * t + nn * (s * door), a + u * t + nn * (s * hw)}, false, height - 1, 0.0};
+      L.add_wall(std::move(inner));
+      WallSpec outer{"hall_facade_end_" + std::to_string(static_cast<int>(t)) + (s < 0 ? "_r" : "_l"), facade, "wall",
+                     {a + u * to + nn * (s * door), a + u * to + nn * (s * (hw + 0.3))}, false, height, 0.0};
+      L.add_wall(std::move(outer));
+      WallSpec jamb{"hall_jamb_" + std::to_string(static_cast<int>(t)) + (s < 0 ? "_r" : "_l"), "concrete", "wall",
+                    {a + u * t + nn * (s * door), a + u * to + nn * (s * door)}, false, 2.6, 0.0};
+      L.add_wall(std::move(jamb));
     }
-    L.notes.push_back("hall through side " + std::to_string(hall_side));
+    // the lintel above the door: passed under (body_height_m 0.6), not a solid segment
+    L.walls.push_back(WallSpec{"hall_lintel_" + std::to_string(static_cast<int>(t)), facade, "wall",
+                               {a + u * to - nn * door, a + u * to + nn * door}, false, height - 2.6, 2.6});
   }
-  // scenery: buildings, fences, trees, benches
+  L.notes.push_back("hall through side " + std::to_string(hall_side));
+}
+
+/// Outdoor step 4: scenery around the route: buildings, fences, trees, benches.
+void add_outdoor_scenery(Layout& L, Draw& d, const std::vector<P>& poly, const GenerateParams& gp) {
+  const std::size_t n = poly.size();
   const cv::Rect2d box = bounding_box(poly);
   const cv::Rect2d area(box.x - 16, box.y - 16, box.width + 32, box.height + 32);
   for (int k = d.integer(1, 3), b = 0; k > 0; --k) {
@@ -476,6 +492,16 @@ void build_outdoor(Layout& L, Draw& d, const std::vector<P>& poly, bool mixed, c
                               gp.route_clearance_m, 1.0))
       L.add_wall(WallSpec{"bench_" + std::to_string(b++), d.chance(0.5) ? "fence" : "concrete", "obstacle", *ring, true,
                           d.uniform(0.45, 0.9), 0.0});
+}
+
+void build_outdoor(Layout& L, Draw& d, const std::vector<P>& poly, bool mixed, const GenerateParams& gp) {
+  const std::size_t n = poly.size();
+  std::size_t hall_side = n;
+  const std::vector<bool> path_side = choose_path_sides(d, poly, mixed, hall_side);
+  make_waypoints(L, poly, path_side);
+  add_ground_regions(L, d, poly, path_side, hall_side);
+  if (hall_side < n) add_hall(L, d, poly, hall_side, gp);
+  add_outdoor_scenery(L, d, poly, gp);
 }
 
 void build_indoor(Layout& L, Draw& d, const std::vector<P>& poly, const GenerateParams& gp) {

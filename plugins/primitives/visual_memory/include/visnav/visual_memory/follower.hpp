@@ -101,6 +101,20 @@ class MemoryFollower {
  private:
   MemoryFollower(const ReplayParams& params, VisualMemory memory, double edge_length_m, Controller controller);
   FollowStep process(const cv::Mat& grey, double edge_distance_m);
+  /// The switching rule's verdict for the current target (process' "switching / goal" step).
+  struct SwitchDecision {
+    bool passed = false;  ///< the target is passed (switch, or the goal if `last`)
+    bool last = false;    ///< the target is the last reference
+    std::string how;      ///< which rule decided
+    double error_px = 0.0;
+  };
+  // process' steps, in order
+  void track_points(const cv::Mat& grey);
+  void report_lost(FollowStep& out);
+  SwitchDecision decide_switch(const PoseEstimate& pose, double edge_distance_m);
+  void switch_to_next(FollowStep& out, const PoseEstimate& pose, const cv::Mat& grey);
+  void finish_step(FollowStep& out, const PoseEstimate& pose, bool relocalised, bool passed);
+  [[nodiscard]] int count_tracked() const;
   bool relocalise(const cv::Mat& grey);
   void set_target(int index);
   int resume_by_projection(const PoseEstimate& pose, const cv::Mat& grey, int* dropped);

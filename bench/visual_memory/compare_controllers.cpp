@@ -246,6 +246,10 @@ int run_trace(int argc, char** argv) {
   vm::ReplayParams p = traced;
   p.lambda = p.centroid_gain_radps = g_lambda;
   p.switch_rule = g_switch_rule;
+  if (const visnav::Status st = p.validate(); !st) {
+    std::fprintf(stderr, "visual_memory_compare --trace: %s\n", st.error().message.c_str());
+    return 2;
+  }
   const Metrics m = replay(*w, t, p, 21, std::atof(argv[3]));
   std::printf("goal %d eps %.1f pos %.0f cm n %.0f end %.0f cm\n", m.goal, m.mean_error_px, m.mean_position_cm, m.mean_n,
               100 * m.end_error_m);

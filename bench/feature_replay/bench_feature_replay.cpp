@@ -20,7 +20,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -208,22 +210,34 @@ void BM_ours_opencv_orb(benchmark::State& state) {
 }
 
 #ifdef VISNAV_HAVE_DETECTOR_CORE
-void BM_ours_detector(benchmark::State& state, std::string type) {
-  cv::setNumThreads(1);
-  const auto& f = frames();
+/// A 500-keypoint detector of `type`; null (the benchmark skipped with the reason) if it cannot be made.
+std::unique_ptr<visnav::detectors::DetectorBase> bench_detector(benchmark::State& state, const std::string& type) {
   auto made = visnav::detectors::create_detector(type, visnav::detectors::make_params({{"target_keypoints", "500"}}));
   if (!made) {
     state.SkipWithError(made.error().message.c_str());
-    return;
+    return nullptr;
   }
-  auto& det = *made;
-  visnav::Features map, cur;
-  // Warm the adaptive threshold up on the reference before taking the map.
-  for (int i = 0; i < 8; ++i) (void)det->detect(f.reference, map);
-  if (!det->detect(f.reference, map)) {
+  return std::move(*made);
+}
+
+/// Detects `image` into `out` after warming the adaptive threshold up on it (8 frames); false
+/// (the benchmark skipped) if the detection fails.
+bool warm_detect(benchmark::State& state, visnav::detectors::DetectorBase& det, const cv::Mat& image,
+                 visnav::Features& out) {
+  for (int i = 0; i < 8; ++i) (void)det.detect(image, out);
+  if (!det.detect(image, out)) {
     state.SkipWithError("detect failed");
-    return;
+    return false;
   }
+  return true;
+}
+
+void BM_ours_detector(benchmark::State& state, std::string type) {
+  cv::setNumThreads(1);
+  const auto& f = frames();
+  const auto det = bench_detector(state, type);
+  visnav::Features map, cur;
+  if (!det || !warm_detect(state, *det, f.reference, map)) return;
   fr::HeadingEstimator est;
   fr::HeadingEstimate e;
   timed_loop(state, "ours_" + type, [&] {
@@ -244,18 +258,9 @@ void BM_ours_detector(benchmark::State& state, std::string type) {
 void BM_ours_filtered(benchmark::State& state) {
   cv::setNumThreads(1);
   const auto& f = frames();
-  auto made = visnav::detectors::create_detector("star_brief", visnav::detectors::make_params({{"target_keypoints", "500"}}));
-  if (!made) {
-    state.SkipWithError(made.error().message.c_str());
-    return;
-  }
-  auto& det = *made;
+  const auto det = bench_detector(state, "star_brief");
   visnav::Features map, cur;
-  for (int i = 0; i < 8; ++i) (void)det->detect(f.reference, map);
-  if (!det->detect(f.reference, map)) {
-    state.SkipWithError("detect failed");
-    return;
-  }
+  if (!det || !warm_detect(state, *det, f.reference, map)) return;
   fr::HeadingEstimator est;
   fr::HeadingFilterParams fp;
   fp.decay = 0.7;
@@ -288,25 +293,16 @@ void BM_ours_filtered(benchmark::State& state) {
 void BM_experiences(benchmark::State& state, double recheck_below) {
   cv::setNumThreads(1);
   const auto& f = frames();
-  auto made = visnav::detectors::create_detector("star_brief", visnav::detectors::make_params({{"target_keypoints", "500"}}));
-  if (!made) {
-    state.SkipWithError(made.error().message.c_str());
-    return;
-  }
-  auto& det = *made;
+  const auto det = bench_detector(state, "star_brief");
+  if (!det) return;
   cv::Mat dark, mirrored;
   cv::GaussianBlur(f.reference, dark, cv::Size(0, 0), 1.5);
   dark.convertTo(dark, -1, 0.6, 10.0);
   cv::flip(f.reference, mirrored, 1);
   std::vector<visnav::Features> experiences(3);
   const cv::Mat* images[3] = {&f.reference, &dark, &mirrored};
-  for (int k = 0; k < 3; ++k) {
-    for (int i = 0; i < 8; ++i) (void)det->detect(*images[k], experiences[static_cast<std::size_t>(k)]);
-    if (!det->detect(*images[k], experiences[static_cast<std::size_t>(k)])) {
-      state.SkipWithError("detect failed");
-      return;
-    }
-  }
+  for (int k = 0; k < 3; ++k)
+    if (!warm_detect(state, *det, *images[k], experiences[static_cast<std::size_t>(k)])) return;
   std::vector<fr::HeadingEstimator> est(3);
   std::vector<fr::HeadingEstimate> out(3);
   fr::ExperienceSelector selector(3, recheck_below);

@@ -303,12 +303,12 @@ bool SegmentReplayer::apply_filter(HeadingEstimate& est, double d_m, double imag
   if (std::isfinite(anchor_px_)) anchor_px_ += shift_px;
   auto filtered = filter_->update(estimator_.last_histogram(), shift_px);
   const double bin_px = estimator_.params().bin_width_px;
-  const bool own_valid = est.valid;
-  const bool agree = filtered && filtered->valid && own_valid && std::abs(est.offset_px - filtered->offset_px) <= bin_px;
-  const bool on_track = filtered && filtered->valid && std::isfinite(anchor_px_) && d_m - anchor_d_m_ <= params_.temporal_hold_m &&
+  const bool usable = filtered && filtered->valid;
+  const bool agree = usable && est.valid && std::abs(est.offset_px - filtered->offset_px) <= bin_px;
+  const bool on_track = usable && std::isfinite(anchor_px_) && d_m - anchor_d_m_ <= params_.temporal_hold_m &&
                         std::abs(filtered->offset_px - anchor_px_) <= kFilterGateBins * bin_px;
   if (agree) est.confidence = std::max(est.confidence, filtered->confidence);  // keep the refined offset
-  if (agree || (own_valid && !on_track)) {
+  if (agree || (est.valid && !on_track)) {
     anchor_px_ = est.offset_px;
     anchor_d_m_ = d_m;
     return false;

@@ -624,3 +624,22 @@ TEST(SegmentReplayer, TemporalFilterStartsAfreshOnEachSegment) {
   const Features weak = weak_frame(taught().scene.observe({4.3, 0.0, 0.0}, rng), 4.3, 4, rng);
   EXPECT_EQ(rep.step(4.3, weak, 640.0, 0.0, 0.0).state, fr::ReplayState::low_confidence);
 }
+
+TEST(SegmentReplayer, TemporalFilterForgetsItsVotesWhenOdometryJumps) {
+  // An odometric heading jump of 0.5 rad between frames (a glitch: ~250 px of predicted shift,
+  // inside the histogram's range but over the filter's 200 px bound) restarts the accumulation: a
+  // weak frame after it is not steered on the earlier votes shifted by the jump.
+  fr::SegmentReplayer rep(taught().map, filter_params(kFilterDecay), scene_heading_params());
+  rep.begin(0.0);
+  std::mt19937 rng(16);
+  for (int k = 0; k < 4; ++k) {
+    const double d = 4.0 + 0.05 * k;
+    ASSERT_EQ(rep.step(d, taught().scene.observe({d, 0.0, 0.0}, rng), 640.0, 0.0, 0.0).state,
+              fr::ReplayState::steering);
+  }
+  const Features weak = weak_frame(taught().scene.observe({4.2, 0.0, 0.0}, rng), 4.2, 4, rng);
+  const auto out = rep.step(4.2, weak, 640.0, 0.0, 0.5);
+  EXPECT_EQ(out.state, fr::ReplayState::low_confidence);
+  EXPECT_FALSE(out.filtered);
+  EXPECT_EQ(out.command.angular_radps, 0.0);
+}

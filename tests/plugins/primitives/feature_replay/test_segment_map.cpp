@@ -446,6 +446,11 @@ TEST(SegmentParams, ValidateEnforcesTheSchemaRanges) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("key 'gain_radps_per_px': value 2 is out of range [0, 1]"), std::string::npos)
       << r.error().message;
+  fr::SegmentReplayParams filter;
+  filter.temporal_decay = 1.0;  // every vote kept forever: refused
+  const visnav::Status f = filter.validate();
+  ASSERT_FALSE(f.ok());
+  EXPECT_NE(f.error().message.find("key 'temporal_decay'"), std::string::npos) << f.error().message;
 }
 
 // ---- temporal filter (temporal_decay > 0, issue 36) ----

@@ -442,6 +442,7 @@ int simd(const std::vector<std::string>& args) {
   host.set_robot(robot->get());
   auto camera = loader.create<visnav::Camera>("sim", o.camera_params, host);
   if (!camera) return error("camera: " + camera.error().message);
+  host.set_camera(camera->get(), "camera 'sim' (visnav simd --camera-param)");
 
   CommandSlot commands;
   dds::WarningLimiter command_warnings(1.0);

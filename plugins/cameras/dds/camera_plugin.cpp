@@ -13,13 +13,14 @@
 #include <memory>
 
 #include "image_decoder.hpp"
+#include "visnav/camera_mount.hpp"
 #include "visnav/dds.hpp"
 #include "visnav/plugin.hpp"
 
 namespace visnav::camera_dds {
 namespace {
 
-struct DdsCameraParams {
+struct DdsCameraParams : CameraMountOptions {  // + the camera mount keys (add_camera_mount_fields)
   int domain_id = 0;
   std::string partition;
   std::string transport = "raw";
@@ -35,10 +36,11 @@ struct DdsCameraParams {
     if (!topic.empty()) return topic;
     return transport == "compressed" ? "rt/camera/image_raw/compressed" : "rt/camera/image_raw";
   }
-  [[nodiscard]] Status validate() const { return ok(); }
+  [[nodiscard]] Status validate() const { return CameraMountOptions::validate(); }
   static const ParamSchema<DdsCameraParams>& schema() {
-    static const auto s = ParamSchema<DdsCameraParams>{}
-        .field("domain_id", &DdsCameraParams::domain_id, "DDS domain id (ROS_DOMAIN_ID of the camera)").range(0, 232)
+    static const auto s = [] {
+      ParamSchema<DdsCameraParams> p;
+      p.field("domain_id", &DdsCameraParams::domain_id, "DDS domain id (ROS_DOMAIN_ID of the camera)").range(0, 232)
         .field("partition", &DdsCameraParams::partition, "DDS partition; empty = default (what ROS 2 uses)")
         .field("transport", &DdsCameraParams::transport, "raw: sensor_msgs/Image; compressed: sensor_msgs/CompressedImage").one_of({"raw", "compressed"})
         .field("topic", &DdsCameraParams::topic, "DDS topic; empty = rt/camera/image_raw (raw) or rt/camera/image_raw/compressed")
@@ -48,6 +50,9 @@ struct DdsCameraParams {
         .field("max_height_px", &DdsCameraParams::max_height_px, "larger images are dropped").range(1, 65535)
         .field("max_compressed_bytes", &DdsCameraParams::max_compressed_bytes, "larger compressed images are dropped").range(1, 1 << 30)
         .field("timestamp", &DdsCameraParams::timestamp, "frame time: arrival on the run clock, or the header stamp mapped onto it").one_of({"receive", "header"});
+      add_camera_mount_fields(p);
+      return p;
+    }();
     return s;
   }
 };
@@ -67,6 +72,8 @@ class DdsCamera final : public Camera {
     raw_.reset();
     compressed_.reset();
   }
+
+  [[nodiscard]] std::optional<CameraMount> mount() const override { return params_.mount(); }
 
   Result<std::optional<Frame>> grab(double timeout_s) override {
     auto newer = frames_.wait_newer(seen_version_, timeout_s);

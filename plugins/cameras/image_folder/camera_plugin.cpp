@@ -5,6 +5,7 @@
 // with the chosen pacing through the common image pipeline. Errors at creation: missing folder,
 // a folder with no images, a bad timestamps file (file:line); at grab: an unreadable image
 // (named), end of the sequence.
+#include "visnav/camera_mount.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/recorded/image_list_camera.hpp"
 
@@ -13,7 +14,7 @@ namespace {
 using namespace visnav;
 using namespace visnav::recorded;
 
-struct ImageFolderParams : ImageOptions {  // + the image pipeline keys (add_image_fields)
+struct ImageFolderParams : ImageOptions, CameraMountOptions {  // + the image pipeline keys (add_image_fields) and the mount
   std::string folder;
   std::string timestamps_file;
   double frame_rate_hz = 10.0;
@@ -22,6 +23,7 @@ struct ImageFolderParams : ImageOptions {  // + the image pipeline keys (add_ima
 
   [[nodiscard]] Status validate() const {
     if (folder.empty()) return fail("key 'folder' is required (the image folder)");
+    VISNAV_TRY(CameraMountOptions::validate());
     return ImageOptions::validate();
   }
   static const ParamSchema<ImageFolderParams>& schema() {
@@ -35,6 +37,7 @@ struct ImageFolderParams : ImageOptions {  // + the image pipeline keys (add_ima
           .one_of({"fast", "realtime", "clock"})
           .field("loop", &ImageFolderParams::loop, "start again after the last image instead of ending");
       add_image_fields(p);
+      add_camera_mount_fields(p);
       return p;
     }();
     return s;
@@ -53,7 +56,9 @@ class ImageFolderCamera final : public ImageListCamera {
     VISNAV_ASSIGN(FrameList list, list_image_folder(folder, resolve_path(p.timestamps_file, base), p.frame_rate_hz));
     VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(p, base));
     host.logger().info("camera_image_folder", folder + ": " + std::to_string(list.frames.size()) + " images, pacing " + p.pacing);
-    return std::make_unique<ImageFolderCamera>(std::move(list), parse_pacing(p.pacing), std::move(pipeline), host.clock(), p.loop);
+    auto cam = std::make_unique<ImageFolderCamera>(std::move(list), parse_pacing(p.pacing), std::move(pipeline), host.clock(), p.loop);
+    cam->set_mount(p.mount());
+    return cam;
   }
 };
 

@@ -4,6 +4,7 @@
 // sequence numbers. Default pacing `clock`: a frame is delivered once the run clock reaches its
 // time — with the `recorded` robot (lock-step, its step() moves the clock to the next frame time)
 // every tick gets exactly the next recorded frame, so a mission sees what the live run saw.
+#include "visnav/camera_mount.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/recorded/image_list_camera.hpp"
 
@@ -12,13 +13,15 @@ namespace {
 using namespace visnav;
 using namespace visnav::recorded;
 
-struct RecordedCameraParams : ImageOptions {  // + the image pipeline keys (add_image_fields), normally off:
-                                              // recorded frames are already processed
+struct RecordedCameraParams : ImageOptions, CameraMountOptions {  // + the image pipeline keys (add_image_fields), normally off:
+                                                                  // recorded frames are already processed;
+                                                                  // + the camera mount keys
   std::string run_dir;
   std::string pacing = "clock";
 
   [[nodiscard]] Status validate() const {
     if (run_dir.empty()) return fail("key 'run_dir' is required (the recorded-run folder)");
+    VISNAV_TRY(CameraMountOptions::validate());
     return ImageOptions::validate();
   }
   static const ParamSchema<RecordedCameraParams>& schema() {
@@ -29,6 +32,7 @@ struct RecordedCameraParams : ImageOptions {  // + the image pipeline keys (add_
                  "clock: when the run clock reaches the frame time (with the recorded robot); fast; realtime")
           .one_of({"clock", "fast", "realtime"});
       add_image_fields(p);
+      add_camera_mount_fields(p);
       return p;
     }();
     return s;
@@ -47,7 +51,9 @@ class RecordedCamera final : public ImageListCamera {
     VISNAV_ASSIGN(FrameList list, read_run_frames(dir));
     VISNAV_ASSIGN(ImagePipeline pipeline, ImagePipeline::create(p, base));
     host.logger().info("camera_recorded", dir + ": " + std::to_string(list.frames.size()) + " frames, pacing " + p.pacing);
-    return std::make_unique<RecordedCamera>(std::move(list), parse_pacing(p.pacing), std::move(pipeline), host.clock(), false);
+    auto cam = std::make_unique<RecordedCamera>(std::move(list), parse_pacing(p.pacing), std::move(pipeline), host.clock(), false);
+    cam->set_mount(p.mount());
+    return cam;
   }
 };
 

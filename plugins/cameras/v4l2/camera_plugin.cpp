@@ -35,6 +35,7 @@
 
 #include <opencv2/videoio.hpp>
 
+#include "visnav/camera_mount.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/recorded/exposure.hpp"
 #include "visnav/recorded/image_pipeline.hpp"
@@ -44,7 +45,7 @@ namespace {
 using namespace visnav;
 using namespace visnav::recorded;
 
-struct V4l2Params : ImageOptions {  // + the image pipeline keys (add_image_fields)
+struct V4l2Params : ImageOptions, CameraMountOptions {  // + the image pipeline keys (add_image_fields) and the mount
   std::string device = "/dev/video0";
   int width_px = 640;
   int height_px = 480;
@@ -64,6 +65,7 @@ struct V4l2Params : ImageOptions {  // + the image pipeline keys (add_image_fiel
     if (device.empty()) return Error{"key 'device' is required (e.g. /dev/video0)", ErrorCode::missing, {{}, 0, "device"}};
     if (!pixel_format.empty() && pixel_format.size() != 4) return fail(ErrorCode::invalid_value, {{}, 0, "pixel_format"}, "a FOURCC of 4 characters (MJPG, YUYV), got '" + pixel_format + "'");
     if (min_exposure > max_exposure) return fail(ErrorCode::inconsistent, {{}, 0, "min_exposure"}, "must not exceed max_exposure");
+    VISNAV_TRY(CameraMountOptions::validate());
     return ImageOptions::validate();
   }
   static const ParamSchema<V4l2Params>& schema() {
@@ -86,6 +88,7 @@ struct V4l2Params : ImageOptions {  // + the image pipeline keys (add_image_fiel
           .field("max_exposure", &V4l2Params::max_exposure, "adaptive: highest exposure, device units").range(1, 1000000)
           .field("open_timeout_s", &V4l2Params::open_timeout_s, "give up opening the device after this long, s").range(0.1, 60);
       add_image_fields(p);
+      add_camera_mount_fields(p);
       return p;
     }();
     return s;
@@ -195,6 +198,8 @@ class V4l2Camera final : public Camera {
   }
   V4l2Camera(const V4l2Camera&) = delete;
   V4l2Camera& operator=(const V4l2Camera&) = delete;
+
+  [[nodiscard]] std::optional<CameraMount> mount() const override { return params_.mount(); }
 
   Result<std::optional<Frame>> grab(double timeout_s) override {
     std::unique_lock lock(mutex_);

@@ -16,6 +16,7 @@
 
 #include <opencv2/videoio.hpp>
 
+#include "visnav/camera_mount.hpp"
 #include "visnav/plugin.hpp"
 #include "visnav/recorded/image_pipeline.hpp"
 #include "visnav/recorded/pacing.hpp"
@@ -26,7 +27,7 @@ using namespace visnav;
 using namespace visnav::recorded;
 namespace fs = std::filesystem;
 
-struct VideoParams : ImageOptions {  // + the image pipeline keys (add_image_fields)
+struct VideoParams : ImageOptions, CameraMountOptions {  // + the image pipeline keys (add_image_fields) and the mount
   std::string file;
   std::string pacing = "realtime";
   double frame_rate_hz = 0.0;
@@ -34,6 +35,7 @@ struct VideoParams : ImageOptions {  // + the image pipeline keys (add_image_fie
 
   [[nodiscard]] Status validate() const {
     if (file.empty()) return Error{"key 'file' is required (the video file)", ErrorCode::missing, {{}, 0, "file"}};
+    VISNAV_TRY(CameraMountOptions::validate());
     return ImageOptions::validate();
   }
   static const ParamSchema<VideoParams>& schema() {
@@ -45,6 +47,7 @@ struct VideoParams : ImageOptions {  // + the image pipeline keys (add_image_fie
           .field("frame_rate_hz", &VideoParams::frame_rate_hz, "frame times i / rate, Hz; 0 = the file's timestamps / fps").range(0, 10000)
           .field("loop", &VideoParams::loop, "start again at the end of the file instead of ending");
       add_image_fields(p);
+      add_camera_mount_fields(p);
       return p;
     }();
     return s;
@@ -72,6 +75,8 @@ class VideoCamera final : public Camera {
     host.logger().info("camera_video", cam->path_ + ": " + std::to_string(cam->fps_) + " fps, pacing " + p.pacing);
     return cam;
   }
+
+  [[nodiscard]] std::optional<CameraMount> mount() const override { return params_.mount(); }
 
   Result<std::optional<Frame>> grab(double timeout_s) override {
     const double deadline = wall_now_s() + std::max(0.0, timeout_s);

@@ -73,9 +73,28 @@ class Robot : public PluginObject {
   virtual SimulationControl* simulation() { return nullptr; }
 };
 
+/// Where the camera sits on the robot and what it sees: a pinhole with a centred principal point.
+/// Robot frame: x forward, y left, z up; the lens is at (forward_m, lateral_m, height_m) and looks
+/// along the robot's heading, tilted down by pitch_down_deg. A camera declares it in its config's
+/// `params:` (camera_mount.hpp); nodes read it through HostServices::camera_mount().
+struct CameraMount {
+  double hfov_deg = 0.0;        ///< horizontal field of view, (1, 179) deg
+  double height_m = 0.0;        ///< lens height above the ground, > 0
+  double pitch_down_deg = 0.0;  ///< downward tilt of the optical axis, (-89, 89) deg
+  double forward_m = 0.0;       ///< lens ahead of the robot origin
+  double lateral_m = 0.0;       ///< lens left of the robot origin
+  /// ok(), or an out_of_range error naming the bad field and its value
+  /// ("camera mount: hfov_deg 0 is out of range (1, 179)", where.key = "hfov_deg").
+  [[nodiscard]] Status validate() const;
+};
+
 /// A source of images.
 class Camera : public PluginObject {
  public:
+  /// The mount declared in this camera's config, or nullopt when the config declares none.
+  /// A returned mount is valid (CameraMount::validate()). Default: none.
+  [[nodiscard]] virtual std::optional<CameraMount> mount() const { return std::nullopt; }
+
   /// Waits at most `timeout_s` for a frame newer than the previous one returned.
   /// Returns nullopt on timeout, an error when the source failed or ended
   /// (message names the device/file). Simulated cameras render immediately.

@@ -124,6 +124,10 @@ class HostServices {
   virtual Detector* active_detector() { return nullptr; }
   /// The map named by `--map`, or nullptr.
   virtual MapStore* map() { return nullptr; }
+  /// The active camera's mount (valid during `visnav run`); an error naming the camera config
+  /// keys to add when the camera declares none, or when not running (code `missing` both ways).
+  /// Ask when needed rather than once: a live reload may change the camera's params.
+  virtual Result<CameraMount> camera_mount() { return fail(ErrorCode::missing, "no camera mount: not running"); }
 };
 
 }  // namespace visnav

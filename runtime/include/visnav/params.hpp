@@ -18,7 +18,9 @@
 //   };
 //
 // Supported field types: int, double, bool, std::string, std::vector<double>,
-// std::vector<std::string> (YAML sequences, or a scalar "a;b;c").
+// std::vector<std::string> (YAML sequences, or a scalar "a;b;c"), and std::optional<double> for a
+// key whose absence means something (its default is nullopt, documented as "unset"; range() checks
+// a given value only; e.g. the camera mount keys of camera_mount.hpp).
 // Thread-safety: schemas are immutable after construction and may be shared.
 #pragma once
 
@@ -27,6 +29,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
@@ -91,10 +94,12 @@ template <> struct TypeName<bool> { static constexpr const char* value = "bool";
 template <> struct TypeName<std::string> { static constexpr const char* value = "string"; };
 template <> struct TypeName<std::vector<double>> { static constexpr const char* value = "list<double>"; };
 template <> struct TypeName<std::vector<std::string>> { static constexpr const char* value = "list<string>"; };
+template <> struct TypeName<std::optional<double>> { static constexpr const char* value = "double"; };
 
 template <typename T>
 std::string render(const T& v) {
-  if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+  if constexpr (std::is_same_v<T, std::optional<double>>) return v ? render(*v) : std::string("unset");
+  else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
   else if constexpr (std::is_same_v<T, std::string>) return v;
   else if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
     std::ostringstream os;
@@ -107,7 +112,11 @@ std::string render(const T& v) {
 
 template <typename T>
 Result<T> convert(const ConfigNode& node) {
-  if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
+  if constexpr (std::is_same_v<T, std::optional<double>>) {
+    auto v = convert<double>(node);
+    if (!v) return v.error();
+    return T{*v};
+  } else if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
     std::vector<std::string> texts;
     if (node.is_sequence()) {
       for (const auto& item : node.items()) {
@@ -143,7 +152,9 @@ Result<T> convert(const ConfigNode& node) {
 /// A field's value(s) as text, one per list element (what range() and one_of() check).
 template <typename T>
 std::vector<std::string> values_of(const T& v) {
-  if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
+  if constexpr (std::is_same_v<T, std::optional<double>>) {
+    return v ? values_of(*v) : std::vector<std::string>{};  // unset: nothing to check
+  } else if constexpr (std::is_same_v<T, std::vector<double>> || std::is_same_v<T, std::vector<std::string>>) {
     std::vector<std::string> out;
     for (const auto& item : v) out.push_back(render(item));
     return out;
@@ -302,9 +313,10 @@ class ParamSchema {
     return all;
   }
 
-  [[nodiscard]] std::vector<ParamDoc> docs() const {
+  /// The fields' docs with the defaults of `defaults` (a node whose tuned values differ from
+  /// the struct's own initialisers renders those as its defaults).
+  [[nodiscard]] std::vector<ParamDoc> docs(const P& defaults = P{}) const {
     std::vector<ParamDoc> out;
-    P defaults{};
     for (const auto& f : fields_) {
       ParamDoc d = f.doc;
       d.default_value = f.render_default(defaults);

@@ -60,7 +60,9 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 /// 5: NavStatus and ReplayStep gained the live-view overlay (NavOverlay, issue 18).
 /// 6: EdgeReplayer gained succeeded() (multi-experience learning, issue 13).
 /// 7: NodeManifest gained check_literals, PrimitiveType check_params (validate = run, issue 37).
-inline constexpr std::uint32_t kPluginAbiVersion = 7;
+/// 8: Camera gained mount(), HostServices camera_mount() (the camera mount comes from the camera
+///    config, issue 37).
+inline constexpr std::uint32_t kPluginAbiVersion = 8;
 
 /// What a plugin contributes. A library may contribute several kinds at once.
 enum class PluginKind : std::uint32_t { robot = 1, camera = 2, detector = 3, nodes = 4 };

@@ -2,7 +2,7 @@
 // JSON-lines telemetry, and RuntimeHost, the HostServices the runtime hands to plugins.
 //
 // Ownership: RuntimeHost borrows everything it is given (loader, logger, clock, robot,
-// frame bus, telemetry, detector, map); the owner (normally visnav::Session) keeps them
+// camera, frame bus, telemetry, detector, map); the owner (normally visnav::Session) keeps them
 // alive for as long as the host is used and any object created through it lives.
 // Thread-safety: StderrLogger and the clocks are thread-safe; RuntimeHost's setters and run
 // accessors are for the tick thread only (as HostServices states).
@@ -143,6 +143,10 @@ class RuntimeHost final : public HostServices {
   Telemetry* telemetry() override { return telemetry_; }
   Detector* active_detector() override { return detector_; }
   MapStore* map() override { return map_; }
+  /// The mount of the camera given to set_camera(); without a camera: "no camera mount: not
+  /// running"; a camera that declares none: "camera 'v4l2' (config.yaml:12) declares no mount:
+  /// add hfov_deg, mount_height_m, mount_pitch_down_deg to camera.params" (code `missing`).
+  Result<CameraMount> camera_mount() override;
 
   void set_clock(const Clock& clock) { clock_ = &clock; }
   void set_frame_bus(FrameBus* bus) { frame_bus_ = bus; }
@@ -150,6 +154,12 @@ class RuntimeHost final : public HostServices {
   void set_telemetry(Telemetry* telemetry) { telemetry_ = telemetry; }
   void set_active_detector(Detector* detector) { detector_ = detector; }
   void set_map(MapStore* map) { map_ = map; }
+  /// The run's camera (borrowed; nullptr: none) and how errors name it: its type and where its
+  /// config is, e.g. "camera 'v4l2' (config.yaml:12)".
+  void set_camera(Camera* camera, std::string described) {
+    camera_ = camera;
+    camera_described_ = std::move(described);
+  }
   [[nodiscard]] PluginLoader& loader() { return *loader_; }
 
  private:
@@ -161,6 +171,8 @@ class RuntimeHost final : public HostServices {
   Telemetry* telemetry_ = nullptr;
   Detector* detector_ = nullptr;
   MapStore* map_ = nullptr;
+  Camera* camera_ = nullptr;
+  std::string camera_described_;
 };
 
 }  // namespace visnav

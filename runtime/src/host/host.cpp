@@ -4,6 +4,8 @@
 
 #include "visnav/runtime_host.hpp"
 
+#include "visnav/camera_mount.hpp"
+
 namespace visnav {
 
 Result<LogLevel> parse_log_level(std::string_view text) {
@@ -101,6 +103,18 @@ Result<std::unique_ptr<Detector>> RuntimeHost::create_detector(std::string_view 
   VISNAV_ASSIGN(PluginPtr<Detector> made, loader_->create<Detector>(type, params, *this));
   // The loader keeps the library loaded for its own lifetime, which outlives this object.
   return std::unique_ptr<Detector>(made.release());
+}
+
+Result<CameraMount> RuntimeHost::camera_mount() {
+  if (camera_ == nullptr) return fail(ErrorCode::missing, "no camera mount: not running");
+  const std::string who = camera_described_.empty() ? std::string("the camera") : camera_described_;
+  std::optional<CameraMount> mount = camera_->mount();
+  if (!mount)
+    return Error{who + " declares no mount: add " + kMountRequiredKeys +
+                     " to camera.params (mount_forward_m, mount_lateral_m optional, default 0; docs/cameras.md)",
+                 ErrorCode::missing, ErrorLocation{{}, 0, "camera.params"}};
+  if (auto st = mount->validate(); !st) return st.error().with_context(who);
+  return *mount;
 }
 
 }  // namespace visnav

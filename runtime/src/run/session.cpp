@@ -247,6 +247,8 @@ Status Session::build_devices() {
     auto made = loader_.create<Camera>(config_.camera.type, config_.camera.params, *host_, config_.camera.plugin);
     if (!made) return spec_error(made.error(), "camera", config_.camera);
     camera_ = std::move(made).value();
+    // HostServices::camera_mount() answers from the camera's own config (issue 37).
+    host_->set_camera(camera_.get(), "camera '" + config_.camera.type + "' (" + config_.camera.where.str() + ")");
   }
   if (config_.detector) {
     auto made = loader_.create<Detector>(config_.detector->type, config_.detector->params, *host_, config_.detector->plugin);

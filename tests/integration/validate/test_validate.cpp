@@ -333,6 +333,42 @@ TEST_F(ValidateTest, PortOverridesAreCheckedAsLiteralsAndNeverIgnored) {
   EXPECT_EQ(r.ticks, 0u);
 }
 
+// The camera mount keys of a file camera: a partial set is reported before the first tick with
+// the missing key (camera_mount.hpp), and run refuses the same; the full set passes.
+TEST_F(ValidateTest, PartialCameraMountNamesTheMissingKey) {
+  const auto camera_config = [&](const std::string& mount) {
+    return write("config.yaml",
+                 "robot: {type: sim, params: {world: straight6m}}\n"          // 1
+                 "camera:\n"                                                  // 2
+                 "  type: image_folder\n"                                     // 3
+                 "  params: {folder: " + dir_.string() + mount + "}\n"        // 4
+                 "run: {tick: frame, rate_hz: 10, reload_poll_s: 0, max_duration_s: 2}\n");
+  };
+  const std::string c = camera_config(", hfov_deg: 70, mount_height_m: 0.4");
+  const auto problems = check(c);
+  ASSERT_EQ(problems.size(), 1u) << dump(problems);
+  EXPECT_EQ(problems[0].code, ErrorCode::missing) << dump(problems);
+  EXPECT_EQ(problems[0].where, (ErrorLocation{c, 4, "camera.params.mount_pitch_down_deg"})) << dump(problems);
+  EXPECT_NE(problems[0].message.find("key 'mount_pitch_down_deg' in camera.params is missing"), std::string::npos)
+      << problems[0].message;
+
+  visnav::MissionOptions m;
+  m.config_file = c;
+  const visnav::RunReport r = visnav::run_mission(m);
+  EXPECT_EQ(r.outcome, visnav::RunOutcome::error);
+  EXPECT_EQ(r.ticks, 0u);
+  EXPECT_NE(r.reason.find("mount_pitch_down_deg"), std::string::npos) << r.reason;
+
+  const auto bad = check(camera_config(", hfov_deg: 70, mount_height_m: 0.4, mount_pitch_down_deg: 95"));
+  ASSERT_EQ(bad.size(), 1u) << dump(bad);
+  EXPECT_EQ(bad[0].code, ErrorCode::out_of_range);
+  EXPECT_EQ(bad[0].where.key, "camera.params.mount_pitch_down_deg");
+
+  const auto full = check(camera_config(", hfov_deg: 70, mount_height_m: 0.4, mount_pitch_down_deg: 10"));
+  EXPECT_TRUE(full.empty()) << dump(full);
+  EXPECT_TRUE(check(camera_config("")).empty());  // no mount keys: no mount, no problem
+}
+
 TEST_F(ValidateTest, MissingMapFolderIsNotFound) {
   const std::string missing = (dir_ / "no_map").string();
   const auto problems = check(config(), {}, missing);

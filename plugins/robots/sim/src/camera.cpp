@@ -12,6 +12,7 @@ namespace visnav::sim {
 
 Status CameraParams::validate() const {
   VISNAV_TRY(model().validate());
+  VISNAV_TRY(mount().validate());  // the schema's ranges lie inside the mount's; kept in step here
   if (color_gain_bgr.size() != 3)
     return fail("key 'color_gain_bgr': expected 3 values b;g;r, got " + std::to_string(color_gain_bgr.size()));
   for (double g : color_gain_bgr)
@@ -63,6 +64,16 @@ CameraModel CameraParams::model() const {
   m.forward_m = mount_forward_m;
   m.lateral_m = mount_lateral_m;
   m.max_range_m = max_range_m;
+  return m;
+}
+
+CameraMount CameraParams::mount() const {
+  CameraMount m;
+  m.hfov_deg = hfov_deg;
+  m.height_m = mount_height_m;
+  m.pitch_down_deg = mount_pitch_down_deg;
+  m.forward_m = mount_forward_m;
+  m.lateral_m = mount_lateral_m;
   return m;
 }
 

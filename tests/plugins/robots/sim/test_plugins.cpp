@@ -5,8 +5,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "visnav/config_node.hpp"
+#include "visnav/devices.hpp"
 #include "visnav/host.hpp"
 #include "visnav/loader.hpp"
 #include "visnav/plugin.hpp"
@@ -100,6 +102,50 @@ TEST(SimPlugins, BadParamsAreRejectedWithLocation) {
   EXPECT_TRUE(fails_with(robot, ErrorCode::invalid_value, At{"test.yaml", 2, "max_linear_mps"}));
   auto robot2 = loader.create<visnav::Robot>("sim", params({{"kinematics", "hovercraft"}}), host, "simulator");
   EXPECT_TRUE(fails_with(robot2, ErrorCode::out_of_range, At{"test.yaml", 2, "kinematics"}));
+}
+
+// The sim camera always declares its mount: the one it renders from (hfov_deg, mount_* keys),
+// the defaults when none are given, and the new values after a reconfigure (live reload).
+TEST(SimPlugins, CameraReportsTheMountItRendersFrom) {
+  visnav::PluginLoader loader({VISNAV_TEST_PLUGIN_DIR});
+  TestHost host;
+  auto robot = loader.create<visnav::Robot>("sim", params({{"world", "straight6m"}}), host, "simulator");
+  ASSERT_TRUE(robot.ok()) << robot.error().message;
+  host.set_robot(robot->get());
+
+  auto defaults = loader.create<visnav::Camera>("sim", params({{"width_px", "160"}, {"height_px", "120"}}), host, "simulator");
+  ASSERT_TRUE(defaults.ok()) << defaults.error().message;
+  const std::optional<visnav::CameraMount> d = (*defaults)->mount();
+  ASSERT_TRUE(d.has_value());
+  EXPECT_DOUBLE_EQ(d->hfov_deg, 60.0);
+  EXPECT_DOUBLE_EQ(d->height_m, 0.5);
+  EXPECT_DOUBLE_EQ(d->pitch_down_deg, 5.0);
+  EXPECT_DOUBLE_EQ(d->forward_m, 0.0);
+  EXPECT_DOUBLE_EQ(d->lateral_m, 0.0);
+  EXPECT_TRUE(d->validate().ok());
+
+  auto camera = loader.create<visnav::Camera>(
+      "sim",
+      params({{"width_px", "160"}, {"height_px", "120"}, {"hfov_deg", "75"}, {"mount_height_m", "0.8"},
+              {"mount_pitch_down_deg", "12"}, {"mount_forward_m", "0.3"}, {"mount_lateral_m", "-0.1"}}),
+      host, "simulator");
+  ASSERT_TRUE(camera.ok()) << camera.error().message;
+  const std::optional<visnav::CameraMount> m = (*camera)->mount();
+  ASSERT_TRUE(m.has_value());
+  EXPECT_DOUBLE_EQ(m->hfov_deg, 75.0);
+  EXPECT_DOUBLE_EQ(m->height_m, 0.8);
+  EXPECT_DOUBLE_EQ(m->pitch_down_deg, 12.0);
+  EXPECT_DOUBLE_EQ(m->forward_m, 0.3);
+  EXPECT_DOUBLE_EQ(m->lateral_m, -0.1);
+
+  ASSERT_TRUE((*camera)->reconfigure(params({{"width_px", "160"}, {"height_px", "120"}, {"hfov_deg", "90"}})).ok());
+  const std::optional<visnav::CameraMount> r = (*camera)->mount();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_DOUBLE_EQ(r->hfov_deg, 90.0);
+  EXPECT_DOUBLE_EQ(r->height_m, 0.5);  // keys left out of the new params are back at their defaults
+
+  auto bad = loader.create<visnav::Camera>("sim", params({{"hfov_deg", "0"}}), host, "simulator");
+  EXPECT_TRUE(fails_with(bad, ErrorCode::out_of_range, At{"test.yaml", 2, "hfov_deg"}));
 }
 
 TEST(SimPlugins, CliDispatchesTheSimCommand) {

@@ -76,6 +76,9 @@ struct CameraParams {
   static const ParamSchema<CameraParams>& schema();
   [[nodiscard]] CameraModel model() const;
   [[nodiscard]] RenderOptions render_options() const;
+  /// The mount these params render from (hfov_deg, mount_*): what HostServices::camera_mount()
+  /// reports during a simulated run, so the navigation sees the camera the renderer uses.
+  [[nodiscard]] CameraMount mount() const;
 };
 
 /// Appearance + fault pipeline around a Renderer, bound to one RobotCore.
@@ -135,6 +138,8 @@ class SimCamera final : public Camera {
                                                    const std::string& relative_to = {});
   Result<std::optional<Frame>> grab(double timeout_s) override;
   Status reconfigure(const ConfigNode& params) override;
+  /// Always declared: the params' mount (CameraParams::mount(); defaults when not given).
+  [[nodiscard]] std::optional<CameraMount> mount() const override { return params_.mount(); }
   /// The bound core, or nullptr before the robot was found.
   [[nodiscard]] CameraCore* core() { return core_.get(); }
 

@@ -31,6 +31,9 @@ class ImageListCamera : public Camera {
   ImageListCamera(FrameList list, Pacing pacing, ImagePipeline pipeline, const Clock& clock, bool loop);
 
   Result<std::optional<Frame>> grab(double timeout_s) override;
+  /// The mount from the camera's params (CameraMountOptions::mount()); nullopt until set.
+  [[nodiscard]] std::optional<CameraMount> mount() const override { return mount_; }
+  void set_mount(std::optional<CameraMount> mount) { mount_ = mount; }
   /// Frames delivered so far.
   [[nodiscard]] std::size_t delivered() const { return delivered_; }
   [[nodiscard]] const FrameList& list() const { return list_; }
@@ -44,6 +47,7 @@ class ImageListCamera : public Camera {
   ImagePipeline pipeline_;
   const Clock* clock_;
   bool loop_;
+  std::optional<CameraMount> mount_;
   std::size_t next_ = 0;
   std::size_t delivered_ = 0;
   double loop_offset_s_ = 0.0;

@@ -22,7 +22,9 @@
 //       - a tick without a new frame re-sends the last command while the odometric distance
 //         since the last processed frame stays within the lost policy's max_frozen_m; beyond
 //         it the node stops the robot and fails "camera frozen: no new frame ...";
-//       - halt and failure stop the robot; a teacher never commands the robot.
+//       - halt and failure stop the robot; a teacher never commands the robot;
+//       - a replay node's FAILURE writes its reason to the output `failure` and its kind, one of
+//         replay_failure's codes, to `failure_code` (trees key on the code, not on the text).
 //
 // Minimal replayer (see examples/primitive for a whole primitive, teacher and payload included):
 //   struct CreepParams {
@@ -45,6 +47,7 @@
 // Thread-safety: tick thread only; the interfaces are called by the adapter only.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -76,6 +79,36 @@ namespace visnav {
 }
 
 // ------------------------------------------------------------------------------------ replay
+
+/// The kinds of a replay node's failure, the set its output `failure_code` takes (the adapter
+/// writes one with every FAILURE, "" while it runs or after a success; docs/feature_replay.md,
+/// "Failure codes"). Stable tokens: a tree or decorator keys on them, never on `failure`'s text.
+namespace replay_failure {
+/// The primitive lost what it follows (ReplayStep::failure_code; e.g. FollowPathEdge's path).
+inline constexpr std::string_view view_lost = "view_lost";
+/// Another reason of the primitive's own (ReplayStep::failure without a code).
+inline constexpr std::string_view primitive = "primitive";
+/// The lost policy stopped it: no confident frame for max_blind_m, heading off, saturated.
+inline constexpr std::string_view route_lost = "route_lost";
+/// The input stopped: camera frozen, no new frames, no odometry, no running session.
+inline constexpr std::string_view input_lost = "input_lost";
+/// The velocity command could not be sent.
+inline constexpr std::string_view command_failed = "command_failed";
+/// A port or param value is refused (schema, validate(), distance_scale, lost policy).
+inline constexpr std::string_view bad_params = "bad_params";
+/// The edge's payload does not read, verify or decode (begin()).
+inline constexpr std::string_view bad_payload = "bad_payload";
+/// The edge is unknown, or of a kind the node does not replay.
+inline constexpr std::string_view bad_edge = "bad_edge";
+/// No map is loaded.
+inline constexpr std::string_view no_map = "no_map";
+/// The primitive needs a detector and the config has none.
+inline constexpr std::string_view no_detector = "no_detector";
+/// Every code above, once.
+inline constexpr std::array<std::string_view, 10> all = {view_lost,      primitive,  route_lost,  input_lost,
+                                                         command_failed, bad_params, bad_payload, bad_edge,
+                                                         no_map,         no_detector};
+}  // namespace replay_failure
 
 /// What a replayer starts an edge with. References are valid during begin() only.
 struct ReplayStart {
@@ -120,6 +153,9 @@ struct ReplayStep {
   double offset_px = 0.0;
   std::string status;           ///< short state for telemetry ("steering", "path lost", ...)
   std::string failure;          ///< non-empty: the primitive's own reason to stop; the node fails with it
+  /// With failure: a stable code for it (`view_lost` when the primitive lost what it follows,
+  /// replay_failure::view_lost); empty = `primitive`. The node writes it to `failure_code`.
+  std::string failure_code;
   /// Optional: what the primitive saw in this frame, for the live view (host.hpp NavOverlay).
   /// Owned by the replayer, valid until its next step(); the adapter puts it in the NavStatus.
   const NavOverlay* overlay = nullptr;

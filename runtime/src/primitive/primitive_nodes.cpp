@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <numbers>
 #include <optional>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 
@@ -173,6 +174,10 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
         bt::output_port<std::string>("failure", "{edge_failure}",
                                      "the reason of the node's last FAILURE (empty while it runs or after a success): "
                                      "a decorator around it can tell why it gave up (ReplayPathAvoiding's probe_on)"),
+        bt::output_port<std::string>("failure_code", "{edge_failure_code}",
+                                     "the kind of the node's last FAILURE, a stable code to key on (view_lost, "
+                                     "route_lost, input_lost, command_failed, bad_params, ...; docs/feature_replay.md, "
+                                     "\"Failure codes\"); empty while it runs or after a success"),
         bt::output_port<double>("end_shift_m", "{edge_end_shift_m}",
                                 "when the edge ends: how much earlier (positive) or later in odometric distance than "
                                 "its taught length the primitive ended it (a visual along-track correction; 0 for "
@@ -198,7 +203,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     (void)set_output("end_shift_m", 0.0);  // never a previous edge's
     (void)set_output("shift_m", 0.0);
     (void)set_output("failure", std::string());
-    if (auto st = start(); !st) return failed(st.error().message);
+    (void)set_output("failure_code", std::string());
+    std::string_view code = replay_failure::bad_params;  // start() names the kind of what it refuses
+    if (auto st = start(code); !st) return failed(code, st.error().message);
     return on_running();
   }
 
@@ -230,7 +237,8 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     }
     if (!step.failure.empty()) {
       publish(step, Twist{}, problem, nullptr);
-      return failed(step.failure);
+      return failed(step.failure_code.empty() ? replay_failure::primitive : std::string_view(step.failure_code),
+                    step.failure);
     }
     if (step.orienting) {
       publish(step, step.command, problem, nullptr);
@@ -245,8 +253,11 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     Twist command{step.command.linear_mps * health.speed_factor, step.command.angular_radps * health.speed_factor};
     publish(step, health.must_stop() ? Twist{} : command, problem, &health);
     if (health.must_stop()) {
-      return failed(health.reason + " on edge " + edge_id_ + " (" + edge_kind_ + ", " + std::to_string(step.inliers) +
-                    " inliers, window confidence " + format_double(health.window_confidence) + ")");
+      const std::string_view code =
+          health.state == NavHealthState::frozen ? replay_failure::input_lost : replay_failure::route_lost;
+      return failed(code, health.reason + " on edge " + edge_id_ + " (" + edge_kind_ + ", " +
+                              std::to_string(step.inliers) + " inliers, window confidence " +
+                              format_double(health.window_confidence) + ")");
     }
     if (step.finished) {
       // Where the primitive put the edge's end: its own along-edge distance against odometry's.
@@ -267,14 +278,20 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
   }
 
  private:
-  Status start() {
+  /// Prepares the edge; `code` is set to the replay_failure kind of each check before it runs.
+  Status start(std::string_view& code) {
     const std::string& id = type_->node_id;
     MapStore* map = host_.map();
+    code = replay_failure::no_map;
     if (map == nullptr) return fail(id + " needs a map (visnav run --map M)");
+    code = replay_failure::input_lost;
     if (host_.frame_bus() == nullptr || host_.robot() == nullptr) return fail(id + " needs a running session");
+    code = replay_failure::no_detector;
     if (type_->uses_detector && host_.active_detector() == nullptr)
       return fail(id + " needs a detector (config section 'detector')");
+    code = replay_failure::bad_params;
     VISNAV_ASSIGN(edge_id_, get_input<std::string>("edge"));
+    code = replay_failure::bad_edge;
     const EdgeRecord* edge = map->find_edge(edge_id_);
     if (edge == nullptr) return fail("unknown edge '" + edge_id_ + "'");
     bool known_kind = false;
@@ -288,22 +305,26 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     expected_width_px_ = statistic(*edge, "image_width_px");
     expected_height_px_ = statistic(*edge, "image_height_px");
 
+    code = replay_failure::bad_params;
     VISNAV_ASSIGN(LostPolicy policy, read_lost_policy(*this));
     health_ = NavHealthMonitor(policy);
     VISNAV_ASSIGN(ConfigNode params, bt::read_param_ports(*this, type_->params));
     VISNAV_ASSIGN(replayer_, type_->make_replayer(params));
     // The payload is read and verified once, here, before the robot moves (never per frame).
+    code = replay_failure::bad_payload;
     auto body = map->read_payload(edge_id_);
     if (!body) return fail("edge " + edge_id_ + " payload: " + body.error().message);
     // The primitive's own body check (length against the graph and against the body's evidence,
     // loops), as `visnav map validate` runs it: a single-edge mission is not route-checked.
     if (auto checked = map->check_payload(edge_id_); !checked)
       return fail(checked.error().code, "edge " + edge_id_ + " payload: " + checked.error().message);
+    code = replay_failure::input_lost;
     std::optional<Odometry> odom = host_.frame_bus()->latest_odometry();
     if (!odom) return fail("no odometry yet");
     // The edge counts as started `carried_m` before here (FollowRoute; an unset entry counts as 0).
     const auto carried = get_input<double>("carried_m");
     scale_ = 1.0;
+    code = replay_failure::bad_params;
     if (const auto scale = get_input<double>("distance_scale"); scale) {
       if (!(*scale >= 0.5 && *scale <= 2.0))
         return fail(ErrorCode::out_of_range, {"", 0, "distance_scale"},
@@ -315,6 +336,7 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     const std::string node_path = path();
     const Odometry taught_odom = in_taught_units(*odom);
     const ReplayStart start{*edge, *body, taught_odom, origin_m_, health_.policy(), host_.logger(), node_path};
+    code = replay_failure::bad_payload;
     if (auto st = replayer_->begin(start); !st) return fail("edge " + edge_id_ + " payload: " + st.error().message);
 
     std::optional<TaughtHeading> taught;
@@ -340,8 +362,9 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
   NodeStatus without_new_frame(Robot& robot, const std::optional<Odometry>& odom) {
     const double limit_m = health_.policy().max_frozen_m;
     if (odom && std::abs(odom->distance_m - last_frame_odom_m_) > limit_m) {
-      return failed("camera frozen: no new frame over " + format_double(odom->distance_m - last_frame_odom_m_) +
-                    " m on edge " + edge_id_ + " (max_frozen_m " + format_double(limit_m) + ")");
+      return failed(replay_failure::input_lost,
+                    "camera frozen: no new frame over " + format_double(odom->distance_m - last_frame_odom_m_) +
+                        " m on edge " + edge_id_ + " (max_frozen_m " + format_double(limit_m) + ")");
     }
     // Without odometry the runtime's stale-data check stops the run.
     return send(robot, last_command_);
@@ -350,7 +373,8 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
   /// The send-failure policy (primitive.hpp): a command that cannot be sent fails the node.
   NodeStatus send(Robot& robot, const Twist& command) {
     last_command_ = command;
-    if (auto st = robot.send_command(command); !st) return failed("sending the command: " + st.error().message);
+    if (auto st = robot.send_command(command); !st)
+      return failed(replay_failure::command_failed, "sending the command: " + st.error().message);
     return NodeStatus::running;
   }
 
@@ -372,9 +396,11 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     status_.overlay = nullptr;
   }
 
-  NodeStatus failed(const std::string& message) {
+  /// Fails the node: `code` (replay_failure) to `failure_code`, `message` logged and to `failure`.
+  NodeStatus failed(std::string_view code, const std::string& message) {
     host_.logger().error(path(), message);
     (void)set_output("failure", message);
+    (void)set_output("failure_code", std::string(code));
     if (Robot* robot = host_.robot()) (void)robot->stop();
     replayer_.reset();
     return NodeStatus::failure;

@@ -1,6 +1,7 @@
 // The runtime's primitive adapter (visnav/primitive.hpp): ports generated from a ParamSchema and
 // checked before the first tick, the edge protocol, the one send-failure and no-new-frame policy,
-// and the teacher's stored edge — on a minimal in-process primitive and a kinematic fake robot.
+// the failure codes (`failure_code`) and the teacher's stored edge — on a minimal in-process
+// primitive and a kinematic fake robot.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -73,6 +74,33 @@ class DrivingReplayer final : public EdgeReplayer {
 using TestReplayer = DrivingReplayer<0>;
 using AheadReplayer = DrivingReplayer<300>;
 
+/// Drives straight at speed_mps and never finishes. kBlind: never confident (the lost policy
+/// decides); kLosesView, kGivesUp: confident, and past 0.15 m fails itself with a
+/// ReplayStep::failure, with the code view_lost or without a code.
+enum class Fault : std::uint8_t { kBlind, kLosesView, kGivesUp };
+template <Fault kFault>
+class FaultyReplayer final : public EdgeReplayer {
+ public:
+  using Params = TestParams;
+  static constexpr bool kUsesDetector = false;
+  explicit FaultyReplayer(const Params& p) : p_(p) {}
+  Status begin(const ReplayStart&) override { return ok(); }
+  ReplayStep step(const ReplayInput& in) override {
+    ReplayStep out;
+    out.distance_m = in.edge_distance_m;
+    out.command = Twist{p_.speed_mps, 0.0};
+    out.confidence = kFault == Fault::kBlind ? 0.0 : 1.0;
+    if (kFault != Fault::kBlind && in.edge_distance_m > 0.15) {
+      out.failure = "lost the test view";
+      if (kFault == Fault::kLosesView) out.failure_code = replay_failure::view_lost;
+    }
+    return out;
+  }
+
+ private:
+  Params p_;
+};
+
 class TestTeacher final : public EdgeTeacher {
  public:
   using Params = TestParams;
@@ -119,6 +147,12 @@ class PrimitiveAdapter : public ::testing::Test {
     ASSERT_TRUE(register_replayer<TestReplayer>(registry_, host_, "ReplayTestEdge", "test", {"test"}).ok());
     ASSERT_TRUE(register_teacher<TestTeacher>(registry_, host_, "TeachTestEdge", "test", {"test"}).ok());
     ASSERT_TRUE(register_replayer<AheadReplayer>(registry_, host_, "ReplayAheadEdge", "test", {"test"}).ok());
+    using Blind = FaultyReplayer<Fault::kBlind>;
+    using Losing = FaultyReplayer<Fault::kLosesView>;
+    using GivingUp = FaultyReplayer<Fault::kGivesUp>;
+    ASSERT_TRUE(register_replayer<Blind>(registry_, host_, "ReplayBlindEdge", "test", {"test"}).ok());
+    ASSERT_TRUE(register_replayer<Losing>(registry_, host_, "ReplayLosingEdge", "test", {"test"}).ok());
+    ASSERT_TRUE(register_replayer<GivingUp>(registry_, host_, "ReplayGivingUpEdge", "test", {"test"}).ok());
   }
   void TearDown() override { fs::remove_all(dir_); }
 
@@ -142,6 +176,17 @@ class PrimitiveAdapter : public ::testing::Test {
     f.sequence = ++sequence_;
     f.image = cv::Mat(4, 4, CV_8UC1, cv::Scalar(static_cast<double>(sequence_ % 200)));
     bus_.publish_frame(f);
+  }
+  /// A string entry of the tree's blackboard, "<unset>" when there is none.
+  static std::string entry(const bt::Tree& tree, const std::string& key) {
+    auto v = tree.blackboard().get<std::string>(key);
+    return v ? *v : std::string("<unset>");
+  }
+  /// Ticks `tree` until it leaves RUNNING (at most `ticks` times).
+  NodeStatus run(bt::Tree& tree, int ticks = 100) {
+    NodeStatus s = NodeStatus::running;
+    for (int i = 0; i < ticks && s == NodeStatus::running; ++i) s = tick(tree);
+    return s;
   }
   NodeStatus tick(bt::Tree& tree, bool new_frame = true) {
     if (new_frame) publish_frame();
@@ -280,6 +325,10 @@ TEST_F(PrimitiveAdapter, ABadPayloadFailsBeforeTheRobotMoves) {
   EXPECT_EQ(tick(tree), NodeStatus::failure);
   EXPECT_NE(logger_.text.find("edge " + id + " payload: not a test payload"), std::string::npos) << logger_.text;
   EXPECT_EQ(robot_.odom_.distance_m, 0.0);
+  EXPECT_EQ(entry(tree, "edge_failure_code"), "bad_payload");
+  auto unknown = test::load_main_tree("<ReplayTestEdge edge=\"no_such_edge\"/>", registry_, &clock_);
+  EXPECT_EQ(tick(unknown), NodeStatus::failure);
+  EXPECT_EQ(entry(unknown, "edge_failure_code"), "bad_edge");
 }
 
 TEST_F(PrimitiveAdapter, AFailedCommandFailsTheNodeAndStopsTheRobot) {
@@ -290,6 +339,7 @@ TEST_F(PrimitiveAdapter, AFailedCommandFailsTheNodeAndStopsTheRobot) {
   EXPECT_EQ(tick(tree), NodeStatus::failure);
   EXPECT_NE(logger_.text.find("sending the command: link down"), std::string::npos) << logger_.text;
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_EQ(entry(tree, "edge_failure_code"), "command_failed");
 }
 
 TEST_F(PrimitiveAdapter, WithoutNewFramesTheLastCommandIsKeptOnlyWithinMaxFrozen) {
@@ -305,6 +355,64 @@ TEST_F(PrimitiveAdapter, WithoutNewFramesTheLastCommandIsKeptOnlyWithinMaxFrozen
   EXPECT_EQ(tick(tree, /*new_frame=*/false), NodeStatus::failure);
   EXPECT_NE(logger_.text.find("camera frozen: no new frame over 0.400 m"), std::string::npos) << logger_.text;
   EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  EXPECT_EQ(entry(tree, "edge_failure_code"), "input_lost");
+}
+
+TEST_F(PrimitiveAdapter, AFrozenImageFailsAsInputLost) {
+  // New frames with identical pixels while the robot travels: the lost policy's frozen camera.
+  const std::string id = add_edge({7});
+  auto tree = test::load_main_tree(
+      "<ReplayTestEdge edge=\"" + id + "\" speed_mps=\"1\" max_frozen_m=\"0.35\"/>", registry_, &clock_);
+  const cv::Mat same(4, 4, CV_8UC1, cv::Scalar(90.0));
+  NodeStatus s = NodeStatus::running;
+  for (int i = 0; i < 20 && s == NodeStatus::running; ++i) {
+    Frame f;
+    f.sequence = ++sequence_;
+    f.image = same.clone();
+    bus_.publish_frame(f);
+    s = tick(tree, /*new_frame=*/false);
+  }
+  EXPECT_EQ(s, NodeStatus::failure) << logger_.text;
+  EXPECT_EQ(entry(tree, "edge_failure_code"), "input_lost") << entry(tree, "edge_failure");
+  EXPECT_NE(entry(tree, "edge_failure").find("on edge " + id), std::string::npos) << entry(tree, "edge_failure");
+}
+
+TEST_F(PrimitiveAdapter, TheLostPolicysFailureIsRouteLostAndTheCodeIsClearedAtTheStart) {
+  const std::string id = add_edge({7});
+  auto tree = test::load_main_tree("<ReplayBlindEdge edge=\"" + id +
+                                       "\" speed_mps=\"0.5\" slow_after_m=\"0.1\" max_blind_m=\"0.3\"/>",
+                                   registry_, &clock_);
+  tree.blackboard().set("edge_failure_code", std::string("stale"));  // a previous edge's
+  EXPECT_EQ(tick(tree), NodeStatus::running) << logger_.text;
+  EXPECT_EQ(entry(tree, "edge_failure_code"), "");
+  EXPECT_EQ(entry(tree, "edge_failure"), "");
+  EXPECT_EQ(run(tree), NodeStatus::failure) << logger_.text;
+  EXPECT_EQ(entry(tree, "edge_failure_code"), "route_lost") << entry(tree, "edge_failure");
+  EXPECT_NE(entry(tree, "edge_failure").find("on edge " + id), std::string::npos) << entry(tree, "edge_failure");
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+}
+
+TEST_F(PrimitiveAdapter, APrimitivesOwnFailureCarriesItsCodeOrPrimitive) {
+  const std::string id = add_edge({7});
+  auto losing = test::load_main_tree("<ReplayLosingEdge edge=\"" + id + "\"/>", registry_, &clock_);
+  EXPECT_EQ(run(losing), NodeStatus::failure) << logger_.text;
+  EXPECT_EQ(entry(losing, "edge_failure"), "lost the test view");
+  EXPECT_EQ(entry(losing, "edge_failure_code"), "view_lost");
+  EXPECT_EQ(robot_.command_.linear_mps, 0.0);
+  auto giving_up = test::load_main_tree("<ReplayGivingUpEdge edge=\"" + id + "\"/>", registry_, &clock_);
+  EXPECT_EQ(run(giving_up), NodeStatus::failure) << logger_.text;
+  EXPECT_EQ(entry(giving_up, "edge_failure_code"), "primitive");
+}
+
+TEST_F(PrimitiveAdapter, TheFailureCodePortIsDeclaredAndTheCodesAreDistinct) {
+  const bt::PortInfo* code = registry_.find("ReplayTestEdge")->find_port("failure_code");
+  ASSERT_NE(code, nullptr);
+  EXPECT_EQ(code->default_value, "{edge_failure_code}");
+  for (std::size_t i = 0; i < replay_failure::all.size(); ++i) {
+    EXPECT_FALSE(replay_failure::all[i].empty());
+    for (std::size_t j = i + 1; j < replay_failure::all.size(); ++j)
+      EXPECT_NE(replay_failure::all[i], replay_failure::all[j]) << i << " " << j;
+  }
 }
 
 TEST(ParamSchemaCheck, AStructFilledInCodeIsCheckedByTheSchemasRanges) {

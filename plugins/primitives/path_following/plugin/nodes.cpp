@@ -169,6 +169,7 @@ class PathReplayer final : public EdgeReplayer {
     if (verdict_ == PathLossMonitor::Verdict::lost) {
       const auto reason = monitor_.last_bad_status();
       out.status = "path lost";
+      out.failure_code = replay_failure::view_lost;
       out.failure = "path lost on edge " + edge_id_ + " (" +
                     std::string(reason ? to_string(*reason) : std::string_view("unknown")) + " for more than " +
                     std::to_string(monitor_.grace_s()) + " s)";

@@ -98,7 +98,10 @@ class VisualMemoryReplayer final : public EdgeReplayer {
     out.status = std::string(to_string(s.status)) + " (reference " + std::to_string(s.target) + "/" +
                  std::to_string(follower_->memory().references.size() - 1) + ")";
     if (!s.detail.empty()) out.status += ": " + s.detail;
-    if (s.status == FollowStatus::failed) out.failure = s.failure;
+    if (s.status == FollowStatus::failed) {  // the follower's one failure: no reference matched
+      out.failure = s.failure;
+      out.failure_code = replay_failure::view_lost;
+    }
     return out;
   }
 

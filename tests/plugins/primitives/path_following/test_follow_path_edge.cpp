@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <utility>
 
 #include "visnav/path_payload.hpp"
 #include "path_session.hpp"
@@ -120,6 +122,12 @@ TEST(FollowPathEdge, FailsWithPathLostWhenNoPathIsInView) {
   const double x0 = sim->ground_truth_pose().x_m, y0 = sim->ground_truth_pose().y_m;
   const RunReport report = run_tree(*session, *replay);
   EXPECT_EQ(report.outcome, RunOutcome::failure);
+  // the primitive's own path-lost failure, not the lost policy's: a tree keys on the code
+  const auto failure = replay->blackboard().get<std::string>("edge_failure");
+  const auto code = replay->blackboard().get<std::string>("edge_failure_code");
+  ASSERT_TRUE(failure.ok() && code.ok());
+  EXPECT_NE(failure->find("path lost on edge"), std::string::npos) << *failure;
+  EXPECT_EQ(*code, "view_lost") << *failure;
   // it did not wander off: at most the grace period at low speed
   const Pose2D p = sim->ground_truth_pose();
   EXPECT_LT(std::hypot(p.x_m - x0, p.y_m - y0), 0.5);
@@ -143,11 +151,15 @@ TEST(FollowPathEdge, RejectsAnEdgeOfAnotherKindOrACorruptPayloadWithoutMoving) {
   auto wrong_kind = *map.add_edge(e, garbage);
   e.kind = "path_following";
   auto corrupt = *map.add_edge(e, garbage);
-  for (const auto& id : {wrong_kind, corrupt, std::string("no_such_edge")}) {
+  const std::pair<std::string, std::string> cases[] = {
+      {wrong_kind, "bad_edge"}, {corrupt, "bad_payload"}, {"no_such_edge", "bad_edge"}};
+  for (const auto& [id, expected_code] : cases) {
     auto replay = tree_from(*session, dir, "<FollowPathEdge edge=\"" + id + "\"/>");
     ASSERT_TRUE(replay.ok());
     const Pose2D before = session->robot().simulation()->ground_truth_pose();
     EXPECT_EQ(run_tree(*session, *replay).outcome, RunOutcome::failure) << id;
+    const auto code = replay->blackboard().get<std::string>("edge_failure_code");
+    EXPECT_EQ(code.ok() ? *code : std::string("<unset>"), expected_code) << id;
     const Pose2D after = session->robot().simulation()->ground_truth_pose();
     EXPECT_LT(std::hypot(after.x_m - before.x_m, after.y_m - before.y_m), 1e-6) << id;
   }

@@ -61,7 +61,7 @@ namespace bt { class NodeRegistry; }  // visnav/bt/registry.hpp
 /// 6: EdgeReplayer gained succeeded() (multi-experience learning, issue 13).
 /// 7: NodeManifest gained check_literals, PrimitiveType check_params (validate = run, issue 37).
 /// 8: Camera gained mount(), HostServices camera_mount() (the camera mount comes from the camera
-///    config, issue 37).
+///    config), ReplayStep gained failure_code (issue 37).
 inline constexpr std::uint32_t kPluginAbiVersion = 8;
 
 /// What a plugin contributes. A library may contribute several kinds at once.

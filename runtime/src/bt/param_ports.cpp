@@ -2,6 +2,7 @@
 // primitive adapter (src/primitive/primitive_nodes.cpp) and by hand-written nodes in plugins.
 #include "visnav/bt/param_ports.hpp"
 
+#include <algorithm>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -77,6 +78,46 @@ Result<ConfigNode> read_param_ports(const TreeNode& node, const std::vector<Para
     map.set(d.name, ConfigNode::make_scalar(std::move(text), node.where()));
   }
   return map;
+}
+
+namespace {
+std::string_view trim(std::string_view t) {
+  while (!t.empty() && (t.front() == ' ' || t.front() == '\t' || t.front() == '\n' || t.front() == '\r')) t.remove_prefix(1);
+  while (!t.empty() && (t.back() == ' ' || t.back() == '\t' || t.back() == '\n' || t.back() == '\r')) t.remove_suffix(1);
+  return t;
+}
+}  // namespace
+
+Result<ConfigNode> parse_param_group_text(std::string_view text, const SourceLocation& where) {
+  ConfigNode map = ConfigNode::make_map(where);
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find(';', start), text.size());
+    const std::string_view entry = trim(text.substr(start, end - start));
+    start = end + 1;
+    if (entry.empty()) continue;  // "a=1;" and "" are fine
+    const std::size_t eq = entry.find('=');
+    if (eq == std::string_view::npos)
+      return Error{"entry '" + std::string(entry) + "' is not key=value (entries are separated by ';')",
+                   ErrorCode::invalid_value};
+    const std::string key(trim(entry.substr(0, eq)));
+    if (key.empty()) return Error{"entry '" + std::string(entry) + "' has no key", ErrorCode::invalid_value};
+    if (map.find(key) != nullptr) return Error{"key '" + key + "' is given twice", ErrorCode::invalid_value, {{}, 0, key}};
+    map.set(key, ConfigNode::make_scalar(std::string(trim(entry.substr(eq + 1))), where));
+  }
+  return map;
+}
+
+std::string param_group_description(std::string_view what, const std::vector<ParamDoc>& docs) {
+  std::string out(what);
+  out += " Keys:";
+  for (std::size_t i = 0; i < docs.size(); ++i) {
+    const ParamDoc& d = docs[i];
+    out += (i == 0 ? " " : "; ") + d.name + " (" + d.type + ", default " + (d.default_value.empty() ? "\"\"" : d.default_value);
+    if (!d.constraint.empty()) out += ", " + d.constraint;
+    out += "): " + d.description;
+  }
+  return out;
 }
 
 }  // namespace visnav::bt

@@ -174,12 +174,21 @@ TEST_F(ValidateTest, CrossPortRulesAndStartChecksRefuseTheSameTreesAsRun) {
   const std::vector<Case> bad = {
       {"<ReplayFeatureEdge edge=\"e1\" slow_after_m=\"9\" max_blind_m=\"5\"/>", ErrorCode::inconsistent, "slow_after_m"},
       {"<ReplayFeatureEdge edge=\"e1\" distance_scale=\"3\"/>", ErrorCode::out_of_range, "distance_scale"},
-      {"<ReplayAvoiding crossing_kerb_m=\"9\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
-       "crossing_kerb_m"},
+      {"<ReplayAvoiding crossing=\"kerb_m=9\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
+       "port 'crossing': key 'kerb_m'"},
       {"<ReplayAvoiding distance_scale=\"3\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
        "distance_scale"},
-      {"<ReplayAvoiding look_frames=\"-1\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
-       "look_frames"},
+      {"<ReplayAvoiding look=\"look_frames=-1\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::out_of_range,
+       "key 'look_frames'"},
+      // Group ports: an unknown key, a key given twice, a rule across keys, and the detour mode.
+      {"<ReplayAvoiding corridor=\"lookahead=3\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
+       ErrorCode::unknown_key, "unknown key 'lookahead'"},
+      {"<ReplayAvoiding corridor=\"lookahead_m=3; lookahead_m=4\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
+       ErrorCode::invalid_value, "key 'lookahead_m' is given twice"},
+      {"<ReplayAvoiding standing=\"min_points=6; min_face_share=0.3\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
+       ErrorCode::inconsistent, "key 'min_face_share' needs extent_m > 0"},
+      {"<ReplayAvoiding detour=\"sideways\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>", ErrorCode::invalid_value,
+       "'sideways' is not one of: lane thesis"},
   };
   for (const Case& k : bad) {
     const std::string t = tree(k.leaf);
@@ -201,7 +210,10 @@ TEST_F(ValidateTest, CrossPortRulesAndStartChecksRefuseTheSameTreesAsRun) {
       "<ReplayFeatureEdge edge=\"e1\" slow_after_m=\"2\" max_blind_m=\"5\"/>",
       "<ReplayFeatureEdge edge=\"e1\" slow_after_m=\"9\" max_blind_m=\"{blind}\"/>",
       "<ReplayFeatureEdge edge=\"e1\" distance_scale=\"1.02\"/>",
-      "<ReplayAvoiding crossing_kerb_m=\"1.2\" look_frames=\"0\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
+      "<ReplayAvoiding crossing=\"kerb_m=1.2\" look=\"look_frames=0\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
+      // ReplayPathAvoiding's defaults have the extent on: the share alone is fine there.
+      "<ReplayPathAvoiding standing=\"min_face_share=0.5\"><ReplayFeatureEdge edge=\"e1\"/></ReplayPathAvoiding>",
+      "<ReplayAvoiding corridor=\" lookahead_m = 3 ; confirm_views=4;\"><ReplayFeatureEdge edge=\"e1\"/></ReplayAvoiding>",
   };
   for (const std::string& leaf : good) {
     const auto problems = check(c, tree(leaf));

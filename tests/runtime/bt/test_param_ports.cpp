@@ -70,9 +70,39 @@ class ParamNode final : public visnav::bt::SyncActionNode {
   }
 };
 
+/// One group port `params` for TestParams with tuned defaults (gain 0.5, frames 4): tick()
+/// parses it with parse_param_group.
+class GroupNode final : public visnav::bt::SyncActionNode {
+ public:
+  GroupNode(const std::string& name, const NodeConfig& config) : SyncActionNode(name, config) {}
+  static const TestParams& tuned() {
+    static const TestParams t = [] {
+      TestParams p;
+      p.gain = 0.5;
+      p.frames = 4;
+      return p;
+    }();
+    return t;
+  }
+  static PortsList provided_ports() {
+    return {visnav::bt::param_group_port("params", TestParams::schema(), tuned(), "The test mechanism.")};
+  }
+
+  std::optional<Result<TestParams>> parsed;
+
+ protected:
+  NodeStatus tick() override {
+    parsed = visnav::bt::parse_param_group(*this, "params", TestParams::schema(), tuned());
+    return *parsed ? NodeStatus::success : NodeStatus::failure;
+  }
+};
+
 class ParamPorts : public BtTest {
  protected:
-  ParamPorts() { EXPECT_TRUE(registry.register_node<ParamNode>("ParamNode", "params schema ports").ok()); }
+  ParamPorts() {
+    EXPECT_TRUE(registry.register_node<ParamNode>("ParamNode", "params schema ports").ok());
+    EXPECT_TRUE(registry.register_node<GroupNode>("GroupNode", "one group port").ok());
+  }
 
   ParamNode* node(visnav::bt::Tree& tree) { return dynamic_cast<ParamNode*>(tree.find_node("MainTree/N")); }
 };
@@ -230,6 +260,80 @@ TEST_F(ParamPorts, AnUnsetBlackboardEntryIsAnErrorNamingThePort) {
   ASSERT_TRUE(n->read.has_value());
   ASSERT_FALSE(n->read->ok());
   EXPECT_NE(n->read->error().message.find("gain"), std::string::npos) << n->read->error().message;
+}
+
+TEST_F(ParamPorts, AGroupPortSetsSomeKeysOnTopOfTheNodesDefaults) {
+  const PortsList ports = GroupNode::provided_ports();
+  ASSERT_EQ(ports.size(), 1U);
+  EXPECT_EQ(ports[0].type, typeid(std::string));
+  ASSERT_TRUE(ports[0].default_value.has_value());
+  EXPECT_EQ(*ports[0].default_value, "");
+  // The description documents every key with the node's default, not the struct's.
+  EXPECT_NE(ports[0].description.find("The test mechanism. Keys: frames (int, default 4, [1, 10]): frames to take"),
+            std::string::npos)
+      << ports[0].description;
+  EXPECT_NE(ports[0].description.find("gain (double, default 0.5, [0, 1])"), std::string::npos) << ports[0].description;
+
+  auto tree = load_main(R"(<GroupNode name="N" params=" frames = 7 ; mode=slow; tags=x;"/>)");
+  ASSERT_EQ(tree.tick_once(), NodeStatus::success);
+  auto* n = dynamic_cast<GroupNode*>(tree.find_node("MainTree/N"));
+  ASSERT_NE(n, nullptr);
+  ASSERT_TRUE(n->parsed.has_value() && n->parsed->ok());
+  EXPECT_EQ((*n->parsed)->frames, 7);
+  EXPECT_EQ((*n->parsed)->mode, "slow");
+  EXPECT_EQ((*n->parsed)->tags, (std::vector<std::string>{"x"}));
+  EXPECT_DOUBLE_EQ((*n->parsed)->gain, 0.5);  // unset: the node's default
+
+  auto empty = load_main(R"(<GroupNode name="N"/>)");
+  ASSERT_EQ(empty.tick_once(), NodeStatus::success);
+  auto* e = dynamic_cast<GroupNode*>(empty.find_node("MainTree/N"));
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ((*e->parsed)->frames, 4);
+  EXPECT_DOUBLE_EQ((*e->parsed)->gain, 0.5);
+}
+
+TEST_F(ParamPorts, AGroupPortsBadLiteralIsRefusedAtItsLineNamingThePortAndKey) {
+  struct Case {
+    std::string text;
+    ErrorCode code;
+    std::string says;
+  };
+  const std::vector<Case> bad = {
+      {"frames=11", ErrorCode::out_of_range, "port 'params': key 'frames': value 11 is out of range [1, 10]"},
+      {"fram=3", ErrorCode::unknown_key, "unknown key 'fram' (known keys: frames, gain"},
+      {"frames=3; frames=4", ErrorCode::invalid_value, "key 'frames' is given twice"},
+      {"frames", ErrorCode::invalid_value, "entry 'frames' is not key=value"},
+      {"=3", ErrorCode::invalid_value, "has no key"},
+      {"mode=medium", ErrorCode::out_of_range, "key 'mode': value 'medium' is not one of: fast slow"},
+      {"min_m=3", ErrorCode::inconsistent, "min_m must not exceed max_m"},  // validate() on top of the defaults
+  };
+  for (const Case& k : bad) {
+    SCOPED_TRACE(k.text);
+    const std::string xml = main_tree(R"(<GroupNode name="N" params=")" + k.text + R"("/>)");
+    auto d = validate(xml);
+    ASSERT_EQ(d.size(), 1U);
+    EXPECT_EQ(d[0].code, k.code) << d[0].str();
+    EXPECT_EQ(d[0].line, 3);
+    EXPECT_NE(d[0].message.find("port 'params'"), std::string::npos) << d[0].str();
+    EXPECT_NE(d[0].message.find(k.says), std::string::npos) << d[0].str();
+    EXPECT_FALSE(visnav::bt::load_tree_string(xml, registry, options).ok());
+  }
+  // min_m=1.5 is fine with max_m's default 2; with max_m=1 it is not.
+  EXPECT_TRUE(validate(main_tree(R"(<GroupNode name="N" params="min_m=1.5"/>)")).empty());
+  EXPECT_EQ(validate(main_tree(R"(<GroupNode name="N" params="min_m=1.5; max_m=1"/>)")).size(), 1U);
+}
+
+TEST_F(ParamPorts, AGroupPortFromTheBlackboardIsParsedAtTheTick) {
+  auto tree = load_main(R"(<GroupNode name="N" params="{p}"/>)");
+  tree.blackboard().set<std::string>("p", "gain=0.75");
+  ASSERT_EQ(tree.tick_once(), NodeStatus::success);
+  auto* n = dynamic_cast<GroupNode*>(tree.find_node("MainTree/N"));
+  ASSERT_NE(n, nullptr);
+  EXPECT_DOUBLE_EQ((*n->parsed)->gain, 0.75);
+  tree.blackboard().set<std::string>("p", "gain=2");
+  ASSERT_EQ(tree.tick_once(), NodeStatus::failure);
+  EXPECT_TRUE(fails_with(*n->parsed, ErrorCode::out_of_range, key_only("gain")));
+  EXPECT_NE(n->parsed->error().message.find("port 'params'"), std::string::npos) << n->parsed->error().message;
 }
 
 }  // namespace

@@ -148,9 +148,9 @@ constexpr const char* kUsage =
     "                        'obstacles:' list, docs/sim.md; same as --replay-set robot.params.obstacles=FILE,\n"
     "                        and the replays use trees/patrol_loop_avoiding.xml (docs/obstacles.md)\n"
     "  --replay-tree FILE    the measured replay's tree (default trees/patrol_loop.xml, with --obstacles\n"
-    "                        trees/patrol_loop_avoiding.xml); it gets the blackboard entries start, loops\n"
-    "                        and the camera mount camera_height_m, camera_pitch_down_deg, camera_hfov_deg\n"
-    "                        (the replay camera's mount_height_m, mount_pitch_down_deg, hfov_deg)\n"
+    "                        trees/patrol_loop_avoiding.xml); it gets the blackboard entries start and\n"
+    "                        loops; nodes that need the camera mount read the replay camera's params\n"
+    "                        (hfov_deg, mount_height_m, mount_pitch_down_deg; docs/cameras.md)\n"
     "  --log-level L         lowest level written to each run's run.log: debug, info, warn, error\n"
     "                        (default warn; info shows e.g. the avoiding nodes' decisions)\n"
     "  --port Node.port=v    set a port on every such node of the replay trees (learning loops\n"
@@ -765,17 +765,9 @@ bool RunPhases::replay() {
     r.setup_error = tree_file + ": " + patrol.error().message;
     return false;
   }
-  // The camera mount for trees that need it (the IPT obstacle nodes): the replay camera's
-  // params, else the sim camera's defaults (visnav_sim/camera.hpp).
-  auto camera_param = [&](const char* key, const char* fallback) {
-    const ConfigNode* v = replay_config->camera.params.find(key);
-    return std::string(v != nullptr && v->is_scalar() ? v->scalar() : fallback);
-  };
-  if (auto st = set_blackboard_values(*patrol, {"start=start", "loops=" + std::to_string(o.loops),
-                                                "camera_height_m=" + camera_param("mount_height_m", "0.5"),
-                                                "camera_pitch_down_deg=" + camera_param("mount_pitch_down_deg", "5"),
-                                                "camera_hfov_deg=" + camera_param("hfov_deg", "60")});
-      !st) {
+  // Nodes that need the camera mount (the IPT obstacle nodes) read it from the replay camera
+  // through the session's host (HostServices::camera_mount()), not from the blackboard.
+  if (auto st = set_blackboard_values(*patrol, {"start=start", "loops=" + std::to_string(o.loops)}); !st) {
     r.setup_error = st.error().message;
     return false;
   }

@@ -62,7 +62,7 @@ struct ExperimentOptions {
   std::vector<std::string> replay_overrides;   ///< --replay-set and --replay-appearance
   std::vector<std::string> replay_ports;       ///< --port Node.port=value: set in the replay trees (not the teach's)
   /// --replay-tree FILE: the measured replay's tree instead of trees/patrol_loop.xml (blackboard
-  /// entries start, loops, camera_height_m, camera_pitch_down_deg, camera_hfov_deg); empty = that
+  /// entries start and loops; the camera mount comes from the replay camera's params); empty = that
   /// one, or trees/patrol_loop_avoiding.xml when obstacles are placed (--obstacles).
   std::string replay_tree;
   bool obstacles = false;  ///< --obstacles given (the avoiding tree by default)

@@ -1,7 +1,7 @@
 // visnav IPT obstacles — the crossing policy's adapter for ReplayAvoiding's stop-and-look
 // (issue 16, docs/obstacles.md "Crossing policy"): a frame difference over a band wider than the
-// corridor (MotionWatch, ±crossing_band_m), the moving thing's ground point (locate_moving) and
-// the CrossingPolicy's decision, from the node's ports. Thin: the logic is in
+// corridor (MotionWatch, ± the crossing's band_m), the moving thing's ground point (locate_moving) and
+// the CrossingPolicy's decision, from the node's `crossing` and `look` params. Thin: the logic is in
 // crossing_policy.hpp.
 #pragma once
 
@@ -11,25 +11,22 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "visnav/bt/node.hpp"
+#include "avoiding_params.hpp"
 #include "visnav/ipt_obstacles/crossing_policy.hpp"
 #include "visnav/ipt_obstacles/motion_watch.hpp"
 
 namespace visnav::ipt {
 
-/// The ports (crossing_speed_mps = 0 and crossing_s = 0: off).
-[[nodiscard]] bt::PortsList crossing_ports();
-
 class CrossingWatch {
  public:
-  /// nullopt when crossing_speed_mps and crossing_s are 0 (off). Error: a bad port value (naming
-  /// the port), both set (crossing_s is the deprecated hand-set clear time).
-  static Result<std::optional<CrossingWatch>> from_ports(const bt::TreeNode& node, const IptCamera& camera);
+  /// nullopt when crossing.speed_mps is 0 (off). The band's frame difference takes the look's
+  /// motion_threshold and motion_min_px. Error: a bad value (naming the port and key).
+  static Result<std::optional<CrossingWatch>> create(const CrossingPortParams& crossing, const LookParams& look,
+                                                     double body_radius_m, const IptCamera& camera);
   /// One frame of the standing camera at `time_s`: the decision after it (`cautious`: stopped
   /// at the edge of a person's way, CrossingPolicy::decide()).
   Result<CrossingDecision> observe(const cv::Mat& grey, double time_s, bool cautious);
-  /// The speed the robot crosses a person's way at (crossing_speed_mps); 0: the replay child
-  /// crosses at its own speed (deprecated crossing_s).
+  /// The speed the robot crosses a person's way at (crossing speed_mps, > 0).
   [[nodiscard]] double crossing_speed_mps() const { return policy_.params().speed_mps; }
   /// Distance to drive from `way_ahead_m` before the way until the robot's body is past the person's.
   [[nodiscard]] double clear_distance_m(double way_ahead_m) const {
@@ -62,9 +59,9 @@ class CrossingWatch {
   /// One frame while driving: `motion` is the robot's motion since the previous frame (its
   /// frame then), `robot` its odometry pose now. A person crossing ahead (the ground-compensated
   /// difference over the driving band well above the recent level on two frames in a row) is
-  /// remembered; true when a remembered crossing is crossing_kerb_m ahead or nearer: stop there.
+  /// remembered; true when a remembered crossing is the crossing's kerb_m ahead or nearer: stop there.
   Result<bool> drive(const cv::Mat& grey, const Pose2D& motion, const Pose2D& robot, double time_s);
-  /// Seconds a robot stopped at a kerb waits for the person to pass (crossing_wait_s).
+  /// Seconds a robot stopped at a kerb waits for the person to pass (the crossing's wait_s).
   [[nodiscard]] double kerb_wait_s() const { return kerb_wait_s_; }
   /// Forgets the person's learnt returns as well (the edge is done).
   void forget_person() {

@@ -1,5 +1,7 @@
 #include "nodes.hpp"
 
+#include "visnav/bt/param_ports.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -45,40 +47,21 @@ void stop(HostServices& host) {
 
 }  // namespace
 
-Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image) {
+Result<IptCamera> ipt_camera(HostServices& host, const cv::Mat& image) {
+  auto mount = host.camera_mount();
+  if (!mount) return mount.error().with_context("the IPT needs the camera mount");
   IptCamera c;
-  VISNAV_ASSIGN(const double hfov_deg, node.get_input<double>("hfov_deg"));
-  VISNAV_ASSIGN(c.height_m, node.get_input<double>("camera_height_m"));
-  VISNAV_ASSIGN(const double pitch_down_deg, node.get_input<double>("camera_pitch_down_deg"));
-  VISNAV_ASSIGN(c.forward_m, node.get_input<double>("camera_forward_m"));
-  VISNAV_ASSIGN(c.lateral_m, node.get_input<double>("camera_lateral_m"));
-  if (!(hfov_deg > 1.0 && hfov_deg < 179.0))
-    return Error{"hfov_deg must lie in (1, 179) (got " + std::to_string(hfov_deg) + ")", ErrorCode::out_of_range};
+  c.height_m = mount->height_m;
+  c.forward_m = mount->forward_m;
+  c.lateral_m = mount->lateral_m;
   c.width_px = image.cols;
   c.height_px = image.rows;
-  c.fx_px = c.fy_px = 0.5 * image.cols / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
+  c.fx_px = c.fy_px = 0.5 * image.cols / std::tan(0.5 * mount->hfov_deg * CV_PI / 180.0);
   c.cx_px = 0.5 * (image.cols - 1);
   c.cy_px = 0.5 * (image.rows - 1);
-  c.pitch_rad = -pitch_down_deg * CV_PI / 180.0;
+  c.pitch_rad = -mount->pitch_down_deg * CV_PI / 180.0;
   VISNAV_TRY(c.validate());
   return c;
-}
-
-bt::PortsList camera_ports(const char* foot_radius_default_px) {
-  return {bt::input_port<double>("hfov_deg", "60", "camera horizontal field of view (pinhole, centred principal point)"),
-          bt::input_port<double>("camera_height_m", "0.5", "lens height above the ground"),
-          bt::input_port<double>("camera_pitch_down_deg", "5", "downward tilt of the optical axis"),
-          bt::input_port<double>("camera_forward_m", "0", "lens ahead of the robot origin"),
-          bt::input_port<double>("camera_lateral_m", "0", "lens left of the robot origin"),
-          bt::input_port<double>("span_max_m", "2.2",
-                                 "neighbouring contact points this close bound one obstacle when its face shows "
-                                 "between them; the span is filled (0 = contact points only)"),
-          bt::input_port<double>("contact_ground_reach_px", "2",
-                                 "a GROUND feature this close ends an obstacle border's trace (spec 4.2)"),
-          bt::input_port<double>("foot_radius_px", foot_radius_default_px,
-                                 "a contact's range is cut to the triangulated foot of the OBSTACLE features this many "
-                                 "columns from it (0 = the back-projection alone; measured: the Ch. 6 strategy "
-                                 "stalls before the course's crates with it, the lane detour needs it)")};
 }
 
 std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
@@ -89,7 +72,7 @@ std::optional<Pose2D> PipelineRunner::pose(HostServices& host) const {
   return odom->pose;
 }
 
-Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::TreeNode& node, HostServices& host) {
+Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(HostServices& host, const ContactParams& contacts) {
   FrameBus* bus = host.frame_bus();
   if (bus == nullptr) return Error{"no frame bus (not running)", ErrorCode::missing};
   auto frame = bus->latest_frame();
@@ -101,11 +84,11 @@ Result<std::optional<std::vector<cv::Point2d>>> PipelineRunner::step(const bt::T
   if (frame->image.channels() == 3) cv::cvtColor(frame->image, grey_, cv::COLOR_BGR2GRAY);
   else grey_ = frame->image;
   if (!pipeline_) {
-    VISNAV_ASSIGN(IptCamera camera, read_camera(node, grey_));
+    VISNAV_ASSIGN(IptCamera camera, ipt_camera(host, grey_));
     ProfileParams profiles;
-    VISNAV_ASSIGN(profiles.span_max_m, node.get_input<double>("span_max_m"));
-    VISNAV_ASSIGN(profiles.ground_reach_px, node.get_input<double>("contact_ground_reach_px"));
-    VISNAV_ASSIGN(profiles.foot_radius_px, node.get_input<double>("foot_radius_px"));
+    profiles.span_max_m = contacts.span_max_m;
+    profiles.ground_reach_px = contacts.contact_ground_reach_px;
+    profiles.foot_radius_px = contacts.foot_radius_px;
     VISNAV_ASSIGN(auto p, ObstaclePipeline::create(camera, PipelineParams{}, ClassifierParams{}, profiles));
     pipeline_.emplace(std::move(p));
   }
@@ -158,23 +141,6 @@ Pose2D PipelineRunner::correct(const Pose2D& raw) {
 ObstacleAhead::ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host)
     : bt::ConditionNode(name, config), host_(host) {}
 
-bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confirm_baseline_default_m) {
-  return {bt::input_port<double>("lookahead_m", lookahead_default_m, "contact points up to this far ahead count"),
-          bt::input_port<double>("corridor_half_width_m", "0.45", "half width of the corridor ahead"),
-          bt::input_port<double>("memory_m", "1.0", "contact points are kept for this much travel"),
-          bt::with_range(bt::input_port<double>("confirm_baseline_m", confirm_baseline_default_m,
-                                 "a contact counts only when seen again at the same ground point (within half the "
-                                 "travel, at most confirm_radius_m) from a robot position this far away: rejects "
-                                 "contacts that move with the robot (sliding tracks on paver joints); 0 = every contact"), 0.0, 1e6),
-          bt::input_port<double>("confirm_radius_m", "0.3", "largest distance between two sightings of one contact"),
-          bt::input_port<int>("confirm_views", "3",
-                              "... and a contact must have been found at that ground point by this many pairs "
-                              "(distinct robot positions; rejects occasional mis-tracks in periodic textures)"),
-          bt::input_port<double>("confirm_view_share", "0",
-                                 "... and by this share of the pairs made between the first and the last of them "
-                                 "(0 = off; rejects the ends of noise traces on a tiled floor)")};
-}
-
 void CorridorMemory::add(const std::vector<cv::Point2d>& points, const Odometry& odom) {
   sightings_.add(points, {odom.pose.x_m, odom.pose.y_m}, odom.distance_m);
 }
@@ -187,28 +153,20 @@ std::vector<cv::Point2d> CorridorMemory::add_and_confirm(const std::vector<cv::P
   return sightings_.confirmed_since(first);
 }
 
-Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& odom) {
-  VISNAV_ASSIGN(const double lookahead, node.get_input<double>("lookahead_m"));
-  VISNAV_ASSIGN(const double half_width, node.get_input<double>("corridor_half_width_m"));
-  VISNAV_ASSIGN(const double memory, node.get_input<double>("memory_m"));
+Result<bool> CorridorMemory::blocked(const CorridorParams& params, const Odometry& odom) {
+  const double lookahead = params.lookahead_m, half_width = params.corridor_half_width_m, memory = params.memory_m;
   memory_m_ = memory;
   if (!configured_) {
-    VISNAV_ASSIGN(const double baseline, node.get_input<double>("confirm_baseline_m"));
-    VISNAV_ASSIGN(const double radius, node.get_input<double>("confirm_radius_m"));
-    VISNAV_ASSIGN(const int views, node.get_input<int>("confirm_views"));
-    VISNAV_ASSIGN(const double share, node.get_input<double>("confirm_view_share"));
-    filter_on_ = baseline > 0.0;
+    filter_on_ = params.confirm_baseline_m > 0.0;
     if (filter_on_) {
-      ContactPersistenceParams params;
-      params.min_baseline_m = baseline;
-      params.max_radius_m = radius;
-      params.min_views = views;
-      params.min_view_share = share;
-      if (auto st = params.validate(); !st)
-        return st.error().with_context("ports 'confirm_baseline_m'/'confirm_radius_m'/'confirm_views'/'confirm_view_share'");
-      sightings_.set_params(params);  // the sightings added before the first test stay
-    } else if (baseline < 0.0) {
-      return Error{"port 'confirm_baseline_m': must be >= 0 (got " + std::to_string(baseline) + ")", ErrorCode::out_of_range};
+      ContactPersistenceParams persistence;
+      persistence.min_baseline_m = params.confirm_baseline_m;
+      persistence.max_radius_m = params.confirm_radius_m;
+      persistence.min_views = params.confirm_views;
+      persistence.min_view_share = params.confirm_view_share;
+      if (auto st = persistence.validate(); !st)
+        return st.error().with_context("keys 'confirm_baseline_m'/'confirm_radius_m'/'confirm_views'/'confirm_view_share'");
+      sightings_.set_params(persistence);  // the sightings added before the first test stay
     }
     configured_ = true;
   }
@@ -238,13 +196,24 @@ Result<bool> CorridorMemory::blocked(const bt::TreeNode& node, const Odometry& o
 }
 
 bt::PortsList ObstacleAhead::provided_ports() {
-  bt::PortsList ports = camera_ports("0");
-  for (auto& p : corridor_ports("1.5", "0")) ports.push_back(std::move(p));
+  bt::PortsList ports;
+  bt::append_param_ports(ports, ContactParams::schema());
+  bt::append_param_ports(ports, CorridorParams::schema());
   return ports;
 }
 
 NodeStatus ObstacleAhead::tick() {
-  auto fresh = runner_.step(*this, host_);
+  if (!contacts_) {
+    auto contacts = bt::parse_param_ports(*this, ContactParams::schema());
+    auto corridor = bt::parse_param_ports(*this, CorridorParams::schema());
+    if (!contacts || !corridor) {
+      host_.logger().error(path(), (!contacts ? contacts.error() : corridor.error()).message);
+      return NodeStatus::failure;
+    }
+    contacts_ = *contacts;
+    corridor_params_ = *corridor;
+  }
+  auto fresh = runner_.step(host_, *contacts_);
   if (!fresh) {
     host_.logger().warn(path(), fresh.error().message);
     return NodeStatus::failure;
@@ -253,7 +222,7 @@ NodeStatus ObstacleAhead::tick() {
   auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
   if (!odom) return NodeStatus::failure;
   if (*fresh) corridor_.add(**fresh, *odom);
-  auto blocked = corridor_.blocked(*this, *odom);
+  auto blocked = corridor_.blocked(corridor_params_, *odom);
   if (!blocked) {
     host_.logger().warn(path(), blocked.error().message);
     return NodeStatus::failure;
@@ -263,35 +232,14 @@ NodeStatus ObstacleAhead::tick() {
 
 // ------------------------------------------------------------------------------- DetourDriver
 
-bt::PortsList avoid_ports() {
-  return {
-      bt::input_port<double>("goal_ahead_m", "4.0", "goal on the current heading line, this far ahead"),
-      bt::input_port<double>("speed_mps", "0.2", "forward speed"),
-      bt::input_port<double>("turn_gain_per_s", "1.5", "omega = gain * theta_mot"),
-      bt::input_port<double>("max_angular_radps", "0.6", "turn-rate limit"),
-      bt::input_port<int>("max_blocked_cycles", "60", "cycles without any gap before giving up"),
-      bt::input_port<int>("max_stall_cycles", "300",
-                          "cycles without getting 0.1 m closer to the goal before giving up (a trap, a potential-field "
-                          "minimum)"),
-      bt::input_port<double>("security_distance_m", "0.95", "S_dist (thesis 0.95 m)"),
-      bt::input_port<double>("gap_width_m", "0.95", "narrowest permitted gap (thesis experiments 0.95 m)"),
-      bt::input_port<double>("reset_keep_near_m", "1.9",
-                             "points this close survive the filter resets (0 = the thesis; measured: the thesis reset "
-                             "forgets a crate beside the robot and drives into it)"),
-      bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation")};
-}
-
-Status DetourDriver::begin(const bt::TreeNode& node, const Pose2D& pose, double goal_ahead_m) {
+Status DetourDriver::begin(const DriveParams& drive, const ThesisDetourParams& thesis, const Pose2D& pose) {
   PolarMapParams params;
-  VISNAV_ASSIGN(params.security_distance_m, node.get_input<double>("security_distance_m"));
-  VISNAV_ASSIGN(params.gap_width_m, node.get_input<double>("gap_width_m"));
-  VISNAV_ASSIGN(params.reset_keep_near_m, node.get_input<double>("reset_keep_near_m"));
-  VISNAV_ASSIGN(speed_mps_, node.get_input<double>("speed_mps"));
-  VISNAV_ASSIGN(gain_per_s_, node.get_input<double>("turn_gain_per_s"));
-  VISNAV_ASSIGN(max_angular_radps_, node.get_input<double>("max_angular_radps"));
-  VISNAV_ASSIGN(max_blocked_, node.get_input<int>("max_blocked_cycles"));
-  VISNAV_ASSIGN(max_stall_, node.get_input<int>("max_stall_cycles"));
+  params.security_distance_m = thesis.security_distance_m;
+  params.gap_width_m = thesis.gap_width_m;
+  params.reset_keep_near_m = thesis.reset_keep_near_m;
   VISNAV_TRY(params.validate());
+  drive_ = drive;
+  const double goal_ahead_m = thesis.goal_ahead_m;
   filter_.emplace(params);
   goal_m_ = {pose.x_m + goal_ahead_m * std::cos(pose.heading_rad), pose.y_m + goal_ahead_m * std::sin(pose.heading_rad)};
   blocked_cycles_ = 0;
@@ -301,9 +249,10 @@ Status DetourDriver::begin(const bt::TreeNode& node, const Pose2D& pose, double 
   return ok();
 }
 
-NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner) {
+NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner,
+                              const ContactParams& contacts) {
   if (!filter_) return NodeStatus::failure;
-  auto fresh = runner.step(node, host);
+  auto fresh = runner.step(host, contacts);
   if (!fresh) {
     host.logger().error(node.path(), fresh.error().message);
     stop(host);
@@ -326,7 +275,7 @@ NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, Pipe
     return NodeStatus::success;
   }
   if (d.situation == Situation::no_candidate) {
-    if (++blocked_cycles_ >= max_blocked_) {
+    if (++blocked_cycles_ >= drive_.max_blocked_cycles) {
       host.logger().error(node.path(), "stopped: " + d.reason + " for " + std::to_string(blocked_cycles_) + " cycles");
       stop(host);
       return NodeStatus::failure;
@@ -338,15 +287,15 @@ NodeStatus DetourDriver::step(const bt::TreeNode& node, HostServices& host, Pipe
   if (to_goal_m < best_distance_m_ - 0.1) {
     best_distance_m_ = to_goal_m;
     stall_cycles_ = 0;
-  } else if (++stall_cycles_ >= max_stall_) {
+  } else if (++stall_cycles_ >= drive_.max_stall_cycles) {
     host.logger().error(node.path(), "stopped: no progress towards the goal for " + std::to_string(stall_cycles_) +
                                          " cycles (" + std::to_string(to_goal_m) + " m left; last: " + d.reason + ")");
     stop(host);
     return NodeStatus::failure;
   }
-  const double w = std::clamp(gain_per_s_ * d.heading_rad, -max_angular_radps_, max_angular_radps_);
-  const double v = d.translate ? speed_mps_ * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
-  return send(host, node, v, d.translate ? w : std::copysign(max_angular_radps_, d.heading_rad));
+  const double w = std::clamp(drive_.turn_gain_per_s * d.heading_rad, -drive_.max_angular_radps, drive_.max_angular_radps);
+  const double v = d.translate ? drive_.speed_mps * std::max(0.0, std::cos(d.heading_rad)) : 0.0;
+  return send(host, node, v, d.translate ? w : std::copysign(drive_.max_angular_radps, d.heading_rad));
 }
 
 // ----------------------------------------------------------------------------- AvoidObstacles
@@ -355,20 +304,29 @@ AvoidObstacles::AvoidObstacles(const std::string& name, const bt::NodeConfig& co
     : bt::StatefulActionNode(name, config), host_(host) {}
 
 bt::PortsList AvoidObstacles::provided_ports() {
-  bt::PortsList ports = camera_ports("0");
-  for (auto& p : avoid_ports()) ports.push_back(std::move(p));
+  bt::PortsList ports;
+  bt::append_param_ports(ports, ContactParams::schema());
+  bt::append_param_ports(ports, DriveParams::schema());
+  bt::append_param_ports(ports, ThesisDetourParams::schema());
+  ports.push_back(bt::output_port<std::string>("situation", "{avoid_situation}", "the last decision's situation"));
   return ports;
 }
 
 NodeStatus AvoidObstacles::on_start() {
-  auto ahead = get_input<double>("goal_ahead_m");
+  auto contacts = bt::parse_param_ports(*this, ContactParams::schema());
+  auto drive = bt::parse_param_ports(*this, DriveParams::schema());
+  auto thesis = bt::parse_param_ports(*this, ThesisDetourParams::schema());
   auto pose = runner_.pose(host_);
-  if (!ahead || !pose) {
-    host_.logger().error(path(), !ahead ? ahead.error().message : "no odometry: cannot place the goal");
+  if (!contacts || !drive || !thesis || !pose) {
+    host_.logger().error(path(), !contacts ? contacts.error().message
+                                 : !drive  ? drive.error().message
+                                 : !thesis ? thesis.error().message
+                                           : "no odometry: cannot place the goal");
     stop(host_);
     return NodeStatus::failure;
   }
-  if (auto st = detour_.begin(*this, *pose, *ahead); !st) {
+  contacts_ = *contacts;
+  if (auto st = detour_.begin(*drive, *thesis, *pose); !st) {
     host_.logger().error(path(), st.error().message);
     stop(host_);
     return NodeStatus::failure;
@@ -378,7 +336,7 @@ NodeStatus AvoidObstacles::on_start() {
 }
 
 NodeStatus AvoidObstacles::on_running() {
-  const NodeStatus st = detour_.step(*this, host_, runner_);
+  const NodeStatus st = detour_.step(*this, host_, runner_, contacts_);
   (void)set_output("situation", std::string(to_string(detour_.last_situation())));
   if (st != NodeStatus::running) detour_.end();
   return st;
@@ -391,25 +349,24 @@ void AvoidObstacles::on_halted() {
 
 // ----------------------------------------------------------------------------- ReplayAvoiding
 
-ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host)
-    : bt::DecoratorNode(name, config), host_(host) {}
+ReplayAvoiding::ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host,
+                               const AvoidingParams& defaults)
+    : bt::DecoratorNode(name, config), defaults_(defaults), host_(host) {}
 
-bt::PortsList ReplayAvoiding::provided_ports() {
-  bt::PortsList ports = camera_ports("10");
-  for (auto& p : avoid_ports()) ports.push_back(std::move(p));
-  for (auto& p : corridor_ports("1.5", "0")) ports.push_back(std::move(p));
-  ports.push_back(bt::input_port<std::string>("detour", "lane",
-                                              "lane: a free lateral offset from the taught line, back onto it past the "
-                                              "obstacle (measured: docs/obstacles.md); thesis: the Ch. 6 strategy to a "
-                                              "goal goal_ahead_m along the line"));
-  ports.push_back(bt::input_port<double>("body_radius_m", "0.25", "lane detour and crossing policy: robot disc radius"));
-  ports.push_back(bt::input_port<double>("clearance_m", "0.35", "lane detour: free space kept beyond the body"));
-  ports.push_back(bt::input_port<double>("max_offset_m", "2.5", "lane detour: widest lane searched on either side"));
+bt::PortsList ReplayAvoiding::provided_ports() { return ports_with(replay_defaults()); }
+
+namespace {
+
+Status check_detour_mode(std::string_view text) {
+  if (text == "lane" || text == "thesis") return ok();
+  return Error{"value '" + std::string(text) + "' is not one of: lane thesis", ErrorCode::invalid_value};
+}
+
+// The edge progress shared with FollowRoute and the replay child (docs/obstacles.md, "Nodes and
+// ports"): the blackboard entries the replay adapter writes and reads.
+void append_progress_ports(bt::PortsList& ports) {
   ports.push_back(bt::input_port<std::string>("edge", "{edge}",
                                               "the edge being replayed (its length ends a lane detour); empty = unknown"));
-  ports.push_back(bt::input_port<double>("behind_m", "6.5",
-                                         "lane detour: an obstacle point holds the robot in its lane until it is this far "
-                                         "behind (the obstacle's unseen length)"));
   ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
                                          "edge distance already covered when the child starts, taught m (FollowRoute "
                                          "writes it; rewritten after a detour)"));
@@ -435,68 +392,57 @@ bt::PortsList ReplayAvoiding::provided_ports() {
                                          "odometer when a detour ends: the detour was driven on the IPT, not blind"));
   ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
                                          "the replay's frozen-image count, restarted likewise after a detour"));
-  ports.push_back(bt::with_range(bt::input_port<int>("look_frames", "8",
-                                      "moving obstacles: frames the stopped robot watches the corridor before a detour "
-                                      "(motion: wait instead); 0 = detour at once"), 0, 1000000));
-  ports.push_back(bt::input_port<int>("clear_frames", "15", "moving obstacles: still frames before the replay resumes"));
-  ports.push_back(bt::input_port<int>("max_wait_frames", "600",
-                                      "moving obstacles: frames of waiting for the corridor to clear before failing"));
-  ports.push_back(bt::input_port<double>("motion_threshold", "18",
-                                         "moving obstacles: grey-level change of a pixel that counts (frame difference)"));
-  ports.push_back(bt::input_port<int>("motion_min_px", "80", "moving obstacles: changed corridor pixels that count as motion"));
-  for (auto& p : crossing_ports()) ports.push_back(std::move(p));
-  for (auto& p : standing_ports()) ports.push_back(std::move(p));
-  ports.push_back(bt::input_port<double>("moving_stop_m", "2.0",
-                                         "moving obstacles: while replaying, what moves (or stands) in the corridor this "
-                                         "close (ground-compensated frame difference, ±1.2 m wide) stops the robot to "
-                                         "look; 0 = off"));
-  ports.push_back(bt::input_port<std::string>(
-      "probe_on", "",
-      "when the child fails with a reason containing this text (e.g. 'path lost on edge', FollowPathEdge's path "
-      "hidden), drive on slowly on the heading for at most probe_m while the IPT and the frame difference look; "
-      "something found: stop, look and detour as usual; nothing: fail with the child's reason; empty = off"));
   ports.push_back(bt::input_port<std::string>("failure", "{edge_failure}",
                                               "the child's reason of failure (the replay nodes' output 'failure')"));
-  ports.push_back(bt::input_port<double>("probe_m", "1.5", "probe: odometry budget per place, m"));
-  ports.push_back(bt::input_port<double>("probe_speed_mps", "0.15", "probe: forward speed"));
-  ports.push_back(bt::input_port<int>(
-      "probe_min_points", "4",
-      "probe: corners triangulated 0.15-2.5 m above the ground within lookahead_m + 1 m ahead in the corridor over a "
-      "0.3 m baseline that stop the probe and start the detour (near_triangulation.hpp)"));
-  ports.push_back(bt::input_port<double>(
-      "backoff_m", "0",
-      "a stop-and-look that sees nothing move and no contact: reverse this far on the heading while the "
-      "longer-baseline triangulation looks; probe_min_points corners in the corridor ahead: lane detour with all of "
-      "them (the face's full width), else resume (back_off_look.hpp); 0 = off (resume at once)"));
-  ports.push_back(bt::input_port<double>("backoff_speed_mps", "0.15", "back-off: reverse speed"));
-  ports.push_back(bt::input_port<double>(
-      "drift_rad_per_m", "0.012",
-      "lane detour: odometry heading drift assumed while passing points out of view; a point's clearance grows by "
-      "0.5*drift*d^2 (d: travel along the line since it was seen, at most 0.4 m more); 0 = off"));
-  ports.push_back(bt::input_port<bool>(
-      "ekf_heading", "false",
-      "lane detour: steer by the heading of the thesis's robocentric EKF whose landmarks are the IPT pairs' GROUND "
-      "features (ground_odometry.hpp; corrects the odometry's heading drift in the blind pass past an obstacle); "
-      "false = the raw odometry. Not for an odometry whose heading noise per 5 cm reaches about 0.03 rad: the "
-      "pipeline drops the pairs it turned and the filter then loses to dead reckoning (docs/obstacles.md)"));
-  ports.push_back(bt::input_port<bool>(
-      "backoff_compact", "true",
-      "back-off only after a stop whose changed pixels (moving_stop_m's frame difference) came in solid pieces "
-      "(a face close ahead, its texture magnified), not in the specks of ground shimmer (motion_watch.hpp, change_shape()); false = after every "
-      "fruitless look"));
-  ports.push_back(bt::input_port<double>("commit_m", "2.0",
-                                         "lane detour: the chosen side is kept within this of an obstacle point (its "
-                                         "closing blocks the detour instead of a swing across the obstacle); 0 = off"));
-  ports.push_back(bt::input_port<int>(
-      "max_recoveries", "1",
-      "lane detour: the chosen side closes within commit_m of the obstacle and the other side is free: reverse along "
-      "the line (backoff_speed_mps) until no obstacle point is within recover_clear_m ahead, then take the other side; "
-      "this often per detour; 0 = stop with the reason (lane_detour.hpp)"));
-  ports.push_back(bt::input_port<double>("recover_clear_m", "3.0",
-                                         "lane detour recovery: reverse until no obstacle point is this close ahead"));
-  ports.push_back(bt::input_port<double>("max_reverse_m", "10.0",
-                                         "lane detour recovery: most reversing along the line; then stop with the reason"));
+  ports.push_back(bt::input_port<std::string>("failure_code", "{edge_failure_code}",
+                                              "the child's failure code (the replay nodes' output 'failure_code'): "
+                                              "view_lost starts the probe (probe group)"));
+}
+
+}  // namespace
+
+bt::PortsList ReplayAvoiding::ports_with(const AvoidingParams& defaults) {
+  bt::PortsList ports;
+  append_progress_ports(ports);
+  bt::PortInfo detour = bt::input_port<std::string>(
+      "detour", "lane",
+      "lane: a free lateral offset from the taught line, back onto it past the obstacle (lane group; measured: "
+      "docs/obstacles.md); thesis: the Ch. 6 strategy to a goal along the line (thesis group)");
+  detour.check = check_detour_mode;
+  detour.constraint = "one of: lane thesis";
+  ports.push_back(std::move(detour));
+  ports.push_back(bt::with_range(
+      bt::input_port<double>("body_radius_m", "0.25", "lane detour and crossing policy: robot disc radius, m"), 0.01, 5.0));
+  ports.push_back(bt::output_port<std::string>("situation", "{avoid_situation}", "the detour's last decision"));
+  append_avoiding_group_ports(ports, defaults);
   return ports;
+}
+
+bool ReplayAvoiding::read_params() {
+  if (params_read_) return true;
+  auto parsed = parse_avoiding_groups(*this, defaults_);
+  if (!parsed) {
+    host_.logger().error(path(), parsed.error().message);
+    stop(host_);
+    return false;
+  }
+  auto mode = get_input<std::string>("detour");
+  auto body = get_input<double>("body_radius_m");
+  Status st = !mode ? Status(mode.error().with_context("port 'detour'"))
+              : !body ? Status(body.error().with_context("port 'body_radius_m'"))
+                      : check_detour_mode(*mode);
+  if (st && !(*body >= 0.01 && *body <= 5.0))
+    st = Error{"port 'body_radius_m': value " + std::to_string(*body) + " is out of range [0.01, 5]", ErrorCode::out_of_range};
+  if (!st) {
+    host_.logger().error(path(), st.error().message);
+    stop(host_);
+    return false;
+  }
+  p_ = *parsed;
+  lane_mode_ = *mode == "lane";
+  body_radius_m_ = *body;
+  params_read_ = true;
+  return true;
 }
 
 // ReplayAvoiding::tick(): a state machine held in flags, tested in this order every tick (one
@@ -536,6 +482,7 @@ NodeStatus ReplayAvoiding::tick() {
     host_.logger().error(path(), "no odometry");
     return NodeStatus::failure;
   }
+  if (!read_params()) return NodeStatus::failure;
   if (detouring_) return detour_step(*odom);
   if (looking_) return look_step(*odom);
   if (crossing_drive_) return cross_step(*odom);
@@ -556,7 +503,7 @@ NodeStatus ReplayAvoiding::detour_step(const Odometry& odom) {
   if (lane_) {
     st = lane_step(odom);
   } else {
-    st = detour_.step(*this, host_, runner_);
+    st = detour_.step(*this, host_, runner_, p_.contacts);
     (void)set_output("situation", std::string(to_string(detour_.last_situation())));
   }
   if (st == NodeStatus::running) return NodeStatus::running;
@@ -612,23 +559,17 @@ void ReplayAvoiding::interrupt_replay(const Odometry& odom) {
 }
 
 std::optional<NodeStatus> ReplayAvoiding::corridor_stop(const Odometry& odom) {
-  auto fresh = runner_.step(*this, host_);
+  auto fresh = runner_.step(host_, p_.contacts);
   if (!fresh) return replay_failed(fresh.error().message);
   if (*fresh) {
     log_points(host_, *this, odom.pose, **fresh);
     corridor_.add(**fresh, odom);
   }
-  auto blocked = corridor_.blocked(*this, odom);
+  auto blocked = corridor_.blocked(p_.corridor, odom);
   if (!blocked) return replay_failed(blocked.error().message);
   if (!*blocked) return std::nullopt;
   interrupt_replay(odom);
-  auto look = get_input<int>("look_frames");
-  if (!look || *look < 0) {
-    host_.logger().error(path(), !look ? look.error().message : "port 'look_frames': must be >= 0");
-    stop(host_);
-    return NodeStatus::failure;
-  }
-  if (*look == 0) return begin_detour(odom);
+  if (p_.look.look_frames == 0) return begin_detour(odom);
   begin_look(odom, "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge (robot at (" +
                        std::to_string(odom.pose.x_m) + ", " + std::to_string(odom.pose.y_m) + "), contacts " +
                        corridor_.blocking_points() + "): stop and look");
@@ -673,23 +614,20 @@ NodeStatus ReplayAvoiding::probe_step(const Odometry& odom) {
   };
   auto near_points = triangulate_near(odom);
   if (!near_points) return probe_failed(near_points.error().message);
-  auto min_points = get_input<int>("probe_min_points");
-  auto lookahead = get_input<double>("lookahead_m");
-  auto half_width = get_input<double>("corridor_half_width_m");
-  if (!min_points || !lookahead || !half_width)
-    return probe_failed("ports 'probe_min_points', 'lookahead_m', 'corridor_half_width_m' must be numbers");
+  const int min_points = p_.probe.min_points;
+  const double lookahead = p_.corridor.lookahead_m, half_width = p_.corridor.corridor_half_width_m;
   const Pose2D& r = odom.pose;
   const double c = std::cos(r.heading_rad), sn = std::sin(r.heading_rad);
   int ahead = 0;
   for (const auto& p : *near_points) {
     const double fwd = c * (p.x - r.x_m) + sn * (p.y - r.y_m), lat = -sn * (p.x - r.x_m) + c * (p.y - r.y_m);
-    if (fwd > 0.0 && fwd <= *lookahead + 1.0 && std::fabs(lat) <= *half_width) ++ahead;
+    if (fwd > 0.0 && fwd <= lookahead + 1.0 && std::fabs(lat) <= half_width) ++ahead;
   }
   if (!near_points->empty()) {
     log_points(host_, *this, r, *near_points);
     near_points_.insert(near_points_.end(), near_points->begin(), near_points->end());
   }
-  if (ahead >= *min_points) {
+  if (ahead >= min_points) {
     probing_ = false;
     stop(host_);
     replay_done_m_ = odom.distance_m - replay_origin_m_;
@@ -738,24 +676,19 @@ void ReplayAvoiding::edge_done(const Odometry& odom) {
 }
 
 NodeStatus ReplayAvoiding::child_failed(const Odometry& odom) {
-  auto trigger = get_input<std::string>("probe_on");
+  // The probe keys on the child's failure code, never on its message text.
+  auto code = get_input<std::string>("failure_code");
   auto failure = get_input<std::string>("failure");
-  if (!trigger || !failure || !probe_triggered(*failure, *trigger)) {
+  if (!p_.probe.enabled || !code || *code != "view_lost") {
     corridor_.clear();
     return NodeStatus::failure;
   }
   if (!probe_) {
     HiddenPathProbeParams params;
-    auto distance = get_input<double>("probe_m");
-    auto speed = get_input<double>("probe_speed_mps");
-    Status st = !distance ? Status(distance.error()) : !speed ? Status(speed.error()) : ok();
-    if (st) {
-      params.distance_m = *distance;
-      params.speed_mps = *speed;
-      st = params.validate();
-    }
-    if (!st) {
-      host_.logger().error(path(), "ports 'probe_m'/'probe_speed_mps': " + st.error().message);
+    params.distance_m = p_.probe.budget_m;
+    params.speed_mps = p_.probe.speed_mps;
+    if (auto st = params.validate(); !st) {
+      host_.logger().error(path(), "port 'probe': " + st.error().message);
       stop(host_);
       return NodeStatus::failure;
     }
@@ -766,8 +699,8 @@ NodeStatus ReplayAvoiding::child_failed(const Odometry& odom) {
   moved_off_line_ = true;
   near_points_.clear();
   if (near_) near_->reset();
-  probe_reason_ = *failure;
-  host_.logger().info(path(), "the child gave up (" + *failure + "): probing on for " +
+  probe_reason_ = failure ? *failure : std::string("view_lost");
+  host_.logger().info(path(), "the child gave up (" + probe_reason_ + "): probing on for " +
                                   std::to_string(probe_->left_m(odom.distance_m)) +
                                   " m while the IPT and the frame difference look");
   return NodeStatus::running;
@@ -783,7 +716,7 @@ Result<std::vector<cv::Point2d>> ReplayAvoiding::triangulate_near(const Odometry
   if (frame->image.channels() == 3) cv::cvtColor(frame->image, near_grey_, cv::COLOR_BGR2GRAY);
   else near_grey_ = frame->image;
   if (!near_) {
-    VISNAV_ASSIGN(IptCamera camera, read_camera(*this, near_grey_));
+    VISNAV_ASSIGN(IptCamera camera, ipt_camera(host_, near_grey_));
     VISNAV_ASSIGN(auto made, NearTriangulation::create(camera, NearTriangulationParams{}));
     near_.emplace(std::move(made));
   }
@@ -843,8 +776,8 @@ void ReplayAvoiding::resume_child(const Odometry& odom, const std::string& why) 
 
 Status ReplayAvoiding::read_crossing(const cv::Mat& grey) {
   if (crossing_read_) return ok();
-  VISNAV_ASSIGN(IptCamera camera, read_camera(*this, grey));
-  VISNAV_ASSIGN(crossing_, CrossingWatch::from_ports(*this, camera));
+  VISNAV_ASSIGN(IptCamera camera, ipt_camera(host_, grey));
+  VISNAV_ASSIGN(crossing_, CrossingWatch::create(p_.crossing, p_.look, body_radius_m_, camera));
   crossing_read_ = true;
   return ok();
 }
@@ -889,7 +822,7 @@ void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
 }
 
 Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
-  VISNAV_ASSIGN(const double stop_m, get_input<double>("moving_stop_m"));
+  const double stop_m = p_.look.moving_stop_m;
   if (stop_m <= 0.0 || odom.distance_m < drive_quiet_until_m_) return false;
   FrameBus* bus = host_.frame_bus();
   auto frame = bus != nullptr ? bus->latest_frame() : std::nullopt;
@@ -899,16 +832,16 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
   if (frame->image.channels() == 3) cv::cvtColor(frame->image, watch_grey_, cv::COLOR_BGR2GRAY);
   else watch_grey_ = frame->image;
   if (!drive_watch_) {
-    VISNAV_ASSIGN(IptCamera camera, read_camera(*this, watch_grey_));
+    VISNAV_ASSIGN(IptCamera camera, ipt_camera(host_, watch_grey_));
     MotionWatchParams params;
-    VISNAV_ASSIGN(params.diff_threshold, get_input<double>("motion_threshold"));
-    VISNAV_ASSIGN(params.min_changed_px, get_input<int>("motion_min_px"));
+    params.diff_threshold = p_.look.motion_threshold;
+    params.min_changed_px = p_.look.motion_min_px;
     params.near_m = 0.8;  // below, a millimetre of odometry error is a pixel of ground
     params.far_m = std::max(stop_m, 1.3);
     params.half_width_m = 1.2;
     params.min_changed_px *= 4;  // driving: a person 2 m ahead changes thousands of pixels
     auto made = MotionWatch::create(camera, params);
-    if (!made) return made.error().with_context("port 'moving_stop_m'");
+    if (!made) return made.error().with_context("port 'look', key 'moving_stop_m'");
     drive_watch_.emplace(std::move(*made));
   }
   // The robot's motion since the previous frame, in the previous robot frame.
@@ -927,7 +860,7 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
   const bool cruising = std::abs(motion.x_m) >= 0.02;
   if (!drive_shimmer_.update(*changed, cruising, drive_watch_->moving())) return false;
   // What stopped the robot: one compact region (a face close ahead) or scattered shimmer; the
-  // back-off after a fruitless look asks for the former (backoff_compact).
+  // back-off after a fruitless look asks for the former (the backoff group's compact).
   stop_shape_ = change_shape(drive_watch_->last_changed(), ChangeShapeParams{}, shape_labels_, shape_stats_, shape_centroids_);
   host_.logger().info(path(), "near corridor changed: " + std::to_string(stop_shape_.changed_px) + " px in " +
                                   std::to_string(stop_shape_.pieces) + " pieces (largest " +
@@ -946,19 +879,14 @@ NodeStatus ReplayAvoiding::look_failed(const std::string& message) {
 
 std::optional<NodeStatus> ReplayAvoiding::make_look_watch() {
   if (watch_) return std::nullopt;
-  auto camera = read_camera(*this, watch_grey_);
+  auto camera = ipt_camera(host_, watch_grey_);
   if (!camera) return look_failed(camera.error().message);
   MotionWatchParams params;
-  auto threshold = get_input<double>("motion_threshold");
-  auto min_px = get_input<int>("motion_min_px");
-  if (!threshold) return look_failed(threshold.error().message);
-  if (!min_px) return look_failed(min_px.error().message);
-  params.diff_threshold = *threshold;
-  params.min_changed_px = *min_px;
-  auto lookahead = get_input<double>("lookahead_m");
-  if (lookahead) params.far_m = std::max(params.near_m + 0.5, *lookahead + 1.0);
+  params.diff_threshold = p_.look.motion_threshold;
+  params.min_changed_px = p_.look.motion_min_px;
+  params.far_m = std::max(params.near_m + 0.5, p_.corridor.lookahead_m + 1.0);
   auto made = MotionWatch::create(*camera, params);
-  if (!made) return look_failed("port 'motion_threshold'/'motion_min_px': " + made.error().message);
+  if (!made) return look_failed("port 'look': " + made.error().message);
   watch_.emplace(std::move(*made));
   return std::nullopt;
 }
@@ -1002,36 +930,32 @@ NodeStatus ReplayAvoiding::look_step(const Odometry& odom) {
     if (crossing_) crossing_->restart_difference();
     return NodeStatus::running;
   }
-  // The crossing policy (crossing_s > 0): where the person is and goes, over a wide band.
+  // The crossing policy (crossing speed_mps > 0): where the person is and goes, over a wide band.
   std::optional<CrossingDecision> crossing;
   if (auto st = look_crossing(odom, frame->timestamp_s, crossing)) return *st;
   auto changed = watch_->observe(watch_grey_);
   if (!changed) return look_failed(changed.error().message);
   if (!*changed) return NodeStatus::running;
   const bool moving = watch_->moving() || (crossing && crossing->kind == CrossingDecision::Kind::wait);
-  auto look = get_input<int>("look_frames");
-  auto clear = get_input<int>("clear_frames");
-  auto max_wait = get_input<int>("max_wait_frames");
-  if (!look || !clear || !max_wait) return look_failed("ports 'look_frames', 'clear_frames', 'max_wait_frames' must be integers");
   if (!saw_motion_) {
     if (moving) {
       saw_motion_ = true;
       host_.logger().info(path(), "a moving obstacle in the corridor (" + std::to_string(**changed) +
                                       " changed pixels): wait until it is clear");
-    } else if (++look_frames_ >= *look) {
+    } else if (++look_frames_ >= p_.look.look_frames) {
       return look_still(odom, frame->timestamp_s);
     }
     return NodeStatus::running;
   }
-  return look_wait(odom, frame->timestamp_s, moving, crossing, *clear, *max_wait);
+  return look_wait(odom, frame->timestamp_s, moving, crossing, p_.look.clear_frames, p_.look.max_wait_frames);
 }
 
 NodeStatus ReplayAvoiding::look_still(const Odometry& odom, double timestamp_s) {
-  // Before a person's way: watch for it to pass (crossing_wait_s) before going on.
+  // Before a person's way: watch for it to pass (the crossing's wait_s) before going on.
   if (at_kerb_ && crossing_ && timestamp_s - kerb_since_s_ < crossing_->kerb_wait_s()) return NodeStatus::running;
   if (at_kerb_ && crossing_) crossing_->clear_lanes();
   looking_ = false;
-  auto blocked = corridor_.blocked(*this, odom);
+  auto blocked = corridor_.blocked(p_.corridor, odom);
   if (!blocked) return look_failed(blocked.error().message);
   // A contact where a person was seen crossing: likely that person, out of view now; wait
   // at its way (crossing policy) rather than detour into it.
@@ -1122,42 +1046,29 @@ NodeStatus ReplayAvoiding::cross_step(const Odometry& odom) {
 NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
   moved_off_line_ = true;
   {
-    auto ahead = get_input<double>("goal_ahead_m");
-    if (!ahead) return NodeStatus::failure;
-    auto mode = get_input<std::string>("detour");
-    if (!mode || (*mode != "lane" && *mode != "thesis")) {
-      host_.logger().error(path(), !mode ? mode.error().message
-                                         : "port 'detour': expected 'lane' or 'thesis' (got '" + *mode + "')");
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    if (*mode == "lane") {
+    if (lane_mode_) {
+      const LaneParams& lp = p_.lane;
       LaneDetourParams params;
-      auto body = get_input<double>("body_radius_m");
-      auto clearance = get_input<double>("clearance_m");
-      auto widest = get_input<double>("max_offset_m");
-      if (auto behind = get_input<double>("behind_m")) params.behind_m = *behind;
+      params.behind_m = lp.behind_m;
       if (auto edge = get_input<std::string>("edge"); edge && !edge->empty() && host_.map() != nullptr)
         for (const auto& e : host_.map()->edges())
           if (e.id == *edge) params.end_s_m = std::max(0.0, scale_ * e.length_m - replay_done_m_);
-      if (body) params.body_radius_m = *body;
-      if (clearance) params.clearance_m = *clearance;
-      if (widest) params.max_offset_m = *widest;
-      if (auto commit = get_input<double>("commit_m")) params.commit_m = *commit;
-      if (auto drift = get_input<double>("drift_rad_per_m")) params.drift_rad_per_m = *drift;
-      if (auto n = get_input<int>("max_recoveries")) params.max_recoveries = *n;
-      if (auto clear = get_input<double>("recover_clear_m")) params.recover_clear_m = *clear;
-      if (auto most = get_input<double>("max_reverse_m")) params.max_reverse_m = *most;
-      Status st = !body ? Status(body.error()) : !clearance ? Status(clearance.error()) : !widest ? Status(widest.error()) : params.validate();
-      if (st) st = detour_.begin(*this, odom.pose, *ahead);  // reads the shared detour ports (speed, gains, limits)
-      if (!st) {
-        host_.logger().error(path(), st.error().message);
+      params.body_radius_m = body_radius_m_;
+      params.clearance_m = lp.clearance_m;
+      params.max_offset_m = lp.max_offset_m;
+      params.commit_m = lp.commit_m;
+      params.drift_rad_per_m = lp.drift_rad_per_m;
+      params.max_recoveries = lp.max_recoveries;
+      params.recover_clear_m = lp.recover_clear_m;
+      params.max_reverse_m = lp.max_reverse_m;
+      if (auto st = params.validate(); !st) {
+        host_.logger().error(path(), st.error().with_context("ports 'lane', 'body_radius_m'").message);
         stop(host_);
         return NodeStatus::failure;
       }
       detour_.end();
       runner_.stop_correction();
-      if (auto ekf = get_input<bool>("ekf_heading"); ekf && *ekf) {
+      if (lp.ekf_heading) {
         if (auto started = runner_.start_correction(odom.pose); !started)
           host_.logger().warn(path(), "lane detour on the raw odometry: " + started.error().message);
       }
@@ -1167,7 +1078,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       lane_target_m_ = 1e9;
       lane_blocked_cycles_ = lane_stall_cycles_ = 0;
       lane_best_s_m_ = 0.0;
-    } else if (auto st = detour_.begin(*this, odom.pose, *ahead); !st) {
+    } else if (auto st = detour_.begin(p_.drive, p_.thesis, odom.pose); !st) {
       host_.logger().error(path(), st.error().message);
       stop(host_);
       return NodeStatus::failure;
@@ -1179,7 +1090,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
 }
 
 NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
-  auto fresh = runner_.step(*this, host_);
+  auto fresh = runner_.step(host_, p_.contacts);
   // With ekf_heading the detour steers by the ground-feature EKF's heading (the raw pose otherwise).
   Odometry odom = raw_odom;
   odom.pose = runner_.correct(raw_odom.pose);
@@ -1227,11 +1138,11 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
     stop(host_);
     return NodeStatus::success;
   }
-  const DetourDriver::Limits lim = detour_.limits();
+  const DriveParams& lim = p_.drive;
   if (d.kind == LaneDecision::Kind::blocked) {
     // Wait (a person may walk away); new pairs need motion, so the map only changes by waiting.
     stop(host_);
-    if (++lane_blocked_cycles_ >= lim.max_blocked) {
+    if (++lane_blocked_cycles_ >= lim.max_blocked_cycles) {
       host_.logger().error(path(), "stopped: " + d.reason + " for " + std::to_string(lane_blocked_cycles_) + " cycles");
       return NodeStatus::failure;
     }
@@ -1240,25 +1151,20 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
   lane_blocked_cycles_ = 0;
   if (d.kind == LaneDecision::Kind::reverse) {
     if (!was_reversing && near_) near_->reset();  // a new reference for the triangulation
-    auto speed = get_input<double>("backoff_speed_mps");
-    if (!speed || *speed <= 0.0 || *speed > 1.0) {
-      host_.logger().error(path(), "port 'backoff_speed_mps': must be in (0, 1] m/s (the recovery's reverse speed)");
-      stop(host_);
-      return NodeStatus::failure;
-    }
-    return send(host_, *this, -*speed, std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps));
+    return send(host_, *this, -p_.lane.reverse_speed_mps,
+                std::clamp(lim.turn_gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps));
   }
   if (was_reversing) lane_best_s_m_ = d.s_m;  // progress counts again from where the reversing ended
   if (d.s_m > lane_best_s_m_ + 0.1) {
     lane_best_s_m_ = d.s_m;
     lane_stall_cycles_ = 0;
-  } else if (++lane_stall_cycles_ >= lim.max_stall) {
+  } else if (++lane_stall_cycles_ >= lim.max_stall_cycles) {
     host_.logger().error(path(), "stopped: no progress along the line for " + std::to_string(lane_stall_cycles_) +
                                      " cycles (last: " + d.reason + ")");
     stop(host_);
     return NodeStatus::failure;
   }
-  const double w = std::clamp(lim.gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps);
+  const double w = std::clamp(lim.turn_gain_per_s * d.heading_rad, -lim.max_angular_radps, lim.max_angular_radps);
   // hold_forward: a known point in the body's way straight ahead: turn in place (lane_detour.hpp).
   const double v = d.hold_forward || std::fabs(d.heading_rad) > 1.0 ? 0.0
                                                                      : lim.speed_mps * std::max(0.0, std::cos(d.heading_rad));
@@ -1285,24 +1191,23 @@ void ReplayAvoiding::halt() {
 }
 
 Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
-  VISNAV_ASSIGN(const double distance, get_input<double>("backoff_m"));
+  const double distance = p_.backoff.distance_m;
   // Not at an edge's first metre (the frame difference fires after the turn at a node), and once
-  // per place: after a fruitless back-off, none until 2 backoff_m past where it stopped (a
+  // per place: after a fruitless back-off, none until 2 distance_m past where it stopped (a
   // shimmering floor stops the robot every 0.6 m; measured on the campus, e12 and e14).
   if (distance <= 0.0 || replay_done_m_ < 1.0 || odom.distance_m < backoff_again_at_m_) return false;
   // Only after a stop on something close standing ahead: ground shimmer stops the robot too
   // (campus gravel and tiles, 2-12 times a run), and each fruitless back-off costs accuracy.
-  VISNAV_ASSIGN(const bool compact_only, get_input<bool>("backoff_compact"));
-  if (compact_only && stop_by_drive_watch_ && !stop_shape_.compact) {
+  if (p_.backoff.compact && stop_by_drive_watch_ && !stop_shape_.compact) {
     host_.logger().info(path(), "nothing moves ahead and no contact; the stop's changed pixels were specks (ground shimmer): no back-off");
     return false;
   }
   BackOffLookParams params;
   params.distance_m = distance;
-  VISNAV_ASSIGN(params.speed_mps, get_input<double>("backoff_speed_mps"));
-  VISNAV_ASSIGN(params.min_points, get_input<int>("probe_min_points"));
-  VISNAV_ASSIGN(params.corridor_half_width_m, get_input<double>("corridor_half_width_m"));
-  if (auto st = params.validate(); !st) return st.error().with_context("ports 'backoff_m'/'backoff_speed_mps'");
+  params.speed_mps = p_.backoff.speed_mps;
+  params.min_points = p_.backoff.min_points;
+  params.corridor_half_width_m = p_.corridor.corridor_half_width_m;
+  if (auto st = params.validate(); !st) return st.error().with_context("port 'backoff'");
   backoff_.emplace(params);
   backoff_->begin(odom.pose, odom.distance_m);
   backoff_trail_.clear();
@@ -1355,14 +1260,14 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
 }
 
 void ReplayAvoiding::add_backoff_extent(const Odometry& odom, const BackOffVerdict& v) {
-  auto baseline = get_input<double>("standing_extent_m");
-  if (!baseline || *baseline <= 0.0 || near_grey_.empty()) return;
+  const double baseline = p_.standing.extent_m;
+  if (baseline <= 0.0 || near_grey_.empty()) return;
   // The back-off's triangulated corners cover the part of the face with texture; the plane sweep
-  // reads the face's edges from the image (campus seed 3, session 17). The frame standing_extent_m
+  // reads the face's edges from the image (campus seed 3, session 17). The frame the standing watch's extent_m
   // nearer the face is the "earlier" one.
-  const FrameTrail::Kept* nearer = backoff_trail_.back(-odom.distance_m, *baseline);
+  const FrameTrail::Kept* nearer = backoff_trail_.back(-odom.distance_m, baseline);
   if (nearer == nullptr) return;
-  auto camera = read_camera(*this, near_grey_);
+  auto camera = ipt_camera(host_, near_grey_);
   if (!camera) {
     host_.logger().warn(path(), "back-off: no extent from the image: " + camera.error().message);
     return;
@@ -1394,12 +1299,13 @@ Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host) {
         return std::make_unique<ReplayAvoiding>(name, config, host);
       }));
   // FollowRoute picks its child for an edge kind by node ID, and a decorator has one child: the
-  // path-following edges get the same node under a second ID (trees/replay_route_avoiding.xml).
-  VISNAV_TRY(registry.register_node<ReplayAvoiding>(
+  // path-following edges get the node under a second ID with their own defaults.
+  VISNAV_TRY(registry.register_node<ReplayPathAvoiding>(
       "ReplayPathAvoiding",
-      "ReplayAvoiding under a second node ID, for a second replay child under FollowRoute (e.g. FollowPathEdge)",
+      "ReplayAvoiding under a second node ID with the path-following edges' defaults (probe, back-off and standing "
+      "watch on), for a second replay child under FollowRoute (FollowPathEdge)",
       [&host](const std::string& name, const bt::NodeConfig& config) {
-        return std::make_unique<ReplayAvoiding>(name, config, host);
+        return std::make_unique<ReplayPathAvoiding>(name, config, host);
       }));
   return ok();
 }

@@ -11,8 +11,9 @@
 //    goal for max_stall_cycles cycles (a trap), or when the camera/odometry are missing.
 //  * ReplayAvoiding (decorator around a replay primitive): the two above inside an edge replay,
 //    see the class comment.
-// Camera ports describe the mounting (the sim camera's defaults); the image size comes from
-// the frames. Both nodes stop the robot when halted or failing.
+// The camera mount comes from the camera plugin (HostServices::camera_mount(), docs/cameras.md);
+// the image size from the frames. Parameters: avoiding_params.hpp (one struct per mechanism,
+// ports generated from its schema). Both nodes stop the robot when halted or failing.
 #pragma once
 
 #include <memory>
@@ -24,6 +25,7 @@
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/registry.hpp"
 #include "visnav/host.hpp"
+#include "avoiding_params.hpp"
 #include "crossing_watch.hpp"
 #include "standing_check.hpp"
 #include "visnav/ipt_obstacles/back_off_look.hpp"
@@ -41,9 +43,10 @@ namespace visnav::ipt {
 /// Pipeline state shared by both node kinds: frames in, contact points (odom frame) out.
 class PipelineRunner {
  public:
-  /// Reads the camera ports on first use. Returns the contact points of a new pair (may be
-  /// empty), nullopt when no new pair closed this tick. Error: no frame bus / bad camera.
-  Result<std::optional<std::vector<cv::Point2d>>> step(const bt::TreeNode& node, HostServices& host);
+  /// Asks the host for the camera mount on first use. Returns the contact points of a new pair
+  /// (may be empty), nullopt when no new pair closed this tick. Error: no frame bus, no or bad
+  /// camera mount, bad `contacts`.
+  Result<std::optional<std::vector<cv::Point2d>>> step(HostServices& host, const ContactParams& contacts);
   [[nodiscard]] std::optional<Pose2D> pose(HostServices& host) const;
   void restart() {
     if (pipeline_) pipeline_->restart();
@@ -71,14 +74,12 @@ class PipelineRunner {
   cv::Mat grey_;
 };
 
-/// Camera mounting and contact-point ports; foot_radius_px defaults differ per node.
-bt::PortsList camera_ports(const char* foot_radius_default_px);
-/// The IPT camera of camera_ports() for frames of `image`'s size (a pinhole with a centred
-/// principal point). Error: a port out of range, naming it.
-Result<IptCamera> read_camera(const bt::TreeNode& node, const cv::Mat& image);
+/// The IPT camera of the host's camera mount for frames of `image`'s size (a pinhole with a
+/// centred principal point). Error: the camera declares no mount (naming the keys to add).
+Result<IptCamera> ipt_camera(HostServices& host, const cv::Mat& image);
 
 /// Contact points (odom frame) kept for memory_m of travel, and the corridor test shared by
-/// ObstacleAhead and ReplayAvoiding (ports corridor_ports()). With confirm_baseline_m > 0 only
+/// ObstacleAhead and ReplayAvoiding (CorridorParams). With confirm_baseline_m > 0 only
 /// persistent points count (ContactPersistence: seen again at the same ground point from robot
 /// positions at least that far apart, by confirm_views pairs); 0 = every point (the thesis and
 /// the default: measured, the confirmation delay lets a parked van come too close for the lane
@@ -91,8 +92,8 @@ class CorridorMemory {
   /// when the filter is on, else all). Forgets by the memory_m read by the last blocked().
   std::vector<cv::Point2d> add_and_confirm(const std::vector<cv::Point2d>& points, const Odometry& odom);
   /// True when a kept (confirmed) point lies 0 < forward ≤ lookahead_m, |lateral| ≤
-  /// corridor_half_width_m. Error: a port value is missing or bad.
-  Result<bool> blocked(const bt::TreeNode& node, const Odometry& odom);
+  /// corridor_half_width_m. Error: bad confirmation params.
+  Result<bool> blocked(const CorridorParams& params, const Odometry& odom);
   void clear() { sightings_.clear(); }
   /// The kept points (odom frame): the confirmed ones when the filter is on.
   [[nodiscard]] std::vector<cv::Point2d> points() const {
@@ -109,8 +110,6 @@ class CorridorMemory {
   std::string blocking_;
 };
 
-bt::PortsList corridor_ports(const char* lookahead_default_m, const char* confirm_baseline_default_m);
-
 class ObstacleAhead : public bt::ConditionNode {
  public:
   ObstacleAhead(const std::string& name, const bt::NodeConfig& config, HostServices& host);
@@ -121,39 +120,31 @@ class ObstacleAhead : public bt::ConditionNode {
   HostServices& host_;
   PipelineRunner runner_;
   CorridorMemory corridor_;
+  std::optional<ContactParams> contacts_;  // parsed at the first tick
+  CorridorParams corridor_params_;
 };
 
 /// The detour shared by AvoidObstacles and ReplayAvoiding: NavigationFilter decisions to a goal
 /// on the line of the heading where it began, turned into (v, ω) (see the file comment).
 class DetourDriver {
  public:
-  /// Reads the detour ports (avoid_ports()) and places the goal. Error: bad port values.
-  Status begin(const bt::TreeNode& node, const Pose2D& pose, double goal_ahead_m);
+  /// Places the goal thesis.goal_ahead_m ahead of `pose` on its heading. Error: bad params.
+  Status begin(const DriveParams& drive, const ThesisDetourParams& thesis, const Pose2D& pose);
   /// One cycle: success at the goal, failure (reason logged, robot stopped) when blocked or
   /// stalled, running otherwise.
-  bt::NodeStatus step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner);
+  bt::NodeStatus step(const bt::TreeNode& node, HostServices& host, PipelineRunner& runner, const ContactParams& contacts);
   void end() { filter_.reset(); }
   [[nodiscard]] Situation last_situation() const { return last_situation_; }
-  /// The drive settings and limits read by begin() (also used by ReplayAvoiding's lane detour).
-  struct Limits {
-    double speed_mps, gain_per_s, max_angular_radps;
-    int max_blocked, max_stall;
-  };
-  [[nodiscard]] Limits limits() const { return {speed_mps_, gain_per_s_, max_angular_radps_, max_blocked_, max_stall_}; }
 
  private:
   std::optional<NavigationFilter> filter_;
   cv::Point2d goal_m_;
-  double speed_mps_ = 0.2, gain_per_s_ = 1.5, max_angular_radps_ = 0.6;
-  int max_blocked_ = 60, max_stall_ = 300;
+  DriveParams drive_;
   int blocked_cycles_ = 0;
   int stall_cycles_ = 0;
   double best_distance_m_ = 0.0;
   Situation last_situation_ = Situation::blocked;
 };
-
-/// Ports of the detour (both nodes).
-bt::PortsList avoid_ports();
 
 class AvoidObstacles : public bt::StatefulActionNode {
  public:
@@ -167,6 +158,7 @@ class AvoidObstacles : public bt::StatefulActionNode {
   HostServices& host_;
   PipelineRunner runner_;
   DetourDriver detour_;
+  ContactParams contacts_;
 };
 
 /// Replay with avoidance (decorator around an edge's replay primitive, e.g. ReplayFeatureEdge):
@@ -174,24 +166,28 @@ class AvoidObstacles : public bt::StatefulActionNode {
 /// is halted and a detour drives around the obstacle along the line of the heading at that
 /// moment — the taught edge: detour="lane" (default) with LaneDetour (lane_detour.hpp: a free
 /// lateral offset, back onto the line past the obstacle), detour="thesis" with the Ch. 6
-/// strategy (as AvoidObstacles) to a point goal_ahead_m further along the line. Then the child
+/// strategy (as AvoidObstacles) to a point the thesis group's goal_ahead_m further along the line. Then the child
 /// starts again with `carried_m` set to the along-track distance already covered: the replay's
 /// distance before the obstacle plus the detour's progress projected on that line, so the edge
 /// keeps counting and its visual correction resumes. No gap: failure with the reason.
-/// Moving obstacles (look_frames > 0): before a detour the robot stops and watches the corridor
-/// for look_frames frames (MotionWatch, frame differencing of the standing camera). No motion:
+/// Moving obstacles (look group, look_frames > 0): before a detour the robot stops and watches the
+/// corridor for look_frames frames (MotionWatch, frame differencing of the standing camera). No motion:
 /// the obstacle stands, detour as above. Motion (a person crossing): wait until the corridor has
 /// been still for clear_frames frames, then resume the replay where it stopped (the stale
 /// contact points are dropped; a person who stopped in the corridor is found again by the IPT
 /// and, standing, detoured). Still moving after max_wait_frames: failure with the reason.
 /// Register the edge kinds to it in FollowRoute's `primitives` port. The child may be any replay
-/// primitive with the adapter's carried_m port (ReplayFeatureEdge, FollowPathEdge); the same node
-/// is registered as ReplayPathAvoiding too, since FollowRoute picks a child per kind by node ID.
+/// primitive with the adapter's carried_m port (ReplayFeatureEdge, FollowPathEdge).
+/// Parameters: one group port per mechanism (avoiding_params.hpp), parsed once at the first tick
+/// on top of `defaults` (replay_defaults(); ReplayPathAvoiding: path_replay_defaults()).
 /// Distances: the odometry's, divided by distance_scale where the edge's taught metres are meant.
 class ReplayAvoiding : public bt::DecoratorNode {
  public:
-  ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host);
+  ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host,
+                 const AvoidingParams& defaults = replay_defaults());
   static bt::PortsList provided_ports();
+  /// The ports with the group defaults of `defaults` (ReplayPathAvoiding's provided_ports()).
+  static bt::PortsList ports_with(const AvoidingParams& defaults);
   bt::NodeStatus tick() override;
   void halt() override;
 
@@ -225,7 +221,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   std::optional<bt::NodeStatus> kerb_stop(const Odometry& odom);
   /// The standing watch (standing_ahead()): a face ahead starts the lane detour.
   std::optional<bt::NodeStatus> standing_stop(const Odometry& odom);
-  /// The probing phase: one cycle of creeping on after the child gave up (probe_on): enough
+  /// The probing phase: one cycle of creeping on after the child gave up (failure code view_lost): enough
   /// corners ahead start the detour; the budget used fails.
   bt::NodeStatus probe_step(const Odometry& odom);
   /// The child's tick while replaying: its end ends the edge (edge_done()) or, failed, goes to
@@ -241,7 +237,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bt::NodeStatus look_failed(const std::string& message);
   /// Creates watch_ from the ports on the first look frame; a status on failure.
   std::optional<bt::NodeStatus> make_look_watch();
-  /// The crossing policy's decision on the look frame (crossing_s > 0) into `crossing`, logged
+  /// The crossing policy's decision on the look frame into `crossing`, logged
   /// when it changes; a status on failure.
   std::optional<bt::NodeStatus> look_crossing(const Odometry& odom, double timestamp_s,
                                               std::optional<CrossingDecision>& crossing);
@@ -264,13 +260,13 @@ class ReplayAvoiding : public bt::DecoratorNode {
   Result<bool> moving_near(const Odometry& odom);
   /// Stops the robot and starts the stop-and-look phase.
   void begin_look(const Odometry& odom, const std::string& why);
-  /// The child failed: with probe_on matching its reason, start (or continue) the probe ahead
+  /// The child failed: with the probe on and failure code view_lost, start (or continue) the probe ahead
   /// (hidden_path_probe.hpp) and return RUNNING; otherwise FAILURE.
   bt::NodeStatus child_failed(const Odometry& odom);
   /// While probing: feeds the new frame to the longer-baseline
   /// triangulation (near_triangulation.hpp); returns the obstacle points it found (odom frame).
   Result<std::vector<cv::Point2d>> triangulate_near(const Odometry& odom);
-  /// After a look that saw nothing move and no contact: starts backing off (backoff_m > 0;
+  /// After a look that saw nothing move and no contact: starts backing off (backoff distance_m > 0;
   /// back_off_look.hpp) and returns true, or false when it is off. Error: bad ports.
   Result<bool> begin_backoff(const Odometry& odom);
   /// One cycle of backing off: reverse and triangulate; at the end detour (something stands
@@ -279,17 +275,24 @@ class ReplayAvoiding : public bt::DecoratorNode {
   std::optional<BackOffLook> backoff_;
   bool backing_ = false;
   /// The back-off's frames, keyed by the negated odometer (it decreases while reversing), for the
-  /// face's extent from the image when the back-off finds something (standing_extent_m > 0).
+  /// face's extent from the image when the back-off finds something (standing extent_m > 0).
   FrameTrail backoff_trail_{0.05, 1.2};
   /// After a back-off that found a face (`v`, last frame near_grey_ at `odom`): the face's full
-  /// width from the image (face_extent.hpp), against the back-off's frame standing_extent_m
+  /// width from the image (face_extent.hpp), against the back-off's frame standing extent_m
   /// nearer the face; added to the lane detour's points, and its side chosen for that width.
   /// Logs and ignores a failure (the detour keeps the triangulated points).
   void add_backoff_extent(const Odometry& odom, const BackOffVerdict& v);
-  /// While the child drives (standing_min_points > 0; standing_check.hpp): feeds the frame to the
+  /// While the child drives (standing min_points > 0; standing_check.hpp): feeds the frame to the
   /// triangulation and the standing watch; when it fires, stops the child and starts the lane
   /// detour with the face's points and returns the detour's first status. Error: bad ports.
   Result<std::optional<bt::NodeStatus>> standing_ahead(const Odometry& odom);
+  /// Parses the group ports into p_ on the first tick; false (logged, robot stopped) on an error.
+  bool read_params();
+  const AvoidingParams& defaults_;
+  AvoidingParams p_;
+  bool lane_mode_ = true;       // detour="lane" (else "thesis")
+  double body_radius_m_ = 0.25;
+  bool params_read_ = false;
   std::optional<StandingCheck> standing_;
   bool standing_read_ = false;
   std::uint64_t standing_sequence_ = 0;
@@ -314,7 +317,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bool have_watch_sequence_ = false;
   std::optional<MotionWatch> watch_;
   std::optional<MotionWatch> drive_watch_;  // the near corridor while driving (moving_stop_m)
-  std::optional<CrossingWatch> crossing_;    // the crossing policy (crossing_s > 0; crossing_watch.hpp)
+  std::optional<CrossingWatch> crossing_;    // the crossing policy (crossing speed_mps > 0; crossing_watch.hpp)
   bool crossing_read_ = false;
   CrossingDecision::Kind crossing_kind_ = CrossingDecision::Kind::no_track;
   std::string crossing_head_;     // the last logged decision's reason up to its figures
@@ -323,11 +326,11 @@ class ReplayAvoiding : public bt::DecoratorNode {
   Pose2D kerb_pose_;              // odometry pose of the previous driving frame (crossing watch)
   std::uint64_t kerb_sequence_ = 0;
   bool have_kerb_sequence_ = false;
-  /// Creates crossing_ from the ports on the first frame (crossing_s > 0). Error: bad ports.
+  /// Creates crossing_ from the ports on the first frame (crossing speed_mps > 0). Error: bad ports.
   Status read_crossing(const cv::Mat& grey);
   /// The crossing watch while driving: true when the robot is to stop before a person's way.
   Result<bool> kerb_near(const Odometry& odom);
-  /// The policy's go at a person's way `way_ahead_m` ahead with crossing_speed_mps > 0: the node
+  /// The policy's go at a person's way `way_ahead_m` ahead with the crossing's speed_mps: the node
   /// drives across itself at that speed holding the heading (HiddenPathProbe as the driver),
   /// then the child resumes (cross_step()).
   void begin_crossing(const Odometry& odom, double way_ahead_m, const std::string& why);
@@ -352,7 +355,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bool moved_off_line_ = false;    // this edge had a detour, back-off, probe or crossing (extra_travel_m)
   double edge_start_odometer_m_ = 0.0;  // odometer when the edge's child first started
   double edge_start_carried_m_ = 0.0;   // carried_m then (FollowRoute's), taught m
-  std::optional<HiddenPathProbe> probe_;  // made at the first probe (probe_* ports)
+  std::optional<HiddenPathProbe> probe_;  // made at the first probe (probe group)
   bool probing_ = false;           // the child gave up on a hidden path: creeping on, looking
   std::string probe_reason_;       // the child's failure that started the probe
   std::optional<NearTriangulation> near_;   // made at the first probe
@@ -361,6 +364,16 @@ class ReplayAvoiding : public bt::DecoratorNode {
   bool have_near_sequence_ = false;
   cv::Mat near_grey_;
   Pose2D detour_start_;
+};
+
+/// ReplayAvoiding under a second node ID with the path-following edges' defaults
+/// (path_replay_defaults(): the probe, the back-off and the standing watch on): FollowRoute picks
+/// a child per edge kind by node ID, and a decorator has one child.
+class ReplayPathAvoiding : public ReplayAvoiding {
+ public:
+  ReplayPathAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host)
+      : ReplayAvoiding(name, config, host, path_replay_defaults()) {}
+  static bt::PortsList provided_ports() { return ports_with(path_replay_defaults()); }
 };
 
 Status register_ipt_nodes(bt::NodeRegistry& registry, HostServices& host);

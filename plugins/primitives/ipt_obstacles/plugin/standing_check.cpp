@@ -26,66 +26,19 @@ void steer_by_extent(LaneDetour& lane, double seen_right_m, double seen_left_m, 
   lane.prefer_side(side_past(std::min(seen_right_m, e.right_m), std::max(seen_left_m, e.left_m)));
 }
 
-bt::PortsList standing_ports() {
-  return {bt::input_port<int>(
-              "standing_min_points", "0",
-              "while the child drives: corners triangulated above the ground (near_triangulation.hpp) within one face's "
-              "depth (standing_depth_m) in the corridor ahead, from at least 2 triangulations of the last 1.5 m, that "
-              "stop the child and start the lane detour with the face's points (standing_watch.hpp); 0 = off"),
-          bt::input_port<int>("standing_one_batch_points", "0",
-                              "standing watch: a face with at least this many corners fires from one triangulation "
-                              "(on a path edge the follower's steering may leave no second straight baseline before "
-                              "the face is reached; campus seed 9: 11 corners 3.1 m ahead, then none until contact); "
-                              "pair it with standing_min_face_share; 0 = off (two triangulations needed)"),
-          bt::input_port<double>("standing_depth_m", "0.6", "standing watch: forward depth of one face's points, m"),
-          bt::input_port<double>("standing_range_m", "4.0",
-                                 "standing watch: corners at most this far ahead count (the triangulation's reach), m"),
-          bt::input_port<double>("standing_min_width_m", "0.5",
-                                 "standing watch: the face's points must span this much across, m"),
-          bt::input_port<double>("standing_min_range_m", "0",
-                                 "standing watch: a face found nearer than this is left to the other watches (the "
-                                 "frame difference, back-off), m; 0 = any"),
-          bt::with_range(bt::input_port<double>("standing_extent_m", "0",
-                                 "standing watch: when it fires, the face's full width from the image (a plane sweep at "
-                                 "its distance against the frame this far back, face_extent.hpp) is added to the lane "
-                                 "detour's points, m; 0 = off (only the triangulated points)"), 0.0, 1.0),
-          bt::with_range(bt::input_port<double>(
-              "standing_min_face_share", "0",
-              "standing watch with standing_extent_m > 0: when the plane sweep judges less than this share of the "
-              "image columns to be a face (face_extent.hpp, FaceExtent::face_share), the firing is dropped and the "
-              "child resumes: the triangulated corners were not a standing face (campus: false firings 0.07-0.10, "
-              "the van 0.57-0.89); 0 = off"), 0.0, 1.0)};
-}
-
-Result<std::optional<StandingCheck>> StandingCheck::from_ports(const bt::TreeNode& node) {
-  VISNAV_ASSIGN(const int min_points, node.get_input<int>("standing_min_points"));
-  if (min_points == 0) return std::optional<StandingCheck>{};
+Result<std::optional<StandingCheck>> StandingCheck::create(const StandingPortParams& standing,
+                                                          double corridor_half_width_m) {
+  if (standing.min_points == 0) return std::optional<StandingCheck>{};
+  if (auto st = standing.validate(); !st) return st.error().with_context("port 'standing'");
   StandingWatchParams params;
-  params.min_points = min_points;
-  VISNAV_ASSIGN(params.one_batch_points, node.get_input<int>("standing_one_batch_points"));
-  VISNAV_ASSIGN(params.depth_band_m, node.get_input<double>("standing_depth_m"));
-  VISNAV_ASSIGN(params.max_range_m, node.get_input<double>("standing_range_m"));
-  VISNAV_ASSIGN(params.min_width_m, node.get_input<double>("standing_min_width_m"));
-  VISNAV_ASSIGN(params.corridor_half_width_m, node.get_input<double>("corridor_half_width_m"));
-  VISNAV_ASSIGN(const double min_range_m, node.get_input<double>("standing_min_range_m"));
-  if (auto st = params.validate(); !st)
-    return st.error().with_context("ports 'standing_min_points'/'standing_one_batch_points'/'standing_depth_m'/'standing_range_m'/'standing_min_width_m'");
-  if (!std::isfinite(min_range_m) || min_range_m < 0.0 || min_range_m >= params.max_range_m)
-    return Error{"port 'standing_min_range_m': " + std::to_string(min_range_m) + " must lie in [0, standing_range_m)",
-                 ErrorCode::out_of_range};
-  VISNAV_ASSIGN(const double extent_m, node.get_input<double>("standing_extent_m"));
-  if (!std::isfinite(extent_m) || extent_m < 0.0 || extent_m > 1.0)
-    return Error{"port 'standing_extent_m': " + std::to_string(extent_m) + " must lie in [0, 1] (0 = off)",
-                 ErrorCode::out_of_range};
-  VISNAV_ASSIGN(const double min_face_share, node.get_input<double>("standing_min_face_share"));
-  if (!std::isfinite(min_face_share) || min_face_share < 0.0 || min_face_share > 1.0)
-    return Error{"port 'standing_min_face_share': " + std::to_string(min_face_share) + " must lie in [0, 1] (0 = off)",
-                 ErrorCode::out_of_range};
-  if (min_face_share > 0.0 && extent_m == 0.0)
-    return Error{"port 'standing_min_face_share' needs 'standing_extent_m' > 0 (the share comes from the extent's plane "
-                 "sweep)",
-                 ErrorCode::inconsistent};
-  return std::optional<StandingCheck>(StandingCheck(params, min_range_m, extent_m, min_face_share));
+  params.min_points = standing.min_points;
+  params.one_batch_points = standing.one_batch_points;
+  params.depth_band_m = standing.depth_m;
+  params.max_range_m = standing.range_m;
+  params.min_width_m = standing.min_width_m;
+  params.corridor_half_width_m = corridor_half_width_m;
+  if (auto st = params.validate(); !st) return st.error().with_context("ports 'standing', 'corridor'");
+  return std::optional<StandingCheck>(StandingCheck(params, standing.min_range_m, standing.extent_m, standing.min_face_share));
 }
 
 Result<StandingVerdict> StandingCheck::observe(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose,
@@ -117,7 +70,7 @@ Result<std::optional<FaceExtent>> StandingCheck::extent(const cv::Mat& grey, con
 
 Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odometry& odom) {
   if (!standing_read_) {
-    VISNAV_ASSIGN(standing_, StandingCheck::from_ports(*this));
+    VISNAV_ASSIGN(standing_, StandingCheck::create(p_.standing, p_.corridor.corridor_half_width_m));
     standing_read_ = true;
   }
   if (!standing_) return std::optional<bt::NodeStatus>{};
@@ -129,7 +82,7 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
   standing_sequence_ = frame->sequence;
   if (frame->image.channels() == 3) cv::cvtColor(frame->image, standing_grey_, cv::COLOR_BGR2GRAY);
   else standing_grey_ = frame->image;
-  VISNAV_ASSIGN(const IptCamera camera, read_camera(*this, standing_grey_));
+  VISNAV_ASSIGN(const IptCamera camera, ipt_camera(host_, standing_grey_));
   int new_points = 0;
   VISNAV_ASSIGN(const StandingVerdict v, standing_->observe(standing_grey_, camera, odom.pose, odom.distance_m, new_points));
   if (new_points > 0 && v.in_face > 0)
@@ -154,7 +107,7 @@ Result<std::optional<bt::NodeStatus>> ReplayAvoiding::standing_ahead(const Odome
     // a detour on them drives blind beside the line for the obstacle's assumed length.
     standing_->reset();
     resume_child(odom, "standing watch dropped: the image shows no standing face there (face share " +
-                           std::to_string(extent->face_share()) + " < standing_min_face_share " +
+                           std::to_string(extent->face_share()) + " < the standing watch's min_face_share " +
                            std::to_string(standing_->min_face_share()) + ")");
     return std::optional<bt::NodeStatus>(bt::NodeStatus::running);
   }

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "avoiding_params.hpp"
 #include "visnav/bt/node.hpp"
 #include "visnav/ipt_obstacles/face_extent.hpp"
 #include "visnav/ipt_obstacles/lane_detour.hpp"
@@ -23,13 +24,10 @@ namespace visnav::ipt {
 /// span of the seen points (seen_right_m..seen_left_m) and the extent together. Not found: nothing.
 void steer_by_extent(LaneDetour& lane, double seen_right_m, double seen_left_m, const FaceExtent& e);
 
-/// The ports (standing_min_points = 0: off, the default).
-[[nodiscard]] bt::PortsList standing_ports();
-
 class StandingCheck {
  public:
-  /// nullopt when standing_min_points is 0 (off). Error: a bad port value (naming the port).
-  static Result<std::optional<StandingCheck>> from_ports(const bt::TreeNode& node);
+  /// nullopt when standing.min_points is 0 (off). Error: a bad value (naming the port and key).
+  static Result<std::optional<StandingCheck>> create(const StandingPortParams& standing, double corridor_half_width_m);
   /// One triangulation's points (possibly none) at `pose`, odometer `odometer_m`. A jump of the
   /// odometer since the last call (the watch was not asked: a detour, a back-off, a stop) forgets
   /// the points first; `restarted` tells the caller to restart the triangulation's reference too.
@@ -51,8 +49,8 @@ class StandingCheck {
   /// A firing whose extent judges less of the image a face than this is dropped (0 = never).
   [[nodiscard]] double min_face_share() const { return min_face_share_; }
   /// The face's full extent (face_extent.hpp) for a verdict that fired on the last frame observed
-  /// (`grey` at `pose`, `odometer_m`), from the frame standing_extent_m back; nullopt when off
-  /// (standing_extent_m 0) or no frame is that far back. Error: bad image (a bug).
+  /// (`grey` at `pose`, `odometer_m`), from the frame extent_m back; nullopt when off
+  /// (extent_m 0) or no frame is that far back. Error: bad image (a bug).
   Result<std::optional<FaceExtent>> extent(const cv::Mat& grey, const IptCamera& camera, const Pose2D& pose,
                                            double odometer_m, const StandingVerdict& verdict) const;
 

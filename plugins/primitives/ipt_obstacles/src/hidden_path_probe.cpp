@@ -25,10 +25,6 @@ const ParamSchema<HiddenPathProbeParams>& HiddenPathProbeParams::schema() {
   return s;
 }
 
-bool probe_triggered(const std::string& failure, const std::string& trigger) {
-  return !trigger.empty() && failure.find(trigger) != std::string::npos;
-}
-
 void HiddenPathProbe::begin(const Pose2D& pose, double odometer_m) {
   heading_rad_ = pose.heading_rad;
   if (!end_odometer_m_ || odometer_m >= *end_odometer_m_) end_odometer_m_ = odometer_m + params_.distance_m;

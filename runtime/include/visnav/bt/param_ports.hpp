@@ -72,11 +72,26 @@ template <typename P>
           [shared](std::string_view key, const ConfigNode& value) { return shared->check_field(key, value); }};
 }
 
+/// The same with the defaults of `defaults` (a node whose tuned values differ from the struct's
+/// own initialisers).
+template <typename P>
+[[nodiscard]] ParamPorts param_ports(const ParamSchema<P>& schema, const P& defaults) {
+  ParamPorts ports = param_ports(schema);
+  ports.docs = schema.docs(defaults);
+  return ports;
+}
+
 /// Appends the ports of `schema` (one per field). Cannot fail: every field type a ParamSchema
 /// accepts has a port type (a failure would be a bug here: std::logic_error).
 template <typename P>
 void append_param_ports(PortsList& ports, const ParamSchema<P>& schema) {
   if (auto st = append_param_ports(ports, param_ports(schema)); !st) throw std::logic_error(st.error().message);
+}
+
+/// The same with the defaults of `defaults` (see param_ports(schema, defaults)).
+template <typename P>
+void append_param_ports(PortsList& ports, const ParamSchema<P>& schema, const P& defaults) {
+  if (auto st = append_param_ports(ports, param_ports(schema, defaults)); !st) throw std::logic_error(st.error().message);
 }
 
 /// Reads the ports of `schema` from `node` and parses them: the validated params struct, or the
@@ -87,6 +102,78 @@ template <typename P>
   auto map = read_param_ports(node, schema.docs());
   if (!map) return std::move(map).error();
   return schema.parse(*map);
+}
+
+// ---------------------------------------------------------------------------- group ports
+//
+// A node with many parameters in a few mechanisms gives each mechanism ONE port whose value
+// sets any of that mechanism's params struct's keys, the rest keeping their defaults:
+//
+//   <ReplayAvoiding corridor="lookahead_m=3; confirm_views=4" lane="clearance_m=0.4"> ...
+//
+// Text: entries `key=value` separated by ';' (blanks around keys and values are ignored, so a
+// value may contain spaces, not ';'); empty = every default. The port is a std::string port
+// (a blackboard reference "{key}" holding such text works too). Its description lists every key
+// with type, default and constraint, so `visnav nodes` documents the keys. Literal check: the
+// whole text is parsed as the schema parses a params map, validate() included, so the loader
+// and `visnav validate` refuse an unknown key, a bad value and a cross-key rule at the element's
+// file:line, naming the port and the key ("port 'corridor': key 'confirm_views': value 0 is out
+// of range [1, 100]").
+
+/// The text of a group port as a params map located at `where`. Error: an entry without '=', an
+/// empty key, a key given twice (naming it).
+[[nodiscard]] Result<ConfigNode> parse_param_group_text(std::string_view text, const SourceLocation& where);
+
+/// `what`, then "Keys: name (type, default d[, constraint]): description; ..." for `docs`.
+[[nodiscard]] std::string param_group_description(std::string_view what, const std::vector<ParamDoc>& docs);
+
+/// The problems of a group port's literal `text` for `schema` on top of `defaults`, without a
+/// location (the tree loader adds the element's): each entry's own check, then validate().
+template <typename P>
+[[nodiscard]] Status check_param_group(std::string_view text, const ParamSchema<P>& schema, const P& defaults) {
+  VISNAV_ASSIGN(ConfigNode map, parse_param_group_text(text, {}));
+  for (const auto& [key, value] : map.entries()) {
+    if (auto st = schema.check_field(key, value); !st) {
+      if (st.error().code == ErrorCode::unknown_key) {
+        std::string known;
+        for (const auto& d : schema.docs()) known += (known.empty() ? "" : ", ") + d.name;
+        return Error{"unknown key '" + key + "' (known keys: " + known + ")", ErrorCode::unknown_key};
+      }
+      return Error{"key '" + key + "': " + st.error().message, st.error().with_default_code(ErrorCode::invalid_value).code};
+    }
+  }
+  auto whole = schema.parse(map, defaults);
+  if (whole) return ok();
+  // validate()'s verdict, without the "<built-in>: " of a map made in code.
+  std::string message = whole.error().message;
+  const std::string builtin = SourceLocation{}.str() + ": ";
+  if (message.starts_with(builtin)) message.erase(0, builtin.size());
+  return Error{message, whole.error().code};
+}
+
+/// One std::string input port `name` for `schema`'s keys on top of `defaults` (see above).
+template <typename P>
+[[nodiscard]] PortInfo param_group_port(std::string name, const ParamSchema<P>& schema, const P& defaults,
+                                        std::string_view what) {
+  auto shared = std::make_shared<const ParamSchema<P>>(schema);
+  PortInfo port = input_port<std::string>(std::move(name), "", param_group_description(what, shared->docs(defaults)));
+  port.check = [shared, defaults](std::string_view text) { return check_param_group(text, *shared, defaults); };
+  return port;
+}
+
+/// The params of group port `port` of `node`: `defaults` with the port's keys applied, validated.
+/// Error: the port unreadable, a bad entry, key or value, validate()'s verdict; located at the
+/// node's file:line and naming the port.
+template <typename P>
+[[nodiscard]] Result<P> parse_param_group(const TreeNode& node, const std::string& port, const ParamSchema<P>& schema,
+                                          const P& defaults) {
+  auto text = node.get_input<std::string>(port);
+  if (!text) return text.error().with_context("port '" + port + "'");
+  auto map = parse_param_group_text(*text, node.where());
+  if (!map) return map.error().with_context("port '" + port + "'");
+  auto parsed = schema.parse(*map, defaults);
+  if (!parsed) return parsed.error().with_context("port '" + port + "'");
+  return parsed;
 }
 
 }  // namespace visnav::bt

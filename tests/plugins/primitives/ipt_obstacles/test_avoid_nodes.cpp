@@ -15,6 +15,7 @@
 //    it keeps its side and stops with the reason, commit_m); with the
 //    van 0.6 m right the follower keeps the path up to it and the standing watch finds it; a stop
 //    and look on a path edge keeps the follower's along-track correction (odometry 12 % short).
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <cmath>
@@ -22,6 +23,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -29,9 +31,6 @@
 #include <gtest/gtest.h>
 
 namespace {
-
-// config/sim_obstacles.yaml's camera mount, the blackboard entries the avoiding trees read.
-constexpr const char* kMount = "--bb camera_height_m=0.43 --bb camera_pitch_down_deg=9 --bb camera_hfov_deg=65.5";
 
 struct CliRun {
   int status = -1;
@@ -42,8 +41,7 @@ CliRun run_cli(const std::string& args, const std::string& tree = "avoid_obstacl
   // `tree`: a file of trees/, or an absolute path (a tree written by the test).
   const std::string tree_path = tree.starts_with('/') ? tree : std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/" + tree;
   const std::string cmd = std::string(VISNAV_TEST_CLI) + " run --plugin-path " + VISNAV_TEST_PLUGIN_DIR + " --config " +
-                          VISNAV_TEST_SOURCE_DIR + "/config/sim_obstacles.yaml --tree " + tree_path + " " + args + " " +
-                          kMount + " 2>&1";
+                          VISNAV_TEST_SOURCE_DIR + "/config/sim_obstacles.yaml --tree " + tree_path + " " + args + " 2>&1";
   CliRun r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (pipe == nullptr) return r;
@@ -52,6 +50,57 @@ CliRun run_cli(const std::string& args, const std::string& tree = "avoid_obstacl
   const int st = pclose(pipe);
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   return r;
+}
+
+/// The output of `visnav nodes --xml` with the obstacle config's plugins (the real loader).
+std::string nodes_model() {
+  const std::string cmd = std::string(VISNAV_TEST_CLI) + " nodes --xml --no-builtin --plugin-path " + VISNAV_TEST_PLUGIN_DIR +
+                          " --config " + VISNAV_TEST_SOURCE_DIR + "/config/sim_obstacles.yaml 2>&1";
+  std::string out;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (pipe == nullptr) return out;
+  std::array<char, 4096> buf{};
+  while (fgets(buf.data(), static_cast<int>(buf.size()), pipe) != nullptr) out += buf.data();
+  pclose(pipe);
+  return out;
+}
+
+/// The ports of node `id` in a TreeNodesModel: the names of its input/output/inout_port elements.
+std::vector<std::string> model_ports(const std::string& model, const std::string& id) {
+  std::vector<std::string> names;
+  const auto start = model.find("ID=\"" + id + "\"");
+  if (start == std::string::npos) return names;
+  const auto end = model.find("</Decorator>", start);
+  for (auto at = model.find("_port name=\"", start); at < end; at = model.find("_port name=\"", at + 1)) {
+    const auto from = at + std::string("_port name=\"").size();
+    names.push_back(model.substr(from, model.find('"', from) - from));
+  }
+  return names;
+}
+
+// Issue 37: one group port per mechanism instead of 74 flat ports; the tuned values are the
+// defaults, so the shipped trees set none of them; the camera mount is no port at all.
+TEST(ReplayAvoidingPorts, AreAtMost25WithOneGroupPerMechanism) {
+  const std::string model = nodes_model();
+  for (const char* id : {"ReplayAvoiding", "ReplayPathAvoiding"}) {
+    SCOPED_TRACE(id);
+    const auto ports = model_ports(model, id);
+    EXPECT_GE(ports.size(), 20U) << model;
+    EXPECT_LE(ports.size(), 25U) << model;
+    for (const char* group : {"contacts", "corridor", "drive", "thesis", "lane", "look", "crossing", "standing", "probe", "backoff"})
+      EXPECT_NE(std::find(ports.begin(), ports.end(), group), ports.end()) << group;
+    for (const char* gone : {"hfov_deg", "camera_height_m", "probe_on", "crossing_s", "lookahead_m"})
+      EXPECT_EQ(std::find(ports.begin(), ports.end(), gone), ports.end()) << gone;
+  }
+  // The two IDs differ in their defaults only: the path edges' probe, back-off and standing watch.
+  const auto path_at = model.find("ID=\"ReplayPathAvoiding\"");
+  ASSERT_NE(path_at, std::string::npos);
+  EXPECT_NE(model.substr(path_at, model.find("</Decorator>", path_at) - path_at).find("enabled (bool, default true"),
+            std::string::npos);
+  const auto feature_at = model.find("ID=\"ReplayAvoiding\"");
+  ASSERT_NE(feature_at, std::string::npos);
+  const std::string feature = model.substr(feature_at, model.find("</Decorator>", feature_at) - feature_at);
+  EXPECT_NE(feature.find("enabled (bool, default false"), std::string::npos);
 }
 
 TEST(AvoidObstaclesNode, ReachesAGoalPastTheCrates) {
@@ -151,15 +200,25 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonCrosses) {
   const auto dir = replay_dir("person");
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
   // A person crossing the path at x = 6 m (1 m/s, from 14 s: the robot is 2-3 m before it) placed
-  // per run: the robot sees it move, stops, waits until the corridor is still and completes the
-  // edge without touching it (docs/obstacles.md, "Moving obstacles").
+  // per run: the robot sees it move, stops, waits (until the corridor is still, or until the
+  // crossing policy lets it go) and completes the edge without touching it (docs/obstacles.md,
+  // "Moving obstacles").
   write(dir / "person.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 4], path: [[6, -4]], speed_mps: 1.0, "
                              "start_s: 14, texture: van}\n");
-  const CliRun crossing = run_cli(replay_args(dir, dir / "clear.yaml", dir / "person.yaml"), "replay_route_avoiding.xml");
+  // With the crossing policy off (crossing="speed_mps=0") the robot waits for the still corridor;
+  // with the policy (the default) it goes once the person walks away beyond its lane.
+  const std::string args = replay_args(dir, dir / "clear.yaml", dir / "person.yaml");
+  const CliRun waiting = run_cli(args + " --port ReplayAvoiding.crossing=speed_mps=0", "replay_route_avoiding.xml");
+  EXPECT_EQ(waiting.status, 0) << waiting.output;
+  EXPECT_EQ(waiting.output.find("collision with"), std::string::npos) << waiting.output;
+  EXPECT_NE(waiting.output.find("a moving obstacle in the corridor"), std::string::npos) << waiting.output;
+  EXPECT_NE(waiting.output.find("the corridor is clear after"), std::string::npos) << waiting.output;
+  EXPECT_EQ(waiting.output.find(": detour"), std::string::npos) << waiting.output;
+  const CliRun crossing = run_cli(args, "replay_route_avoiding.xml");
   EXPECT_EQ(crossing.status, 0) << crossing.output;
   EXPECT_EQ(crossing.output.find("collision with"), std::string::npos) << crossing.output;
   EXPECT_NE(crossing.output.find("a moving obstacle in the corridor"), std::string::npos) << crossing.output;
-  EXPECT_NE(crossing.output.find("the corridor is clear after"), std::string::npos) << crossing.output;
+  EXPECT_NE(crossing.output.find("the crossing policy lets the robot go"), std::string::npos) << crossing.output;
   EXPECT_EQ(crossing.output.find(": detour"), std::string::npos) << crossing.output;
   std::filesystem::remove_all(dir);
 }
@@ -169,22 +228,15 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
   // A person pacing across the path at x = 6 m (y = 3.6 .. -2.4, 1 m/s, back and forth, as on the
   // campus square): waiting until the corridor is still, the robot resumes and the person comes
-  // back into it; with the crossing policy (crossing_s 5.5, the tree written here) it stops at
-  // the edge of the person's way, learns the two returns, and crosses after the long one
-  // (docs/obstacles.md, "Crossing policy").
+  // back into it (the crossing policy turned off: crossing="speed_mps=0"); with the crossing
+  // policy (the default) it stops at the edge of the person's way, learns the two returns, and
+  // crosses after the long one (docs/obstacles.md, "Crossing policy").
   write(dir / "pacing.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 3.6], path: [[6, -2.4]], speed_mps: 1.0, "
                              "motion: back_and_forth, texture: van}\n");
-  std::ifstream plain_tree(std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/replay_route_avoiding.xml");
-  std::string policy_tree{std::istreambuf_iterator<char>(plain_tree), std::istreambuf_iterator<char>()};
-  const std::string mount_attr = "camera_pitch_down_deg=\"{camera_pitch_down_deg}\">";
-  for (std::size_t at = policy_tree.find(mount_attr); at != std::string::npos; at = policy_tree.find(mount_attr, at + 1))
-    policy_tree.replace(at, mount_attr.size(), "camera_pitch_down_deg=\"{camera_pitch_down_deg}\" crossing_s=\"5.5\">");
-  ASSERT_NE(policy_tree.find("crossing_s"), std::string::npos);
-  write(dir / "crossing.xml", policy_tree);
   const std::string pacing_args = replay_args(dir, dir / "clear.yaml", dir / "pacing.yaml");
-  const CliRun blind_wait = run_cli(pacing_args, "replay_route_avoiding.xml");
+  const CliRun blind_wait = run_cli(pacing_args + " --port ReplayAvoiding.crossing=speed_mps=0", "replay_route_avoiding.xml");
   EXPECT_NE(blind_wait.output.find("collision with 'person'"), std::string::npos) << blind_wait.output;
-  const CliRun policy = run_cli(pacing_args, (dir / "crossing.xml").string());
+  const CliRun policy = run_cli(pacing_args, "replay_route_avoiding.xml");
   EXPECT_EQ(policy.status, 0) << policy.output;
   EXPECT_EQ(policy.output.find("collision with"), std::string::npos) << policy.output;
   EXPECT_NE(policy.output.find("a person was seen crossing ahead: stop before its way"), std::string::npos) << policy.output;
@@ -194,30 +246,16 @@ TEST(ReplayAvoiding, TaughtOnAClearPathReplayedWhileAPersonPacesAcrossIt) {
 
 // The campus's blind walker seen from the middle of its walk: the person paces 3 m to either
 // side of the robot's line (y = 3 .. -3 at x = 6 m, 1 m/s), so both returns take 6 s. The
-// deprecated hand-set crossing_s 5.5 lets the robot cross on the 6 s return at the replay's
-// 0.3 m/s, too slowly: the person walks into its side. crossing_speed_mps 0.6 (the subtree's
-// setting) computes the time needed from the geometry and crosses the way itself at that speed:
-// the edge completes without a collision (docs/obstacles.md, "Crossing policy").
+// crossing policy (speed_mps 0.6, the default) computes the time needed from the geometry and
+// crosses the way itself at that speed: the edge completes without a collision
+// (docs/obstacles.md, "Crossing policy"); without it the person walks into the robot.
 TEST(ReplayAvoiding, APersonPacingSymmetricallyAcrossTheLineIsCrossedAtTheCrossingSpeed) {
   const auto dir = replay_dir("pacing_mid");
   ASSERT_NO_FATAL_FAILURE(teach_clear_path(dir));
   write(dir / "pacing.yaml", "obstacles:\n  - {name: person, kind: person, at: [6, 3], path: [[6, -3]], speed_mps: 1.0, "
                              "motion: back_and_forth, texture: van}\n");
-  std::ifstream plain_tree(std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/replay_route_avoiding.xml");
-  const std::string plain{std::istreambuf_iterator<char>(plain_tree), std::istreambuf_iterator<char>()};
-  auto with_ports = [&](const std::string& ports) {
-    std::string tree = plain;
-    const std::string mount_attr = "camera_pitch_down_deg=\"{camera_pitch_down_deg}\">";
-    for (std::size_t at = tree.find(mount_attr); at != std::string::npos; at = tree.find(mount_attr, at + 1))
-      tree.replace(at, mount_attr.size(), "camera_pitch_down_deg=\"{camera_pitch_down_deg}\" " + ports + ">");
-    return tree;
-  };
-  write(dir / "hand_set.xml", with_ports("crossing_s=\"5.5\""));
-  write(dir / "geometric.xml", with_ports("crossing_speed_mps=\"0.6\""));
   const std::string pacing_args = replay_args(dir, dir / "clear.yaml", dir / "pacing.yaml");
-  const CliRun hand_set = run_cli(pacing_args, (dir / "hand_set.xml").string());
-  EXPECT_NE(hand_set.output.find("collision with 'person'"), std::string::npos) << hand_set.output;
-  const CliRun crossing = run_cli(pacing_args, (dir / "geometric.xml").string());
+  const CliRun crossing = run_cli(pacing_args, "replay_route_avoiding.xml");
   EXPECT_EQ(crossing.status, 0) << crossing.output;
   EXPECT_EQ(crossing.output.find("collision with"), std::string::npos) << crossing.output;
   EXPECT_NE(crossing.output.find("a person was seen crossing ahead: stop before its way"), std::string::npos)
@@ -270,13 +308,6 @@ TEST(ReplayAvoiding, APathFollowingEdgeKeepsItsAlongTrackCorrectionOverAStop) {
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear, 16));
   write(dir / "person.yaml", "obstacles:\n  - {name: person, kind: person, at: [13, 4], path: [[13, -4]], speed_mps: 1.0, "
                              "start_s: 26, texture: van}\n");
-  std::ifstream plain_tree(std::string(VISNAV_TEST_SOURCE_DIR) + "/trees/replay_route_avoiding.xml");
-  std::string no_carry{std::istreambuf_iterator<char>(plain_tree), std::istreambuf_iterator<char>()};
-  const std::string path_node = "<ReplayPathAvoiding ";
-  const auto at = no_carry.find(path_node);
-  ASSERT_NE(at, std::string::npos);
-  no_carry.insert(at + path_node.size(), "child_shift_m=\"0\" ");
-  write(dir / "no_carry.xml", no_carry);
   const std::string args =
       replay_args(dir, dir / "clear.yaml", dir / "person.yaml") + " --set robot.params.odom_scale_error_pct=-12";
   const CliRun carried = run_cli(args, "replay_route_avoiding.xml");
@@ -284,26 +315,28 @@ TEST(ReplayAvoiding, APathFollowingEdgeKeepsItsAlongTrackCorrectionOverAStop) {
   EXPECT_EQ(carried.output.find("collision with"), std::string::npos) << carried.output;
   EXPECT_NE(carried.output.find("stop and look"), std::string::npos) << carried.output;
   EXPECT_NEAR(true_end_x_m(carried.output), 16.0, 0.4) << carried.output;
-  const CliRun lost = run_cli(args, (dir / "no_carry.xml").string());
+  const CliRun lost = run_cli(args + " --port ReplayPathAvoiding.child_shift_m=0", "replay_route_avoiding.xml");
   EXPECT_NE(lost.output.find("stop and look"), std::string::npos) << lost.output;
   EXPECT_GT(true_end_x_m(lost.output), 17.0) << lost.output;
   std::filesystem::remove_all(dir);
 }
 
-// standing_min_face_share outside [0, 1], or on without the extent it is read from: the replay
-// fails before the robot drives on, naming the port.
+// The standing watch's min_face_share outside [0, 1], or on without the extent it is read from:
+// the tree is refused before the robot drives on, naming the port and the key.
 TEST(ReplayAvoiding, ABadStandingFaceShareFailsNamingThePort) {
   const auto dir = replay_dir("share");
   ASSERT_NO_FATAL_FAILURE(teach_path_edge(dir, clear_path(), 6));
   const std::string args = replay_args(dir, dir / "clear.yaml");
-  const CliRun above_one = run_cli(args + " --port ReplayPathAvoiding.standing_min_face_share=1.5", "replay_route_avoiding.xml");
+  const CliRun above_one = run_cli(args + " --port ReplayPathAvoiding.standing=min_face_share=1.5", "replay_route_avoiding.xml");
   EXPECT_NE(above_one.status, 0) << above_one.output;
-  // Refused when the tree is loaded (the port's range), before the robot moves.
-  EXPECT_NE(above_one.output.find("port 'standing_min_face_share': value 1.5 is out of range [0, 1]"), std::string::npos)
+  // Refused when the tree is loaded (the group port's check), before the robot moves.
+  EXPECT_NE(above_one.output.find("port 'standing': key 'min_face_share': value 1.5 is out of range [0, 1]"),
+            std::string::npos)
       << above_one.output;
-  const CliRun without_extent = run_cli(args + " --port ReplayPathAvoiding.standing_extent_m=0", "replay_route_avoiding.xml");
+  EXPECT_EQ(above_one.output.find("obstacle ahead"), std::string::npos) << above_one.output;
+  const CliRun without_extent = run_cli(args + " --port ReplayPathAvoiding.standing=extent_m=0", "replay_route_avoiding.xml");
   EXPECT_NE(without_extent.status, 0) << without_extent.output;
-  EXPECT_NE(without_extent.output.find("'standing_min_face_share' needs 'standing_extent_m' > 0"), std::string::npos)
+  EXPECT_NE(without_extent.output.find("key 'min_face_share' needs extent_m > 0"), std::string::npos)
       << without_extent.output;
   std::filesystem::remove_all(dir);
 }
@@ -324,7 +357,7 @@ std::string clear_path_with_concrete() {
 // A concrete-grey van on the gravel path (the campus's van, docs/obstacles.md "A van hiding the
 // path"): its colour is the path's, so FollowPathEdge gives up "path lost (path fills image)"
 // 2-3 m before it, where the IPT sees nothing of its plain rear. ReplayPathAvoiding probes on
-// (probe_on), the longer-baseline triangulation finds the van's face, the lane detour passes it
+// (failure code view_lost), the longer-baseline triangulation finds the van's face, the lane detour passes it
 // and the path follower finishes the edge. The same path replayed with the gravel gone (the
 // follower loses the path, nothing stands ahead) still stops, with the follower's reason.
 TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
@@ -335,7 +368,7 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanThatHidesThePath) {
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, -0.4], texture: concrete}\n");
   // The standing watch off: with it the van is found 2.7 m ahead before the follower loses the
   // path (docs/obstacles.md "A standing face found while the follower drives"); this is the probe's case.
-  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0",
+  const CliRun replay = run_cli(replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing=min_points=0",
                                 "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
@@ -374,7 +407,7 @@ TEST(ReplayAvoiding, TheLaneDetourReversesWhenItsSideClosesBeforeAVanAndPassesOn
   write(dir / "van.yaml", clear + "  obstacles:\n    - {name: van, kind: van, at: [9.5, 0.4], texture: concrete}\n");
   // Without the standing watch (it finds this van 3.3 m ahead while driving and the detour passes
   // it: ReplayAvoiding.APathFollowingEdgePassesAVanOnItsEdge...), the probe's case.
-  const std::string args = replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing_min_points=0";
+  const std::string args = replay_args(dir, dir / "van.yaml") + " --port ReplayPathAvoiding.standing=min_points=0";
   const CliRun replay = run_cli(args, "replay_route_avoiding.xml");
   EXPECT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(replay.output.find("collision with"), std::string::npos) << replay.output;
@@ -391,7 +424,7 @@ TEST(ReplayAvoiding, TheLaneDetourReversesWhenItsSideClosesBeforeAVanAndPassesOn
   EXPECT_GT(resumed_m, 12.0);
   EXPECT_LT(resumed_m, 20.5);
   // The recovery off: the detour keeps its side and stops with the reason (commit_m).
-  const CliRun kept = run_cli(args + " --port ReplayPathAvoiding.max_recoveries=0", "replay_route_avoiding.xml");
+  const CliRun kept = run_cli(args + " --port ReplayPathAvoiding.lane=max_recoveries=0", "replay_route_avoiding.xml");
   EXPECT_EQ(kept.status, 1) << kept.output;
   EXPECT_EQ(kept.output.find("collision with"), std::string::npos) << kept.output;
   EXPECT_NE(kept.output.find("stopped: the left side closes"), std::string::npos) << kept.output;
@@ -403,7 +436,7 @@ TEST(ReplayAvoiding, TheLaneDetourReversesWhenItsSideClosesBeforeAVanAndPassesOn
 // keeps the path up to"): the path's left part stays in view, so the follower keeps the path up
 // to the van, the IPT finds no contact on its plain rear and the frame difference does not stop
 // the robot (without the standing watch it hit the van's rear corner at (6.87, 0.45)). The
-// standing watch (standing_min_points in the tree) finds the face 2-4 m ahead while driving, the
+// standing watch (the standing group, on by default for ReplayPathAvoiding) finds the face 2-4 m ahead while driving, the
 // lane detour passes it on the left and the follower finishes the edge.
 TEST(ReplayAvoiding, APathFollowingEdgePassesAVanOnItsEdgeThatTheFollowerKeepsThePathUpTo) {
   const auto dir = replay_dir("standing");
@@ -443,7 +476,7 @@ TEST(ReplayAvoiding, APathFollowingEdgePassesAVanOnItsEdgeThatTheFollowerKeepsTh
 // line like the campus van's) in a flat concrete (10 grey levels of contrast) that gives few
 // corners. The standing watch fires with corners at both ends of the face and few between; with
 // the points alone the lane detour took the gap between them (−0.9 m, measured: collision with
-// van_b at (6.85, −0.69)). With the face's extent from the image (standing_extent_m in the tree)
+// van_b at (6.85, −0.69)). With the face's extent from the image (the standing group's extent_m, on by default)
 // the whole face holds the lane: the detour passes on the left, free side, and the follower
 // finishes the edge.
 TEST(ReplayAvoiding, APathFollowingEdgePassesAFaceWhoseCornersCoverOnlyPartOfIt) {

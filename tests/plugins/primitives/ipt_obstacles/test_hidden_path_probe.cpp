@@ -49,14 +49,6 @@ TEST(HiddenPathProbe, TheBudgetIsPerPlace) {
   EXPECT_NEAR(probe.left_m(6.5), 1.5, 1e-12);
 }
 
-TEST(HiddenPathProbe, OnlyTheNamedFailuresTriggerIt) {
-  const std::string trigger = "path lost on edge";
-  EXPECT_TRUE(probe_triggered("path lost on edge e14 (path fills image for more than 1.000000 s)", trigger));
-  EXPECT_FALSE(probe_triggered("lost on edge e3 (feature_segment, 4 inliers, window confidence 0.1)", trigger));
-  EXPECT_FALSE(probe_triggered("camera frozen: no new frame over 0.6 m on edge e14", trigger));
-  EXPECT_FALSE(probe_triggered("path lost on edge e14 (path fills image)", ""));  // off
-}
-
 TEST(HiddenPathProbe, BadParamsAreRejectedWithTheKey) {
   HiddenPathProbeParams p;
   p.distance_m = 0.0;

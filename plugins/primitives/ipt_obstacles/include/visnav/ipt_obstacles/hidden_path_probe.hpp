@@ -38,10 +38,6 @@ struct HiddenPathProbeParams {
   static const ParamSchema<HiddenPathProbeParams>& schema();
 };
 
-/// True when the child's failure message contains `trigger` (non-empty): the failures on which
-/// the avoiding node probes instead of failing at once.
-[[nodiscard]] bool probe_triggered(const std::string& failure, const std::string& trigger);
-
 class HiddenPathProbe {
  public:
   struct Step {

@@ -999,12 +999,11 @@ NodeStatus ReplayAvoiding::look_wait(const Odometry& odom, double timestamp_s, b
 NodeStatus ReplayAvoiding::crossing_go(const Odometry& odom, double timestamp_s, const CrossingDecision& crossing) {
   looking_ = false;
   if (crossing.range_m <= crossing_->kerb_m() + 0.3) {
-    crossing_->clear_lanes();  // it walked away just ahead: cross now
-    if (crossing_->crossing_speed_mps() > 0.0) {
-      begin_crossing(odom, crossing.way_ahead_m, "the crossing policy lets the robot go after " +
-                                                     std::to_string(wait_frames_) + " frames (" + crossing.reason + ")");
-      return NodeStatus::running;
-    }
+    // It walked away just ahead: cross now (a crossing watch exists only with speed_mps > 0).
+    crossing_->clear_lanes();
+    begin_crossing(odom, crossing.way_ahead_m, "the crossing policy lets the robot go after " +
+                                                   std::to_string(wait_frames_) + " frames (" + crossing.reason + ")");
+    return NodeStatus::running;
   } else {
     // Too far from its way to cross before it could be back: drive up to the edge of the way
     // (as now seen) and watch it pass there.

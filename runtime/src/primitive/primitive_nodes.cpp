@@ -9,6 +9,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "visnav/edge_progress.hpp"
 #include "visnav/bt/node.hpp"
 #include "visnav/bt/param_ports.hpp"
 #include "visnav/bt/registry.hpp"
@@ -162,27 +163,27 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     std::string kinds;
     for (const auto& k : type->kinds) kinds += (kinds.empty() ? "" : " or ") + k;
     bt::PortsList p = {
-        bt::input_port<std::string>("edge", "{edge}", "map edge to traverse (kind " + kinds + ")"),
-        bt::input_port<double>("carried_m", "{edge_carried_m}",
+        bt::input_port<std::string>("edge", edge_progress::edge, "map edge to traverse (kind " + kinds + ")"),
+        bt::input_port<double>("carried_m", edge_progress::carried_m,
                                "distance of the edge already covered at the start (FollowRoute's overshoot carry; "
                                "unset counts as 0)"),
-        bt::with_range(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
+        bt::with_range(bt::input_port<double>("distance_scale", edge_progress::distance_scale,
                                "odometric metres per taught metre (FollowRoute's estimate of this replay's odometry "
                                "scale against the teach run's): the primitive sees the edge's distance divided by it, "
                                "so the edge ends where it ended when taught; unset counts as 1, else in [0.5, 2]"), 0.5, 2.0),
         bt::output_port<int>("lap", "{lap}", "0-based lap being driven (closed paths driven several times)"),
-        bt::output_port<std::string>("failure", "{edge_failure}",
+        bt::output_port<std::string>("failure", edge_progress::failure,
                                      "the reason of the node's last FAILURE (empty while it runs or after a success): "
-                                     "a decorator around it can tell why it gave up (ReplayPathAvoiding's probe_on)"),
-        bt::output_port<std::string>("failure_code", "{edge_failure_code}",
+                                     "for people and logs; a decorator keys on failure_code, never on this text"),
+        bt::output_port<std::string>("failure_code", edge_progress::failure_code,
                                      "the kind of the node's last FAILURE, a stable code to key on (view_lost, "
                                      "route_lost, input_lost, command_failed, bad_params, ...; docs/feature_replay.md, "
                                      "\"Failure codes\"); empty while it runs or after a success"),
-        bt::output_port<double>("end_shift_m", "{edge_end_shift_m}",
+        bt::output_port<double>("end_shift_m", edge_progress::end_shift_m,
                                 "when the edge ends: how much earlier (positive) or later in odometric distance than "
                                 "its taught length the primitive ended it (a visual along-track correction; 0 for "
                                 "odometry alone); FollowRoute counts the next edge's carried distance from there"),
-        bt::output_port<double>("shift_m", "{edge_shift_m}",
+        bt::output_port<double>("shift_m", edge_progress::shift_m,
                                 "while the edge runs, every frame: the primitive's visual along-track correction so far "
                                 "(its along-edge distance minus the odometric count, taught metres; 0 at the start and "
                                 "for odometry alone); a decorator that halts and restarts the node mid-edge "
@@ -190,10 +191,10 @@ class ReplayEdgeNode final : public bt::StatefulActionNode {
     };
     VISNAV_TRY(bt::append_param_ports(p, primitive_ports(type)));
     bt::append_param_ports(p, LostPolicyPorts::schema());
-    p.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
+    p.push_back(bt::inout_port<double>("confident_at_m", edge_progress::confident_at_m,
                                        "odometric distance at which the route was last seen (carried between edges; "
                                        "unset: count from the edge start)"));
-    p.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
+    p.push_back(bt::inout_port<double>("image_changed_at_m", edge_progress::image_changed_at_m,
                                        "odometric distance at which the image last changed (carried between edges)"));
     return p;
   }
@@ -440,8 +441,8 @@ class TeachEdgeNode final : public bt::StatefulActionNode {
 
   static Result<bt::PortsList> ports(const std::shared_ptr<const PrimitiveType>& type) {
     bt::PortsList p = {
-        bt::input_port<std::string>("edge_from", "{edge_from}", "start node (id or name); empty: a new node 'start'"),
-        bt::input_port<std::string>("edge_to", "{edge_to}", "end node (id or name), read at finish; empty: a new node 'end'"),
+        bt::input_port<std::string>("edge_from", edge_progress::edge_from, "start node (id or name); empty: a new node 'start'"),
+        bt::input_port<std::string>("edge_to", edge_progress::edge_to, "end node (id or name), read at finish; empty: a new node 'end'"),
         bt::input_port<bool>("finish", "{finish_edge}", "true: store the edge and succeed (unset counts as false)"),
         bt::output_port<std::string>("edge", "{taught_edge}", "id of the stored edge"),
     };

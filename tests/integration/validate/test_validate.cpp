@@ -11,8 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "visnav/bt/registry.hpp"
+#include "visnav/edge_progress.hpp"
 #include "visnav/params.hpp"
 #include "visnav/runner.hpp"
+#include "visnav/runtime_host.hpp"
 
 namespace fs = std::filesystem;
 using visnav::Error;
@@ -387,6 +390,44 @@ TEST_F(ValidateTest, MissingMapFolderIsNotFound) {
   ASSERT_EQ(problems.size(), 1u) << dump(problems);
   EXPECT_EQ(problems[0].code, ErrorCode::not_found);
   EXPECT_EQ(problems[0].where.file, missing);
+}
+
+// The edge-progress hand-over (FollowRoute, the replay adapter, ReplayAvoiding) works only when
+// every side names the same blackboard entries: every registered port whose default is an
+// {edge_*} or {nav_*} entry names one of visnav/edge_progress.hpp's, and each of those entries
+// has a writer and a reader among the shipped nodes.
+TEST(EdgeProgress, EveryPortNamesAnEntryOfTheVocabularyAndEachHasAWriterAndAReader) {
+  auto loader = visnav::PluginLoader::with_default_path({VISNAV_TEST_PLUGIN_DIR});
+  ASSERT_TRUE(loader.scan());
+  visnav::StderrLogger logger(visnav::LogLevel::error);
+  visnav::WallClock clock;
+  visnav::RuntimeHost host(loader, logger, clock);
+  visnav::bt::NodeRegistry registry;
+  ASSERT_TRUE(visnav::register_all_nodes(registry, loader, host, std::nullopt));
+  const auto& all = visnav::edge_progress::all;
+  std::vector<int> writers(all.size(), 0), readers(all.size(), 0);
+  int progress_ports = 0;
+  for (const visnav::bt::NodeManifest* m : registry.manifests()) {
+    for (const visnav::bt::PortInfo& p : m->ports) {
+      if (!p.default_value) continue;
+      const std::string& d = *p.default_value;
+      const auto it = std::find(all.begin(), all.end(), d);
+      if (it == all.end()) {
+        EXPECT_FALSE(d.rfind("{edge_", 0) == 0 || d.rfind("{nav_", 0) == 0)
+            << m->id << "." << p.name << " defaults to " << d << ", not an entry of visnav/edge_progress.hpp";
+        continue;
+      }
+      ++progress_ports;
+      const auto i = static_cast<std::size_t>(it - all.begin());
+      if (p.direction != visnav::bt::PortDirection::input) ++writers[i];
+      if (p.direction != visnav::bt::PortDirection::output) ++readers[i];
+    }
+  }
+  EXPECT_GE(progress_ports, 20);  // FollowRoute, every replay primitive, ReplayAvoiding
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    EXPECT_GT(writers[i], 0) << all[i] << " has no writer";
+    EXPECT_GT(readers[i], 0) << all[i] << " has no reader";
+  }
 }
 
 TEST(MapPath, BareNamesLiveInMaps) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "visnav/edge_progress.hpp"
 #include "visnav_navigation/navigation_core.hpp"
 
 namespace visnav::nav {
@@ -234,12 +235,12 @@ bt::PortsList FollowRoute::provided_ports() {
                            "the previous edge's end node (last-frame overshoot plus stopping distance) minus the gap "
                            "recorded when teaching (statistic start_gap_m), projected onto the new edge's direction"),
       bt::input_port<double>("max_carry_m", "0.5", "clamp of |carried_m|, m (> 0)"),
-      bt::input_port<double>("end_shift_m", "{edge_end_shift_m}",
+      bt::input_port<double>("end_shift_m", edge_progress::end_shift_m,
                              "written by the replay child when it ends an edge: how much earlier in odometric "
                              "distance than the edge's length it put the end node (its visual along-track "
                              "correction); the overshoot carried into the next edge is counted from there (unset: 0)"),
       bt::inout_port<double>(
-          "extra_travel_m", "{edge_extra_travel_m}",
+          "extra_travel_m", edge_progress::extra_travel_m,
           "written by the replay child when it ends an edge: odometric metres it drove that were not progress along "
           "the edge (ReplayAvoiding's detours, reversing, crossings); FollowRoute resets it to 0 at the edge's start and "
           "counts route distance without it (the next edge's carried distance and the distance-scale fixes), m"),
@@ -268,11 +269,11 @@ bt::PortsList FollowRoute::provided_ports() {
       bt::input_port<double>("scale_min_baseline_m", "20",
                              "taught distance the visual fixes must span before the scale is used, m (> 0)"),
       bt::input_port<double>("scale_max_deviation", "0.1", "clamp of |distance_scale - 1|, (0, 0.5]"),
-      bt::output_port<double>("distance_scale", "{edge_distance_scale}",
+      bt::output_port<double>("distance_scale", edge_progress::distance_scale,
                               "odometric metres per taught metre for the edge being driven (children read it)"),
-      bt::output_port<double>("carried_m", "{edge_carried_m}",
+      bt::output_port<double>("carried_m", edge_progress::carried_m,
                               "distance of the edge already covered when it starts (children read it; 0 when off)"),
-      bt::output_port<std::string>("edge", "{edge}", "the edge being traversed (children read it)"),
+      bt::output_port<std::string>("edge", edge_progress::edge, "the edge being traversed (children read it)"),
       bt::output_port<std::string>("current_node", "{current_node}", "the last node reached"),
       bt::inout_port<std::string>("previous_edge", "{previous_edge}",
                                   "last edge traversed (kept across runs so patrol loops turn relatively)")};
@@ -537,8 +538,8 @@ bt::PortsList TeachRoute::provided_ports() {
       bt::input_port<std::vector<std::string>>("primitives", kDefaultTeachKinds,
                                                 "which child node teaches which edge kind (kind=NodeID;...)"),
       bt::input_port<std::string>("taught_edge", "{taught_edge}", "edge id written by the teaching child"),
-      bt::output_port<std::string>("edge_from", "{edge_from}", "start node of the edge being taught"),
-      bt::output_port<std::string>("edge_to", "{edge_to}", "end node, set when the edge is finished"),
+      bt::output_port<std::string>("edge_from", edge_progress::edge_from, "start node of the edge being taught"),
+      bt::output_port<std::string>("edge_to", edge_progress::edge_to, "end node, set when the edge is finished"),
       bt::output_port<bool>("finish_edge", "{finish_edge}", "true: the child must store its edge and succeed"),
       bt::output_port<std::string>("current_node", "{current_node}", "the last node created"),
       bt::output_port<std::vector<std::string>>("route", "{taught_route}", "edges taught so far, in order")};

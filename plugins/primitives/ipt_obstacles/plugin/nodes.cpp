@@ -1,5 +1,6 @@
 #include "nodes.hpp"
 
+#include "visnav/edge_progress.hpp"
 #include "visnav/bt/param_ports.hpp"
 
 #include <algorithm>
@@ -365,36 +366,36 @@ Status check_detour_mode(std::string_view text) {
 // The edge progress shared with FollowRoute and the replay child (docs/obstacles.md, "Nodes and
 // ports"): the blackboard entries the replay adapter writes and reads.
 void append_progress_ports(bt::PortsList& ports) {
-  ports.push_back(bt::input_port<std::string>("edge", "{edge}",
+  ports.push_back(bt::input_port<std::string>("edge", edge_progress::edge,
                                               "the edge being replayed (its length ends a lane detour); empty = unknown"));
-  ports.push_back(bt::inout_port<double>("carried_m", "{edge_carried_m}",
+  ports.push_back(bt::inout_port<double>("carried_m", edge_progress::carried_m,
                                          "edge distance already covered when the child starts, taught m (FollowRoute "
                                          "writes it; rewritten after a detour)"));
-  ports.push_back(bt::with_range(bt::input_port<double>("distance_scale", "{edge_distance_scale}",
+  ports.push_back(bt::with_range(bt::input_port<double>("distance_scale", edge_progress::distance_scale,
                                          "odometric metres per taught metre (FollowRoute's estimate, as the replay "
                                          "child's port): the rewritten carried_m is in taught metres; unset counts as 1"), 0.5, 2.0));
   ports.push_back(bt::input_port<double>(
-      "child_shift_m", "{edge_shift_m}",
+      "child_shift_m", edge_progress::shift_m,
       "the child's visual along-track correction so far (the replay nodes' output 'shift_m', taught m): every restart "
       "of the child after a stop, look, back-off or detour carries it in carried_m, so the correction of a path or "
       "feature edge survives the interruptions; unset counts as 0"));
   ports.push_back(bt::output_port<double>(
-      "extra_travel_m", "{edge_extra_travel_m}",
+      "extra_travel_m", edge_progress::extra_travel_m,
       "when the child ends an edge on which the node detoured, reversed, probed or crossed: the odometric metres "
       "driven that were not progress along the edge (a detour's sideways legs), so FollowRoute leaves them out of "
       "the next edge's carried distance and of its distance-scale fixes; not written otherwise"));
   ports.push_back(bt::inout_port<double>(
-      "end_shift_m", "{edge_end_shift_m}",
+      "end_shift_m", edge_progress::end_shift_m,
       "when the child ends the edge: its own end shift (the replay nodes' output) plus the corrections carried "
       "over its restarts, rewritten so that FollowRoute sees the whole edge's correction"));
-  ports.push_back(bt::inout_port<double>("confident_at_m", "{nav_confident_at_m}",
+  ports.push_back(bt::inout_port<double>("confident_at_m", edge_progress::confident_at_m,
                                          "the replay's last confident odometer reading (lost detection); set to the "
                                          "odometer when a detour ends: the detour was driven on the IPT, not blind"));
-  ports.push_back(bt::inout_port<double>("image_changed_at_m", "{nav_image_changed_at_m}",
+  ports.push_back(bt::inout_port<double>("image_changed_at_m", edge_progress::image_changed_at_m,
                                          "the replay's frozen-image count, restarted likewise after a detour"));
-  ports.push_back(bt::input_port<std::string>("failure", "{edge_failure}",
+  ports.push_back(bt::input_port<std::string>("failure", edge_progress::failure,
                                               "the child's reason of failure (the replay nodes' output 'failure')"));
-  ports.push_back(bt::input_port<std::string>("failure_code", "{edge_failure_code}",
+  ports.push_back(bt::input_port<std::string>("failure_code", edge_progress::failure_code,
                                               "the child's failure code (the replay nodes' output 'failure_code'): "
                                               "view_lost starts the probe (probe group)"));
 }
@@ -445,36 +446,38 @@ bool ReplayAvoiding::read_params() {
   return true;
 }
 
-// ReplayAvoiding::tick(): a state machine held in flags, tested in this order every tick (one
-// phase runs per tick):
-//  * detouring_ (detour_step(); lane_ set: the lane detour, lane_step(); else the thesis detour,
+// ReplayAvoiding::tick(): the state machine of ReplayAvoiding::Phase; one phase runs per tick.
+//  * detouring (detour_step(); lane_ set: the lane detour, lane_step(); else the thesis detour,
 //    DetourDriver): RUNNING until it ends; its failure fails the node, its success resumes the
 //    child ("detour done") -> replaying.
-//  * looking_ (look_step()): stopped, watching the corridor with the frame difference (and the
+//  * looking (look_step()): stopped, watching the corridor with the frame difference (and the
 //    crossing policy) once the odometry says still:
-//      - nothing moved for look_frames frames (look_still()): at a person's way, first
-//        crossing_wait_s; then a contact in the corridor -> detouring (begin_detour), or, on a
-//        way seen crossing, looking again at that way (at_kerb_); no contact -> backing_
+//      - nothing moved for look_frames frames (look_still()): at a person's way, first the
+//        crossing's wait_s; then a contact in the corridor -> detouring (begin_detour), or, on a
+//        way seen crossing, looking again at that way (at_kerb_); no contact -> backing_off
 //        (begin_backoff) or replaying ("nothing moves ahead");
-//      - motion seen (saw_motion_, look_wait()): waiting; the crossing policy's go ->
-//        crossing_drive_ (begin_crossing) or replaying (crossing_go()); clear_frames still frames
-//        (and at a way crossing_wait_s unseen) -> replaying; more than max_wait_frames -> FAILURE.
-//  * crossing_drive_ (cross_step()): drives across a person's way on the heading -> replaying.
-//  * backing_ (backoff_step()): reverses while triangulating; something stands -> detouring,
+//      - motion seen (saw_motion_, look_wait()): waiting; the crossing policy's go -> crossing
+//        (begin_crossing) or replaying (crossing_go()); clear_frames still frames (and at a way
+//        the crossing's wait_s unseen) -> replaying; more than max_wait_frames -> FAILURE.
+//  * crossing (cross_step()): drives across a person's way on the heading -> replaying.
+//  * backing_off (backoff_step()): reverses while triangulating; something stands -> detouring,
 //    else -> replaying.
-//  * replaying (none of the above): a run of the child starts when none has (replay_start(): a new
-//    edge unless resume_child() set carried_m). Then, in order, each able to stop the replay:
-//      - the IPT's contact in the corridor ahead (corridor_stop()) -> looking_ (detouring when
+//  * replaying and probing: a run of the child starts when none has (replay_start(): a new edge
+//    unless resume_child() set carried_m). Then, in order, each able to stop the replay (a stop
+//    ends a probe):
+//      - the IPT's contact in the corridor ahead (corridor_stop()) -> looking (detouring when
 //        look_frames = 0);
-//      - the drive watch: something moves close ahead (drive_watch_stop()) -> looking_;
-//      - the crossing watch: a person's way ahead (kerb_stop()) -> looking_ at the way (at_kerb_);
-//      - not probing: the standing watch fires (standing_stop()) -> detouring (lane);
-//      - probing_ (probe_step(); entered when the child failed with probe_on's reason): creeping on
-//        on the heading; probe_min_points corners ahead -> detouring; the budget used -> FAILURE;
-//      - else the child ticks (child_step()): RUNNING; SUCCESS -> the edge is done (edge_done(),
-//        the node's SUCCESS); FAILURE -> probing_ (child_failed()) or the node's FAILURE.
-// "-> replaying" is resume_child(): the child starts again at the along-track distance reached.
-// An error of a port, the camera or the pipeline stops the robot and fails the node.
+//      - the drive watch: something moves close ahead (drive_watch_stop()) -> looking;
+//      - the crossing watch: a person's way ahead (kerb_stop()) -> looking at the way (at_kerb_);
+//      - probing (probe_step(); entered when the child failed with failure code view_lost and the
+//        probe on): creeping on on the heading; the probe's min_points corners ahead ->
+//        detouring; the budget used -> FAILURE;
+//      - replaying: the standing watch fires (standing_stop()) -> detouring (lane); else the
+//        child ticks (child_step()): RUNNING; SUCCESS -> the edge is done (edge_done(), the
+//        node's SUCCESS); FAILURE -> probing (child_failed()) or the node's FAILURE.
+// "-> replaying" after a stop is resume_child(): the child starts again at the along-track
+// distance reached. An error of a port, the camera or the pipeline stops the robot and fails the
+// node (phase replaying, so a later tick starts the edge afresh).
 NodeStatus ReplayAvoiding::tick() {
   FrameBus* bus = host_.frame_bus();
   auto odom = bus != nullptr ? bus->latest_odometry() : std::nullopt;
@@ -483,19 +486,41 @@ NodeStatus ReplayAvoiding::tick() {
     return NodeStatus::failure;
   }
   if (!read_params()) return NodeStatus::failure;
-  if (detouring_) return detour_step(*odom);
-  if (looking_) return look_step(*odom);
-  if (crossing_drive_) return cross_step(*odom);
-  if (backing_) return backoff_step(*odom);
-  if (!child_started_ && !probing_ && !replay_start(*odom)) return NodeStatus::failure;
+  switch (phase_) {
+    case Phase::detouring: return detour_step(*odom);
+    case Phase::looking: return look_step(*odom);
+    case Phase::crossing: return cross_step(*odom);
+    case Phase::backing_off: return backoff_step(*odom);
+    case Phase::replaying:
+    case Phase::probing: break;
+  }
+  // Replaying or probing: the watches first, each able to stop the replay.
+  const bool probing = phase_ == Phase::probing;
+  if (!child_started_ && !probing && !replay_start(*odom)) return NodeStatus::failure;
   if (auto st = corridor_stop(*odom)) return *st;
   if (auto st = drive_watch_stop(*odom)) return *st;
   if (auto st = kerb_stop(*odom)) return *st;
-  if (!probing_) {
-    if (auto st = standing_stop(*odom)) return *st;
-  }
-  if (probing_) return probe_step(*odom);
+  if (probing) return probe_step(*odom);
+  if (auto st = standing_stop(*odom)) return *st;
   return child_step(*odom);
+}
+
+const char* ReplayAvoiding::phase_name(Phase phase) {
+  switch (phase) {
+    case Phase::replaying: return "replaying";
+    case Phase::probing: return "probing";
+    case Phase::looking: return "looking";
+    case Phase::crossing: return "crossing";
+    case Phase::backing_off: return "backing_off";
+    case Phase::detouring: return "detouring";
+  }
+  return "?";
+}
+
+void ReplayAvoiding::enter(Phase next) {
+  if (next == phase_) return;
+  host_.logger().log(LogLevel::debug, path(), std::string("phase ") + phase_name(phase_) + " -> " + phase_name(next));
+  phase_ = next;
 }
 
 NodeStatus ReplayAvoiding::detour_step(const Odometry& odom) {
@@ -510,7 +535,7 @@ NodeStatus ReplayAvoiding::detour_step(const Odometry& odom) {
   detour_.end();
   lane_.reset();
   runner_.stop_correction();
-  detouring_ = false;
+  enter(Phase::replaying);
   if (st == NodeStatus::failure) return NodeStatus::failure;
   if (probe_) probe_->reset();  // past the obstacle: a later hidden path gets a new budget
   resume_child(odom, "detour done");
@@ -553,7 +578,7 @@ NodeStatus ReplayAvoiding::replay_failed(const std::string& message) {
 
 void ReplayAvoiding::interrupt_replay(const Odometry& odom) {
   halt_child();
-  probing_ = false;
+  enter(Phase::replaying);  // a probe ends here too; the caller enters the next phase
   replay_done_m_ = odom.distance_m - replay_origin_m_;
   detour_start_ = odom.pose;
 }
@@ -608,7 +633,7 @@ std::optional<NodeStatus> ReplayAvoiding::standing_stop(const Odometry& odom) {
 NodeStatus ReplayAvoiding::probe_step(const Odometry& odom) {
   auto probe_failed = [&](const std::string& message) {
     host_.logger().error(path(), message);
-    probing_ = false;
+    enter(Phase::replaying);
     stop(host_);
     return NodeStatus::failure;
   };
@@ -628,7 +653,7 @@ NodeStatus ReplayAvoiding::probe_step(const Odometry& odom) {
     near_points_.insert(near_points_.end(), near_points->begin(), near_points->end());
   }
   if (ahead >= min_points) {
-    probing_ = false;
+    enter(Phase::replaying);
     stop(host_);
     replay_done_m_ = odom.distance_m - replay_origin_m_;
     detour_start_ = odom.pose;
@@ -640,7 +665,7 @@ NodeStatus ReplayAvoiding::probe_step(const Odometry& odom) {
   }
   const HiddenPathProbe::Step s = probe_->step(odom.pose, odom.distance_m);
   if (s.exhausted) {
-    probing_ = false;
+    enter(Phase::replaying);
     corridor_.clear();
     stop(host_);
     host_.logger().error(path(), "stopped: " + probe_reason_ + "; nothing found ahead while probing on");
@@ -695,7 +720,7 @@ NodeStatus ReplayAvoiding::child_failed(const Odometry& odom) {
     probe_.emplace(params);
   }
   probe_->begin(odom.pose, odom.distance_m);
-  probing_ = true;
+  enter(Phase::probing);
   moved_off_line_ = true;
   near_points_.clear();
   if (near_) near_->reset();
@@ -806,7 +831,7 @@ Result<bool> ReplayAvoiding::kerb_near(const Odometry& odom) {
 void ReplayAvoiding::begin_look(const Odometry& odom, const std::string& why) {
   (void)odom;
   stop(host_);
-  looking_ = true;
+  enter(Phase::looking);
   saw_motion_ = false;
   look_frames_ = still_frames_ = wait_frames_ = settle_frames_ = 0;
   have_watch_sequence_ = false;
@@ -872,7 +897,7 @@ Result<bool> ReplayAvoiding::moving_near(const Odometry& odom) {
 
 NodeStatus ReplayAvoiding::look_failed(const std::string& message) {
   host_.logger().error(path(), message);
-  looking_ = false;
+  enter(Phase::replaying);
   stop(host_);
   return NodeStatus::failure;
 }
@@ -954,13 +979,13 @@ NodeStatus ReplayAvoiding::look_still(const Odometry& odom, double timestamp_s) 
   // Before a person's way: watch for it to pass (the crossing's wait_s) before going on.
   if (at_kerb_ && crossing_ && timestamp_s - kerb_since_s_ < crossing_->kerb_wait_s()) return NodeStatus::running;
   if (at_kerb_ && crossing_) crossing_->clear_lanes();
-  looking_ = false;
+  enter(Phase::replaying);
   auto blocked = corridor_.blocked(p_.corridor, odom);
   if (!blocked) return look_failed(blocked.error().message);
   // A contact where a person was seen crossing: likely that person, out of view now; wait
   // at its way (crossing policy) rather than detour into it.
   if (*blocked && crossing_ && !at_kerb_ && crossing_->way_ahead(odom.pose, timestamp_s, 2.5)) {
-    looking_ = true;
+    enter(Phase::looking);
     at_kerb_ = true;
     kerb_since_s_ = timestamp_s;
     host_.logger().info(path(), "the contact ahead lies on a person's way seen crossing: wait there for it to pass");
@@ -990,14 +1015,14 @@ NodeStatus ReplayAvoiding::look_wait(const Odometry& odom, double timestamp_s, b
   if (still_frames_ < clear) return NodeStatus::running;
   // At the edge of a person's way: only the policy, or crossing_wait_s without seeing it, ends the wait.
   if (at_kerb_ && crossing_ && crossing_->unseen_s(timestamp_s) < crossing_->kerb_wait_s()) return NodeStatus::running;
-  looking_ = false;
+  enter(Phase::replaying);
   drive_quiet_until_m_ = odom.distance_m + 0.3;  // let the IPT look again before the frame difference
   resume_child(odom, "the corridor is clear after " + std::to_string(wait_frames_) + " frames of waiting");
   return NodeStatus::running;
 }
 
 NodeStatus ReplayAvoiding::crossing_go(const Odometry& odom, double timestamp_s, const CrossingDecision& crossing) {
-  looking_ = false;
+  enter(Phase::replaying);
   if (crossing.range_m <= crossing_->kerb_m() + 0.3) {
     // It walked away just ahead: cross now (a crossing watch exists only with speed_mps > 0).
     crossing_->clear_lanes();
@@ -1025,6 +1050,7 @@ void ReplayAvoiding::begin_crossing(const Odometry& odom, double way_ahead_m, co
   crossing_drive_.emplace(params);
   moved_off_line_ = true;
   crossing_drive_->begin(odom.pose, odom.distance_m);
+  enter(Phase::crossing);
   at_kerb_ = false;
   host_.logger().info(path(), why + ": crossing the person's way, " + std::to_string(params.distance_m) + " m at " +
                                   std::to_string(params.speed_mps) + " m/s on the heading");
@@ -1036,6 +1062,7 @@ NodeStatus ReplayAvoiding::cross_step(const Odometry& odom) {
     return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
   }
   crossing_drive_.reset();
+  enter(Phase::replaying);
   // The person it crossed walks away beside the lane: no stop for it right after.
   drive_quiet_until_m_ = odom.distance_m + 0.5;
   resume_child(odom, "across the person's way");  // the along-track count includes the crossing
@@ -1083,7 +1110,7 @@ NodeStatus ReplayAvoiding::begin_detour(const Odometry& odom) {
       return NodeStatus::failure;
     }
     host_.logger().info(path(), "obstacle ahead at " + std::to_string(replay_done_m_) + " m of the edge: detour");
-    detouring_ = true;
+    enter(Phase::detouring);
     return NodeStatus::running;
   }
 }
@@ -1171,15 +1198,12 @@ NodeStatus ReplayAvoiding::lane_step(const Odometry& raw_odom) {
 }
 
 void ReplayAvoiding::halt() {
-  if (detouring_ || looking_ || probing_ || crossing_drive_ || backing_) stop(host_);
+  if (phase_ != Phase::replaying) stop(host_);
   crossing_drive_.reset();
-  looking_ = false;
-  backing_ = false;
-  probing_ = false;
+  enter(Phase::replaying);
   detour_.end();
   lane_.reset();
   runner_.stop_correction();
-  detouring_ = false;
   child_started_ = false;
   resumed_ = false;
   child_ran_ = false;
@@ -1211,7 +1235,7 @@ Result<bool> ReplayAvoiding::begin_backoff(const Odometry& odom) {
   backoff_->begin(odom.pose, odom.distance_m);
   backoff_trail_.clear();
   if (near_) near_->reset();
-  backing_ = true;
+  enter(Phase::backing_off);
   moved_off_line_ = true;
   host_.logger().info(path(), "nothing moves ahead and no contact: backing off " + std::to_string(distance) +
                                   " m while triangulating what stands ahead");
@@ -1222,7 +1246,7 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
   auto points = triangulate_near(odom);
   if (!points) {
     host_.logger().error(path(), points.error().message);
-    backing_ = false;
+    enter(Phase::replaying);
     stop(host_);
     return NodeStatus::failure;
   }
@@ -1234,7 +1258,7 @@ NodeStatus ReplayAvoiding::backoff_step(const Odometry& odom) {
     return send(host_, *this, s.command.linear_mps, s.command.angular_radps);
   }
   stop(host_);
-  backing_ = false;
+  enter(Phase::replaying);
   const BackOffVerdict v = backoff_->verdict(odom.pose);
   if (!v.found) {
     backoff_again_at_m_ = odom.distance_m + 3.0 * backoff_->params().distance_m;  // 2 backoff_m past the stop

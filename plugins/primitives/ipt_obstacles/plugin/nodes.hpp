@@ -183,6 +183,17 @@ class AvoidObstacles : public bt::StatefulActionNode {
 /// Distances: the odometry's, divided by distance_scale where the edge's taught metres are meant.
 class ReplayAvoiding : public bt::DecoratorNode {
  public:
+  /// The node's state machine (the transitions: the comment above ReplayAvoiding::tick() in
+  /// nodes.cpp, and docs/obstacles.md "The replay state machine"). Exactly one phase is current.
+  enum class Phase {
+    replaying,    ///< the child replays the edge; the watches may stop it
+    probing,      ///< the child lost sight of the route (view_lost): creeping on, triangulating
+    looking,      ///< stopped, watching the corridor for motion (and a person's way)
+    crossing,     ///< driving across a person's way on the heading
+    backing_off,  ///< reversing on the heading while triangulating what stands ahead
+    detouring,    ///< the lane (or thesis) detour round an obstacle
+  };
+  static const char* phase_name(Phase phase);
   ReplayAvoiding(const std::string& name, const bt::NodeConfig& config, HostServices& host,
                  const AvoidingParams& defaults = replay_defaults());
   static bt::PortsList provided_ports();
@@ -273,7 +284,6 @@ class ReplayAvoiding : public bt::DecoratorNode {
   /// ahead) or resume the child.
   bt::NodeStatus backoff_step(const Odometry& odom);
   std::optional<BackOffLook> backoff_;
-  bool backing_ = false;
   /// The back-off's frames, keyed by the negated odometer (it decreases while reversing), for the
   /// face's extent from the image when the back-off finds something (standing extent_m > 0).
   FrameTrail backoff_trail_{0.05, 1.2};
@@ -288,6 +298,9 @@ class ReplayAvoiding : public bt::DecoratorNode {
   Result<std::optional<bt::NodeStatus>> standing_ahead(const Odometry& odom);
   /// Parses the group ports into p_ on the first tick; false (logged, robot stopped) on an error.
   bool read_params();
+  /// Makes `next` the current phase (logged at debug level when it changes).
+  void enter(Phase next);
+  Phase phase_ = Phase::replaying;
   const AvoidingParams& defaults_;
   AvoidingParams p_;
   bool lane_mode_ = true;       // detour="lane" (else "thesis")
@@ -309,8 +322,6 @@ class ReplayAvoiding : public bt::DecoratorNode {
   int lane_blocked_cycles_ = 0, lane_stall_cycles_ = 0;
   double lane_best_s_m_ = 0.0;
   CorridorMemory corridor_;
-  bool detouring_ = false;
-  bool looking_ = false;           // stopped, watching the corridor for motion
   bool saw_motion_ = false;
   int look_frames_ = 0, still_frames_ = 0, wait_frames_ = 0, settle_frames_ = 0;
   std::uint64_t watch_sequence_ = 0;
@@ -335,7 +346,7 @@ class ReplayAvoiding : public bt::DecoratorNode {
   /// then the child resumes (cross_step()).
   void begin_crossing(const Odometry& odom, double way_ahead_m, const std::string& why);
   bt::NodeStatus cross_step(const Odometry& odom);
-  std::optional<HiddenPathProbe> crossing_drive_;  // set while crossing a person's way
+  std::optional<HiddenPathProbe> crossing_drive_;  // the driver of the crossing phase
   Pose2D drive_watch_pose_;
   std::uint64_t drive_sequence_ = 0;
   bool have_drive_sequence_ = false;
@@ -356,7 +367,6 @@ class ReplayAvoiding : public bt::DecoratorNode {
   double edge_start_odometer_m_ = 0.0;  // odometer when the edge's child first started
   double edge_start_carried_m_ = 0.0;   // carried_m then (FollowRoute's), taught m
   std::optional<HiddenPathProbe> probe_;  // made at the first probe (probe group)
-  bool probing_ = false;           // the child gave up on a hidden path: creeping on, looking
   std::string probe_reason_;       // the child's failure that started the probe
   std::optional<NearTriangulation> near_;   // made at the first probe
   std::vector<cv::Point2d> near_points_;    // the probe's triangulated points, for the lane detour

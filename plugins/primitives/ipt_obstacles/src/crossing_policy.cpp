@@ -138,13 +138,21 @@ void CrossingPolicy::observe(double time_s, const MovingPoint& point) {
   const double y = point.ground_m.y;
   if (last_seen_s_ >= 0.0 && time_s - last_seen_s_ <= params_.window_s && ((last_y_ < 0.0) != (y < 0.0))) {
     const int dir = y > last_y_ ? 1 : -1;  // a pass: it walked across the robot's line
-    if (last_pass_dir_ == -dir) return_after_s_[last_pass_dir_ > 0 ? 0 : 1] = time_s - last_pass_s_;
-    if (last_pass_dir_ != dir || time_s - last_pass_s_ > params_.window_s) {
-      last_pass_dir_ = dir;
-      last_pass_s_ = time_s;
-      last_pass_speed_mps_ = -1.0;
+    // Back across the line before it was seen pass_fit_m beyond it on the pass's side: the
+    // located feet jittering about the line (their spread), not a return. Counted as one, it
+    // taught a 0.1-0.4 s return and held the robot at a pacing person's way (campus seed 10).
+    const bool jitter = last_pass_dir_ == -dir && farthest_since_pass_m_ < params_.pass_fit_m;
+    if (!jitter) {
+      if (last_pass_dir_ == -dir) return_after_s_[last_pass_dir_ > 0 ? 0 : 1] = time_s - last_pass_s_;
+      if (last_pass_dir_ != dir || time_s - last_pass_s_ > params_.window_s) {
+        last_pass_dir_ = dir;
+        last_pass_s_ = time_s;
+        last_pass_speed_mps_ = -1.0;
+        farthest_since_pass_m_ = 0.0;
+      }
     }
   }
+  if (last_pass_dir_ != 0 && y * last_pass_dir_ > farthest_since_pass_m_) farthest_since_pass_m_ = y * last_pass_dir_;
   last_seen_s_ = time_s;
   last_y_ = y;
   track_.push_back({time_s, point.ground_m});

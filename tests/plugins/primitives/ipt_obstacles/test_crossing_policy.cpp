@@ -157,6 +157,33 @@ TEST(CrossingPolicy, LearnsWhenAPacingPersonComesBackAndGoesOnlyAfterTheLongRetu
   EXPECT_EQ(plain.decide(0.8, true).kind, CrossingDecision::Kind::wait);
 }
 
+// The located feet jitter about the line while a person crosses it (their spread): points that
+// flip back across the line before one was seen pass_fit_m beyond it are one pass, not a pass
+// and a return 0.1 s later. Counted as a return, such flips taught the policy that a pacing
+// person comes back at once, and a robot at the person's way waited until it gave up.
+TEST(CrossingPolicy, JitterAboutTheLineIsNeitherAPassNorAReturn) {
+  CrossingParams params;
+  params.speed_mps = 0.6;
+  CrossingPolicy policy(params);
+  auto observe = [&](double t, double y) {
+    MovingPoint p;
+    p.ground_m = {0.95, y};
+    policy.observe(t, p);
+  };
+  // Walking left across the line at 1 m/s, the located point flipping back once at the line.
+  const double ys[] = {-0.4, -0.3, -0.2, -0.1, 0.05, -0.05, 0.1, 0.2, 0.3, 0.4};
+  double t = 0.0;
+  for (double y : ys) observe(t += 0.1, y);
+  EXPECT_LT(policy.return_after_s(1), 0.0) << "a flip 0.1 s after the pass was taken for the return";
+  EXPECT_LT(policy.return_after_s(-1), 0.0);
+  // It was seen 0.4 m beyond the line on the left; it comes back walking right, across the line
+  // at t = 6.4 s, 5.9 s after its pass (t = 0.5 s): the return after a pass to the left.
+  t = 5.9;
+  for (double y : {0.4, 0.3, 0.2, 0.1, -0.05, -0.1, -0.2}) observe(t += 0.1, y);
+  EXPECT_NEAR(policy.return_after_s(1), 5.9, 0.01);
+  EXPECT_LT(policy.return_after_s(-1), 0.0);
+}
+
 // The time the robot needs to be past a person's way, from the geometry (crossing_speed_mps).
 TEST(CrossingPolicy, ClearTimeIsTheDistancePastThePersonAtTheCrossingSpeedFromRest) {
   CrossingParams p;  // body 0.25 m, person 0.25 m, margin 0.1 m, 0.5 m/s^2

@@ -26,7 +26,8 @@
 //    Passes: a point on the other side of the robot's line (y changed sign) than the one before
 //    is a pass in the direction it walks; the time from a pass in one direction to the next pass
 //    (back, the other way) is remembered for that direction: a person pacing across the way
-//    comes back after it. Walking away after a pass in a direction whose remembered return leaves
+//    comes back after it. A point back across the line before any was seen pass_fit_m beyond it
+//    on the pass's side is the located feet jittering about the line: neither a pass nor a return. Walking away after a pass in a direction whose remembered return leaves
 //    less than the time the robot needs -> wait for the next one. With `cautious` (a robot stopped at the edge of
 //    the way, CrossingLanes) a direction whose return is not known yet -> wait as well (bounded
 //    by the caller).
@@ -164,6 +165,7 @@ class CrossingPolicy {
   int last_pass_dir_ = 0;          // +1 walking left, -1 right, 0 none
   double last_pass_s_ = 0.0;
   double last_pass_speed_mps_ = -1.0;
+  double farthest_since_pass_m_ = 0.0;  // largest |y| seen on the pass's side since the last pass
   double return_after_s_[2] = {-1.0, -1.0};  // [0]: after a pass to the left, [1]: to the right
 };
 

@@ -1,7 +1,7 @@
 #include "nodes.hpp"
 
-#include "visnav/edge_progress.hpp"
 #include "visnav/bt/param_ports.hpp"
+#include "visnav/edge_progress.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -27,8 +27,9 @@
 //    is a pass in the direction it walks; the time from a pass in one direction to the next pass
 //    (back, the other way) is remembered for that direction: a person pacing across the way
 //    comes back after it. A point back across the line before any was seen pass_fit_m beyond it
-//    on the pass's side is the located feet jittering about the line: neither a pass nor a return. Walking away after a pass in a direction whose remembered return leaves
-//    less than the time the robot needs -> wait for the next one. With `cautious` (a robot stopped at the edge of
+//    on the pass's side is the located feet jittering about the line: neither a pass nor a
+//    return. Walking away after a pass in a direction whose remembered return leaves less than
+//    the time the robot needs -> wait for the next one. With `cautious` (a robot stopped at the edge of
 //    the way, CrossingLanes) a direction whose return is not known yet -> wait as well (bounded
 //    by the caller).
 //  * The time the robot needs (clear_time_s()): with `speed_mps` > 0, from the geometry: the
@@ -142,6 +143,7 @@ class CrossingPolicy {
     track_.clear();
     last_pass_dir_ = 0;
     last_pass_speed_mps_ = -1.0;
+    farthest_since_pass_m_ = 0.0;
   }
   /// Walking speed fitted at the last pass, m/s; -1 when none.
   [[nodiscard]] double last_pass_speed_mps() const { return last_pass_speed_mps_; }
